@@ -1,0 +1,47 @@
+"""dgmesh: discrete differential geometry tools.
+
+One package with two faces. In plain Python, ``import dgmesh`` gives the numpy API (no bpy).
+Inside Blender, the add-on's ``register()`` imports ``dgmesh.blender`` (operators, panels,
+the bpy <-> numpy bridge).
+"""
+
+__version__ = "0.1.0"
+
+bl_info = {
+    "name": "DG Mesh",
+    "author": "dgmesh developers",
+    "version": (0, 1, 0),
+    "blender": (3, 4, 0),
+    "location": "View3D > Sidebar > DG Mesh; Object / Mesh menus > DG Mesh",
+    "description": "Discrete differential geometry tools: curvature, denoising, fairing, "
+    "crest lines, low-stretch UV unwrap, skeletal deformation",
+    "category": "Mesh",
+}
+
+from . import shapes  # noqa: E402,F401
+from .core import (  # noqa: E402  (bl_info must stay a literal at the top for Blender)
+    Cancelled,
+    Error,
+    MeshError,
+    MeshIOError,
+    SolverError,
+    curvature,
+    num_threads,
+    read_mesh,
+    set_num_threads,
+    topology,
+    validate,
+    write_mesh,
+)
+
+
+def register():
+    from . import blender
+
+    blender.register()
+
+
+def unregister():
+    from . import blender
+
+    blender.unregister()

@@ -1,0 +1,196 @@
+"""The one place where data moves between Blender meshes and numpy.
+
+Reading uses ``foreach_get`` into typed buffers (no per-vertex Python loops);
+faces are taken from Blender's own loop triangulation so quads and n-gons are
+triangulated exactly as the viewport shows them.  Writing helpers only touch
+the data they are asked to write: every other attribute, UV map, vertex group
+and shape key is left alone.
+
+Edit mode: the edit-mesh (BMesh) is the real data while an object is in Edit
+mode and it overwrites the mesh datablock when Edit mode is left, so
+* reading first syncs it into the mesh (``update_from_editmode``);
+* writing goes through :func:`object_mode`, which leaves Edit mode, lets the
+  caller write to the mesh datablock and re-enters Edit mode (the edit-mesh is
+  then rebuilt from the mesh, including the new attributes).  Doing it with
+  bmesh instead would need a Python loop per vertex.
+"""
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Optional
+
+import bpy
+import numpy as np
+
+
+@dataclass
+class MeshArrays:
+    """Triangulated mesh arrays, ready for the native library."""
+
+    V: np.ndarray  # (n, 3) float64 vertex positions (object space)
+    F: np.ndarray  # (m, 3) int32 vertex indices of each triangle
+    tri_loops: np.ndarray  # (m, 3) int32 loop (face corner) indices of each triangle
+    tri_poly: np.ndarray  # (m,) int32 polygon each triangle comes from
+    edges: Optional[np.ndarray] = None  # (e, 2) int32, only when asked for
+
+    @property
+    def num_vertices(self):
+        return len(self.V)
+
+
+def read_mesh(mesh, edges=False):
+    """Read a mesh datablock into :class:`MeshArrays` (it is not modified).
+
+    ``calc_loop_triangles`` only fills a runtime cache, it writes no mesh data.
+    """
+    n = len(mesh.vertices)
+    co = np.empty(n * 3, dtype=np.float32)  # Blender stores float32
+    mesh.vertices.foreach_get("co", co)
+    V = np.ascontiguousarray(co.reshape(n, 3), dtype=np.float64)
+
+    mesh.calc_loop_triangles()
+    tris = mesh.loop_triangles
+    m = len(tris)
+    F = np.empty(m * 3, dtype=np.int32)
+    tris.foreach_get("vertices", F)
+    tri_loops = np.empty(m * 3, dtype=np.int32)
+    tris.foreach_get("loops", tri_loops)
+    tri_poly = np.empty(m, dtype=np.int32)
+    tris.foreach_get("polygon_index", tri_poly)
+
+    E = None
+    if edges:
+        E = np.empty(len(mesh.edges) * 2, dtype=np.int32)
+        mesh.edges.foreach_get("vertices", E)
+        E = E.reshape(-1, 2)
+    return MeshArrays(V, F.reshape(m, 3), tri_loops.reshape(m, 3), tri_poly, E)
+
+
+def read_object(obj, evaluated=False, depsgraph=None, edges=False):
+    """Read a mesh object's data (positions in object space).
+
+    ``evaluated=False`` reads the original mesh datablock, the one attributes
+    are written to; modifiers are ignored.  ``evaluated=True`` reads the mesh
+    after modifiers and shape keys (its vertex count may differ, so results on
+    it cannot be stored as attributes of the original).
+    In Edit mode the edit-mesh is synced into the datablock first.
+    """
+    if obj.type != 'MESH':
+        raise TypeError(f"object {obj.name!r} is not a mesh")
+    if obj.mode == 'EDIT':
+        obj.update_from_editmode()
+    if not evaluated:
+        return read_mesh(obj.data, edges=edges)
+    if depsgraph is None:
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+    obj_eval = obj.evaluated_get(depsgraph)
+    mesh = obj_eval.to_mesh()
+    try:
+        return read_mesh(mesh, edges=edges)
+    finally:
+        obj_eval.to_mesh_clear()
+
+
+def _check_rows(mesh, values, width, what):
+    a = np.asarray(values)
+    n = len(mesh.vertices)
+    if a.shape[0] != n or (width and a.reshape(n, -1).shape[1] != width):
+        raise ValueError(f"{what}: expected {n} rows of {width or 1}, got shape {a.shape}")
+
+
+def write_positions(mesh, V):
+    """Set vertex positions from an (n, 3) array and tag the mesh for redraw."""
+    _check_rows(mesh, V, 3, "positions")
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(V, dtype=np.float32).ravel())
+    mesh.update()
+
+
+def _ensure_attribute(mesh, name, data_type, domain, color=False):
+    """Return attribute ``name`` with the given type and domain, creating or
+    replacing it (an existing one of another type/domain is removed)."""
+    attr = mesh.attributes.get(name)
+    if attr is not None and (attr.data_type != data_type or attr.domain != domain):
+        mesh.attributes.remove(attr)
+        attr = None
+    if attr is None:
+        group = mesh.color_attributes if color else mesh.attributes
+        group.new(name, data_type, domain)
+    # Look it up again: adding/removing layers reallocates custom data, which
+    # invalidates earlier Python references to attributes.
+    return mesh.attributes[name]
+
+
+def write_point_float(mesh, name, values):
+    """Create or replace a FLOAT attribute on the POINT domain."""
+    _check_rows(mesh, values, 0, name)
+    attr = _ensure_attribute(mesh, name, 'FLOAT', 'POINT')
+    attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32).ravel())
+    mesh.update()
+    return attr
+
+
+def write_point_color(mesh, name, rgba, data_type='FLOAT_COLOR', make_active=True):
+    """Create or replace a POINT colour attribute from (n, 4) linear RGBA.
+
+    ``data_type`` is 'FLOAT_COLOR' or 'BYTE_COLOR' (the ``color`` property of
+    both takes linear values).  With ``make_active`` it becomes the active and
+    the render colour attribute, so Solid shading (Attribute colour) and the
+    Color Attribute node without a name show it.
+    """
+    if data_type not in {'FLOAT_COLOR', 'BYTE_COLOR'}:
+        raise ValueError(f"unsupported colour type {data_type!r}")
+    _check_rows(mesh, rgba, 4, name)
+    attr = _ensure_attribute(mesh, name, data_type, 'POINT', color=True)
+    attr.data.foreach_set("color", np.ascontiguousarray(rgba, dtype=np.float32).ravel())
+    if make_active:
+        set_active_color(mesh, name)
+    mesh.update()
+    return mesh.attributes[name]
+
+
+def set_active_color(mesh, name):
+    """Make colour attribute ``name`` the active and the render (default) colour."""
+    colors = mesh.color_attributes
+    names = [a.name for a in colors]
+    if name not in names:
+        raise KeyError(f"{mesh.name!r} has no colour attribute {name!r}")
+    props = colors.bl_rna.properties
+    if not props["active_color_name"].is_readonly:
+        # 4.x: the names are writable and are the documented way.
+        colors.active_color_name = name
+        colors.default_color_name = name
+    else:
+        # 3.4: the *_name properties are read-only; use pointer and index.
+        colors.active_color = colors[name]
+        colors.render_color_index = names.index(name)
+
+
+def active_color_name(mesh):
+    """Name of the active colour attribute, or None (same on 3.4 and 4.x)."""
+    attr = mesh.color_attributes.active_color
+    return attr.name if attr is not None else None
+
+
+@contextmanager
+def object_mode(context):
+    """Temporarily leave Edit mode so mesh datablocks can be written.
+
+    Leaving Edit mode writes every edited object's edit-mesh to its mesh; on
+    exit Edit mode is re-entered and rebuilds the edit-meshes from the
+    (written) datablocks.  Outside Edit mode this does nothing.
+    """
+    obj = context.view_layer.objects.active
+    if obj is None or obj.mode != 'EDIT':
+        yield
+        return
+    bpy.ops.object.mode_set(mode='OBJECT')
+    try:
+        yield
+    finally:
+        bpy.ops.object.mode_set(mode='EDIT')
+
+
+def mesh_has_modifiers(obj):
+    """True if the object's displayed mesh differs from its datablock's
+    because of enabled modifiers."""
+    return any(m.show_viewport or m.show_render for m in obj.modifiers)

@@ -1,0 +1,64 @@
+"""Sidebar panel and menus.  Both list the entries of OPERATORS, so a new
+operator appears everywhere by adding one line there."""
+
+import bpy
+
+# (bl_idname, label, icon); keep in the order they should appear.
+OPERATORS = [
+    ("dgmesh.curvature_map", "Curvature Map", 'SMOOTHCURVE'),
+]
+
+
+def _draw_operators(layout):
+    for idname, label, icon in OPERATORS:
+        layout.operator(idname, text=label, icon=icon)
+
+
+class DGMESH_PT_main(bpy.types.Panel):
+    bl_idname = "DGMESH_PT_main"
+    bl_label = "DG Mesh"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "DG Mesh"
+
+    def draw(self, context):
+        layout = self.layout
+        col = layout.column(align=True)
+        _draw_operators(col)
+        # Colour attributes only show in Solid shading with Color = Attribute.
+        space = context.space_data
+        if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':
+            layout.prop(space.shading, "color_type", text="Color")
+
+
+class DGMESH_MT_menu(bpy.types.Menu):
+    bl_idname = "DGMESH_MT_menu"
+    bl_label = "DG Mesh"
+
+    def draw(self, context):
+        _draw_operators(self.layout)
+
+
+def _menu_entry(self, context):
+    self.layout.separator()
+    self.layout.menu(DGMESH_MT_menu.bl_idname)
+
+
+# Object menu (Object mode) and Mesh menu (Edit mode).
+MENUS = ("VIEW3D_MT_object", "VIEW3D_MT_edit_mesh")
+
+classes = (DGMESH_MT_menu, DGMESH_PT_main)
+
+
+def register_menus():
+    for name in MENUS:
+        menu = getattr(bpy.types, name)
+        menu.remove(_menu_entry)  # no-op if absent; keeps register() idempotent
+        menu.append(_menu_entry)
+
+
+def unregister_menus():
+    for name in MENUS:
+        menu = getattr(bpy.types, name, None)
+        if menu is not None:
+            menu.remove(_menu_entry)

@@ -1,0 +1,69 @@
+#include "dgmesh/spatial_index.h"
+
+#include <nanoflann.hpp>
+
+namespace dgmesh {
+
+namespace {
+// nanoflann's dataset adaptor over the row-major point array.
+struct Cloud {
+  const MatX3d* p;
+  size_t kdtree_get_point_count() const { return static_cast<size_t>(p->rows()); }
+  double kdtree_get_pt(size_t i, size_t d) const { return (*p)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)); }
+  template <class BBox>
+  bool kdtree_get_bbox(BBox&) const { return false; }
+};
+using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
+}  // namespace
+
+struct KdTree::Impl {
+  Cloud cloud;
+  Tree tree;
+  explicit Impl(const MatX3d* p) : cloud{p}, tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
+    tree.buildIndex();
+  }
+};
+
+KdTree::KdTree(const MatX3d& points) : points_(points), impl_(std::make_unique<Impl>(&points_)) {}
+KdTree::~KdTree() = default;
+// Moving an Eigen matrix keeps its heap buffer, but the adaptor points at the member: re-aim it.
+KdTree::KdTree(KdTree&& o) noexcept : points_(std::move(o.points_)), impl_(std::move(o.impl_)) {
+  if (impl_) impl_->cloud.p = &points_;
+}
+KdTree& KdTree::operator=(KdTree&& o) noexcept {
+  points_ = std::move(o.points_);
+  impl_ = std::move(o.impl_);
+  if (impl_) impl_->cloud.p = &points_;
+  return *this;
+}
+
+int KdTree::size() const { return static_cast<int>(points_.rows()); }
+
+void KdTree::radius(const Vec3& q, double r, std::vector<std::pair<int, double>>& out) const {
+  out.clear();
+  if (points_.rows() == 0) return;
+  nanoflann::SearchParams params(32, 0.0f, false);
+  impl_->tree.radiusSearch(q.data(), r * r, out, params);  // nanoflann's L2 radius is squared
+}
+
+int KdTree::knn(const Vec3& q, int k, std::vector<int>& idx, std::vector<double>& sq_dist) const {
+  const int kk = std::min<int>(k, size());
+  idx.resize(kk);
+  sq_dist.resize(kk);
+  if (kk <= 0) return 0;
+  const size_t found = impl_->tree.knnSearch(q.data(), static_cast<size_t>(kk), idx.data(), sq_dist.data());
+  idx.resize(found);
+  sq_dist.resize(found);
+  return static_cast<int>(found);
+}
+
+int KdTree::nearest(const Vec3& q, double* sq_dist) const {
+  if (points_.rows() == 0) return -1;
+  int i = -1;
+  double d = 0;
+  impl_->tree.knnSearch(q.data(), 1, &i, &d);
+  if (sq_dist) *sq_dist = d;
+  return i;
+}
+
+}  // namespace dgmesh

@@ -1,0 +1,141 @@
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh import shapes
+
+
+def test_curvature_on_sphere_matches_exact_values():
+    r = 3.0
+    V, F = shapes.icosphere(5, r)
+    c = dgmesh.curvature(V, F)
+    assert set(c) >= {"mean", "gaussian", "normals"}
+    assert np.abs(c["mean"] * r - 1).max() < 0.01
+    assert np.abs(c["gaussian"] * r * r - 1).max() < 0.05
+    assert np.allclose(np.einsum("ij,ij->i", c["normals"], V / r), 1.0)
+    assert c["mean"].dtype == np.float64 and c["mean"].shape == (len(V),)
+
+
+def test_curvature_accepts_other_dtypes_and_layouts():
+    V, F = shapes.icosphere(2)
+    ref = dgmesh.curvature(V, F)["mean"]
+    assert np.allclose(dgmesh.curvature(np.asfortranarray(V).astype(np.float32), F.astype(np.int64))["mean"],
+                       ref, atol=1e-5)
+    assert np.allclose(dgmesh.curvature(V.tolist(), F.tolist())["mean"], ref)
+
+
+def test_torus_gauss_bonnet():
+    V, F = shapes.torus(2.0, 0.5, 96, 48)
+    c = dgmesh.curvature(V, F)
+    assert abs(np.dot(c["gaussian"], c["area"])) < 1e-8
+    assert np.isfinite(c["mean"]).all()
+
+
+def test_open_plane_has_no_nan_and_zero_curvature():
+    V, F = shapes.grid(12, 9)
+    c = dgmesh.curvature(V, F)
+    for k in ("mean", "gaussian", "normals", "area"):
+        assert np.isfinite(c[k]).all()
+    assert np.abs(c["mean"]).max() < 1e-12
+
+
+def test_loose_vertex_gets_zero():
+    V, F = shapes.icosphere(2)
+    V = np.vstack([V, [[5.0, 5.0, 5.0]]])
+    c = dgmesh.curvature(V, F)
+    assert c["mean"][-1] == 0 and c["gaussian"][-1] == 0
+    with pytest.raises(dgmesh.MeshError, match="loose"):
+        dgmesh.validate(V, F, allow_loose_vertices=False)
+
+
+BAD = {
+    "empty": (np.zeros((0, 3)), np.zeros((0, 3), np.int32), "empty"),
+    "nan": (np.array([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]]), [[0, 1, 2]], "NaN"),
+    "inf": (np.array([[0, 0, 0], [1, 0, 0], [0, np.inf, 0]]), [[0, 1, 2]], "NaN or infinite"),
+    "index": (np.eye(3), [[0, 1, 3]], "refers to vertex 3"),
+    "negative index": (np.eye(3), [[0, 1, -1]], "out of range"),
+    "zero area": (np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]]), [[0, 1, 2]], "zero area"),
+    "repeated": (np.eye(3), [[0, 1, 1]], "same vertex twice"),
+    "duplicate": (np.eye(3), [[0, 1, 2], [1, 2, 0]], "duplicate"),
+    "fin": (np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]]),
+            [[0, 1, 2], [1, 0, 3], [0, 1, 4]], "non-manifold edge"),
+    "bow tie": (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [-1, 0, 0], [-1, -1, 0]]),
+                [[0, 1, 2], [0, 3, 4]], "non-manifold vertex"),
+    "flipped": (np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]), [[0, 1, 2], [0, 3, 2]],
+                "orientation"),
+    "shape": (np.zeros((4, 2)), [[0, 1, 2]], "shape"),
+    "quads": (np.eye(4, 3), [[0, 1, 2, 3]], "triangles"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_bad_input_raises_mesh_error(name):
+    V, F, needle = BAD[name]
+    with pytest.raises(dgmesh.MeshError, match=needle) as info:
+        dgmesh.curvature(V, F)
+    assert isinstance(info.value, ValueError)
+
+
+def test_topology_of_open_grid():
+    V, F = shapes.grid(4, 3)
+    t = dgmesh.topology(V, F)
+    assert len(t["boundary_loops"]) == 1 and len(t["boundary_loops"][0]) == 14
+    assert t["n_components"] == 1 and len(t["edges"]) == 43
+
+
+def test_io_round_trip(tmp_path):
+    V, F = shapes.icosphere(2)
+    for ext in ("obj", "off", "ply"):
+        path = tmp_path / f"s.{ext}"
+        dgmesh.write_mesh(path, V, F)
+        V2, F2 = dgmesh.read_mesh(path)
+        assert np.array_equal(F2, F)
+        assert np.array_equal(V2, V)
+
+
+def test_io_errors(tmp_path):
+    with pytest.raises(dgmesh.MeshIOError):
+        dgmesh.read_mesh(tmp_path / "missing.off")
+    bad = tmp_path / "bad.off"
+    bad.write_text("OFF\n3 1 0\n0 0 0\n1 0 0\n")
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.read_mesh(bad)
+
+
+def test_threads_setting():
+    dgmesh.set_num_threads(1)
+    assert dgmesh.num_threads() == 1
+    dgmesh.set_num_threads(0)
+    assert dgmesh.num_threads() >= 1
+
+
+def test_gil_released_during_native_work():
+    # A Python thread keeps counting while the native call runs only if the call released the GIL.
+    import sys
+    import threading
+    import time
+
+    V, F = shapes.icosphere(7)
+    count, stop = [0], [False]
+
+    def spin():
+        while not stop[0]:
+            count[0] += 1
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(1e-4)
+    t = threading.Thread(target=spin)
+    t.start()
+    try:
+        time.sleep(0.01)
+        before = count[0]
+        t0 = time.perf_counter()
+        dgmesh._native.curvature(V, F)
+        elapsed = time.perf_counter() - t0
+        during = count[0] - before
+    finally:
+        stop[0] = True
+        t.join()
+        sys.setswitchinterval(old)
+    assert elapsed > 0.005, "mesh too small to measure"
+    assert during > 1000, f"counter advanced only {during} times in {elapsed:.3f} s: GIL held?"
