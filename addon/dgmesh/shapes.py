@@ -21,3 +21,8 @@ def grid(nx, ny):
 def subdivide_linear(V, F):
     """1-to-4 subdivision with new vertices at edge midpoints: (V, F)."""
     return _native.subdivide_linear(as_vertices(V), as_faces(F))
+
+
+def loop_subdivide(V, F, levels=1):
+    """Loop subdivision (OpenSubdiv), ``levels`` times: (V, F) with 4**levels times the faces."""
+    return _native.loop_subdivide(as_vertices(V), as_faces(F), int(levels))

@@ -3,6 +3,7 @@
 #include "dgmesh/io.h"
 #include "dgmesh/parallel.h"
 #include "dgmesh/shapes.h"
+#include "dgmesh/subdivision.h"
 #include "dgmesh/validate.h"
 
 namespace dgmesh::py {
@@ -85,6 +86,17 @@ void bind_core(pb::module_& m) {
   m.def("grid", [tuple](int nx, int ny) { return tuple(grid(nx, ny)); }, pb::arg("nx"), pb::arg("ny"));
   m.def("subdivide_linear", [tuple](InV V, InF F) { return tuple(subdivide_linear(V, F)); }, pb::arg("V"),
         pb::arg("F"));
+  m.def(
+      "loop_subdivide",
+      [tuple](InV V, InF F, int levels) {
+        TriMesh t;
+        {
+          pb::gil_scoped_release nogil;
+          t = loop_subdivide(V, F, levels);
+        }
+        return tuple(std::move(t));
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("levels"));
 }
 
 }  // namespace dgmesh::py

@@ -2,6 +2,7 @@
 
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
+#include <Eigen/UmfPackSupport>
 
 #include "dgmesh/errors.h"
 
@@ -12,6 +13,8 @@ struct SparseSolver::Impl {
   bool ok = false;
   Eigen::SimplicialLDLT<SpMat> ldlt;
   Eigen::SparseLU<SpMat, Eigen::COLAMDOrdering<int>> lu;
+  Eigen::UmfPackLU<SpMat> umf;
+  SpMat umf_matrix;  // UMFPACK's solve reads the matrix again: it must outlive the factorisation
 };
 
 SparseSolver::SparseSolver() : impl_(std::make_unique<Impl>()) {}
@@ -25,6 +28,10 @@ void SparseSolver::factor(const SpMat& A, Kind kind) {
   impl_->ok = false;
   if (kind == Kind::Cholesky) {
     impl_->ldlt.analyzePattern(A);
+  } else if (kind == Kind::Umfpack) {
+    impl_->umf_matrix = A;
+    impl_->umf_matrix.makeCompressed();
+    impl_->umf.analyzePattern(impl_->umf_matrix);
   } else {
     SpMat M = A;
     M.makeCompressed();
@@ -39,6 +46,11 @@ void SparseSolver::refactor(const SpMat& A) {
     impl_->ldlt.factorize(A);
     if (impl_->ldlt.info() != Eigen::Success)
       throw SolverError("sparse solver: LDL^T factorisation failed (matrix not positive definite?)");
+  } else if (impl_->kind == Kind::Umfpack) {
+    impl_->umf_matrix = A;
+    impl_->umf_matrix.makeCompressed();
+    impl_->umf.factorize(impl_->umf_matrix);
+    if (impl_->umf.info() != Eigen::Success) throw SolverError("sparse solver: UMFPACK factorisation failed (singular matrix?)");
   } else {
     SpMat M = A;
     M.makeCompressed();
@@ -51,15 +63,24 @@ void SparseSolver::refactor(const SpMat& A) {
 
 Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& B) const {
   if (!impl_->ok) throw SolverError("sparse solver: solve() before a successful factor()");
-  Eigen::MatrixXd X = impl_->kind == Kind::Cholesky ? Eigen::MatrixXd(impl_->ldlt.solve(B))
-                                                    : Eigen::MatrixXd(impl_->lu.solve(B));
+  Eigen::MatrixXd X;
+  switch (impl_->kind) {
+    case Kind::Cholesky: X = impl_->ldlt.solve(B); break;
+    case Kind::LU: X = impl_->lu.solve(B); break;
+    case Kind::Umfpack: X = impl_->umf.solve(B); break;
+  }
   if (!X.allFinite()) throw SolverError("sparse solver: solution is not finite (singular system)");
   return X;
 }
 
 bool SparseSolver::factored() const { return impl_->ok; }
 int SparseSolver::rows() const {
-  return static_cast<int>(impl_->kind == Kind::Cholesky ? impl_->ldlt.rows() : impl_->lu.rows());
+  switch (impl_->kind) {
+    case Kind::Cholesky: return static_cast<int>(impl_->ldlt.rows());
+    case Kind::LU: return static_cast<int>(impl_->lu.rows());
+    case Kind::Umfpack: return static_cast<int>(impl_->umf.rows());
+  }
+  return 0;
 }
 
 }  // namespace dgmesh

@@ -17,7 +17,7 @@ double max_abs_error(const VecXd& x, double exact) { return (x.array() - exact).
 
 TEST(Curvature, IcosphereConvergesToExactValues) {
   const double r = 2.5;
-  double prev_h = 1e9, prev_k = 1e9;
+  double prev_k = 1e9;
   for (int level = 2; level <= 5; ++level) {
     const Mesh m = make_mesh(icosphere(level, r).V, icosphere(level, r).F);
     const Curvature c = curvature(m.V, m.F, m.topo);
@@ -27,7 +27,6 @@ TEST(Curvature, IcosphereConvergesToExactValues) {
     // inscribed in a sphere: (x_j - x_i).x_i = -|x_j - x_i|^2 / 2 cancels the area's cotangent sum.
     EXPECT_LT(eh, 1e-9) << "level " << level;
     EXPECT_LT(ek, prev_k) << "level " << level;
-    prev_h = eh;
     prev_k = ek;
     // Gauss-Bonnet holds exactly for the angle deficit: sum K A = 2 pi chi = 4 pi.
     EXPECT_NEAR(c.gaussian.dot(c.area), 4 * M_PI, 1e-9);

@@ -30,12 +30,15 @@ class IoTest : public ::testing::Test {
   void SetUp() override {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
     std::random_device rd;
-    dir_ = fs::temp_directory_path() / "dgmesh_test_io" / (std::string(info->name()) + "_" + std::to_string(rd()));
+    std::string name = std::string(info->test_suite_name()) + "." + info->name();
+    std::replace(name.begin(), name.end(), '/', '_');
+    dir_ = fs::temp_directory_path() / "dgmesh_test_io" / (name + "_" + std::to_string(rd()));
     fs::create_directories(dir_);
   }
   void TearDown() override {
     std::error_code ec;
     fs::remove_all(dir_, ec);
+    fs::remove(dir_.parent_path(), ec);  // only succeeds once empty
   }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
   std::string write_file(const std::string& name, const std::string& content) const {

@@ -191,7 +191,7 @@ TEST(SparseSolver, FactorOnceSolveMany) {
   SpMat I(L.rows(), L.cols());
   I.setIdentity();
   const SpMat A = I - 0.1 * L;  // SPD: the implicit smoothing matrix
-  for (auto kind : {SparseSolver::Kind::Cholesky, SparseSolver::Kind::LU}) {
+  for (auto kind : {SparseSolver::Kind::Cholesky, SparseSolver::Kind::LU, SparseSolver::Kind::Umfpack}) {
     SparseSolver solver;
     solver.factor(A, kind);
     for (int rep = 0; rep < 3; ++rep) {
@@ -203,6 +203,8 @@ TEST(SparseSolver, FactorOnceSolveMany) {
   SparseSolver unfactored;
   EXPECT_THROW(unfactored.solve(Eigen::MatrixXd::Ones(3, 1)), SolverError);
   SpMat singular(3, 3);
-  SparseSolver lu;
-  EXPECT_THROW(lu.factor(singular, SparseSolver::Kind::LU), SolverError);
+  for (auto kind : {SparseSolver::Kind::LU, SparseSolver::Kind::Umfpack}) {
+    SparseSolver lu;
+    EXPECT_THROW(lu.factor(singular, kind), SolverError);
+  }
 }

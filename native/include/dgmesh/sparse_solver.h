@@ -11,6 +11,7 @@ class SparseSolver {
   enum class Kind {
     Cholesky,  // symmetric positive (semi-)definite: LDL^T (Eigen SimplicialLDLT)
     LU,        // general square: sparse LU (Eigen SparseLU, COLAMD ordering)
+    Umfpack,   // general square: UMFPACK's multifrontal LU (SuiteSparse), fastest on large systems
   };
   SparseSolver();
   ~SparseSolver();
