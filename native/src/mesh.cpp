@@ -10,11 +10,6 @@ namespace dgmesh {
 
 namespace {
 
-// The corners of the faces around one vertex: for face (v, next, prev) in CCW order.
-struct Corner {
-  int face, local, next, prev;
-};
-
 struct VertexReport {
   // Defects found at one vertex, kept so the message can name the first one.
   int bad_edge_other = -1;       // non-manifold edge v-other (more than two faces)
@@ -22,110 +17,126 @@ struct VertexReport {
   bool bad_fan = false;          // faces around v form more than one fan
 };
 
-void gather_corners(const MatX3i& F, const Topology& t, int v, std::vector<Corner>& c) {
-  c.clear();
-  for (int i = t.vf_offset[v]; i < t.vf_offset[v + 1]; ++i) {
-    const int f = t.vf_index[i];
-    for (int k = 0; k < 3; ++k)
-      if (F(f, k) == v) {
-        c.push_back({f, k, F(f, (k + 1) % 3), F(f, (k + 2) % 3)});
-        break;
-      }
-  }
-}
-
-int count_next(const std::vector<Corner>& c, int w) {
+int count_next(const Corner* c, int d, int w) {
   int n = 0;
-  for (const Corner& x : c) n += (x.next == w);
+  for (int i = 0; i < d; ++i) n += (c[i].next == w);
   return n;
 }
-int count_prev(const std::vector<Corner>& c, int w) {
+int count_prev(const Corner* c, int d, int w) {
   int n = 0;
-  for (const Corner& x : c) n += (x.prev == w);
+  for (int i = 0; i < d; ++i) n += (c[i].prev == w);
   return n;
 }
 
-// Orders the corners of v into one fan, writing the ring. Returns false if they form several fans.
-bool order_fan(std::vector<Corner>& c, std::vector<int>& ring, bool& boundary, VertexReport& rep) {
-  ring.clear();
+// Orders the d corners of a vertex (in place) into one counter-clockwise fan: corner i's `prev`
+// is corner i+1's `next`. A boundary vertex's fan starts at the face whose edge v->next has no
+// face on the other side. Returns false (filling `rep`) on non-manifold or misoriented edges
+// and on several fans. One pass over the pairs finds both defects and successors: O(d^2 / 2).
+bool order_fan(Corner* c, int d, bool& boundary, VertexReport& rep) {
   boundary = false;
-  if (c.empty()) return true;
-  // Check the edges: each v-w edge has at most one face per direction and at most two in all.
-  int n_boundary_edges = 0;
-  size_t start = 0;
-  for (size_t i = 0; i < c.size(); ++i) {
-    for (int w : {c[i].next, c[i].prev}) {
-      const int nn = count_next(c, w), np = count_prev(c, w);
-      if (nn + np > 2) rep.bad_edge_other = w;
-      else if (nn > 1 || np > 1) rep.misoriented_other = w;
-    }
-    if (count_prev(c, c[i].next) == 0) {  // edge v->next has no face on the other side
-      ++n_boundary_edges;
-      start = i;
-      boundary = true;
-    }
+  if (d == 0) return true;
+  constexpr int kMaxLocal = 64;  // larger stars (rare) fall back to the heap
+  int succ_buf[kMaxLocal];
+  char has_pred_buf[kMaxLocal];
+  std::vector<int> succ_heap;
+  std::vector<char> pred_heap;
+  int* succ = succ_buf;
+  char* has_pred = has_pred_buf;
+  if (d > kMaxLocal) {
+    succ_heap.assign(d, -1);
+    pred_heap.assign(d, 0);
+    succ = succ_heap.data();
+    has_pred = pred_heap.data();
   }
-  if (rep.bad_edge_other >= 0 || rep.misoriented_other >= 0) return false;
-  // Walk: the face after corner i around v is the one whose `next` is corner i's `prev`.
-  std::swap(c[0], c[start]);
-  ring.push_back(c[0].next);
-  for (size_t i = 0; i + 1 < c.size(); ++i) {
-    size_t j = i + 1;
-    while (j < c.size() && c[j].next != c[i].prev) ++j;
-    if (j == c.size()) break;
-    std::swap(c[i + 1], c[j]);
-    ring.push_back(c[i + 1].next);
+  std::fill(succ, succ + d, -1);
+  std::fill(has_pred, has_pred + d, 0);
+  bool repeated = false;
+  for (int i = 0; i < d; ++i)
+    for (int j = i + 1; j < d; ++j) {
+      repeated |= (c[i].next == c[j].next) | (c[i].prev == c[j].prev);
+      if (c[j].next == c[i].prev) succ[i] = j, has_pred[j] = 1;
+      if (c[i].next == c[j].prev) succ[j] = i, has_pred[i] = 1;
+    }
+  if (repeated) {  // rare: classify the defect for the message
+    for (int i = 0; i < d; ++i)
+      for (int w : {c[i].next, c[i].prev}) {
+        const int nn = count_next(c, d, w), np = count_prev(c, d, w);
+        if (nn + np > 2) rep.bad_edge_other = w;
+        else if (nn > 1 || np > 1) rep.misoriented_other = w;
+      }
+    return false;
   }
-  const size_t walked = ring.size();
-  if (boundary) ring.push_back(c[walked - 1].prev);
-  if (walked != c.size() || n_boundary_edges > 1) {
+  int start = 0, starts = 0;
+  for (int i = 0; i < d; ++i)
+    if (!has_pred[i]) start = i, ++starts;
+  boundary = starts > 0;
+  // Walk the successors from the start; a second fan shows as unvisited corners.
+  Corner ordered_buf[kMaxLocal];
+  std::vector<Corner> ordered_heap;
+  Corner* ordered = ordered_buf;
+  if (d > kMaxLocal) ordered_heap.resize(d), ordered = ordered_heap.data();
+  int walked = 0;
+  for (int i = start; i >= 0 && walked < d; i = succ[i]) {
+    ordered[walked++] = c[i];
+    if (!boundary && succ[i] == start) break;
+  }
+  if (walked != d || starts > 1) {
     rep.bad_fan = true;
     return false;
   }
+  std::copy(ordered, ordered + d, c);
   return true;
 }
 
 }  // namespace
 
-Topology build_topology(const MatX3i& F, int n_vertices) {
-  Topology t;
-  t.n_vertices = n_vertices;
-  t.n_faces = static_cast<int>(F.rows());
-  const int n = n_vertices, m = t.n_faces;
-
-  // Vertex-face incidence by counting sort.
-  t.vf_offset.assign(n + 1, 0);
+VertexCorners vertex_corners(const MatX3i& F, int n) {
+  // Counting sort of the 3m corners by vertex.
+  const int m = static_cast<int>(F.rows());
+  VertexCorners vc;
+  vc.offset.assign(n + 1, 0);
   for (int f = 0; f < m; ++f)
-    for (int k = 0; k < 3; ++k) ++t.vf_offset[F(f, k) + 1];
-  std::partial_sum(t.vf_offset.begin(), t.vf_offset.end(), t.vf_offset.begin());
-  t.vf_index.resize(3 * static_cast<size_t>(m));
-  {
-    std::vector<int> fill(t.vf_offset.begin(), t.vf_offset.end() - 1);
-    for (int f = 0; f < m; ++f)
-      for (int k = 0; k < 3; ++k) t.vf_index[fill[F(f, k)]++] = f;
-  }
+    for (int k = 0; k < 3; ++k) ++vc.offset[F(f, k) + 1];
+  std::partial_sum(vc.offset.begin(), vc.offset.end(), vc.offset.begin());
+  vc.corners.resize(3 * static_cast<size_t>(m));
+  std::vector<int> fill(vc.offset.begin(), vc.offset.end() - 1);
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) vc.corners[fill[F(f, k)]++] = {f, k, F(f, (k + 1) % 3), F(f, (k + 2) % 3)};
+  return vc;
+}
 
-  // Pass 1 (parallel per vertex): ring sizes, owned edges (v < w), defects.
+Topology build_topology(const MatX3i& F, int n_vertices) {
+  return build_topology(vertex_corners(F, n_vertices), static_cast<int>(F.rows()));
+}
+
+Topology build_topology(const VertexCorners& vc, int n_faces) {
+  Topology t;
+  t.n_vertices = static_cast<int>(vc.offset.size()) - 1;
+  t.n_faces = n_faces;
+  const int n = t.n_vertices, m = n_faces;
+  t.vf_offset = vc.offset;
+  t.vf_index.resize(vc.corners.size());
+
+  // Pass 1 (parallel per vertex): order each vertex's corners into its fan, count ring sizes and
+  // the edges each vertex owns (v < w), find defects.
+  std::vector<Corner> fan = vc.corners;
   std::vector<int> ring_size(n, 0), owned_edges(n, 0);
   t.on_boundary.assign(n, 0);
   std::vector<VertexReport> reports(n);
   bool any_defect = false;
-#pragma omp parallel reduction(|| : any_defect)
-  {
-    std::vector<Corner> c;
-    std::vector<int> ring;
-#pragma omp for schedule(dynamic, 1024)
-    for (int v = 0; v < n; ++v) {
-      gather_corners(F, t, v, c);
-      bool boundary = false;
-      if (!order_fan(c, ring, boundary, reports[v])) {
-        any_defect = true;
-        continue;
-      }
-      ring_size[v] = static_cast<int>(ring.size());
-      t.on_boundary[v] = boundary;
-      for (int w : ring) owned_edges[v] += (w > v);
+#pragma omp parallel for schedule(dynamic, 2048) reduction(|| : any_defect)
+  for (int v = 0; v < n; ++v) {
+    Corner* c = fan.data() + vc.offset[v];
+    const int d = vc.offset[v + 1] - vc.offset[v];
+    bool boundary = false;
+    if (!order_fan(c, d, boundary, reports[v])) {
+      any_defect = true;
+      continue;
     }
+    ring_size[v] = d + (boundary ? 1 : 0);
+    t.on_boundary[v] = boundary;
+    for (int i = 0; i < d; ++i) owned_edges[v] += (c[i].next > v);
+    if (boundary) owned_edges[v] += (c[d - 1].prev > v);
   }
   if (any_defect) {
     int bad_edges = 0, misoriented = 0, bad_fans = 0, first_v = -1, first_w = -1;
@@ -161,37 +172,40 @@ Topology build_topology(const MatX3i& F, int n_vertices) {
   t.face_edges.resize(m, 3);
   t.edge_faces.setConstant(edge_offset[n], 2, -1);
 
-  // Pass 2 (parallel): rings, edges owned by their smaller vertex, edge-face and face-edge links.
-  // Every slot is written by exactly one vertex, so no synchronisation is needed.
-#pragma omp parallel
-  {
-    std::vector<Corner> c;
-    std::vector<int> ring;
-    VertexReport unused;
-#pragma omp for schedule(dynamic, 1024)
-    for (int v = 0; v < n; ++v) {
-      gather_corners(F, t, v, c);
-      bool boundary = false;
-      order_fan(c, ring, boundary, unused);
-      std::copy(ring.begin(), ring.end(), t.vv_index.begin() + t.vv_offset[v]);
-      int e = edge_offset[v];
-      for (int w : ring) {
-        if (w < v) continue;
-        t.edges(e, 0) = v;
-        t.edges(e, 1) = w;
-        for (const Corner& x : c) {
-          if (x.next == w) {  // face traverses v->w: its corner k edge
-            t.edge_faces(e, 0) = x.face;
-            t.face_edges(x.face, x.local) = e;
-          }
-          if (x.prev == w) {  // face traverses w->v: the edge leaving w's corner
-            t.edge_faces(e, 1) = x.face;
-            t.face_edges(x.face, (x.local + 2) % 3) = e;
-          }
-        }
-        if (t.edge_faces(e, 0) < 0) std::swap(t.edge_faces(e, 0), t.edge_faces(e, 1));
-        ++e;
+  // Pass 2 (parallel): rings, faces in fan order, edges owned by their smaller vertex with their
+  // faces. In fan order, edge v-ring[i] has corner i on its left (v -> ring[i]) and corner i-1 on
+  // its right. Every slot is written by exactly one vertex: no synchronisation needed.
+#pragma omp parallel for schedule(dynamic, 2048)
+  for (int v = 0; v < n; ++v) {
+    const Corner* c = fan.data() + vc.offset[v];
+    const int d = vc.offset[v + 1] - vc.offset[v];
+    if (d == 0) continue;
+    const bool boundary = t.on_boundary[v];
+    int* ring = t.vv_index.data() + t.vv_offset[v];
+    for (int i = 0; i < d; ++i) {
+      ring[i] = c[i].next;
+      t.vf_index[vc.offset[v] + i] = c[i].face;
+    }
+    if (boundary) ring[d] = c[d - 1].prev;
+    int e = edge_offset[v];
+    const int size = d + (boundary ? 1 : 0);
+    for (int i = 0; i < size; ++i) {
+      const int w = ring[i];
+      if (w < v) continue;
+      t.edges(e, 0) = v;
+      t.edges(e, 1) = w;
+      const Corner* left = i < d ? &c[i] : nullptr;                           // traverses v -> w
+      const Corner* right = i > 0 ? &c[i - 1] : (boundary ? nullptr : &c[d - 1]);  // w -> v
+      int slot = 0;
+      if (left) {
+        t.edge_faces(e, slot++) = left->face;
+        t.face_edges(left->face, left->local) = e;
       }
+      if (right) {
+        t.edge_faces(e, slot++) = right->face;
+        t.face_edges(right->face, (right->local + 2) % 3) = e;
+      }
+      ++e;
     }
   }
 

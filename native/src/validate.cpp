@@ -1,7 +1,6 @@
 #include "dgmesh/validate.h"
 
 #include <algorithm>
-#include <array>
 #include <sstream>
 
 #include "dgmesh/errors.h"
@@ -49,17 +48,18 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
   if (checks & (kNoRepeatedIndex | kNoZeroArea)) {
     const double diag = bbox_diagonal(V);
     const double min_area = 1e-12 * diag * diag;
-    int repeated = 0, zero = 0, first_r = -1, first_z = -1;
+    int repeated = 0, zero = 0, first_r = m, first_z = m;
+#pragma omp parallel for schedule(static) reduction(+ : repeated, zero) reduction(min : first_r, first_z)
     for (int f = 0; f < m; ++f) {
       const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
       if (a == b || b == c || a == c) {
-        if (first_r < 0) first_r = f;
+        first_r = std::min(first_r, f);
         ++repeated;
         continue;
       }
       const Vec3 e1 = V.row(b) - V.row(a), e2 = V.row(c) - V.row(a);
       if (0.5 * e1.cross(e2).norm() <= min_area) {
-        if (first_z < 0) first_z = f;
+        first_z = std::min(first_z, f);
         ++zero;
       }
     }
@@ -70,23 +70,28 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
            "); merge or dissolve them first");
   }
 
+  // Vertex corners serve the duplicate check and the topology: one pass over F for both.
+  const VertexCorners vc = vertex_corners(F, n);
   if (checks & kNoDuplicateFaces) {
-    // Sort the faces by their sorted vertex triple; equal neighbours are duplicates.
-    std::vector<std::array<int, 4>> key(m);
-    for (int f = 0; f < m; ++f) {
-      std::array<int, 3> t = {F(f, 0), F(f, 1), F(f, 2)};
-      std::sort(t.begin(), t.end());
-      key[f] = {t[0], t[1], t[2], f};
-    }
-    std::sort(key.begin(), key.end());
+    // A face is owned by its smallest vertex; duplicates share the owner and the other two.
     int dup = 0, first = -1, first_of = -1;
-    for (int i = 1; i < m; ++i)
-      if (key[i][0] == key[i - 1][0] && key[i][1] == key[i - 1][1] && key[i][2] == key[i - 1][2]) {
-        if (first < 0) first = key[i][3], first_of = key[i - 1][3];
-        ++dup;
+#pragma omp parallel for schedule(dynamic, 4096) reduction(+ : dup)
+    for (int v = 0; v < n; ++v) {
+      for (int i = vc.offset[v]; i < vc.offset[v + 1]; ++i) {
+        const Corner& a = vc.corners[i];
+        if (a.next < v || a.prev < v) continue;
+        for (int j = i + 1; j < vc.offset[v + 1]; ++j) {
+          const Corner& b = vc.corners[j];
+          if ((b.next == a.next && b.prev == a.prev) || (b.next == a.prev && b.prev == a.next)) {
+            ++dup;
+#pragma omp critical(dgmesh_duplicate)
+            if (first < 0 || std::max(a.face, b.face) < first)
+              first = std::max(a.face, b.face), first_of = std::min(a.face, b.face);
+          }
+        }
       }
-    if (dup) fail(dup, " duplicate face(s) (first: face ", std::max(first, first_of),
-                  " repeats face ", std::min(first, first_of), ")");
+    }
+    if (dup) fail(dup, " duplicate face(s) (first: face ", first, " repeats face ", first_of, ")");
   }
 
   if (checks & kNoLooseVertices) {
@@ -105,7 +110,7 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
     t.n_faces = m;
     return t;
   }
-  return build_topology(F, n);
+  return build_topology(vc, m);
 }
 
 Mesh make_mesh(MatX3d V, MatX3i F, unsigned checks) {

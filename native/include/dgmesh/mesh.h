@@ -11,7 +11,8 @@ struct Topology {
   int n_vertices = 0;
   int n_faces = 0;
 
-  // Faces around each vertex (CSR): vf_index[vf_offset[v] .. vf_offset[v+1]).
+  // Faces around each vertex (CSR), in the counter-clockwise order of the ring:
+  // vf_index[vf_offset[v] + i] lies between ring neighbours i and i+1.
   std::vector<int> vf_offset, vf_index;
   // One-ring neighbours of each vertex in counter-clockwise order (CSR). For a boundary vertex
   // the ring starts and ends at its two boundary neighbours (valence = faces + 1).
@@ -30,10 +31,22 @@ struct Topology {
   bool is_loose(int v) const { return vf_offset[v] == vf_offset[v + 1]; }
 };
 
+// The corners of the faces around each vertex, in CSR order: for face (v, next, prev) listed
+// counter-clockwise. Built in one pass over F so that per-vertex loops read memory in order.
+struct Corner {
+  int face, local, next, prev;
+};
+struct VertexCorners {
+  std::vector<int> offset;      // corners of v: corners[offset[v] .. offset[v+1])
+  std::vector<Corner> corners;
+};
+VertexCorners vertex_corners(const MatX3i& F, int n_vertices);
+
 // Builds the topology of F over n_vertices vertices. Requires a manifold, consistently oriented
 // triangle mesh with valid indices (see validate.h); throws MeshError naming the first offending
 // edge or vertex otherwise.
 Topology build_topology(const MatX3i& F, int n_vertices);
+Topology build_topology(const VertexCorners& vc, int n_faces);
 
 // A validated mesh with its topology: the common input of algorithms.
 struct Mesh {
