@@ -92,10 +92,12 @@ def read_object(obj, evaluated=False, depsgraph=None, edges=False):
 
 
 def _check_rows(mesh, values, width, what):
-    a = np.asarray(values)
+    """One row per vertex: shape (n,) for width 1, else (n, width)."""
     n = len(mesh.vertices)
-    if a.shape[0] != n or (width and a.reshape(n, -1).shape[1] != width):
-        raise ValueError(f"{what}: expected {n} rows of {width or 1}, got shape {a.shape}")
+    expected = (n,) if width == 1 else (n, width)
+    shape = np.shape(values)
+    if shape != expected:
+        raise ValueError(f"{what}: expected shape {expected}, got {shape}")
 
 
 def write_positions(mesh, V):
@@ -122,7 +124,7 @@ def _ensure_attribute(mesh, name, data_type, domain, color=False):
 
 def write_point_float(mesh, name, values):
     """Create or replace a FLOAT attribute on the POINT domain."""
-    _check_rows(mesh, values, 0, name)
+    _check_rows(mesh, values, 1, name)
     attr = _ensure_attribute(mesh, name, 'FLOAT', 'POINT')
     attr.data.foreach_set("value", np.ascontiguousarray(values, dtype=np.float32).ravel())
     mesh.update()

@@ -1,0 +1,124 @@
+"""Helpers shared by the Blender tests (import as ``helpers``)."""
+
+import sys
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[2]
+FIXTURES = REPO / "blend_fixtures"
+sys.path.insert(0, str(FIXTURES))
+import make_fixtures  # noqa: E402  (needs the path above)
+
+DG_ATTRIBUTES = ("dg_mean_curvature", "dg_gaussian_curvature", "dg_curvature_color")
+
+
+def open_fixture(name):
+    """Open blend_fixtures/<name>.blend (keeps the current UI and add-ons)."""
+    bpy.ops.wm.open_mainfile(filepath=str(FIXTURES / f"{name}.blend"), load_ui=False)
+    assert bpy.context.mode == 'OBJECT'
+
+
+def select(*names, active=None):
+    """Select exactly the named objects; the active one is ``active`` or the first."""
+    names = set(names)
+    for obj in bpy.context.view_layer.objects:
+        obj.select_set(obj.name in names)
+    active = active or (sorted(names)[0] if names else None)
+    bpy.context.view_layer.objects.active = bpy.data.objects[active] if active else None
+
+
+def curvature_map(**props):
+    """Run the operator the way the UI does: with an undo push."""
+    return bpy.ops.dgmesh.curvature_map('EXEC_DEFAULT', True, **props)
+
+
+def independent_arrays(mesh):
+    """(V, F) read with plain Python (not through the bridge), to cross-check it."""
+    mesh.calc_loop_triangles()
+    V = np.array([v.co[:] for v in mesh.vertices], dtype=np.float64).reshape(-1, 3)
+    F = np.array([t.vertices[:] for t in mesh.loop_triangles], dtype=np.int32).reshape(-1, 3)
+    return V, F
+
+
+def attribute_array(attr):
+    """The data of a generic attribute as a numpy array (any type/domain)."""
+    key, width, dtype = _ATTR_LAYOUT.get(attr.data_type, (None, None, None))
+    n = len(attr.data)
+    if key is None:  # types without a fast path (e.g. STRING): compare their Python values
+        return np.array([repr(tuple(d.bl_rna.properties.keys())) + repr(getattr(d, "value", None))
+                         for d in attr.data], dtype=object)
+    buf = np.empty(n * width, dtype=dtype)
+    attr.data.foreach_get(key, buf)
+    return buf.reshape(n, width)
+
+
+_ATTR_LAYOUT = {
+    'FLOAT': ("value", 1, np.float32),
+    'INT': ("value", 1, np.int32),
+    'INT8': ("value", 1, np.int32),
+    'BOOLEAN': ("value", 1, bool),
+    'FLOAT_VECTOR': ("vector", 3, np.float32),
+    'FLOAT2': ("vector", 2, np.float32),
+    'FLOAT_COLOR': ("color", 4, np.float32),
+    'BYTE_COLOR': ("color", 4, np.float32),
+    'INT32_2D': ("value", 2, np.int32),  # 4.x
+    'QUATERNION': ("value", 4, np.float32),  # 4.x
+}
+
+
+def _get(collection, key, width, dtype):
+    buf = np.empty(len(collection) * width, dtype=dtype)
+    collection.foreach_get(key, buf)
+    return buf.tobytes()
+
+
+def mesh_snapshot(mesh):
+    """Everything a mesh stores, as comparable values (bytes for arrays, so
+    NaN compares equal to itself)."""
+    snap = {
+        "co": _get(mesh.vertices, "co", 3, np.float32),
+        "edges": _get(mesh.edges, "vertices", 2, np.int32),
+        "loop_start": _get(mesh.polygons, "loop_start", 1, np.int32),
+        "loop_total": _get(mesh.polygons, "loop_total", 1, np.int32),
+        "loop_vertex": _get(mesh.loops, "vertex_index", 1, np.int32),
+        "loop_edge": _get(mesh.loops, "edge_index", 1, np.int32),
+        "use_smooth": _get(mesh.polygons, "use_smooth", 1, bool),
+        "vertex_select": _get(mesh.vertices, "select", 1, bool),
+        "attributes": {
+            a.name: (a.domain, a.data_type, attribute_array(a).tobytes())
+            for a in mesh.attributes
+        },
+        "active_color": (mesh.color_attributes.active_color.name
+                         if mesh.color_attributes.active_color else None),
+        "render_color_index": mesh.color_attributes.render_color_index,
+        "uv_layers": {
+            uv.name: _get(uv.data, "uv", 2, np.float32) for uv in mesh.uv_layers
+        },
+        "uv_active": mesh.uv_layers.active.name if mesh.uv_layers.active else None,
+        # Vertex group weights live on the mesh (plain loop: fixtures are small).
+        "weights": [(v.index, g.group, round(g.weight, 6)) for v in mesh.vertices for g in v.groups],
+        "has_custom_normals": mesh.has_custom_normals,
+        "shape_keys": None,
+    }
+    if mesh.shape_keys is not None:
+        snap["shape_keys"] = {
+            kb.name: (kb.value, kb.relative_key.name, _get(kb.data, "co", 3, np.float32))
+            for kb in mesh.shape_keys.key_blocks
+        }
+    if mesh.has_custom_normals:
+        if hasattr(mesh, "calc_normals_split"):  # 3.x/4.0; 4.1+ computes corner normals on access
+            mesh.calc_normals_split()
+        snap["corner_normals"] = np.round(
+            np.frombuffer(_get(mesh.loops, "normal", 3, np.float32), np.float32), 5).tobytes()
+    return snap
+
+
+def without_dg(snapshot):
+    """A snapshot with the operator's own outputs removed."""
+    snap = dict(snapshot)
+    snap["attributes"] = {k: v for k, v in snapshot["attributes"].items() if k not in DG_ATTRIBUTES}
+    for key in ("active_color", "render_color_index"):
+        snap.pop(key)
+    return snap
