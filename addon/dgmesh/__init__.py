@@ -33,6 +33,7 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     validate,
     write_mesh,
 )
+from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
 
 
 def register():

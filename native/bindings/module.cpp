@@ -28,4 +28,5 @@ PYBIND11_MODULE(_native, m) {
     }
   });
   dgmesh::py::bind_core(m);
+  dgmesh::py::bind_crest(m);
 }

@@ -6,6 +6,9 @@ import bpy
 # (bl_idname, label, icon); keep in the order they should appear.
 OPERATORS = [
     ("dgmesh.curvature_map", "Curvature Map", 'SMOOTHCURVE'),
+    ("dgmesh.crest_lines", "Crest Lines", 'IPO_EASE_IN_OUT'),
+    ("dgmesh.decimate_features", "Feature Decimate", 'MOD_DECIM'),
+    ("dgmesh.segment", "Segment", 'MOD_EXPLODE'),
 ]
 
 

@@ -1,0 +1,122 @@
+"""Long native computations with progress and Esc to cancel.
+
+An operator that mixes in :class:`NativeJobOperator` splits its work in three:
+
+* ``prepare(context)`` (main thread): read Blender data into numpy and return a callable
+  ``work(progress)`` that does the native computation, or None after reporting an error;
+* ``work(progress)`` (a worker thread when interactive): numpy and dgmesh calls only, no bpy;
+  passes ``progress`` (fraction -> bool) to the dgmesh function, which raises dgmesh.Cancelled
+  when it returns False;
+* ``finish(context, result)`` (main thread): write the result back and report; returns the
+  operator's set.
+
+``execute`` (redo panel, scripts, --background) runs them in a row with the window manager's
+progress indicator. ``invoke`` with a window runs ``work`` in a thread and polls it from a modal
+timer, so the UI stays responsive, the status bar shows the progress and Esc cancels with the
+mesh unchanged (nothing is written before ``finish``).
+"""
+
+import threading
+
+import bpy
+
+from .prefs import api
+
+
+class Job:
+    """A callable run in a worker thread, with a progress fraction and a cancel flag."""
+
+    def __init__(self, work):
+        self.work = work
+        self.fraction = 0.0
+        self.cancelled = False
+        self.result = None
+        self.error = None
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def progress(self, fraction):
+        self.fraction = float(fraction)
+        return not self.cancelled
+
+    def _run(self):
+        try:
+            self.result = self.work(self.progress)
+        except BaseException as exc:  # surfaced in the main thread by the operator
+            self.error = exc
+
+    def start(self):
+        self._thread.start()
+        return self
+
+    def wait(self, timeout=None):
+        self._thread.join(timeout)
+        return not self._thread.is_alive()
+
+    @property
+    def done(self):
+        return not self._thread.is_alive()
+
+
+class NativeJobOperator:
+    """Mixin for bpy.types.Operator subclasses; see the module docstring."""
+
+    def prepare(self, context):  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def finish(self, context, result):  # pragma: no cover - overridden
+        raise NotImplementedError
+
+    def _failed(self, exc):
+        dg = api()
+        if isinstance(exc, dg.Cancelled):
+            self.report({'WARNING'}, f"{self.bl_label}: cancelled, nothing was changed")
+        elif isinstance(exc, dg.MeshError):
+            self.report({'ERROR'}, f"{self.bl_label}: {exc}")
+        else:
+            self.report({'ERROR'}, f"{self.bl_label}: internal error: {type(exc).__name__}: {exc}")
+        return {'CANCELLED'}
+
+    def execute(self, context):
+        work = self.prepare(context)
+        if work is None:
+            return {'CANCELLED'}
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        try:
+            result = work(lambda f: (wm.progress_update(int(1000 * f)), True)[1])
+        except Exception as exc:
+            return self._failed(exc)
+        finally:
+            wm.progress_end()
+        return self.finish(context, result)
+
+    def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        work = self.prepare(context)
+        if work is None:
+            return {'CANCELLED'}
+        wm = context.window_manager
+        self._job = Job(work).start()
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.progress_begin(0, 1000)
+        wm.modal_handler_add(self)
+        context.workspace.status_text_set(f"{self.bl_label}: running (Esc to cancel)")
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        job = self._job
+        if event.type == 'ESC':
+            job.cancelled = True
+        if event.type != 'TIMER':
+            return {'RUNNING_MODAL'} if event.type == 'ESC' else {'PASS_THROUGH'}
+        wm = context.window_manager
+        wm.progress_update(int(1000 * job.fraction))
+        if not job.done:
+            return {'RUNNING_MODAL'}
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+        if job.error is not None:
+            return self._failed(job.error)
+        return self.finish(context, job.result)

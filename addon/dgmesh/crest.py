@@ -1,0 +1,273 @@
+"""Crest lines and their applications (thesis chapter 4).
+
+* :func:`curvature_derivatives`: principal curvatures, directions and extremality coefficients per
+  vertex by the enhanced adjacent-normal cubic fit (thesis 4.5, eq. 4.7-4.8).
+* :func:`crest_lines`: ridges (convex crest lines) and valleys (concave ones) traced on the mesh
+  edges (4.6), with the scale-independent strength T of eq. 4.10 per line for thresholding.
+* :func:`decimate`: Garland-Heckbert quadric decimation, optionally feature sensitive (4.8).
+* :func:`segment`: variational shape approximation, optionally guided by crest lines (4.9).
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .core import MeshError, _native, as_faces, as_vertices
+
+RIDGE = 0
+VALLEY = 1
+
+_LINE_FIELDS = ("points", "point_edge", "point_t", "point_cyclideness", "segments", "segment_line",
+                "segment_face", "line_offset", "line_points", "line_kind", "line_strength", "line_length")
+
+
+@dataclass(repr=False)
+class CrestLines:
+    """Crest lines of a mesh.
+
+    Points: ``points`` (P, 3); most lie on a mesh edge ``point_edge`` (P, 2) = (v0, v1) at
+    ``(1 - point_t) v0 + point_t v1``; junction points inside a triangle have edge (-1, -1).
+    ``point_cyclideness`` is C of eq. 4.11 at the point.
+    Segments: ``segments`` (S, 2) point indices, ``segment_line`` the line of each, ``segment_face``
+    the triangle holding it (-1 for a gap jump between two line ends, thesis fig. 4.10).
+    Lines: ``polylines`` (ordered point arrays; a closed line repeats its first point), ``line_kind``
+    (RIDGE = 0 or VALLEY = 1), ``line_strength`` T (eq. 4.10, dimensionless) and ``line_length``.
+    ``derivatives`` holds the per-vertex fields (see :func:`curvature_derivatives`).
+    ``all_lines`` keeps the unfiltered lines, so :meth:`filter` can lower the threshold again
+    without refitting.
+    """
+
+    points: np.ndarray
+    point_edge: np.ndarray
+    point_t: np.ndarray
+    point_cyclideness: np.ndarray
+    segments: np.ndarray
+    segment_line: np.ndarray
+    segment_face: np.ndarray
+    line_offset: np.ndarray
+    line_points: np.ndarray
+    line_kind: np.ndarray
+    line_strength: np.ndarray
+    line_length: np.ndarray
+    derivatives: dict = field(default_factory=dict, repr=False)
+    threshold: float = 0.0
+    all_lines: "CrestLines" = field(default=None, repr=False)
+
+    def __len__(self):
+        return len(self.line_kind)
+
+    def __repr__(self):
+        ridges = int((self.line_kind == RIDGE).sum())
+        return (f"CrestLines({len(self)} lines: {ridges} ridges, {len(self) - ridges} valleys; "
+                f"{len(self.points)} points, length {self.total_length:.4g}, threshold {self.threshold:g})")
+
+    @property
+    def n_lines(self):
+        return len(self.line_kind)
+
+    @property
+    def polylines(self):
+        """List of (k, 3) point arrays, one per line, in order along the line."""
+        o = self.line_offset
+        return [self.points[self.line_points[o[i]:o[i + 1]]] for i in range(len(self))]
+
+    @property
+    def is_ridge(self):
+        return self.line_kind == RIDGE
+
+    @property
+    def total_length(self):
+        return float(self.line_length.sum())
+
+    def filter(self, threshold=None, ridges=True, valleys=True):
+        """Lines with strength T >= threshold of the requested kinds, re-indexed. Filtering always
+        starts from every traced line, so a lower threshold brings lines back."""
+        base = self.all_lines if self.all_lines is not None else self
+        threshold = self.threshold if threshold is None else float(threshold)
+        keep = base.line_strength >= threshold
+        if not ridges:
+            keep &= base.line_kind != RIDGE
+        if not valleys:
+            keep &= base.line_kind != VALLEY
+        return _subset(base, keep, threshold)
+
+
+def _subset(base, keep, threshold):
+    nl = len(base.line_kind)
+    new_line = np.full(nl, -1, dtype=np.int32)
+    new_line[keep] = np.arange(int(keep.sum()), dtype=np.int32)
+    o = base.line_offset
+    counts = np.diff(o)
+    idx = np.repeat(keep, counts)
+    line_points_old = base.line_points[idx]
+    used = np.unique(line_points_old)
+    new_point = np.full(len(base.points), -1, dtype=np.int32)
+    new_point[used] = np.arange(len(used), dtype=np.int32)
+    seg_keep = keep[base.segment_line] if len(base.segment_line) else np.zeros(0, bool)
+    return CrestLines(
+        points=base.points[used],
+        point_edge=base.point_edge[used],
+        point_t=base.point_t[used],
+        point_cyclideness=base.point_cyclideness[used],
+        segments=new_point[base.segments[seg_keep]].reshape(-1, 2),
+        segment_line=new_line[base.segment_line[seg_keep]],
+        segment_face=base.segment_face[seg_keep],
+        line_offset=np.concatenate([[0], np.cumsum(counts[keep])]).astype(np.int32),
+        line_points=new_point[line_points_old],
+        line_kind=base.line_kind[keep],
+        line_strength=base.line_strength[keep],
+        line_length=base.line_length[keep],
+        derivatives=base.derivatives,
+        threshold=threshold,
+        all_lines=base,
+    )
+
+
+def _check_rings(rings):
+    rings = int(rings)
+    if not 1 <= rings <= 8:
+        raise MeshError(f"rings must be between 1 and 8, got {rings}")
+    return rings
+
+
+def curvature_derivatives(V, F, *, rings=1, smooth=True, use_normals=True, progress=None):
+    """Curvature tensor and its derivatives per vertex (thesis 4.5).
+
+    A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
+    the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
+    normals of its ``rings``-ring, without neighbours whose normal makes an obtuse angle with the
+    vertex normal. Returns a dict of per-vertex arrays: ``k_max``, ``k_min`` (positive on a sphere
+    with outward faces), unit directions ``t_max``, ``t_min`` (n, 3), extremality coefficients
+    ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8; their sign follows the direction), ``normals``.
+    """
+    return _native.curvature_derivatives(as_vertices(V), as_faces(F), _check_rings(rings), bool(smooth),
+                                         bool(use_normals), progress)
+
+
+def crest_lines(V, F, *, rings=1, threshold=0.0, ridges=True, valleys=True, smooth=True, join_gaps=True,
+                skip_boundary=True, progress=None):
+    """Crest lines of a triangle mesh (thesis 4.5-4.6).
+
+    ``rings`` (1..8, thesis 1..4) is the fitting neighbourhood: larger gives smoother lines and
+    ignores smaller features. Lines are zero crossings of the extremality coefficients on the mesh
+    edges, with the maximum/minimum and convexity tests, joined across gaps, and kept when their
+    strength T (eq. 4.10, scale independent) is at least ``threshold``. Edges touching the mesh
+    boundary are skipped when ``skip_boundary`` (the fit is one-sided there).
+    Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
+    """
+    d, lines = _native.crest_lines(as_vertices(V), as_faces(F), _check_rings(rings), bool(smooth), True,
+                                   True, True, bool(join_gaps), bool(skip_boundary), progress)
+    threshold = float(threshold)
+    if not np.isfinite(threshold):
+        raise MeshError(f"threshold must be finite, got {threshold}")
+    base = CrestLines(**{k: lines[k] for k in _LINE_FIELDS}, derivatives=d, threshold=0.0)
+    return base.filter(threshold, ridges, valleys)
+
+
+def crest_face_distance(V, F, lines):
+    """Geodesic distance from each face to the nearest crest line (thesis 4.8), over the face graph
+    with centroid - edge midpoint - centroid steps; 0 on faces holding a line."""
+    return _native.crest_face_distance(as_vertices(V), as_faces(F), np.ascontiguousarray(lines.segments, np.int32),
+                                       np.ascontiguousarray(lines.segment_face, np.int32),
+                                       np.ascontiguousarray(lines.point_edge, np.int32))
+
+
+def feature_function(distance, eta, eps=0.1):
+    """F(d) = (d / max d + eps)^eta of eq. 4.12 (all ones when eta is 0 or there is no line)."""
+    d = np.asarray(distance, dtype=np.float64)
+    eta = float(eta)
+    if not np.isfinite(eta) or eta < 0:
+        raise MeshError(f"feature weight (eta) must be a non-negative number, got {eta}")
+    dmax = float(d.max()) if d.size else 0.0
+    if eta == 0.0 or dmax <= 0.0:
+        return np.ones_like(d)
+    return (d / dmax + eps) ** eta
+
+
+def _feature_field(V, F, feature_weight, lines, rings, threshold):
+    if feature_weight == 0.0:
+        return None, lines
+    if lines is None:
+        lines = crest_lines(V, F, rings=rings, threshold=threshold)
+    elif not isinstance(lines, CrestLines):
+        raise MeshError("crest_lines must be a CrestLines result of dgmesh.crest_lines")
+    elif len(lines.point_edge) and int(lines.point_edge.max()) >= len(V):
+        raise MeshError("crest_lines were computed on another mesh")
+    return feature_function(crest_face_distance(V, F, lines), feature_weight), lines
+
+
+def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0,
+             preserve_boundary=True, min_quality=0.0, max_normal_angle=1.3, progress=None, return_map=False):
+    """Quadric edge-collapse decimation (Garland-Heckbert) to ``target_faces`` faces.
+
+    ``feature_weight`` is eta of thesis eq. 4.12: each face's quadric is weighted by 1 / F(d), d its
+    geodesic distance to the nearest crest line, so the mesh stays dense near salient lines;
+    0 is plain QEM. Crest lines come from ``crest_lines`` or are detected with ``rings`` and
+    ``threshold``. The result is manifold; boundary vertices are kept in place when
+    ``preserve_boundary``. ``min_quality`` in [0, 1) rejects collapses that create worse slivers.
+    Returns (V, F), plus the input-to-output vertex map when ``return_map``.
+    """
+    V = as_vertices(V)
+    F = as_faces(F)
+    target_faces = int(target_faces)
+    if target_faces < 0:
+        raise MeshError(f"target_faces must be non-negative, got {target_faces}")
+    feature_weight = float(feature_weight)
+    if feature_weight < 0 or not np.isfinite(feature_weight):
+        raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
+    Fd, _ = _feature_field(V, F, feature_weight, crest_lines, rings, threshold) if feature_weight else (None, None)
+    weights = None if Fd is None else np.ascontiguousarray(1.0 / Fd)
+    V2, F2, vmap = _native.decimate(V, F, target_faces, weights, bool(preserve_boundary), float(min_quality),
+                                    float(max_normal_angle), float("inf"), progress)
+    return (V2, F2, vmap) if return_map else (V2, F2)
+
+
+def segment(V, F, *, segments, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0, iterations=30,
+            progress=None, return_info=False):
+    """Segments the mesh into ``segments`` connected, nearly planar charts by variational shape
+    approximation (L^{2,1} metric, Lloyd iterations; thesis 4.9). ``feature_weight`` is eta of eq.
+    4.12: region growing weighs the error of a face reached from a face of a segment by
+    2 / (F(T_i) + F(T_j)), so segment borders settle on crest lines. Returns a label per face
+    (0 .. n-1; a mesh with more connected components than ``segments`` gets one per component);
+    with ``return_info`` also a dict with proxy normals, iterations and the total distortion.
+    """
+    V = as_vertices(V)
+    F = as_faces(F)
+    segments = int(segments)
+    if segments < 1:
+        raise MeshError(f"segments must be at least 1, got {segments}")
+    feature_weight = float(feature_weight)
+    if feature_weight < 0 or not np.isfinite(feature_weight):
+        raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
+    Fd, _ = _feature_field(V, F, feature_weight, crest_lines, rings, threshold) if feature_weight else (None, None)
+    out = _native.segment(V, F, segments, None if Fd is None else np.ascontiguousarray(Fd), int(iterations), progress)
+    labels = np.asarray(out["labels"], dtype=np.int32)
+    return (labels, dict(out)) if return_info else labels
+
+
+def snap_to_vertices(lines, V, F):
+    """Mesh-vertex pairs approximating each crest segment: every point is moved to the nearer end
+    of its edge (a junction point to the nearest corner of its triangle). Returns (S', 2) int32
+    pairs of distinct vertices (segments whose ends snap to the same vertex are dropped) and the
+    line of each pair. Consecutive pairs share a triangle, except across gap jumps."""
+    V = np.asarray(V)
+    F = np.asarray(F)
+    pe = lines.point_edge
+    vert = np.where(lines.point_t < 0.5, pe[:, 0], pe[:, 1]).astype(np.int64)
+    junction = np.flatnonzero(pe[:, 0] < 0)
+    if junction.size:
+        # The face of any segment touching the junction point.
+        seg_face = np.full(len(pe), -1, dtype=np.int64)
+        for k in (0, 1):
+            seg_face[lines.segments[:, k]] = np.maximum(seg_face[lines.segments[:, k]], lines.segment_face)
+        f = seg_face[junction]
+        corners = F[np.maximum(f, 0)]
+        d = np.linalg.norm(V[corners] - lines.points[junction][:, None, :], axis=2)
+        vert[junction] = corners[np.arange(len(junction)), d.argmin(1)]
+    pairs = vert[lines.segments] if len(lines.segments) else np.zeros((0, 2), np.int64)
+    keep = pairs[:, 0] != pairs[:, 1]
+    return pairs[keep].astype(np.int32), lines.segment_line[keep]
+
+
+__all__ = ["RIDGE", "VALLEY", "CrestLines", "curvature_derivatives", "crest_lines", "crest_face_distance",
+           "feature_function", "decimate", "segment", "snap_to_vertices"]

@@ -1,0 +1,162 @@
+// Crest lines, feature-sensitive decimation and segmentation (thesis chapter 4).
+#include <limits>
+#include <optional>
+
+#include "common.h"
+#include "dgmesh/crest_lines.h"
+#include "dgmesh/decimate.h"
+#include "dgmesh/segment.h"
+#include "dgmesh/validate.h"
+
+namespace dgmesh::py {
+
+namespace {
+
+pb::array_t<int> int_array(const std::vector<int>& v) { return pb::array_t<int>(v.size(), v.data()); }
+pb::array_t<double> double_array(const std::vector<double>& v) { return pb::array_t<double>(v.size(), v.data()); }
+
+pb::dict derivatives_dict(CurvatureDerivatives& d) {
+  pb::dict out;
+  out["k_max"] = std::move(d.k_max);
+  out["k_min"] = std::move(d.k_min);
+  out["e_max"] = std::move(d.e_max);
+  out["e_min"] = std::move(d.e_min);
+  out["t_max"] = std::move(d.t_max);
+  out["t_min"] = std::move(d.t_min);
+  out["normals"] = std::move(d.normals);
+  return out;
+}
+
+pb::dict lines_dict(CrestLines& c) {
+  pb::dict out;
+  out["points"] = std::move(c.points);
+  out["point_edge"] = std::move(c.point_edge);
+  out["point_t"] = std::move(c.point_t);
+  out["point_cyclideness"] = std::move(c.point_cyclideness);
+  out["segments"] = std::move(c.segments);
+  out["segment_line"] = int_array(c.segment_line);
+  out["segment_face"] = int_array(c.segment_face);
+  out["line_offset"] = int_array(c.line_offset);
+  out["line_points"] = int_array(c.line_points);
+  out["line_kind"] = int_array(c.line_kind);
+  out["line_strength"] = double_array(c.line_strength);
+  out["line_length"] = double_array(c.line_length);
+  return out;
+}
+
+}  // namespace
+
+void bind_crest(pb::module_& m) {
+  m.def(
+      "curvature_derivatives",
+      [](InV Vin, InF Fin, int rings, bool smooth, bool use_normals, const pb::object& cb) {
+        CurvatureDerivatives d;
+        {
+          pb::gil_scoped_release nogil;
+          const Mesh mesh = make_mesh(Vin, Fin, kSurface);
+          d = curvature_derivatives(mesh, DerivativeOptions{rings, smooth, use_normals}, progress_from(cb));
+        }
+        return derivatives_dict(d);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("rings") = 1, pb::arg("smooth") = true, pb::arg("use_normals") = true,
+      pb::arg("progress") = pb::none());
+
+  // Fit and trace; returns (derivatives, lines) with every line (no thresholding).
+  m.def(
+      "crest_lines",
+      [](InV Vin, InF Fin, int rings, bool smooth, bool use_normals, bool ridges, bool valleys, bool join_gaps,
+         bool skip_boundary, const pb::object& cb) {
+        CurvatureDerivatives d;
+        CrestLines c;
+        {
+          pb::gil_scoped_release nogil;
+          const Mesh mesh = make_mesh(Vin, Fin, kSurface);
+          d = curvature_derivatives(mesh, DerivativeOptions{rings, smooth, use_normals}, progress_from(cb));
+          CrestOptions opt;
+          opt.ridges = ridges;
+          opt.valleys = valleys;
+          opt.join_gaps = join_gaps;
+          opt.skip_boundary = skip_boundary;
+          c = trace_crest_lines(mesh, d, opt);
+        }
+        return pb::make_tuple(derivatives_dict(d), lines_dict(c));
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("rings") = 1, pb::arg("smooth") = true, pb::arg("use_normals") = true,
+      pb::arg("ridges") = true, pb::arg("valleys") = true, pb::arg("join_gaps") = true,
+      pb::arg("skip_boundary") = true, pb::arg("progress") = pb::none());
+
+  // Geodesic distance from each face to the given crest segments (thesis 4.8).
+  m.def(
+      "crest_face_distance",
+      [](InV Vin, InF Fin, const MatX2i& segments, const std::vector<int>& segment_face, const MatX2i& point_edge) {
+        pb::gil_scoped_release nogil;
+        const Mesh mesh = make_mesh(Vin, Fin, kSurface);
+        CrestLines c;
+        c.segments = segments;
+        c.segment_face = segment_face;
+        c.point_edge = point_edge;
+        if (static_cast<Eigen::Index>(segment_face.size()) != segments.rows())
+          throw MeshError("segment_face must have one entry per segment");
+        for (int s = 0; s < segments.rows(); ++s)
+          for (int k = 0; k < 2; ++k)
+            if (segments(s, k) < 0 || segments(s, k) >= point_edge.rows())
+              throw MeshError("crest segment refers to a missing point");
+        for (int p = 0; p < point_edge.rows(); ++p)
+          for (int k = 0; k < 2; ++k)
+            if (point_edge(p, k) < -1 || point_edge(p, k) >= mesh.V.rows())
+              throw MeshError("crest point edge refers to a missing vertex");
+        for (int f : segment_face)
+          if (f < -1 || f >= mesh.F.rows()) throw MeshError("crest segment face out of range");
+        return crest_face_distance(mesh, c);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("segments"), pb::arg("segment_face"), pb::arg("point_edge"));
+
+  m.def(
+      "decimate",
+      [](InV Vin, InF Fin, int target_faces, std::optional<VecXd> face_weights, bool preserve_boundary,
+         double min_quality, double max_normal_angle, double max_error, const pb::object& cb) {
+        DecimateResult r;
+        {
+          pb::gil_scoped_release nogil;
+          const Mesh mesh = make_mesh(Vin, Fin, kSurface);
+          DecimateOptions opt;
+          opt.target_faces = target_faces;
+          if (face_weights) opt.face_weights = std::move(*face_weights);
+          opt.preserve_boundary = preserve_boundary;
+          opt.min_quality = min_quality;
+          opt.max_normal_angle = max_normal_angle;
+          opt.max_error = max_error;
+          r = decimate(mesh, opt, progress_from(cb));
+        }
+        return pb::make_tuple(std::move(r.V), std::move(r.F), int_array(r.vertex_map));
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("target_faces"), pb::arg("face_weights") = pb::none(),
+      pb::arg("preserve_boundary") = true, pb::arg("min_quality") = 0.0, pb::arg("max_normal_angle") = 1.3,
+      pb::arg("max_error") = std::numeric_limits<double>::infinity(), pb::arg("progress") = pb::none());
+
+  m.def(
+      "segment",
+      [](InV Vin, InF Fin, int segments, std::optional<VecXd> face_feature, int iterations, const pb::object& cb) {
+        SegmentResult r;
+        {
+          pb::gil_scoped_release nogil;
+          const Mesh mesh = make_mesh(Vin, Fin, kSurface);
+          SegmentOptions opt;
+          opt.segments = segments;
+          opt.iterations = iterations;
+          if (face_feature) opt.face_feature = std::move(*face_feature);
+          r = segment(mesh, opt, progress_from(cb));
+        }
+        pb::dict out;
+        out["labels"] = int_array(r.labels);
+        out["proxy_normals"] = std::move(r.proxy_normals);
+        out["n_segments"] = r.n_segments;
+        out["iterations"] = r.iterations;
+        out["error"] = r.error;
+        return out;
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("segments"), pb::arg("face_feature") = pb::none(),
+      pb::arg("iterations") = 30, pb::arg("progress") = pb::none());
+}
+
+}  // namespace dgmesh::py

@@ -1,0 +1,84 @@
+// Crest lines (thesis chapter 4): curvature derivatives by the enhanced adjacent-normal cubic fit
+// (4.5, eq. 4.7-4.8), tracing of the zero crossings of the extremality coefficients (4.6, after
+// Ohtake-Belyaev-Seidel 2004), gap jumping, and the scale-independent strength T (eq. 4.10-4.11).
+// Also the feature distance field F(d) (eq. 4.12) used by decimation (4.8) and segmentation (4.9).
+#pragma once
+#include <vector>
+
+#include "dgmesh/mesh.h"
+#include "dgmesh/progress.h"
+#include "dgmesh/types.h"
+
+namespace dgmesh {
+
+struct DerivativeOptions {
+  int rings = 1;           // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
+  bool smooth = true;      // fit on M' (p' = mean of the centroids of the faces around p)
+  bool use_normals = true; // adjacent-normal equations in the fit (thesis table 4.1 "normal")
+};
+
+// Per original vertex. Curvature signs follow the face orientation: positive on a sphere with
+// outward (counter-clockwise) faces. t_max / t_min are unit tangent vectors; e = dk/dt along them
+// (its sign flips with t, the product e t is well defined). Loose vertices get zeros.
+struct CurvatureDerivatives {
+  VecXd k_max, k_min, e_max, e_min;
+  MatX3d t_max, t_min, normals;
+  // Derivatives of the fitted cubic at p' in the frame (t_max, t_min, normal) are not kept.
+};
+
+// Throws MeshError on invalid options. The mesh must come from make_mesh (validated).
+CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOptions& opt,
+                                           const ProgressFn& progress = {});
+
+enum CrestKind : int { kRidge = 0, kValley = 1 };  // convex / concave crest lines
+
+struct CrestOptions {
+  bool ridges = true;
+  bool valleys = true;
+  bool join_gaps = true;   // thesis fig. 4.10 gap jumping (alpha, beta <= pi/3, gamma <= pi/2)
+  // Ignore edges touching the mesh boundary, where the fit is one-sided and its third derivatives
+  // are unreliable.
+  bool skip_boundary = true;
+  double threshold = 0.0;  // keep lines with strength T >= threshold (eq. 4.10)
+};
+
+struct CrestLines {
+  // Crest points. Most lie on a mesh edge (edge_v0, edge_v1) at point = (1-t) v0 + t v1;
+  // junction points inside a triangle (three crossings, OBS04) have edge (-1, -1) and t = 0.
+  MatX3d points;
+  MatX2i point_edge;
+  VecXd point_t;
+  VecXd point_cyclideness;  // C of eq. 4.11 interpolated as in 4.6
+  // Segments between points; segment_face is the triangle holding it (-1 for a gap jump).
+  MatX2i segments;
+  std::vector<int> segment_line, segment_face;
+  // Lines as ordered point lists: points line_points[line_offset[l] .. line_offset[l+1]);
+  // a closed line repeats its first point at the end.
+  std::vector<int> line_offset{0}, line_points;
+  std::vector<int> line_kind;           // CrestKind
+  std::vector<double> line_strength;    // T of eq. 4.10 (dimensionless)
+  std::vector<double> line_length;
+
+  int n_lines() const { return static_cast<int>(line_kind.size()); }
+};
+
+// Traces the crest lines of the fitted fields (no thresholding when opt.threshold <= 0).
+CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, const CrestOptions& opt);
+
+// Fit plus trace.
+CrestLines crest_lines(const Mesh& mesh, const DerivativeOptions& fit, const CrestOptions& opt,
+                       const ProgressFn& progress = {});
+
+// The lines with T >= threshold and of the requested kinds, points and segments re-indexed.
+CrestLines filter_crest_lines(const CrestLines& lines, double threshold, bool ridges = true, bool valleys = true);
+
+// Geodesic distance from every face to the nearest crest line (thesis 4.8): Dijkstra over the face
+// graph, the length between two faces sharing an edge being centroid -> edge midpoint -> centroid.
+// Faces holding a crest segment are at distance 0. Faces of components without a line get the
+// largest finite distance (so they count as far from features); all zeros when there is no line.
+VecXd crest_face_distance(const Mesh& mesh, const CrestLines& lines);
+
+// F(d) = (d / max d + eps)^eta of eq. 4.12, per face.
+VecXd feature_function(const VecXd& distance, double eta, double eps = 0.1);
+
+}  // namespace dgmesh

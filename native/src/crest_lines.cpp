@@ -1,0 +1,506 @@
+#include "dgmesh/crest_lines.h"
+
+#include <omp.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <string>
+#include <utility>
+
+#include "dgmesh/errors.h"
+#include "dgmesh/geometry.h"
+
+namespace dgmesh {
+
+namespace {
+
+using Mat7 = Eigen::Matrix<double, 7, 7>;
+using Vec7 = Eigen::Matrix<double, 7, 1>;
+
+// Unit vector orthogonal to n.
+inline Vec3 any_perpendicular(const Vec3& n) {
+  const Vec3 a = std::abs(n.x()) < 0.6 ? Vec3::UnitX() : (std::abs(n.y()) < 0.6 ? Vec3::UnitY() : Vec3::UnitZ());
+  return (a - a.dot(n) * n).normalized();
+}
+
+// Third directional derivative of the cubic part of eq. 4.7 along (t1, t2): with the binomial
+// factors of the 1/6 (c0 x^3 + 3 c1 x^2 y + 3 c2 x y^2 + c3 y^3) term. (Eq. 4.8 as printed writes the
+// same cubic form as a matrix product; this is its expanded value.)
+inline double cubic_form(const double* c, double t1, double t2) {
+  return c[0] * t1 * t1 * t1 + 3 * c[1] * t1 * t1 * t2 + 3 * c[2] * t1 * t2 * t2 + c[3] * t2 * t2 * t2;
+}
+
+struct FitScratch {
+  std::vector<int> ring, mark;
+};
+
+// Fits eq. 4.7 at vertex i of (P, N) and writes the curvature attributes of vertex i.
+void fit_vertex(int i, const MatX3d& P, const MatX3d& N, const Topology& topo, const DerivativeOptions& opt,
+                FitScratch& s, CurvatureDerivatives& out) {
+  const Vec3 n = N.row(i);
+  auto zero = [&] {
+    out.k_max[i] = out.k_min[i] = out.e_max[i] = out.e_min[i] = 0.0;
+    out.t_max.row(i).setZero();
+    out.t_min.row(i).setZero();
+  };
+  if (n.squaredNorm() == 0.0) return zero();
+  const Vec3 u = any_perpendicular(n), w = n.cross(u);
+  const Vec3 p = P.row(i);
+
+  k_ring(topo, i, opt.rings, s.ring, s.mark);
+  // Neighbours whose normals make an obtuse angle with n(p') are dropped (thesis 4.5).
+  double mean_dist = 0.0;
+  int count = 0;
+  for (size_t j = 1; j < s.ring.size(); ++j) {
+    const int v = s.ring[j];
+    if (N.row(v).dot(n) <= 0.0) continue;
+    mean_dist += (Vec3(P.row(v)) - p).norm();
+    ++count;
+  }
+  if (count < 2 || mean_dist <= 0.0) return zero();
+  const double scale = count / mean_dist;  // fit in units of the mean neighbour distance
+
+  Mat7 A = Mat7::Zero();
+  Vec7 b = Vec7::Zero();
+  Vec7 row;
+  for (size_t j = 1; j < s.ring.size(); ++j) {
+    const int v = s.ring[j];
+    const Vec3 m = N.row(v);
+    if (m.dot(n) <= 0.0) continue;
+    const Vec3 d = (Vec3(P.row(v)) - p) * scale;
+    const double x = d.dot(u), y = d.dot(w), z = d.dot(n);
+    // Position: h(x, y) = z.
+    row << 0.5 * x * x, x * y, 0.5 * y * y, x * x * x / 6, 0.5 * x * x * y, 0.5 * x * y * y, y * y * y / 6;
+    A.selfadjointView<Eigen::Lower>().rankUpdate(row);
+    b += row * z;
+    if (opt.use_normals) {
+      // Normal (a, b, c) of the graph z = h(x, y) is parallel to (-h_x, -h_y, 1) [GI04].
+      const double ma = m.dot(u), mb = m.dot(w), mc = m.dot(n);
+      row << x, y, 0, 0.5 * x * x, x * y, 0.5 * y * y, 0;
+      A.selfadjointView<Eigen::Lower>().rankUpdate(row);
+      b += row * (-ma / mc);
+      row << 0, x, y, 0, 0.5 * x * x, x * y, 0.5 * y * y;
+      A.selfadjointView<Eigen::Lower>().rankUpdate(row);
+      b += row * (-mb / mc);
+    }
+  }
+  A = A.selfadjointView<Eigen::Lower>();
+  // A tiny ridge keeps under-determined fits (boundary corners, valence-3 vertices) finite.
+  A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
+  const Vec7 c = A.ldlt().solve(b);
+  if (!c.allFinite()) return zero();
+  // Back to mesh units: z = h_s(s x) / s, so b = b_s s and c = c_s s^2.
+  const double b0 = c[0] * scale, b1 = c[1] * scale, b2 = c[2] * scale;
+  const double cc[4] = {c[3] * scale * scale, c[4] * scale * scale, c[5] * scale * scale, c[6] * scale * scale};
+
+  // The Hessian [[b0, b1], [b1, b2]] is the second fundamental form (zero gradient at p'); with
+  // the normal n the surface bends away from, curvature is minus its eigenvalues.
+  const double mean = 0.5 * (b0 + b2), dev = std::hypot(0.5 * (b0 - b2), b1);
+  const double theta = 0.5 * std::atan2(2 * b1, b0 - b2);  // eigenvector of the larger eigenvalue
+  const double c1 = std::cos(theta), s1 = std::sin(theta);
+  // k_max = -(smaller Hessian eigenvalue), direction (-s1, c1); k_min = -(larger), direction (c1, s1).
+  out.k_max[i] = -(mean - dev);
+  out.k_min[i] = -(mean + dev);
+  out.t_max.row(i) = (-s1 * u + c1 * w).transpose();
+  out.t_min.row(i) = (c1 * u + s1 * w).transpose();
+  // Eq. 4.8 with F = z - h: e = -h_ttt.
+  out.e_max[i] = -cubic_form(cc, -s1, c1);
+  out.e_min[i] = -cubic_form(cc, c1, s1);
+}
+
+// Builds ordered polylines from segments; fills line_offset, line_points and segment_line.
+void build_lines(CrestLines& cl) {
+  const int np = static_cast<int>(cl.points.rows());
+  const int ns = static_cast<int>(cl.segments.rows());
+  std::vector<int> off(np + 1, 0), adj(2 * ns);
+  for (int s = 0; s < ns; ++s) ++off[cl.segments(s, 0) + 1], ++off[cl.segments(s, 1) + 1];
+  for (int i = 0; i < np; ++i) off[i + 1] += off[i];
+  {
+    std::vector<int> fill(off.begin(), off.end() - 1);
+    for (int s = 0; s < ns; ++s) adj[fill[cl.segments(s, 0)]++] = s, adj[fill[cl.segments(s, 1)]++] = s;
+  }
+  cl.segment_line.assign(ns, -1);
+  cl.line_offset.assign(1, 0);
+  cl.line_points.clear();
+  auto degree = [&](int p) { return off[p + 1] - off[p]; };
+  auto walk = [&](int start, int seg) {
+    const int line = static_cast<int>(cl.line_offset.size()) - 1;
+    cl.line_points.push_back(start);
+    int p = start;
+    while (seg >= 0 && cl.segment_line[seg] < 0) {
+      cl.segment_line[seg] = line;
+      const int q = cl.segments(seg, 0) == p ? cl.segments(seg, 1) : cl.segments(seg, 0);
+      cl.line_points.push_back(q);
+      p = q;
+      seg = -1;
+      if (degree(p) == 2 && p != start)
+        for (int j = off[p]; j < off[p + 1]; ++j)
+          if (cl.segment_line[adj[j]] < 0) seg = adj[j];
+    }
+    cl.line_offset.push_back(static_cast<int>(cl.line_points.size()));
+  };
+  // Open lines run between points of degree != 2 (ends and junctions); what remains are cycles.
+  for (int p = 0; p < np; ++p)
+    if (degree(p) != 2)
+      for (int j = off[p]; j < off[p + 1]; ++j)
+        if (cl.segment_line[adj[j]] < 0) walk(p, adj[j]);
+  for (int s = 0; s < ns; ++s)
+    if (cl.segment_line[s] < 0) walk(cl.segments(s, 0), s);
+}
+
+// Kind of a line = kind of its first point's crossing (stored per point while tracing).
+void line_measures(CrestLines& cl, const std::vector<int>& point_kind) {
+  const int nl = static_cast<int>(cl.line_offset.size()) - 1;
+  cl.line_kind.resize(nl);
+  cl.line_strength.resize(nl);
+  cl.line_length.resize(nl);
+  for (int l = 0; l < nl; ++l) {
+    double len = 0.0, integral = 0.0;
+    for (int j = cl.line_offset[l]; j + 1 < cl.line_offset[l + 1]; ++j) {
+      const int a = cl.line_points[j], b = cl.line_points[j + 1];
+      const double ds = (cl.points.row(a) - cl.points.row(b)).norm();
+      len += ds;
+      integral += 0.5 * ds * (cl.point_cyclideness[a] + cl.point_cyclideness[b]);  // trapezoid rule
+    }
+    cl.line_kind[l] = point_kind[cl.line_points[cl.line_offset[l]]];
+    cl.line_length[l] = len;
+    cl.line_strength[l] = len * integral;  // eq. 4.10
+  }
+}
+
+}  // namespace
+
+CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOptions& opt,
+                                           const ProgressFn& progress_fn) {
+  if (opt.rings < 1 || opt.rings > 8)
+    throw MeshError("rings must be between 1 and 8, got " + std::to_string(opt.rings));
+  const Topology& topo = mesh.topo;
+  const int nv = topo.n_vertices;
+  Progress progress(progress_fn);
+  progress(0.0);
+
+  // M': p' = mean of the centroids of the faces around p (thesis 4.5).
+  MatX3d P = mesh.V;
+  if (opt.smooth) {
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < nv; ++v) {
+      const int a = topo.vf_offset[v], b = topo.vf_offset[v + 1];
+      if (a == b) continue;
+      Vec3 sum = Vec3::Zero();
+      for (int j = a; j < b; ++j) {
+        const int f = topo.vf_index[j];
+        sum += Vec3(mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2)));
+      }
+      P.row(v) = (sum / (3.0 * (b - a))).transpose();
+    }
+  }
+  CurvatureDerivatives out;
+  out.normals = vertex_normals(P, mesh.F, topo, NormalWeights::Max);  // Max's normals on M'
+  out.k_max.resize(nv);
+  out.k_min.resize(nv);
+  out.e_max.resize(nv);
+  out.e_min.resize(nv);
+  out.t_max.resize(nv, 3);
+  out.t_min.resize(nv, 3);
+
+  // Chunks so that progress (one thread) and cancellation happen between parallel loops.
+  const int chunk = 32768;
+  std::vector<FitScratch> scratch(std::max(1, omp_get_max_threads()));
+  for (int begin = 0; begin < nv; begin += chunk) {
+    const int end = std::min(nv, begin + chunk);
+#pragma omp parallel
+    {
+      FitScratch& s = scratch[omp_get_thread_num()];
+#pragma omp for schedule(dynamic, 256)
+      for (int v = begin; v < end; ++v) fit_vertex(v, P, out.normals, topo, opt, s, out);
+    }
+    progress(static_cast<double>(end) / nv);
+  }
+  progress(1.0);
+  return out;
+}
+
+CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, const CrestOptions& opt) {
+  const Topology& topo = mesh.topo;
+  const int nv = topo.n_vertices, ne = topo.n_edges(), nf = topo.n_faces;
+  if (d.k_max.size() != nv || d.e_max.size() != nv || d.t_max.rows() != nv)
+    throw MeshError("curvature derivatives do not match the mesh (" + std::to_string(d.k_max.size()) +
+                    " values for " + std::to_string(nv) + " vertices)");
+  // Cyclideness C = sqrt(e_max^2 + e_min^2) (eq. 4.11) per vertex.
+  const VecXd C = (d.e_max.array().square() + d.e_min.array().square()).sqrt();
+
+  // Zero crossings per edge and kind: lambda in (0, 1), or -1 when none.
+  std::vector<double> cross[2] = {std::vector<double>(ne, -1.0), std::vector<double>(ne, -1.0)};
+  const bool want[2] = {opt.ridges, opt.valleys};
+#pragma omp parallel for schedule(static)
+  for (int e = 0; e < ne; ++e) {
+    const int p = topo.edges(e, 0), q = topo.edges(e, 1);
+    if (opt.skip_boundary && (topo.on_boundary[p] || topo.on_boundary[q])) continue;
+    const Vec3 pq = mesh.V.row(q) - mesh.V.row(p);
+    for (int kind = 0; kind < 2; ++kind) {
+      if (!want[kind]) continue;
+      // Convex: k_max > |k_min| (maximum of k_max); concave: k_min < -|k_max| (minimum of k_min).
+      const VecXd& k = kind == kRidge ? d.k_max : d.k_min;
+      const VecXd& ko = kind == kRidge ? d.k_min : d.k_max;
+      const VecXd& ev = kind == kRidge ? d.e_max : d.e_min;
+      const MatX3d& t = kind == kRidge ? d.t_max : d.t_min;
+      const double sign = kind == kRidge ? 1.0 : -1.0;
+      if (!(sign * k[p] > std::abs(ko[p]) && sign * k[q] > std::abs(ko[q]))) continue;
+      const Vec3 tp = t.row(p);
+      Vec3 tq = t.row(q);
+      double ep = ev[p], eq = ev[q];
+      if (tp.dot(tq) < 0) tq = -tq, eq = -eq;  // consistent orientation across the edge
+      if (!(ep * eq < 0)) continue;
+      // Maximum of k_max: e goes from + to - along t; minimum of k_min: from - to +.
+      const double s = pq.dot(tp + tq);
+      if (!(sign * ep * s > 0)) continue;
+      cross[kind][e] = ep / (ep - eq);
+    }
+  }
+
+  CrestLines cl;
+  std::vector<int> point_of_edge[2] = {std::vector<int>(ne, -1), std::vector<int>(ne, -1)};
+  std::vector<int> point_kind;
+  std::vector<Vec3> pts;
+  std::vector<std::pair<int, int>> pedge;
+  std::vector<double> pt, pc;
+  for (int kind = 0; kind < 2; ++kind)
+    for (int e = 0; e < ne; ++e) {
+      const double lam = cross[kind][e];
+      if (lam < 0) continue;
+      const int p = topo.edges(e, 0), q = topo.edges(e, 1);
+      point_of_edge[kind][e] = static_cast<int>(pts.size());
+      pts.push_back((1 - lam) * Vec3(mesh.V.row(p)) + lam * Vec3(mesh.V.row(q)));
+      pedge.emplace_back(p, q);
+      pt.push_back(lam);
+      // Weights a = |e(q)|, b = |e(p)| of 4.6 are the linear-interpolation weights (1-lam, lam).
+      pc.push_back((1 - lam) * C[p] + lam * C[q]);
+      point_kind.push_back(kind);
+    }
+
+  // Segments inside triangles: two crossings -> one segment; three -> a junction at their mean.
+  std::vector<std::pair<int, int>> segs;
+  std::vector<int> seg_face;
+  for (int f = 0; f < nf; ++f)
+    for (int kind = 0; kind < 2; ++kind) {
+      int ids[3], n = 0;
+      for (int k = 0; k < 3; ++k) {
+        const int id = point_of_edge[kind][topo.face_edges(f, k)];
+        if (id >= 0) ids[n++] = id;
+      }
+      if (n == 2) {
+        segs.emplace_back(ids[0], ids[1]);
+        seg_face.push_back(f);
+      } else if (n == 3) {
+        const int j = static_cast<int>(pts.size());
+        pts.push_back((pts[ids[0]] + pts[ids[1]] + pts[ids[2]]) / 3.0);
+        pedge.emplace_back(-1, -1);
+        pt.push_back(0.0);
+        pc.push_back((pc[ids[0]] + pc[ids[1]] + pc[ids[2]]) / 3.0);
+        point_kind.push_back(kind);
+        for (int k = 0; k < 3; ++k) segs.emplace_back(ids[k], j), seg_face.push_back(f);
+      }
+    }
+
+  // Gap jumping (thesis fig. 4.10): end points within the one-ring of a common vertex are joined
+  // when alpha, beta <= pi/3 and gamma <= pi/2.
+  if (opt.join_gaps) {
+    const int np = static_cast<int>(pts.size());
+    std::vector<int> deg(np, 0), nb(np, -1);
+    for (auto [a, b] : segs) ++deg[a], ++deg[b], nb[a] = b, nb[b] = a;
+    // (vertex, end point) for every vertex whose one-ring holds the end point's edge.
+    std::vector<std::pair<int, int>> owner;
+    for (int i = 0; i < np; ++i) {
+      if (deg[i] != 1 || pedge[i].first < 0) continue;
+      const int p = pedge[i].first, q = pedge[i].second;
+      owner.emplace_back(p, i);
+      owner.emplace_back(q, i);
+      // Opposite vertices of the edge's faces (the edge is on their one-ring's rim).
+      for (int j = topo.vf_offset[p]; j < topo.vf_offset[p + 1]; ++j) {
+        const int f = topo.vf_index[j];
+        for (int k = 0; k < 3; ++k) {
+          const int a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3), c = mesh.F(f, (k + 2) % 3);
+          if ((a == p && b == q) || (a == q && b == p)) owner.emplace_back(c, i);
+        }
+      }
+    }
+    std::sort(owner.begin(), owner.end());
+    struct Candidate {
+      double score;
+      int a, b;
+    };
+    std::vector<Candidate> cand;
+    const double third = M_PI / 3, half = M_PI / 2;
+    auto angle = [](const Vec3& x, const Vec3& y) {
+      return std::atan2(x.cross(y).norm(), x.dot(y));
+    };
+    for (size_t g = 0; g < owner.size();) {
+      size_t h = g;
+      while (h < owner.size() && owner[h].first == owner[g].first) ++h;
+      for (size_t i = g; i < h; ++i)
+        for (size_t j = i + 1; j < h; ++j) {
+          const int a = owner[i].second, b = owner[j].second;
+          if (a == b || point_kind[a] != point_kind[b] || nb[a] == b) continue;
+          const Vec3 da = pts[a] - pts[nb[a]], db = pts[b] - pts[nb[b]];  // outward end segments
+          const Vec3 c = pts[b] - pts[a];
+          if (c.squaredNorm() == 0 || da.squaredNorm() == 0 || db.squaredNorm() == 0) continue;
+          const double alpha = angle(da, c), beta = angle(db, -c), gamma = angle(da, -db);
+          if (alpha <= third && beta <= third && gamma <= half) cand.push_back({alpha + beta, std::min(a, b), std::max(a, b)});
+        }
+      g = h;
+    }
+    std::sort(cand.begin(), cand.end(), [](const Candidate& x, const Candidate& y) {
+      return x.score < y.score || (x.score == y.score && (x.a < y.a || (x.a == y.a && x.b < y.b)));
+    });
+    std::vector<char> used(np, 0);
+    for (const Candidate& c : cand) {
+      if (used[c.a] || used[c.b]) continue;
+      used[c.a] = used[c.b] = 1;
+      segs.emplace_back(c.a, c.b);
+      seg_face.push_back(-1);
+    }
+  }
+
+  const int np = static_cast<int>(pts.size()), ns = static_cast<int>(segs.size());
+  cl.points.resize(np, 3);
+  cl.point_edge.resize(np, 2);
+  cl.point_t.resize(np);
+  cl.point_cyclideness.resize(np);
+  for (int i = 0; i < np; ++i) {
+    cl.points.row(i) = pts[i].transpose();
+    cl.point_edge(i, 0) = pedge[i].first;
+    cl.point_edge(i, 1) = pedge[i].second;
+    cl.point_t[i] = pt[i];
+    cl.point_cyclideness[i] = pc[i];
+  }
+  cl.segments.resize(ns, 2);
+  for (int s = 0; s < ns; ++s) cl.segments(s, 0) = segs[s].first, cl.segments(s, 1) = segs[s].second;
+  cl.segment_face = std::move(seg_face);
+  build_lines(cl);
+  line_measures(cl, point_kind);
+  if (opt.threshold > 0) return filter_crest_lines(cl, opt.threshold, opt.ridges, opt.valleys);
+  return cl;
+}
+
+CrestLines crest_lines(const Mesh& mesh, const DerivativeOptions& fit, const CrestOptions& opt,
+                       const ProgressFn& progress) {
+  const CurvatureDerivatives d = curvature_derivatives(mesh, fit, progress);
+  return trace_crest_lines(mesh, d, opt);
+}
+
+CrestLines filter_crest_lines(const CrestLines& in, double threshold, bool ridges, bool valleys) {
+  const int nl = in.n_lines();
+  std::vector<int> new_line(nl, -1);
+  CrestLines out;
+  for (int l = 0; l < nl; ++l) {
+    const bool kind_ok = in.line_kind[l] == kRidge ? ridges : valleys;
+    if (!kind_ok || !(in.line_strength[l] >= threshold)) continue;
+    new_line[l] = out.n_lines();
+    out.line_kind.push_back(in.line_kind[l]);
+    out.line_strength.push_back(in.line_strength[l]);
+    out.line_length.push_back(in.line_length[l]);
+  }
+  const int np = static_cast<int>(in.points.rows());
+  std::vector<int> new_point(np, -1);
+  int n_points = 0;
+  for (int l = 0; l < nl; ++l) {
+    if (new_line[l] < 0) continue;
+    for (int j = in.line_offset[l]; j < in.line_offset[l + 1]; ++j) {
+      const int p = in.line_points[j];
+      if (new_point[p] < 0) new_point[p] = n_points++;
+      out.line_points.push_back(new_point[p]);
+    }
+    out.line_offset.push_back(static_cast<int>(out.line_points.size()));
+  }
+  out.points.resize(n_points, 3);
+  out.point_edge.resize(n_points, 2);
+  out.point_t.resize(n_points);
+  out.point_cyclideness.resize(n_points);
+  for (int p = 0; p < np; ++p) {
+    const int q = new_point[p];
+    if (q < 0) continue;
+    out.points.row(q) = in.points.row(p);
+    out.point_edge.row(q) = in.point_edge.row(p);
+    out.point_t[q] = in.point_t[p];
+    out.point_cyclideness[q] = in.point_cyclideness[p];
+  }
+  int ns = 0;
+  for (int s = 0; s < in.segments.rows(); ++s) ns += new_line[in.segment_line[s]] >= 0;
+  out.segments.resize(ns, 2);
+  ns = 0;
+  for (int s = 0; s < in.segments.rows(); ++s) {
+    const int l = new_line[in.segment_line[s]];
+    if (l < 0) continue;
+    out.segments(ns, 0) = new_point[in.segments(s, 0)];
+    out.segments(ns, 1) = new_point[in.segments(s, 1)];
+    out.segment_line.push_back(l);
+    out.segment_face.push_back(in.segment_face[s]);
+    ++ns;
+  }
+  return out;
+}
+
+VecXd crest_face_distance(const Mesh& mesh, const CrestLines& lines) {
+  const Topology& topo = mesh.topo;
+  const int nf = topo.n_faces;
+  const double inf = std::numeric_limits<double>::infinity();
+  VecXd dist = VecXd::Constant(nf, inf);
+  using Item = std::pair<double, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<Item>> heap;
+  auto seed = [&](int f) {
+    if (f >= 0 && f < nf && dist[f] != 0.0) dist[f] = 0.0, heap.emplace(0.0, f);
+  };
+  // Faces of an edge (v0, v1), found through v0's faces.
+  auto edge_faces = [&](int v0, int v1) {
+    if (v0 < 0) return;
+    for (int j = topo.vf_offset[v0]; j < topo.vf_offset[v0 + 1]; ++j) {
+      const int f = topo.vf_index[j];
+      if (mesh.F(f, 0) == v1 || mesh.F(f, 1) == v1 || mesh.F(f, 2) == v1) seed(f);
+    }
+  };
+  for (int s = 0; s < lines.segments.rows(); ++s) {
+    if (s < static_cast<int>(lines.segment_face.size()) && lines.segment_face[s] >= 0) {
+      seed(lines.segment_face[s]);
+    } else {  // a gap jump: the faces of the edges its end points lie on
+      for (int k = 0; k < 2; ++k) {
+        const int p = lines.segments(s, k);
+        edge_faces(lines.point_edge(p, 0), lines.point_edge(p, 1));
+      }
+    }
+  }
+  if (heap.empty()) return VecXd::Zero(nf);
+  MatX3d centroid(nf, 3);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f)
+    centroid.row(f) = (mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2))) / 3.0;
+  while (!heap.empty()) {
+    const auto [df, f] = heap.top();
+    heap.pop();
+    if (df > dist[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int e = topo.face_edges(f, k);
+      const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
+      if (g < 0) continue;
+      const Vec3 mid = 0.5 * (mesh.V.row(topo.edges(e, 0)) + mesh.V.row(topo.edges(e, 1))).transpose();
+      const double len = (Vec3(centroid.row(f)) - mid).norm() + (Vec3(centroid.row(g)) - mid).norm();
+      if (df + len < dist[g]) dist[g] = df + len, heap.emplace(df + len, g);
+    }
+  }
+  double dmax = 0.0;
+  for (int f = 0; f < nf; ++f)
+    if (dist[f] < inf) dmax = std::max(dmax, dist[f]);
+  for (int f = 0; f < nf; ++f)
+    if (dist[f] == inf) dist[f] = dmax;
+  return dist;
+}
+
+VecXd feature_function(const VecXd& distance, double eta, double eps) {
+  if (!(eps > 0)) throw MeshError("the regularisation eps of F(d) must be positive");
+  const double dmax = distance.size() ? distance.maxCoeff() : 0.0;
+  if (!(dmax > 0) || eta == 0.0) return VecXd::Ones(distance.size());
+  return (distance.array() / dmax + eps).pow(eta);
+}
+
+}  // namespace dgmesh

@@ -1,0 +1,412 @@
+#include "dgmesh/decimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <queue>
+#include <string>
+
+#include "dgmesh/errors.h"
+
+namespace dgmesh {
+
+namespace {
+
+// Symmetric 4x4 quadric, upper triangle: a2 ab ac ad b2 bc bd c2 cd d2.
+struct Quadric {
+  double q[10] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+
+  static Quadric plane(const Vec3& n, double d, double w) {
+    Quadric Q;
+    const double a = n.x(), b = n.y(), c = n.z();
+    Q.q[0] = w * a * a, Q.q[1] = w * a * b, Q.q[2] = w * a * c, Q.q[3] = w * a * d;
+    Q.q[4] = w * b * b, Q.q[5] = w * b * c, Q.q[6] = w * b * d;
+    Q.q[7] = w * c * c, Q.q[8] = w * c * d, Q.q[9] = w * d * d;
+    return Q;
+  }
+  Quadric& operator+=(const Quadric& o) {
+    for (int i = 0; i < 10; ++i) q[i] += o.q[i];
+    return *this;
+  }
+  friend Quadric operator+(Quadric a, const Quadric& b) { return a += b; }
+  double eval(const Vec3& p) const {
+    const double x = p.x(), y = p.y(), z = p.z();
+    return q[0] * x * x + 2 * q[1] * x * y + 2 * q[2] * x * z + 2 * q[3] * x + q[4] * y * y + 2 * q[5] * y * z +
+           2 * q[6] * y + q[7] * z * z + 2 * q[8] * z + q[9];
+  }
+  // The minimiser when the 3x3 part is well conditioned.
+  bool optimum(Vec3& p) const {
+    const double a = q[0], b = q[1], c = q[2], d = q[4], e = q[5], f = q[7];
+    // Cofactors of [[a b c] [b d e] [c e f]].
+    const double A = d * f - e * e, B = c * e - b * f, C = b * e - c * d;
+    const double det = a * A + b * B + c * C;
+    const double tr = a + d + f;
+    if (!(std::abs(det) > 1e-9 * tr * tr * tr)) return false;
+    const double D = a * f - c * c, E = b * c - a * e, G = a * d - b * b;
+    const double r0 = -q[3], r1 = -q[6], r2 = -q[8];
+    p = Vec3(A * r0 + B * r1 + C * r2, B * r0 + D * r1 + E * r2, C * r0 + E * r1 + G * r2) / det;
+    return p.allFinite();
+  }
+};
+
+struct Entry {
+  double cost;
+  int a, b;            // edge; the collapse removes one of them (chosen when it is evaluated)
+  uint32_t sa, sb;     // vertex stamps when the entry was made (lazy invalidation)
+  bool operator<(const Entry& o) const { return cost > o.cost; }  // min-heap
+};
+
+struct Candidate {
+  double cost;
+  int remove, keep;
+  Vec3 p;
+};
+
+inline double tri_quality(const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double l = (b - a).squaredNorm() + (c - b).squaredNorm() + (a - c).squaredNorm();
+  return l > 0 ? 2 * std::sqrt(3.0) * (b - a).cross(c - a).norm() / l : 0.0;
+}
+
+class Decimator {
+ public:
+  Decimator(const Mesh& m, const DecimateOptions& o) : mesh_(m), opt_(o) {}
+
+  DecimateResult run(const ProgressFn& progress_fn);
+
+ private:
+  const Mesh& mesh_;
+  const DecimateOptions& opt_;
+  MatX3d V_;
+  MatX3i F_;
+  std::vector<Quadric> Q_;
+  std::vector<char> face_alive_, vert_alive_, boundary_;
+  std::vector<uint32_t> stamp_;
+  std::vector<int> parent_;
+  // Faces around each vertex: refs_[start_[v] .. start_[v] + count_[v]); a merged vertex gets a
+  // fresh list appended at the end, compacted when the array has grown too much.
+  std::vector<int> start_, count_, refs_;
+  std::vector<int> mark_;
+  int mark_id_ = 0;
+  std::vector<int> nbr_, tmp_faces_;
+  std::priority_queue<Entry> heap_;
+  int n_faces_ = 0;
+  double cos_max_ = 0.0;
+
+  int next_mark() {
+    if (++mark_id_ == INT32_MAX) std::fill(mark_.begin(), mark_.end(), 0), mark_id_ = 1;
+    return mark_id_;
+  }
+  // Distinct neighbours of v (via its alive faces) into `out`.
+  void neighbours(int v, std::vector<int>& out) {
+    out.clear();
+    const int id = next_mark();
+    mark_[v] = id;
+    for (int j = start_[v]; j < start_[v] + count_[v]; ++j) {
+      const int f = refs_[j];
+      for (int k = 0; k < 3; ++k) {
+        const int w = F_(f, k);
+        if (mark_[w] != id) mark_[w] = id, out.push_back(w);
+      }
+    }
+  }
+  Candidate evaluate(int a, int b) const;
+  bool try_collapse(const Candidate& c);
+  void push_edges_of(int v);
+  void compact_refs();
+};
+
+Candidate Decimator::evaluate(int a, int b) const {
+  Candidate c;
+  const Quadric Q = Q_[a] + Q_[b];
+  const Vec3 pa = V_.row(a), pb = V_.row(b);
+  if (boundary_[a] != boundary_[b]) {
+    // One end on the boundary: the interior one moves onto it, so the boundary keeps its shape.
+    c.keep = boundary_[a] ? a : b;
+    c.remove = boundary_[a] ? b : a;
+    c.p = boundary_[a] ? pa : pb;
+    c.cost = Q.eval(c.p);
+    return c;
+  }
+  c.keep = a, c.remove = b;
+  if (boundary_[a] && opt_.preserve_boundary) {
+    c.p = pa, c.cost = std::numeric_limits<double>::infinity();
+    return c;
+  }
+  // Optimal placement, else the best of the ends and the midpoint (GH97 sec. 4).
+  Vec3 best = pa;
+  double cost = Q.eval(pa);
+  const Vec3 mid = 0.5 * (pa + pb);
+  for (const Vec3& p : {pb, mid}) {
+    const double e = Q.eval(p);
+    if (e < cost) cost = e, best = p;
+  }
+  Vec3 opt;
+  if (Q.optimum(opt) && (opt - mid).squaredNorm() <= 4 * (pa - pb).squaredNorm()) {
+    const double e = Q.eval(opt);
+    if (e <= cost) cost = e, best = opt;
+  }
+  c.p = best;
+  c.cost = std::max(0.0, cost);
+  return c;
+}
+
+void Decimator::push_edges_of(int v) {
+  neighbours(v, nbr_);
+  for (int w : nbr_) {
+    if (w == v) continue;
+    const Candidate c = evaluate(v, w);
+    if (std::isfinite(c.cost)) heap_.push({c.cost, v, w, stamp_[v], stamp_[w]});
+  }
+}
+
+bool Decimator::try_collapse(const Candidate& c) {
+  const int u = c.remove, v = c.keep;
+  // Shared faces (1 on a boundary edge, 2 inside) and their opposite vertices.
+  int shared = 0, opp[2] = {-1, -1};
+  for (int j = start_[u]; j < start_[u] + count_[u]; ++j) {
+    const int f = refs_[j];
+    if (F_(f, 0) == v || F_(f, 1) == v || F_(f, 2) == v) {
+      if (shared == 2) return false;
+      opp[shared++] = F_(f, 0) + F_(f, 1) + F_(f, 2) - u - v;
+    }
+  }
+  if (shared == 0) return false;
+  // An interior edge between two boundary vertices would pinch the surface.
+  if (shared == 2 && boundary_[u] && boundary_[v]) return false;
+  // Link condition: the common neighbours of u and v are exactly the opposite vertices.
+  {
+    const int id = next_mark();
+    for (int j = start_[u]; j < start_[u] + count_[u]; ++j)
+      for (int k = 0; k < 3; ++k) mark_[F_(refs_[j], k)] = id;
+    const int seen = next_mark();
+    int common = 0;
+    for (int j = start_[v]; j < start_[v] + count_[v]; ++j)
+      for (int k = 0; k < 3; ++k) {
+        const int w = F_(refs_[j], k);
+        if (w == u || w == v) continue;
+        if (mark_[w] == id) ++common, mark_[w] = seen;
+      }
+    if (common != shared) return false;
+  }
+  // Opposite vertices keep a valid fan: an interior one needs at least 3 faces left.
+  for (int s = 0; s < shared; ++s) {
+    const int w = opp[s];
+    if (count_[w] - 1 < (boundary_[w] ? 1 : 3)) return false;
+  }
+  if (count_[u] + count_[v] - 2 * shared < (shared == 1 ? 1 : 3)) return false;
+  // Geometry guards on every face that survives and moves.
+  for (int side = 0; side < 2; ++side) {
+    const int x = side ? v : u;
+    for (int j = start_[x]; j < start_[x] + count_[x]; ++j) {
+      const int f = refs_[j];
+      int k = 0;
+      bool has_other = false;
+      for (int i = 0; i < 3; ++i) {
+        if (F_(f, i) == x) k = i;
+        if (F_(f, i) == (side ? u : v)) has_other = true;
+      }
+      if (has_other) continue;  // removed by the collapse
+      const Vec3 a = V_.row(F_(f, 0)), b = V_.row(F_(f, 1)), cc = V_.row(F_(f, 2));
+      Vec3 na = a, nb = b, nc = cc;
+      (k == 0 ? na : k == 1 ? nb : nc) = c.p;
+      const Vec3 n0 = (b - a).cross(cc - a), n1 = (nb - na).cross(nc - na);
+      const double l0 = n0.norm(), l1 = n1.norm();
+      if (!(l1 > 0) || n0.dot(n1) < cos_max_ * l0 * l1) return false;
+      // Never create (near) degenerate faces: quality 1e-3 is an aspect ratio of about 1000.
+      const double q1 = tri_quality(na, nb, nc);
+      if (q1 < 1e-3 || (q1 < opt_.min_quality && q1 < tri_quality(a, b, cc))) return false;
+    }
+  }
+
+  // Collapse u into v.
+  V_.row(v) = c.p.transpose();
+  Q_[v] += Q_[u];
+  vert_alive_[u] = 0;
+  parent_[u] = v;
+  ++stamp_[u];
+  ++stamp_[v];
+  tmp_faces_.clear();
+  for (int j = start_[v]; j < start_[v] + count_[v]; ++j) {
+    const int f = refs_[j];
+    if (F_(f, 0) == u || F_(f, 1) == u || F_(f, 2) == u) {
+      face_alive_[f] = 0;
+      --n_faces_;
+      // The opposite vertex loses this face.
+      const int w = F_(f, 0) + F_(f, 1) + F_(f, 2) - u - v;
+      int* b = &refs_[start_[w]];
+      int* e = b + count_[w];
+      int* it = std::find(b, e, f);
+      if (it != e) *it = *(e - 1), --count_[w];
+    } else {
+      tmp_faces_.push_back(f);
+    }
+  }
+  for (int j = start_[u]; j < start_[u] + count_[u]; ++j) {
+    const int f = refs_[j];
+    if (!face_alive_[f]) continue;
+    for (int k = 0; k < 3; ++k)
+      if (F_(f, k) == u) F_(f, k) = v;
+    tmp_faces_.push_back(f);
+  }
+  count_[u] = 0;
+  if (refs_.size() + tmp_faces_.size() > refs_.capacity()) compact_refs();
+  start_[v] = static_cast<int>(refs_.size());
+  count_[v] = static_cast<int>(tmp_faces_.size());
+  refs_.insert(refs_.end(), tmp_faces_.begin(), tmp_faces_.end());
+  push_edges_of(v);
+  return true;
+}
+
+void Decimator::compact_refs() {
+  std::vector<int> fresh;
+  fresh.reserve(refs_.capacity());
+  for (size_t v = 0; v < start_.size(); ++v) {
+    const int s = static_cast<int>(fresh.size());
+    fresh.insert(fresh.end(), refs_.begin() + start_[v], refs_.begin() + start_[v] + count_[v]);
+    start_[v] = s;
+  }
+  refs_.swap(fresh);
+}
+
+DecimateResult Decimator::run(const ProgressFn& progress_fn) {
+  const Topology& topo = mesh_.topo;
+  const int nv = topo.n_vertices, nf = topo.n_faces;
+  if (opt_.target_faces < 0) throw MeshError("target_faces must be non-negative");
+  if (opt_.face_weights.size() != 0 && opt_.face_weights.size() != nf)
+    throw MeshError("face_weights has " + std::to_string(opt_.face_weights.size()) + " values for " +
+                    std::to_string(nf) + " faces");
+  if (opt_.face_weights.size() && !(opt_.face_weights.array() >= 0).all())
+    throw MeshError("face_weights must be finite and non-negative");
+  if (opt_.face_weights.size() && !opt_.face_weights.allFinite())
+    throw MeshError("face_weights must be finite and non-negative");
+  if (!(opt_.min_quality >= 0 && opt_.min_quality < 1)) throw MeshError("min_quality must be in [0, 1)");
+  if (!(opt_.max_normal_angle > 0 && opt_.max_normal_angle <= M_PI))
+    throw MeshError("max_normal_angle must be in (0, pi]");
+  cos_max_ = std::cos(opt_.max_normal_angle);
+  Progress progress(progress_fn);
+  progress(0.0);
+
+  V_ = mesh_.V;
+  F_ = mesh_.F;
+  n_faces_ = nf;
+  face_alive_.assign(nf, 1);
+  vert_alive_.assign(nv, 1);
+  boundary_.assign(topo.on_boundary.begin(), topo.on_boundary.end());
+  stamp_.assign(nv, 0);
+  parent_.resize(nv);
+  for (int v = 0; v < nv; ++v) parent_[v] = v;
+  mark_.assign(nv, 0);
+  start_.assign(topo.vf_offset.begin(), topo.vf_offset.end() - 1);
+  count_.resize(nv);
+  for (int v = 0; v < nv; ++v) count_[v] = topo.vf_offset[v + 1] - topo.vf_offset[v];
+  refs_.reserve(2 * topo.vf_index.size() + 64);
+  refs_.assign(topo.vf_index.begin(), topo.vf_index.end());
+
+  // Vertex quadrics: the (weighted) planes of the faces around each vertex.
+  Q_.assign(nv, Quadric{});
+  std::vector<Quadric> face_q(nf);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f) {
+    const Vec3 a = V_.row(F_(f, 0)), b = V_.row(F_(f, 1)), c = V_.row(F_(f, 2));
+    const Vec3 n2 = (b - a).cross(c - a);
+    const double len = n2.norm();
+    if (!(len > 0)) continue;
+    const Vec3 n = n2 / len;
+    double w = opt_.area_weighted ? 0.5 * len : 1.0;
+    if (opt_.face_weights.size()) w *= opt_.face_weights[f];
+    face_q[f] = Quadric::plane(n, -n.dot(a), w);
+  }
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < nv; ++v)
+    for (int j = topo.vf_offset[v]; j < topo.vf_offset[v + 1]; ++j) Q_[v] += face_q[topo.vf_index[j]];
+  if (!opt_.preserve_boundary) {
+    // Planes through each boundary edge, perpendicular to its face (GH97 sec. 6).
+    for (int e = 0; e < topo.n_edges(); ++e) {
+      const int f = topo.edge_faces(e, 0) >= 0 && topo.edge_faces(e, 1) < 0 ? topo.edge_faces(e, 0) : -1;
+      if (f < 0) continue;
+      const int a = topo.edges(e, 0), b = topo.edges(e, 1);
+      const Vec3 pa = V_.row(a), pb = V_.row(b);
+      const Vec3 fn = (Vec3(V_.row(F_(f, 1))) - Vec3(V_.row(F_(f, 0))))
+                          .cross(Vec3(V_.row(F_(f, 2))) - Vec3(V_.row(F_(f, 0))));
+      const Vec3 n = (pb - pa).cross(fn).normalized();
+      if (!n.allFinite()) continue;
+      double w = opt_.boundary_weight * (opt_.area_weighted ? (pb - pa).squaredNorm() : 1.0);
+      if (opt_.face_weights.size()) w *= opt_.face_weights[f];
+      const Quadric q = Quadric::plane(n, -n.dot(pa), w);
+      Q_[a] += q;
+      Q_[b] += q;
+    }
+  }
+  face_q.clear();
+  face_q.shrink_to_fit();
+
+  // All edges into the heap (costs in parallel, heapified in O(n)).
+  {
+    const int ne = topo.n_edges();
+    std::vector<Entry> entries(ne);
+#pragma omp parallel for schedule(static)
+    for (int e = 0; e < ne; ++e) {
+      const Candidate c = evaluate(topo.edges(e, 0), topo.edges(e, 1));
+      entries[e] = {c.cost, topo.edges(e, 0), topo.edges(e, 1), 0, 0};
+    }
+    entries.erase(std::remove_if(entries.begin(), entries.end(), [](const Entry& x) { return !std::isfinite(x.cost); }),
+                  entries.end());
+    entries.reserve(entries.size() + 8 * static_cast<size_t>(std::max(0, nf - opt_.target_faces)) / 2 + 16);
+    heap_ = std::priority_queue<Entry>(std::less<Entry>(), std::move(entries));
+  }
+
+  int collapses = 0;
+  const int to_remove = std::max(1, nf - opt_.target_faces);
+  while (n_faces_ > opt_.target_faces && !heap_.empty()) {
+    const Entry top = heap_.top();
+    heap_.pop();
+    if (!vert_alive_[top.a] || !vert_alive_[top.b] || stamp_[top.a] != top.sa || stamp_[top.b] != top.sb) continue;
+    if (top.cost > opt_.max_error) break;
+    const Candidate c = evaluate(top.a, top.b);
+    if (try_collapse(c)) {
+      ++collapses;
+      if ((collapses & 4095) == 0) progress(std::min(1.0, double(nf - n_faces_) / to_remove));
+    }
+  }
+
+  // Compact the output.
+  DecimateResult r;
+  r.collapses = collapses;
+  std::vector<int> new_index(nv, -1);
+  int n_out = 0;
+  for (int f = 0; f < nf; ++f)
+    if (face_alive_[f])
+      for (int k = 0; k < 3; ++k)
+        if (new_index[F_(f, k)] < 0) new_index[F_(f, k)] = n_out++;
+  // Keep the surviving vertices in input order.
+  n_out = 0;
+  for (int v = 0; v < nv; ++v)
+    if (new_index[v] >= 0) new_index[v] = n_out++;
+  r.V.resize(n_out, 3);
+  for (int v = 0; v < nv; ++v)
+    if (new_index[v] >= 0) r.V.row(new_index[v]) = V_.row(v);
+  r.F.resize(n_faces_, 3);
+  int j = 0;
+  for (int f = 0; f < nf; ++f)
+    if (face_alive_[f]) {
+      for (int k = 0; k < 3; ++k) r.F(j, k) = new_index[F_(f, k)];
+      ++j;
+    }
+  r.vertex_map.resize(nv);
+  for (int v = 0; v < nv; ++v) {
+    int w = v;
+    while (parent_[w] != w) w = parent_[w];
+    r.vertex_map[v] = topo.vf_offset[v] == topo.vf_offset[v + 1] ? -1 : new_index[w];
+  }
+  progress(1.0);
+  return r;
+}
+
+}  // namespace
+
+DecimateResult decimate(const Mesh& mesh, const DecimateOptions& opt, const ProgressFn& progress) {
+  Decimator d(mesh, opt);
+  return d.run(progress);
+}
+
+}  // namespace dgmesh

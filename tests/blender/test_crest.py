@@ -1,0 +1,142 @@
+"""Blender operators of thesis chapter 4: crest lines, feature decimation, segmentation."""
+
+import bpy
+import numpy as np
+import pytest
+
+import helpers
+
+
+def rounded_cube_quads(n=16, r=0.3):
+    """Rounded cube as a quad mesh (so the triangulation has diagonals that are not real edges)."""
+    verts, quads, index = [], [], {}
+
+    def vid(c):
+        if c not in index:
+            index[c] = len(verts)
+            verts.append([2.0 * x / n - 1 for x in c])
+        return index[c]
+
+    for axis in range(3):
+        for side in (0, 1):
+            for a in range(n):
+                for b in range(n):
+                    def p(da, db):
+                        c = [0, 0, 0]
+                        c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3] = side * n, a + da, b + db
+                        return vid(tuple(c))
+                    q = (p(0, 0), p(1, 0), p(1, 1), p(0, 1))
+                    quads.append(q if side else q[::-1])
+    V = np.array(verts)
+    c = np.clip(V, -(1 - r), 1 - r)
+    V = c + r * (V - c) / np.linalg.norm(V - c, axis=1)[:, None]
+    return V, quads
+
+
+def make_object(name, V, faces):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata([tuple(v) for v in V], [], [tuple(f) for f in faces])
+    mesh.update()
+    obj = bpy.data.objects.new(name, mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    return obj
+
+
+@pytest.fixture
+def cube():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    V, quads = rounded_cube_quads()
+    return make_object("RoundedCube", V, quads)
+
+
+def edge_attr(mesh, name):
+    attr = mesh.attributes[name]
+    assert attr.domain == 'EDGE' and attr.data_type == 'BOOLEAN'
+    out = np.zeros(len(mesh.edges), bool)
+    attr.data.foreach_get("value", out)
+    return out
+
+
+def test_crest_lines_marks_real_edges_on_quads(cube):
+    res = bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=8.0, mark_sharp=True, create_curves=True)
+    assert res == {'FINISHED'}
+    mesh = cube.data
+    ridge = edge_attr(mesh, "dg_ridge")
+    valley = edge_attr(mesh, "dg_valley")
+    assert ridge.sum() > 12 * 8 and valley.sum() == 0
+    # Marked edges run along the rounded edges (both ends in the band of two coordinates).
+    co = np.array([v.co[:] for v in mesh.vertices])
+    ev = np.array([e.vertices[:] for e in mesh.edges])
+    band = (np.abs(co) > 0.65).sum(axis=1) >= 2
+    assert band[ev[ridge]].all()
+    sharp = np.array([e.use_edge_sharp for e in mesh.edges]) if hasattr(mesh.edges[0], "use_edge_sharp") else None
+    if sharp is not None:
+        assert sharp[ridge].all()
+    curve = bpy.data.objects["RoundedCube Crest Lines"]
+    assert curve.type == 'CURVE' and len(curve.data.splines) > 0
+    assert all(s.material_index == 0 for s in curve.data.splines)  # ridges: the blue material
+
+
+def test_threshold_redo_uses_cache(cube):
+    from dgmesh.blender import ops_crest
+
+    ops_crest._CACHE.clear()
+    bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=0.0)
+    low = edge_attr(cube.data, "dg_ridge").sum()
+    assert len(ops_crest._CACHE) == 1
+    bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=1000.0)
+    assert len(ops_crest._CACHE) == 1  # same mesh and rings: no new fit
+    assert edge_attr(cube.data, "dg_ridge").sum() < low
+
+
+def test_crest_lines_undo_restores_mesh(cube):
+    before = helpers.mesh_snapshot(cube.data)
+    bpy.ops.ed.undo_push(message="before")
+    assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', True, threshold=8.0) == {'FINISHED'}
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["RoundedCube"]
+    assert "dg_ridge" not in obj.data.attributes
+    assert helpers.mesh_snapshot(obj.data) == before
+
+
+def test_bad_mesh_reports_error_and_changes_nothing():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    # Three triangles on one edge: not a manifold.
+    V = [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)]
+    obj = make_object("Fan", V, [(0, 1, 2), (1, 0, 3), (0, 1, 4)])
+    before = helpers.mesh_snapshot(obj.data)
+    ops = ((bpy.ops.dgmesh.crest_lines, {}), (bpy.ops.dgmesh.decimate_features, {}),
+           (bpy.ops.dgmesh.segment, {"segments": 2}))
+    for op, props in ops:
+        with pytest.raises(RuntimeError, match="not manifold"):
+            op('EXEC_DEFAULT', **props)
+        assert helpers.mesh_snapshot(obj.data) == before
+
+
+def test_decimate_features(cube):
+    n0 = len(cube.data.polygons) * 2
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.2, feature_weight=6.0, threshold=8.0) \
+        == {'FINISHED'}
+    mesh = cube.data
+    assert len(mesh.polygons) <= 0.2 * n0 + 1
+    import dgmesh
+    from dgmesh.blender import bridge
+    arrays = bridge.read_object(cube)
+    dgmesh.validate(arrays.V, arrays.F, allow_loose_vertices=False)
+
+
+def test_segment_writes_labels_colours_and_seams(cube):
+    assert bpy.ops.dgmesh.segment('EXEC_DEFAULT', segments=6, feature_weight=2.0, threshold=8.0,
+                                  mark_seams=True) == {'FINISHED'}
+    mesh = cube.data
+    attr = mesh.attributes["dg_segment"]
+    assert attr.domain == 'FACE' and attr.data_type == 'INT'
+    labels = np.zeros(len(mesh.polygons), np.int32)
+    attr.data.foreach_get("value", labels)
+    assert set(labels.tolist()) == set(range(6))
+    assert mesh.color_attributes.active_color.name == "dg_segment_color"
+    assert sum(e.use_seam for e in mesh.edges) > 0

@@ -1,0 +1,171 @@
+// Quadric decimation: manifoldness, topology, boundary, feature weights, bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "dgmesh/crest_lines.h"
+#include "dgmesh/decimate.h"
+#include "dgmesh/errors.h"
+#include "dgmesh/shapes.h"
+#include "dgmesh/validate.h"
+
+using namespace dgmesh;
+
+namespace crest_test {
+TriMesh cube_grid(int n);
+TriMesh rounded_cube(int n, double r);
+}  // namespace crest_test
+
+namespace {
+
+int euler(const MatX3d& V, const MatX3i& F) {
+  const Topology t = validate(V, F, kSurface | kNoLooseVertices);
+  return static_cast<int>(V.rows()) - t.n_edges() + static_cast<int>(F.rows());
+}
+
+}  // namespace
+
+TEST(Decimate, SphereStaysAClosedManifoldSphere) {
+  const TriMesh s = icosphere(4, 1.0);
+  const Mesh m = make_mesh(s.V, s.F);
+  DecimateOptions opt;
+  opt.target_faces = 500;
+  const DecimateResult r = decimate(m, opt);
+  EXPECT_LE(r.F.rows(), 500);
+  EXPECT_GE(r.F.rows(), 498);
+  EXPECT_EQ(euler(r.V, r.F), 2);  // validate() inside also checks manifoldness and orientation
+  EXPECT_TRUE(validate(r.V, r.F).boundary_loops.empty());
+  for (int v = 0; v < r.V.rows(); ++v) EXPECT_NEAR(r.V.row(v).norm(), 1.0, 0.03);
+  // Every input vertex maps to an output vertex.
+  ASSERT_EQ(r.vertex_map.size(), static_cast<size_t>(s.V.rows()));
+  for (int w : r.vertex_map) EXPECT_TRUE(w >= 0 && w < r.V.rows());
+}
+
+TEST(Decimate, TorusKeepsGenus) {
+  const TriMesh t = torus(2.0, 0.6, 64, 32);
+  const Mesh m = make_mesh(t.V, t.F);
+  DecimateOptions opt;
+  opt.target_faces = 400;
+  const DecimateResult r = decimate(m, opt);
+  EXPECT_LE(r.F.rows(), 400);
+  EXPECT_EQ(euler(r.V, r.F), 0);
+}
+
+TEST(Decimate, BoundaryIsKeptExactly) {
+  const TriMesh g = grid(30, 30);
+  const Mesh m = make_mesh(g.V, g.F);
+  DecimateOptions opt;
+  opt.target_faces = 300;
+  const DecimateResult r = decimate(m, opt);
+  const Topology t = validate(r.V, r.F, kSurface | kNoLooseVertices);
+  ASSERT_EQ(t.boundary_loops.size(), 1u);
+  // All 120 boundary vertices survive, unmoved; the plane stays flat.
+  std::set<std::pair<double, double>> in, out;
+  for (int v = 0; v < g.V.rows(); ++v)
+    if (m.topo.on_boundary[v]) in.insert({g.V(v, 0), g.V(v, 1)});
+  for (int v : t.boundary_loops[0]) out.insert({r.V(v, 0), r.V(v, 1)});
+  EXPECT_EQ(in, out);
+  EXPECT_LT(r.V.col(2).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LE(r.F.rows(), 300);
+}
+
+TEST(Decimate, BoundaryCanCollapseWhenNotPreserved) {
+  const TriMesh g = grid(30, 30);
+  const Mesh m = make_mesh(g.V, g.F);
+  DecimateOptions opt;
+  opt.target_faces = 100;
+  opt.preserve_boundary = false;
+  const DecimateResult r = decimate(m, opt);
+  const Topology t = validate(r.V, r.F, kSurface | kNoLooseVertices);
+  EXPECT_EQ(t.boundary_loops.size(), 1u);
+  EXPECT_LE(r.F.rows(), 100);
+  // Boundary vertices stay on the square's sides (constraint planes), the corners stay.
+  for (int v : t.boundary_loops[0]) {
+    const double x = r.V(v, 0), y = r.V(v, 1);
+    EXPECT_LT(std::min({std::abs(x), std::abs(x - 1), std::abs(y), std::abs(y - 1)}), 1e-6);
+  }
+}
+
+TEST(Decimate, FeatureWeightsKeepDensityNearCrestLines) {
+  const TriMesh rc = crest_test::rounded_cube(24, 0.3);
+  const Mesh m = make_mesh(rc.V, rc.F);
+  CrestOptions co;
+  co.threshold = 8.0;
+  const CrestLines cl = crest_lines(m, DerivativeOptions{}, co);
+  ASSERT_GT(cl.n_lines(), 0);
+  const VecXd Fd = feature_function(crest_face_distance(m, cl), 6.0);
+  // Vertices in the rounded band around the crest lines (the edges' middles) after decimating
+  // to 10%.
+  const double mid = 0.7 + 0.3 / std::sqrt(2.0);
+  auto near_lines = [&](const DecimateResult& r) {
+    int n = 0;
+    for (int v = 0; v < r.V.rows(); ++v)
+      n += ((r.V.row(v).cwiseAbs().array() - mid).abs() < 0.08).count() >= 2;
+    return n;
+  };
+  DecimateOptions plain;
+  plain.target_faces = static_cast<int>(rc.F.rows() / 10);
+  DecimateOptions weighted = plain;
+  weighted.face_weights = Fd.cwiseInverse();
+  const DecimateResult a = decimate(m, plain), b = decimate(m, weighted);
+  EXPECT_EQ(euler(b.V, b.F), 2);
+  EXPECT_LE(b.F.rows(), weighted.target_faces);
+  // Weighted: more of the budget stays at the crest lines.
+  EXPECT_GT(near_lines(b), 1.2 * near_lines(a));
+}
+
+TEST(Decimate, CubeCornersAndEdgesSurvive) {
+  const TriMesh c = crest_test::cube_grid(10);
+  const Mesh m = make_mesh(c.V, c.F);
+  DecimateOptions opt;
+  opt.target_faces = 12;
+  const DecimateResult r = decimate(m, opt);
+  EXPECT_EQ(r.F.rows(), 12);
+  EXPECT_EQ(r.V.rows(), 8);
+  for (int v = 0; v < r.V.rows(); ++v) EXPECT_NEAR(r.V.row(v).cwiseAbs().minCoeff(), 1.0, 1e-9);
+}
+
+TEST(Decimate, MinQualityGuardAvoidsSlivers) {
+  const TriMesh s = icosphere(4, 1.0);
+  const Mesh m = make_mesh(s.V, s.F);
+  DecimateOptions opt;
+  opt.target_faces = 300;
+  opt.min_quality = 0.3;
+  const DecimateResult r = decimate(m, opt);
+  double worst = 1;
+  for (int f = 0; f < r.F.rows(); ++f) {
+    const Vec3 a = r.V.row(r.F(f, 0)), b = r.V.row(r.F(f, 1)), c = r.V.row(r.F(f, 2));
+    const double l = (b - a).squaredNorm() + (c - b).squaredNorm() + (a - c).squaredNorm();
+    worst = std::min(worst, 2 * std::sqrt(3.0) * (b - a).cross(c - a).norm() / l);
+  }
+  EXPECT_GT(worst, 0.3);
+  EXPECT_LE(r.F.rows(), 310);
+}
+
+TEST(Decimate, RejectsBadOptions) {
+  const TriMesh s = icosphere(2);
+  const Mesh m = make_mesh(s.V, s.F);
+  DecimateOptions opt;
+  opt.target_faces = -1;
+  EXPECT_THROW(decimate(m, opt), MeshError);
+  opt.target_faces = 10;
+  opt.face_weights = VecXd::Ones(3);
+  EXPECT_THROW(decimate(m, opt), MeshError);
+  opt.face_weights = VecXd::Ones(s.F.rows());
+  opt.face_weights[0] = std::nan("");
+  EXPECT_THROW(decimate(m, opt), MeshError);
+  opt.face_weights.resize(0);
+  opt.min_quality = 1.5;
+  EXPECT_THROW(decimate(m, opt), MeshError);
+}
+
+TEST(Decimate, TargetAboveFaceCountIsANoOp) {
+  const TriMesh s = icosphere(2);
+  const Mesh m = make_mesh(s.V, s.F);
+  DecimateOptions opt;
+  opt.target_faces = 10000;
+  const DecimateResult r = decimate(m, opt);
+  EXPECT_EQ(r.F.rows(), s.F.rows());
+  EXPECT_EQ((r.V - s.V).cwiseAbs().maxCoeff(), 0.0);
+}

@@ -1,0 +1,155 @@
+"""Python API of crest lines, decimation and segmentation (thesis chapter 4)."""
+
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh import _native
+from dgmesh.crest import RIDGE, VALLEY, snap_to_vertices
+
+
+def rounded_cube(n=20, r=0.3):
+    verts, tris, index = [], [], {}
+
+    def vid(c):
+        if c not in index:
+            index[c] = len(verts)
+            verts.append([2.0 * x / n - 1 for x in c])
+        return index[c]
+
+    for axis in range(3):
+        for side in (0, 1):
+            for a in range(n):
+                for b in range(n):
+                    def p(da, db):
+                        c = [0, 0, 0]
+                        c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3] = side * n, a + da, b + db
+                        return vid(tuple(c))
+                    v00, v10, v11, v01 = p(0, 0), p(1, 0), p(1, 1), p(0, 1)
+                    tris += [(v00, v10, v11), (v00, v11, v01)] if side else [(v00, v11, v10), (v00, v01, v11)]
+    V = np.array(verts)
+    c = np.clip(V, -(1 - r), 1 - r)
+    V = c + r * (V - c) / np.linalg.norm(V - c, axis=1)[:, None]
+    return V, np.array(tris, dtype=np.int32)
+
+
+@pytest.fixture(scope="module")
+def cube():
+    return rounded_cube()
+
+
+def test_rounded_cube_ridges(cube):
+    V, F = cube
+    cl = dgmesh.crest_lines(V, F, threshold=8.0)
+    assert len(cl) > 0
+    assert np.all(cl.line_kind == RIDGE)
+    # Points on the middles of the rounded edges or in the corners, never on the flat sides.
+    near = (np.abs(cl.points) > 0.7).sum(axis=1)
+    assert np.all(near >= 2)
+    # Total length: 12 edges of straight length 1.4 at least.
+    assert cl.total_length > 12 * 1.4
+    assert cl.line_strength.min() >= 8.0
+    assert sum(len(p) for p in cl.polylines) == len(cl.line_points)
+
+
+def test_filter_reuses_fit_and_restores_lines(cube):
+    V, F = cube
+    strong = dgmesh.crest_lines(V, F, threshold=8.0)
+    everything = strong.filter(0.0)
+    assert len(everything) >= len(strong)
+    assert strong.filter(8.0).n_lines == strong.n_lines
+    assert np.array_equal(strong.filter(8.0).points, strong.points)
+    assert everything.filter(8.0).n_lines == strong.n_lines
+    assert strong.filter(0.0, ridges=False, valleys=False).n_lines == 0
+    # Segments index valid points of their own line set.
+    assert everything.segments.max() < len(everything.points)
+
+
+def test_sphere_and_plane_have_no_lines_after_thresholding():
+    V, F = _native.icosphere(4, 3.0)
+    assert len(dgmesh.crest_lines(V, F, threshold=8.0)) == 0
+    V, F = _native.grid(20, 20)
+    assert len(dgmesh.crest_lines(V, F, threshold=1e-6)) == 0
+
+
+def test_curvature_derivatives_sphere():
+    V, F = _native.icosphere(4, 2.0)
+    d = dgmesh.curvature_derivatives(V, F, smooth=False)
+    assert np.allclose(d["k_max"], 0.5, atol=0.01)
+    assert np.allclose(d["k_min"], 0.5, atol=0.01)
+    assert np.abs(d["e_max"]).max() < 0.01
+    assert d["t_max"].shape == (len(V), 3)
+
+
+def test_orientation_duality(cube):
+    V, F = cube
+    a = dgmesh.crest_lines(V, F, threshold=8.0)
+    b = dgmesh.crest_lines(V, F[:, ::-1], threshold=8.0)
+    assert np.all(b.line_kind == VALLEY)
+    assert abs(a.total_length - b.total_length) < 0.05 * a.total_length
+
+
+def test_snap_to_vertices_gives_mesh_edges(cube):
+    V, F = cube
+    cl = dgmesh.crest_lines(V, F, threshold=8.0)
+    pairs, line = snap_to_vertices(cl, V, F)
+    assert len(pairs) == len(line) > 0
+    edges = {tuple(sorted(e)) for t in F for e in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    inside = [tuple(sorted(p)) in edges for p in pairs]
+    # All but gap jumps are edges of the triangle they cross.
+    assert np.mean(inside) > 0.95
+
+
+def test_decimate_manifold_and_feature_weight(cube):
+    V, F = cube
+    V2, F2 = dgmesh.decimate(V, F, target_faces=len(F) // 10)
+    assert len(F2) <= len(F) // 10
+    dgmesh.validate(V2, F2, allow_loose_vertices=False)
+    V3, F3, vmap = dgmesh.decimate(V, F, target_faces=len(F) // 10, feature_weight=6.0, threshold=8.0,
+                                   return_map=True)
+    dgmesh.validate(V3, F3, allow_loose_vertices=False)
+    assert vmap.shape == (len(V),) and vmap.min() >= 0 and vmap.max() < len(V3)
+
+
+def test_decimate_keeps_boundary():
+    V, F = _native.grid(20, 20)
+    V2, F2 = dgmesh.decimate(V, F, target_faces=100)
+    loops = dgmesh.topology(V2, F2)["boundary_loops"]
+    assert len(loops) == 1 and len(loops[0]) == 80
+
+
+def test_segment_connected_cover(cube):
+    V, F = cube
+    for eta in (0.0, 2.0):
+        labels, info = dgmesh.segment(V, F, segments=6, feature_weight=eta, threshold=8.0, return_info=True)
+        assert labels.shape == (len(F),)
+        assert set(labels.tolist()) == set(range(6))
+        assert info["n_segments"] == 6
+
+
+def test_bad_input():
+    V, F = _native.icosphere(2, 1.0)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.crest_lines(V, F, rings=0)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.crest_lines(V[:, :2], F)
+    Fbad = F.copy()
+    Fbad[0, 0] = len(V) + 5
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.crest_lines(V, Fbad)
+    Vnan = V.copy()
+    Vnan[3, 1] = np.nan
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.curvature_derivatives(Vnan, F)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.decimate(V, F, target_faces=-1)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.decimate(V, F, target_faces=10, feature_weight=-1)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.segment(V, F, segments=0)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.segment(V, F, segments=10 * len(F))
+    other = dgmesh.crest_lines(*_native.icosphere(4, 1.0))
+    if len(other.point_edge) and other.point_edge.max() >= len(V):
+        with pytest.raises(dgmesh.MeshError):
+            dgmesh.decimate(V, F, target_faces=10, feature_weight=2.0, crest_lines=other)
