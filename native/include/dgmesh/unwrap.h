@@ -1,0 +1,114 @@
+// Low-stretch UV unwrapping by stretch equalization (thesis chapter 5) and the parameterization
+// distortion metrics of thesis 5.3.
+//
+// unwrap() maps one chart (a connected triangle mesh of genus 0 with at least one boundary loop)
+// to the plane: the initial map U0 fixes the largest boundary loop on a convex polygon and places
+// every other vertex by a convex-combination solve (eq. 5.2-5.3); each equalization step divides
+// the weights by the vertex stretch (eq. 5.1, 5.4, 5.6) and solves again. Inner boundary loops
+// (holes) are filled by a virtual fan for the solves, so they stay open and Tutte's theorem still
+// applies (thesis 5.5, first option).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "dgmesh/progress.h"
+#include "dgmesh/types.h"
+
+namespace dgmesh {
+
+using MatX2d = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
+
+enum class UvBoundary {
+  Square,  // unit square, corners placed so that no triangle or chord lies on one side
+  Circle,  // circle, arc-length spaced
+  Free,    // natural boundary of the least-squares conformal map (LSCM = DCP's natural boundary)
+};
+
+enum class UvWeights {
+  Floater,    // Floater's shape-preserving weights [Flo97] (default)
+  MeanValue,  // mean-value weights [Flo03]
+  Cotangent,  // harmonic (cot a + cot b) weights; may be negative, so U0 may flip
+  Uniform,    // Tutte's barycentric weights
+};
+
+enum class UvSolver {
+  Auto,      // the fastest measured (bench/RESULTS.md): UMFPACK up to 50K unknowns, else Multigrid
+  Umfpack,   // SuiteSparse UMFPACK LU, symbolic analysis reused across steps
+  SparseLU,  // Eigen SparseLU, symbolic analysis reused across steps
+  BiCGSTAB,  // Eigen BiCGSTAB + ILUT, warm-started from the previous map
+  Multigrid, // BiCGSTAB preconditioned by smoothed-aggregation multigrid, warm-started
+};
+
+// Distortion of a parameterization (thesis 5.3). Stretch follows Sander et al. [SSGH01] with the
+// UV map scaled to the surface's area, so 1 is the optimum; flipped triangles are measured with
+// their absolute area and counted in `flipped`; a zero-area UV triangle has infinite stretch.
+struct UvMetrics {
+  double stretch_l2 = 0;         // eq. 5.5 (inf if any UV triangle has zero area)
+  double stretch_linf = 0;       // max over triangles of the largest singular value
+  double stretch_l2_finite = 0;  // eq. 5.5 over the triangles with non-zero UV area
+  double edge = 0;               // sum | |p_i-p_j| / sum|p| - |u_i-u_j| / sum|u| | over edges
+  double angle = 0;              // 1/(3F) sum |theta - phi| (radians)
+  double area = 0;               // sum | A(T) / sum A(T) - A(U) / sum A(U) |
+  int flipped = 0;               // UV triangles oriented against the chart's total orientation
+  int zero_area = 0;             // |A(U)| <= zero_area_eps * sum |A(U)|
+};
+
+// Metrics of vertex UVs (n x 2) on the triangles F. Edges are the unique undirected edges of F.
+// Throws MeshError on wrong sizes, indices out of range or non-finite values.
+UvMetrics uv_metrics(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
+
+// Per-triangle Sander stretch sqrt((Gamma^2 + gamma^2) / 2) with the area normalisation of
+// uv_metrics (inf for zero-area UV triangles).
+VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
+
+// Per-vertex stretch of eq. 5.1: sqrt(sum A(T) sigma(U)^2 / sum A(T)) over the incident triangles.
+VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
+
+struct UnwrapOptions {
+  UvBoundary boundary = UvBoundary::Square;
+  UvWeights weights = UvWeights::Floater;
+  double eta = 1.0;           // exponent of eq. 5.6, 0 < eta <= 1
+  int iterations = -1;        // -1: Uopt (stop when eq. 5.5 stops decreasing); k >= 0: exactly k steps
+  int max_iterations = 100;   // cap for Uopt
+  double min_improvement = 1e-3;  // Uopt also stops after a step improving eq. 5.5 by less than this (relative)
+  UvSolver solver = UvSolver::Auto;
+  double tolerance = 1e-10;   // relative residual of the iterative solver
+  double zero_area_eps = 1e-10;
+  // Triangle stretches above this are clipped in eq. 5.1 so that a near-degenerate scan triangle
+  // (a 3D sliver) cannot dominate the stretch of its vertices.
+  double stretch_cap = 1e3;
+  // Beyond the thesis (whose boundary stays fixed): every step also slides the outer boundary
+  // vertices along the polygon by the same stretch equalization in one dimension (the square's
+  // corners stay). The polygon keeps its shape, so Tutte's guarantee still holds.
+  bool slide_boundary = false;
+};
+
+struct UnwrapStep {
+  UvMetrics metrics;
+  double seconds = 0;        // wall time of this step (solve + metrics)
+  int solver_iterations = 0; // BiCGSTAB iterations (0 for direct solvers)
+};
+
+struct UnwrapResult {
+  MatX2d uv;                        // the chosen map, in [0,1]^2
+  std::vector<UnwrapStep> steps;    // steps[h] is U^h (U0 first); Uopt's last entry may be the rejected step
+  int chosen = 0;                   // index into steps of the returned map
+  UvBoundary boundary_used = UvBoundary::Square;
+  bool boundary_convex = true;      // the fixed polygon is convex (Tutte: no flips)
+  int n_holes = 0;                  // inner boundary loops kept open
+  std::vector<int> corners;         // square corners (vertex ids), counter-clockwise from (0,0)
+  std::vector<std::string> warnings;
+  std::string solver;               // solver used
+};
+
+// Throws MeshError when the input is not a single chart of disk topology (closed, several
+// components, handles), SolverError when a linear system cannot be solved, CancelledError when the
+// progress callback returns false.
+UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& options = {},
+                    const ProgressFn& progress = {});
+
+// Connected components of n items linked by `pairs` (union-find). Labels are 0..k-1 in order of
+// first appearance. Used by the add-on to split meshes into charts along seams.
+VecXi connected_labels(int n, const MatX2i& pairs);
+
+}  // namespace dgmesh

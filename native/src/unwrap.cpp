@@ -1,0 +1,1267 @@
+#include "dgmesh/unwrap.h"
+
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCholesky>
+#include <Eigen/SparseLU>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "dgmesh/errors.h"
+#include "dgmesh/geometry.h"
+#include "dgmesh/mesh.h"
+#include "dgmesh/sparse_solver.h"
+#include "dgmesh/validate.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace dgmesh {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+using Vec2 = Eigen::Vector2d;
+using Clock = std::chrono::steady_clock;
+
+inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+inline double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+// Stretch of the affine map P: U -> T of one triangle (thesis 5.2, [SSGH01]): with the partial
+// derivatives S_s, S_t of P, Gamma^2 and gamma^2 are the eigenvalues of [a b; b c], a = S_s.S_s,
+// b = S_s.S_t, c = S_t.S_t. The derivatives are divided by the signed area, so a flipped triangle
+// gets the stretch of its mirror image.
+struct TriStretch {
+  double uv_area2;  // twice the signed UV area
+  double l2sq;      // (Gamma^2 + gamma^2) / 2, not yet area-normalised
+  double gamma2;    // Gamma^2
+};
+
+inline TriStretch tri_stretch(const Vec3& q1, const Vec3& q2, const Vec3& q3, const Vec2& p1,
+                              const Vec2& p2, const Vec2& p3) {
+  const double s1 = p1.x(), t1 = p1.y(), s2 = p2.x(), t2 = p2.y(), s3 = p3.x(), t3 = p3.y();
+  const double A2 = (s2 - s1) * (t3 - t1) - (s3 - s1) * (t2 - t1);
+  if (A2 == 0 || !std::isfinite(A2)) return {0.0, kInf, kInf};
+  const Vec3 Ss = (q1 * (t2 - t3) + q2 * (t3 - t1) + q3 * (t1 - t2)) / A2;
+  const Vec3 St = (q1 * (s3 - s2) + q2 * (s1 - s3) + q3 * (s2 - s1)) / A2;
+  const double a = Ss.squaredNorm(), c = St.squaredNorm(), b = Ss.dot(St);
+  const double g2 = 0.5 * ((a + c) + std::sqrt((a - c) * (a - c) + 4 * b * b));
+  return {A2, 0.5 * (a + c), g2};
+}
+
+inline double angle3(const Vec3& a, const Vec3& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+inline double angle2(const Vec2& a, const Vec2& b) { return std::atan2(std::abs(cross2(a, b)), a.dot(b)); }
+
+// Unique undirected edges of F (sorted (min, max) pairs).
+std::vector<std::pair<int, int>> unique_edges(const MatX3i& F) {
+  std::vector<std::pair<int, int>> e;
+  e.reserve(static_cast<size_t>(F.rows()) * 3);
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      e.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(e.begin(), e.end());
+  e.erase(std::unique(e.begin(), e.end()), e.end());
+  return e;
+}
+
+// Per-face stretch data and the two totals of the area normalisation.
+struct FaceData {
+  std::vector<TriStretch> tri;
+  VecXd area3;
+  double sum_area3 = 0, sum_area_uv = 0, signed_area_uv = 0;
+};
+
+FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_faces) {
+  FaceData d;
+  d.tri.resize(n_faces);
+  d.area3.resize(n_faces);
+  double s3 = 0, suv = 0, ssigned = 0;
+#pragma omp parallel for schedule(static) reduction(+ : s3, suv, ssigned)
+  for (int f = 0; f < n_faces; ++f) {
+    const int i = F(f, 0), j = F(f, 1), k = F(f, 2);
+    const Vec3 q1 = V.row(i), q2 = V.row(j), q3 = V.row(k);
+    d.tri[f] = tri_stretch(q1, q2, q3, UV.row(i), UV.row(j), UV.row(k));
+    d.area3[f] = 0.5 * (q2 - q1).cross(q3 - q1).norm();
+    s3 += d.area3[f];
+    suv += 0.5 * std::abs(d.tri[f].uv_area2);
+    ssigned += 0.5 * d.tri[f].uv_area2;
+  }
+  d.sum_area3 = s3;
+  d.sum_area_uv = suv;
+  d.signed_area_uv = ssigned;
+  return d;
+}
+
+inline bool is_zero_area(const TriStretch& t, double sum_area_uv, double eps) {
+  return !(0.5 * std::abs(t.uv_area2) > eps * sum_area_uv) || !std::isfinite(t.l2sq);
+}
+
+UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_faces,
+                       const std::vector<std::pair<int, int>>& edges, double eps,
+                       const std::vector<double>* angles3 = nullptr) {
+  UvMetrics m;
+  const FaceData d = face_data(V, F, UV, n_faces);
+  if (d.sum_area3 <= 0 || d.sum_area_uv <= 0) {
+    m.stretch_l2 = m.stretch_linf = m.stretch_l2_finite = kInf;
+    m.zero_area = n_faces;
+    return m;
+  }
+  // Sander's normalisation: scale the UV map to the surface area, so sigma^2 scales by this.
+  const double norm = d.sum_area_uv / d.sum_area3;
+  const double orient = d.signed_area_uv >= 0 ? 1.0 : -1.0;
+  double l2 = 0, l2_area = 0, g2max = 0, angle = 0, area = 0;
+  int flipped = 0, zero = 0;
+#pragma omp parallel for schedule(static) reduction(+ : l2, l2_area, angle, area, flipped, zero) \
+    reduction(max : g2max)
+  for (int f = 0; f < n_faces; ++f) {
+    const TriStretch& t = d.tri[f];
+    const bool degenerate = is_zero_area(t, d.sum_area_uv, eps);
+    if (degenerate) {
+      ++zero;
+    } else {
+      l2 += d.area3[f] * t.l2sq;
+      l2_area += d.area3[f];
+      g2max = std::max(g2max, t.gamma2);
+      if (orient * t.uv_area2 < 0) ++flipped;
+    }
+    area += std::abs(d.area3[f] / d.sum_area3 - 0.5 * std::abs(t.uv_area2) / d.sum_area_uv);
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3);
+      const double th = angles3 ? (*angles3)[3 * f + k] : angle3(V.row(b) - V.row(a), V.row(c) - V.row(a));
+      const double ph = angle2(UV.row(b) - UV.row(a), UV.row(c) - UV.row(a));
+      angle += std::abs(th - ph);
+    }
+  }
+  m.flipped = flipped;
+  m.zero_area = zero;
+  m.stretch_l2_finite = l2_area > 0 ? std::sqrt(norm * l2 / l2_area) : kInf;
+  m.stretch_l2 = zero ? kInf : m.stretch_l2_finite;
+  m.stretch_linf = zero ? kInf : std::sqrt(norm * g2max);
+  m.angle = angle / (3.0 * n_faces);
+  m.area = area;
+
+  const int ne = static_cast<int>(edges.size());
+  double s3 = 0, suv = 0;
+#pragma omp parallel for schedule(static) reduction(+ : s3, suv)
+  for (int e = 0; e < ne; ++e) {
+    s3 += (V.row(edges[e].first) - V.row(edges[e].second)).norm();
+    suv += (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
+  }
+  double edge = 0;
+  if (s3 > 0 && suv > 0) {
+#pragma omp parallel for schedule(static) reduction(+ : edge)
+    for (int e = 0; e < ne; ++e) {
+      const double l3 = (V.row(edges[e].first) - V.row(edges[e].second)).norm();
+      const double luv = (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
+      edge += std::abs(l3 / s3 - luv / suv);
+    }
+  }
+  m.edge = edge;
+  return m;
+}
+
+void check_uv_input(const MatX3d& V, const MatX3i& F, const MatX2d& UV) {
+  validate(V, F, kNonEmpty | kIndices | kFinite | kNoRepeatedIndex);
+  if (UV.rows() != V.rows())
+    throw MeshError("UV must have one row per vertex: " + std::to_string(V.rows()) + " vertices, " +
+                    std::to_string(UV.rows()) + " UV rows");
+  if (!UV.allFinite()) throw MeshError("UV has NaN or infinite coordinates");
+}
+
+// Per-vertex stretch of eq. 5.1 over the faces around each vertex (all of F), area-normalised.
+// Zero-area UV triangles get stretch `cap` so that the weights stay finite.
+void vertex_stretch_impl(const MatX3d& V, const MatX3i& F, const Topology& topo, const MatX2d& UV,
+                         double eps, double cap, VecXd& sigma) {
+  const FaceData d = face_data(V, F, UV, static_cast<int>(F.rows()));
+  const double norm = d.sum_area_uv > 0 ? d.sum_area_uv / d.sum_area3 : 1.0;
+  sigma.resize(topo.n_vertices);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < topo.n_vertices; ++v) {
+    double num = 0, den = 0;
+    for (int i = topo.vf_offset[v]; i < topo.vf_offset[v + 1]; ++i) {
+      const int f = topo.vf_index[i];
+      const TriStretch& t = d.tri[f];
+      const double s2 = is_zero_area(t, d.sum_area_uv, eps) ? cap * cap : std::min(norm * t.l2sq, cap * cap);
+      num += d.area3[f] * s2;
+      den += d.area3[f];
+    }
+    sigma[v] = den > 0 ? std::sqrt(num / den) : 1.0;
+  }
+}
+
+// ----- weights of eq. 5.2 ------------------------------------------------------------------------
+
+struct RingScratch {
+  std::vector<Vec3> e;
+  std::vector<double> len, theta, lambda;
+  std::vector<Vec2> q;
+  void resize(size_t d) {
+    e.resize(d), len.resize(d), theta.resize(d), lambda.resize(d), q.resize(d);
+  }
+};
+
+// Mean-value weights [Flo03] of an interior vertex with closed ring: (tan(a_{j-1}/2) + tan(a_j/2)) / |e_j|.
+void mean_value_ring(RingScratch& s, int d, double* w) {
+  for (int j = 0; j < d; ++j) {
+    const int jp = (j + d - 1) % d;
+    // tan(a/2) = |a x b| / (|a||b| + a.b)
+    auto half_tan = [&](int a, int b) {
+      const double den = s.len[a] * s.len[b] + s.e[a].dot(s.e[b]);
+      const double num = s.e[a].cross(s.e[b]).norm();
+      return den > 1e-300 ? num / den : 1e12;
+    };
+    w[j] = (half_tan(jp, j) + half_tan(j, (j + 1) % d)) / std::max(s.len[j], 1e-300);
+  }
+}
+
+// Floater's shape-preserving weights [Flo97]: flatten the ring by the geodesic polar map (lengths
+// kept, angles scaled to sum 2 pi), then average, over every neighbour k, the barycentric
+// coordinates of the centre in the triangle formed by q_k and the ring segment the ray from q_k
+// through the centre crosses. Returns false if the flattened ring does not contain the centre.
+bool floater_ring(RingScratch& s, int d, double* w) {
+  double total = 0;
+  for (int k = 0; k < d; ++k) total += s.theta[k];
+  if (!(total > 0)) return false;
+  double psi = 0;
+  for (int k = 0; k < d; ++k) {
+    s.q[k] = s.len[k] * Vec2(std::cos(psi), std::sin(psi));
+    psi += s.theta[k] * 2 * kPi / total;
+    s.lambda[k] = 0;
+  }
+  for (int k = 0; k < d; ++k) {
+    bool found = false;
+    for (int l = 0; l < d && !found; ++l) {
+      const int l1 = (l + 1) % d;
+      if (l == k || l1 == k) continue;
+      const double A = cross2(s.q[l] - s.q[k], s.q[l1] - s.q[k]);
+      if (!(std::abs(A) > 0)) continue;
+      const double bk = cross2(s.q[l], s.q[l1]) / A, bl = cross2(s.q[l1], s.q[k]) / A,
+                   bl1 = cross2(s.q[k], s.q[l]) / A;
+      const double tol = -1e-12;
+      if (bk >= tol && bl >= tol && bl1 >= tol) {
+        s.lambda[k] += std::max(bk, 0.0);
+        s.lambda[l] += std::max(bl, 0.0);
+        s.lambda[l1] += std::max(bl1, 0.0);
+        found = true;
+      }
+    }
+    if (!found) return false;
+  }
+  double sum = 0;
+  for (int k = 0; k < d; ++k) sum += s.lambda[k];
+  if (!(sum > 0)) return false;
+  for (int k = 0; k < d; ++k) w[k] = s.lambda[k] / sum;
+  return true;
+}
+
+struct WeightStats {
+  int fallback = 0;  // Floater rings that used mean-value weights instead
+  int negative = 0;  // negative cotangent weights
+};
+
+// Base weights w_ij of every free vertex, stored at the ring positions of topo.vv_index.
+std::vector<double> base_weights(const MatX3d& V, const Topology& topo,
+                                 const std::vector<char>& fixed, UvWeights kind, WeightStats& stats) {
+  std::vector<double> w(topo.vv_index.size(), 0.0);
+  int fallback = 0, negative = 0;
+  int max_d = 0;
+  for (int v = 0; v < topo.n_vertices; ++v) max_d = std::max(max_d, topo.valence(v));
+#pragma omp parallel reduction(+ : fallback, negative)
+  {
+    RingScratch s;
+    s.resize(static_cast<size_t>(max_d));
+#pragma omp for schedule(dynamic, 512)
+    for (int v = 0; v < topo.n_vertices; ++v) {
+      if (fixed[v]) continue;
+      const int o = topo.vv_offset[v], d = topo.valence(v);
+      double* wv = w.data() + o;
+      if (kind == UvWeights::Uniform) {
+        for (int k = 0; k < d; ++k) wv[k] = 1.0;
+        continue;
+      }
+      const Vec3 p = V.row(v);
+      for (int k = 0; k < d; ++k) {
+        s.e[k] = V.row(topo.vv_index[o + k]).transpose() - p;
+        s.len[k] = s.e[k].norm();
+      }
+      for (int k = 0; k < d; ++k) s.theta[k] = angle3(s.e[k], s.e[(k + 1) % d]);
+      if (kind == UvWeights::Cotangent) {
+        for (int k = 0; k < d; ++k) {
+          const int kp = (k + d - 1) % d, kn = (k + 1) % d;
+          // Angles opposite the edge (v, k): at k-1 in triangle (v, k-1, k), at k+1 in (v, k, k+1).
+          const Vec3 u1 = -s.e[kp], v1 = s.e[k] - s.e[kp];
+          const Vec3 u2 = -s.e[kn], v2 = s.e[k] - s.e[kn];
+          const double c1 = u1.dot(v1) / std::max(u1.cross(v1).norm(), 1e-300);
+          const double c2 = u2.dot(v2) / std::max(u2.cross(v2).norm(), 1e-300);
+          wv[k] = c1 + c2;
+          if (wv[k] < 0) ++negative;
+        }
+        continue;
+      }
+      if (kind == UvWeights::Floater && floater_ring(s, d, wv)) continue;
+      if (kind == UvWeights::Floater) ++fallback;
+      mean_value_ring(s, d, wv);
+    }
+  }
+  stats.fallback = fallback;
+  stats.negative = negative;
+  return w;
+}
+
+// ----- boundary polygons --------------------------------------------------------------------------
+
+std::vector<double> arc_length(const MatX3d& V, const std::vector<int>& loop) {
+  const size_t nb = loop.size();
+  std::vector<double> t(nb + 1, 0.0);
+  for (size_t k = 0; k < nb; ++k) t[k + 1] = t[k] + (V.row(loop[(k + 1) % nb]) - V.row(loop[k])).norm();
+  const double total = t[nb] > 0 ? t[nb] : 1.0;
+  for (double& x : t) x /= total;
+  return t;  // t[nb] == 1
+}
+
+void place_circle(const std::vector<int>& loop, const std::vector<double>& t, MatX2d& U) {
+  for (size_t k = 0; k < loop.size(); ++k) {
+    const double a = 2 * kPi * t[k];
+    U.row(loop[k]) << 0.5 + 0.5 * std::cos(a), 0.5 + 0.5 * std::sin(a);
+  }
+}
+
+// Square corners: quarter arc-length spacing, rotated until no chord (an edge joining two outer
+// boundary vertices through the interior) has both ends on one closed side. Such a chord cuts off
+// a region that the convex-combination map flattens to zero area (degenerate ears).
+bool square_corners(const std::vector<int>& loop, const std::vector<double>& t,
+                    const std::vector<std::pair<int, int>>& chords, int (&c)[4]) {
+  const int nb = static_cast<int>(loop.size());
+  if (nb < 4) return false;
+  auto nearest = [&](double x) {
+    x -= std::floor(x);
+    const int hi = static_cast<int>(std::lower_bound(t.begin(), t.begin() + nb + 1, x) - t.begin());
+    const int lo = std::max(hi - 1, 0);
+    const int k = (hi <= nb && std::abs(t[hi] - x) < std::abs(x - t[lo])) ? hi : lo;
+    return k % nb;
+  };
+  for (int r = 0; r < nb; ++r) {
+    int d[5];
+    d[0] = 0;
+    bool ok = true;
+    for (int s = 1; s < 4 && ok; ++s) {
+      d[s] = (nearest(t[r] + 0.25 * s) - r + nb) % nb;
+      ok = d[s] > d[s - 1];
+    }
+    if (!ok) continue;
+    d[4] = nb;
+    auto sides = [&](int o) {  // bit mask of the closed sides holding loop offset o
+      unsigned m = 0;
+      for (int s = 0; s < 4; ++s)
+        if (d[s] <= o && o <= d[s + 1]) m |= 1u << s;
+      if (o == 0) m |= 1u << 3;
+      return m;
+    };
+    for (const auto& ch : chords) {
+      if (sides((ch.first - r + nb) % nb) & sides((ch.second - r + nb) % nb)) {
+        ok = false;
+        break;
+      }
+    }
+    if (!ok) continue;
+    for (int s = 0; s < 4; ++s) c[s] = (r + d[s]) % nb;
+    return true;
+  }
+  return false;
+}
+
+void place_square(const std::vector<int>& loop, const std::vector<double>& t, const int (&c)[4], MatX2d& U) {
+  const int nb = static_cast<int>(loop.size());
+  const Vec2 P[5] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}, {0, 0}};
+  for (int s = 0; s < 4; ++s) {
+    const int a = c[s], b = c[(s + 1) % 4];
+    const int n = (b - a + nb) % nb;
+    auto tt = [&](int k) {  // arc length from the loop start, unwrapped past a
+      const int idx = (a + k) % nb;
+      return t[idx] + (idx < a ? 1.0 : 0.0);
+    };
+    const double ta = tt(0), len = tt(n) + ((a + n) % nb == a ? 1.0 : 0.0) - ta;
+    for (int k = 0; k < n; ++k) {
+      const double f = len > 0 ? (tt(k) - ta) / len : double(k) / n;
+      U.row(loop[(a + k) % nb]) = P[s] + f * (P[s + 1] - P[s]);
+    }
+  }
+}
+
+// The closed convex curve the outer loop lies on, parameterised by arc length s in [0, period):
+// a circle, or a polygon (the square's corners, or the free boundary's points). Loop vertex k sits
+// at at(s[k]); anchors (the square's corners) never move.
+struct BoundaryCurve {
+  bool circle = false;
+  std::vector<Vec2> P;    // polygon vertices
+  std::vector<double> S;  // cumulative length at P[i], S.back() == period
+  double period = 1;
+  std::vector<double> s;  // parameter of each loop vertex, increasing from s[0]
+  std::vector<int> anchors;
+
+  void set_polygon(std::vector<Vec2> pts) {
+    P = std::move(pts);
+    S.assign(P.size() + 1, 0.0);
+    for (size_t i = 0; i < P.size(); ++i) S[i + 1] = S[i] + (P[(i + 1) % P.size()] - P[i]).norm();
+    period = S.back();
+  }
+  Vec2 at(double x) const {
+    x -= period * std::floor(x / period);
+    if (circle) {
+      const double a = 2 * kPi * x / period;
+      return Vec2(0.5 + 0.5 * std::cos(a), 0.5 + 0.5 * std::sin(a));
+    }
+    const size_t i = std::min(static_cast<size_t>(std::upper_bound(S.begin(), S.end(), x) - S.begin()), S.size() - 1) - 1;
+    const double len = S[i + 1] - S[i];
+    const double f = len > 0 ? (x - S[i]) / len : 0.0;
+    return P[i] + f * (P[(i + 1) % P.size()] - P[i]);
+  }
+  void place(const std::vector<int>& loop, MatX2d& U) const {
+    for (size_t k = 0; k < loop.size(); ++k) U.row(loop[k]) = at(s[k]).transpose();
+  }
+  // One-dimensional stretch equalization along the curve (the boundary analogue of eq. 5.4): the
+  // UV length of boundary edge k grows by ((sigma_k + sigma_k+1) / 2)^eta, then every run
+  // between two anchors is rescaled to keep its anchors in place.
+  void slide(const std::vector<int>& loop, const VecXd& sigma, double eta) {
+    const int nb = static_cast<int>(loop.size());
+    std::vector<double> su(nb + 1);
+    for (int k = 0; k < nb; ++k) su[k] = s[k];
+    su[nb] = s[0] + period;
+    const int na = static_cast<int>(anchors.size());
+    for (int a = 0; a < na; ++a) {
+      const int k0 = anchors[a], k1 = a + 1 < na ? anchors[a + 1] : anchors[0] + nb;
+      double total_new = 0;
+      std::vector<double> d(k1 - k0);
+      for (int k = k0; k < k1; ++k) {
+        const double sg = 0.5 * (sigma[loop[k % nb]] + sigma[loop[(k + 1) % nb]]);
+        d[k - k0] = (su[k + 1] - su[k]) * (eta == 1.0 ? sg : std::pow(sg, eta));
+        total_new += d[k - k0];
+      }
+      if (!(total_new > 0) || !std::isfinite(total_new)) continue;
+      const double scale = (su[k1] - su[k0]) / total_new;
+      double x = su[k0];
+      for (int k = k0 + 1; k < k1; ++k) {
+        x += d[k - 1 - k0] * scale;
+        s[k % nb] = k >= nb ? x - period : x;
+      }
+    }
+    // Keep s increasing from s[0] (wrap-around runs may have produced values below s[0]).
+    for (int k = 1; k < nb; ++k)
+      while (s[k] < s[0]) s[k] += period;
+  }
+};
+
+// Least-squares conformal map with two pinned boundary vertices (LSCM; its free boundary is the
+// natural boundary of Desbrun et al.'s discrete conformal map [DMA02]). The conformal energy is
+// E_D(u) + E_D(v) - A(u, v), with the cotangent Dirichlet energy and the signed area of the image,
+// whose boundary terms come from the boundary edges of the faces.
+MatX2d lscm(const MatX3d& V, const MatX3i& F, const Topology& topo, int pin0, int pin1) {
+  const int n = static_cast<int>(V.rows());
+  const SpMat L = cotan_laplacian(V, F);  // L_ij = (cot a + cot b)/2 >=< 0, rows sum to 0
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(static_cast<size_t>(L.nonZeros()) * 2 + topo.n_vertices * 4);
+  for (int col = 0; col < L.outerSize(); ++col)
+    for (SpMat::InnerIterator it(L, col); it; ++it) {
+      // E_D(u) = 1/2 u^T (-L) u
+      trip.emplace_back(static_cast<int>(it.row()), col, -it.value());
+      trip.emplace_back(static_cast<int>(it.row()) + n, col + n, -it.value());
+    }
+  // -A(u,v) = -1/2 sum over boundary half-edges a->b of (u_a v_b - u_b v_a), as 1/2 x^T M x.
+  for (int e = 0; e < topo.n_edges(); ++e) {
+    if (topo.edge_faces(e, 1) >= 0) continue;
+    const int f = topo.edge_faces(e, 0);
+    int a = -1, b = -1;
+    for (int k = 0; k < 3; ++k) {
+      if (topo.face_edges(f, k) == e) a = F(f, k), b = F(f, (k + 1) % 3);
+    }
+    trip.emplace_back(a, b + n, -0.5);
+    trip.emplace_back(b + n, a, -0.5);
+    trip.emplace_back(b, a + n, 0.5);
+    trip.emplace_back(a + n, b, 0.5);
+  }
+  SpMat Q(2 * n, 2 * n);
+  Q.setFromTriplets(trip.begin(), trip.end());
+  // Reduce to the free variables.
+  std::vector<int> idx(2 * n, -1);
+  int nf = 0;
+  for (int i = 0; i < 2 * n; ++i) {
+    const int v = i % n;
+    if (v != pin0 && v != pin1) idx[i] = nf++;
+  }
+  Eigen::VectorXd xp = Eigen::VectorXd::Zero(2 * n);
+  xp[pin0] = 0, xp[pin0 + n] = 0, xp[pin1] = 1, xp[pin1 + n] = 0;
+  std::vector<Eigen::Triplet<double>> tf;
+  tf.reserve(static_cast<size_t>(Q.nonZeros()));
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(nf);
+  for (int col = 0; col < Q.outerSize(); ++col)
+    for (SpMat::InnerIterator it(Q, col); it; ++it) {
+      const int r = static_cast<int>(it.row());
+      if (idx[r] < 0) continue;
+      if (idx[col] >= 0)
+        tf.emplace_back(idx[r], idx[col], it.value());
+      else
+        rhs[idx[r]] -= it.value() * xp[col];
+    }
+  SpMat Qf(nf, nf);
+  Qf.setFromTriplets(tf.begin(), tf.end());
+  SparseSolver solver;
+  solver.factor(Qf, SparseSolver::Kind::Cholesky);
+  const Eigen::VectorXd x = solver.solve(rhs);
+  MatX2d U(n, 2);
+  for (int v = 0; v < n; ++v) {
+    U(v, 0) = idx[v] >= 0 ? x[idx[v]] : xp[v];
+    U(v, 1) = idx[v + n] >= 0 ? x[idx[v + n]] : xp[v + n];
+  }
+  return U;
+}
+
+// Fits the points of `loop` into [0,1]^2 (uniform scale, centred).
+void fit_unit_box(MatX2d& U, const std::vector<int>& rows) {
+  Vec2 lo(kInf, kInf), hi(-kInf, -kInf);
+  for (int v : rows) lo = lo.cwiseMin(U.row(v).transpose()), hi = hi.cwiseMax(U.row(v).transpose());
+  const double s = std::max(hi.x() - lo.x(), hi.y() - lo.y());
+  const Vec2 off = 0.5 * (Vec2(1, 1) - (hi - lo) / s);
+  for (int v : rows) U.row(v) = ((U.row(v).transpose() - lo) / s + off).transpose();
+}
+
+// Reflex vertices of the closed polygon loop (counter-clockwise).
+int reflex_count(const MatX2d& U, const std::vector<int>& loop) {
+  const int nb = static_cast<int>(loop.size());
+  int reflex = 0;
+  for (int k = 0; k < nb; ++k) {
+    const Vec2 a = U.row(loop[(k + nb - 1) % nb]), b = U.row(loop[k]), c = U.row(loop[(k + 1) % nb]);
+    const Vec2 e0 = b - a, e1 = c - b;
+    if (cross2(e0, e1) < -1e-12 * e0.norm() * e1.norm()) ++reflex;
+  }
+  return reflex;
+}
+
+// ----- linear solves of eq. 5.3 -------------------------------------------------------------------
+
+// Smoothed-aggregation algebraic multigrid (Vanek, Mandel, Brezina 1996) as the preconditioner
+// of BiCGSTAB: the systems of eq. 5.3 are M-matrices on a planar mesh graph, where a V-cycle costs
+// a few sparse products and reduces the error by a constant factor, so a solve is O(n) instead of
+// the O(n^1.5) and BLAS-bound work of a sparse LU. The hierarchy is rebuilt from the matrix values
+// of every step (the aggregates depend on the weights, which equalization makes anisotropic).
+class Amg {
+ public:
+  void setup(const SpMatR& A0) {
+    levels_.clear();
+    levels_.emplace_back();
+    levels_[0].A = A0;
+    while (levels_.back().A.rows() > 800 && levels_.size() < 16) {
+      Level& L = levels_.back();
+      const SpMatR& A = L.A;
+      const int n = static_cast<int>(A.rows());
+      L.inv_diag.resize(n);
+      for (int i = 0; i < n; ++i) {
+        double d = 0;
+        for (SpMatR::InnerIterator it(A, i); it; ++it)
+          if (it.col() == i) d = it.value();
+        L.inv_diag[i] = d != 0 ? 1.0 / d : 0.0;
+      }
+      // Strong connections: |a_ij| >= theta * max_k |a_ik| (either direction counts).
+      std::vector<int> agg(n, -1);
+      int na = 0;
+      auto strong = [&](int i, const SpMatR::InnerIterator& it, double rmax) {
+        return it.col() != i && std::abs(it.value()) >= 0.1 * rmax;
+      };
+      std::vector<double> rmax(n, 0.0);
+      for (int i = 0; i < n; ++i)
+        for (SpMatR::InnerIterator it(A, i); it; ++it)
+          if (it.col() != i) rmax[i] = std::max(rmax[i], std::abs(it.value()));
+      // Phase 1: a node whose strong neighbours are all free starts an aggregate with them.
+      for (int i = 0; i < n; ++i) {
+        if (agg[i] >= 0) continue;
+        bool free = true;
+        for (SpMatR::InnerIterator it(A, i); it && free; ++it)
+          if (strong(i, it, rmax[i]) && agg[it.col()] >= 0) free = false;
+        if (!free) continue;
+        agg[i] = na;
+        for (SpMatR::InnerIterator it(A, i); it; ++it)
+          if (strong(i, it, rmax[i])) agg[it.col()] = na;
+        ++na;
+      }
+      // Phase 2: the rest join the aggregate of their strongest aggregated neighbour.
+      std::vector<int> agg2 = agg;
+      for (int i = 0; i < n; ++i) {
+        if (agg[i] >= 0) continue;
+        double best = -1;
+        for (SpMatR::InnerIterator it(A, i); it; ++it)
+          if (it.col() != i && agg[it.col()] >= 0 && std::abs(it.value()) > best)
+            best = std::abs(it.value()), agg2[i] = agg[it.col()];
+        if (agg2[i] < 0) agg2[i] = na++;
+      }
+      agg.swap(agg2);
+      if (na >= n * 0.8 || na < 1) break;  // not coarsening: stop here
+      // Smoothed prolongator P = (I - omega D^-1 A) P_tent, omega = 2/3 (rows of A are normalised).
+      const double omega = 2.0 / 3.0;
+      std::vector<Eigen::Triplet<double>> trip;
+      trip.reserve(static_cast<size_t>(A.nonZeros()));
+      for (int i = 0; i < n; ++i)
+        for (SpMatR::InnerIterator it(A, i); it; ++it) {
+          const double v = (it.col() == i ? 1.0 : 0.0) - omega * L.inv_diag[i] * it.value();
+          trip.emplace_back(i, agg[it.col()], v);
+        }
+      L.P.resize(n, na);
+      L.P.setFromTriplets(trip.begin(), trip.end());
+      L.R = L.P.transpose();
+      const SpMatR AP = A * L.P;
+      Level next;
+      next.A = (L.R * AP).pruned(1e-14, 1.0);
+      levels_.push_back(std::move(next));
+    }
+    Level& C = levels_.back();
+    const SpMat Ac = C.A;
+    coarse_.compute(Ac);
+    if (coarse_.info() != Eigen::Success) throw SolverError("unwrap: multigrid coarse solve failed");
+    for (Level& L : levels_) {
+      const int n = static_cast<int>(L.A.rows());
+      L.x.resize(n), L.b.resize(n), L.r.resize(n);
+    }
+  }
+
+  // One V-cycle for A x = b from x = 0.
+  void apply(const VecXd& b, VecXd& x) {
+    levels_[0].b = b;
+    cycle(0);
+    x = levels_[0].x;
+  }
+  int n_levels() const { return static_cast<int>(levels_.size()); }
+
+ private:
+  struct Level {
+    SpMatR A, P, R;
+    VecXd inv_diag, x, b, r, xo;
+  };
+
+  // Hybrid Gauss-Seidel sweep (forward or backward): Gauss-Seidel inside each thread's block of
+  // rows, Jacobi across blocks (values of other blocks are read from the copy xo), so the sweep
+  // runs in parallel without data races.
+  static void gauss_seidel(Level& L, bool forward) {
+    const int n = static_cast<int>(L.A.rows());
+    const int* outer = L.A.outerIndexPtr();
+    const int* inner = L.A.innerIndexPtr();
+    const double* val = L.A.valuePtr();
+    L.xo = L.x;
+#pragma omp parallel
+    {
+#ifdef _OPENMP
+      const int nt = omp_get_num_threads(), tid = omp_get_thread_num();
+#else
+      const int nt = 1, tid = 0;
+#endif
+      const int lo = static_cast<int>(static_cast<long long>(n) * tid / nt);
+      const int hi = static_cast<int>(static_cast<long long>(n) * (tid + 1) / nt);
+      for (int k = lo; k < hi; ++k) {
+        const int i = forward ? k : lo + hi - 1 - k;
+        double sum = L.b[i];
+        for (int p = outer[i]; p < outer[i + 1]; ++p) {
+          const int j = inner[p];
+          if (j != i) sum -= val[p] * (j >= lo && j < hi ? L.x[j] : L.xo[j]);
+        }
+        L.x[i] = sum * L.inv_diag[i];
+      }
+    }
+  }
+
+  void cycle(size_t l) {
+    Level& L = levels_[l];
+    if (l + 1 == levels_.size()) {
+      L.x = coarse_.solve(L.b);
+      return;
+    }
+    L.x.setZero();
+    gauss_seidel(L, true);
+    L.r.noalias() = L.b - L.A * L.x;
+    Level& C = levels_[l + 1];
+    C.b.noalias() = L.R * L.r;
+    cycle(l + 1);
+    L.x.noalias() += L.P * C.x;
+    gauss_seidel(L, false);
+  }
+
+  std::vector<Level> levels_;
+  Eigen::SparseLU<SpMat, Eigen::COLAMDOrdering<int>> coarse_;
+};
+
+// Right-preconditioned BiCGSTAB (van der Vorst 1992) on A x = b from the guess in x.
+// Returns the iterations, or -1 if the relative residual did not reach tol.
+int bicgstab_amg(const SpMatR& A, Amg& M, const VecXd& b, VecXd& x, double tol, int max_it) {
+  const double bnorm = b.norm();
+  if (bnorm == 0) {
+    x.setZero();
+    return 0;
+  }
+  VecXd r = b - A * x;
+  if (r.norm() <= tol * bnorm) return 0;
+  VecXd r0 = r, p = VecXd::Zero(b.size()), v = VecXd::Zero(b.size()), y, z, s, t;
+  double rho = 1, alpha = 1, omega = 1;
+  for (int it = 1; it <= max_it; ++it) {
+    const double rho1 = r0.dot(r);
+    if (std::abs(rho1) < 1e-300) return -1;
+    const double beta = (rho1 / rho) * (alpha / omega);
+    p = r + beta * (p - omega * v);
+    M.apply(p, y);
+    v.noalias() = A * y;
+    alpha = rho1 / r0.dot(v);
+    s = r - alpha * v;
+    if (s.norm() <= tol * bnorm) {
+      x += alpha * y;
+      return it;
+    }
+    M.apply(s, z);
+    t.noalias() = A * z;
+    omega = t.dot(s) / t.squaredNorm();
+    x += alpha * y + omega * z;
+    r = s - omega * t;
+    if (r.norm() <= tol * bnorm) return it;
+    if (!std::isfinite(omega) || omega == 0) return -1;
+    rho = rho1;
+  }
+  return -1;
+}
+
+class ChartSolver {
+ public:
+  // Auto: UMFPACK for small charts (a factorisation is cheapest there), multigrid above 50K
+  // unknowns, where the LU's fill and its BLAS-bound fronts grow faster than n (bench/RESULTS.md).
+  ChartSolver(UvSolver kind, double tol, int n)
+      : kind_(kind != UvSolver::Auto ? kind : n > 50000 ? UvSolver::Multigrid : UvSolver::Umfpack), tol_(tol) {}
+
+  const char* name() const {
+    switch (kind_) {
+      case UvSolver::Umfpack: return "umfpack";
+      case UvSolver::SparseLU: return "sparselu";
+      case UvSolver::BiCGSTAB: return "bicgstab+ilut";
+      case UvSolver::Multigrid: return "bicgstab+amg";
+      default: return "?";
+    }
+  }
+
+  // Solves A X = B; X holds the initial guess (the previous map) on entry.
+  int solve(const SpMat& A, const Eigen::MatrixXd& B, Eigen::MatrixXd& X) {
+    if (kind_ == UvSolver::Multigrid) {
+      const SpMatR Ar = A;
+      amg_.setup(Ar);
+      int iters = 0;
+      bool ok = true;
+      for (int c = 0; c < B.cols() && ok; ++c) {
+        VecXd x = X.col(c);
+        const int it = bicgstab_amg(Ar, amg_, B.col(c), x, tol_, 500);
+        ok = it >= 0 && x.allFinite();
+        iters += std::max(it, 0);
+        if (ok) X.col(c) = x;
+      }
+      if (ok) return iters;
+      kind_ = UvSolver::Umfpack;
+      fell_back_ = true;
+    }
+    if (kind_ == UvSolver::BiCGSTAB) {
+      bicg_.setTolerance(tol_);
+      bicg_.setMaxIterations(std::max(1000, static_cast<int>(A.rows() / 4)));
+      bicg_.preconditioner().setDroptol(1e-4);
+      bicg_.preconditioner().setFillfactor(10);
+      bicg_.compute(A);
+      int iters = 0;
+      bool ok = bicg_.info() == Eigen::Success;
+      for (int c = 0; c < B.cols() && ok; ++c) {
+        Eigen::VectorXd x = bicg_.solveWithGuess(B.col(c), X.col(c));
+        ok = bicg_.info() == Eigen::Success && x.allFinite();
+        iters += static_cast<int>(bicg_.iterations());
+        if (ok) X.col(c) = x;
+      }
+      if (ok) return iters;
+      // Did not converge: fall back to a direct solve for this and the later steps.
+      kind_ = UvSolver::Umfpack;
+      fell_back_ = true;
+    }
+    if (!direct_.factored() || direct_.rows() != A.rows()) {
+      direct_.factor(A, kind_ == UvSolver::SparseLU ? SparseSolver::Kind::LU : SparseSolver::Kind::Umfpack);
+    } else {
+      direct_.refactor(A);  // same pattern: the symbolic analysis is reused
+    }
+    X = direct_.solve(B);
+    return 0;
+  }
+  bool fell_back() const { return fell_back_; }
+
+ private:
+  UvSolver kind_;
+  double tol_;
+  bool fell_back_ = false;
+  SparseSolver direct_;
+  Eigen::BiCGSTAB<SpMat, Eigen::IncompleteLUT<double>> bicg_;
+  Amg amg_;
+};
+
+// The system of eq. 5.3 over the free vertices, row-normalised (A_ii = 1, A_ij = -w_ij / sum_k w_ik),
+// with the pattern built once and the values refilled in place for every step.
+struct System {
+  std::vector<int> row;       // free vertex -> row, -1 if fixed
+  std::vector<int> free_v;    // row -> vertex
+  std::vector<int> pos;       // per ring entry: index into A's values, -1 if the neighbour is fixed
+  std::vector<int> diag_pos;  // per row
+  SpMat A;
+  Eigen::MatrixXd B;
+
+  void build(const Topology& topo, const std::vector<char>& fixed) {
+    const int n = topo.n_vertices;
+    row.assign(n, -1);
+    free_v.clear();
+    for (int v = 0; v < n; ++v)
+      if (!fixed[v]) row[v] = static_cast<int>(free_v.size()), free_v.push_back(v);
+    const int m = static_cast<int>(free_v.size());
+    std::vector<Eigen::Triplet<double>> trip;
+    trip.reserve(topo.vv_index.size() + m);
+    for (int r = 0; r < m; ++r) {
+      const int v = free_v[r];
+      trip.emplace_back(r, r, 1.0);
+      for (int k = topo.vv_offset[v]; k < topo.vv_offset[v + 1]; ++k)
+        if (row[topo.vv_index[k]] >= 0) trip.emplace_back(r, row[topo.vv_index[k]], 1.0);
+    }
+    A.resize(m, m);
+    A.setFromTriplets(trip.begin(), trip.end());
+    A.makeCompressed();
+    auto find = [&](int r, int c) {
+      const int* inner = A.innerIndexPtr();
+      const int b = A.outerIndexPtr()[c], e = A.outerIndexPtr()[c + 1];
+      return static_cast<int>(std::lower_bound(inner + b, inner + e, r) - inner);
+    };
+    pos.assign(topo.vv_index.size(), -1);
+    diag_pos.resize(m);
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < m; ++r) {
+      const int v = free_v[r];
+      diag_pos[r] = find(r, r);
+      for (int k = topo.vv_offset[v]; k < topo.vv_offset[v + 1]; ++k) {
+        const int c = row[topo.vv_index[k]];
+        if (c >= 0) pos[k] = find(r, c);
+      }
+    }
+    B.resize(m, 2);
+  }
+
+  // Fills A and B from the weights w (ring positions) and the fixed positions in U.
+  // Returns the number of rows whose weights do not sum to a positive value (uniform used there).
+  int fill(const Topology& topo, const std::vector<double>& w, const MatX2d& U) {
+    double* val = A.valuePtr();
+    const int m = static_cast<int>(free_v.size());
+    int bad = 0;
+#pragma omp parallel for schedule(static) reduction(+ : bad)
+    for (int r = 0; r < m; ++r) {
+      const int v = free_v[r], o = topo.vv_offset[v], d = topo.valence(v);
+      double sum = 0;
+      for (int k = 0; k < d; ++k) sum += w[o + k];
+      const bool uniform = !(sum > 0) || !std::isfinite(sum);
+      if (uniform) ++bad, sum = d;
+      double bx = 0, by = 0;
+      val[diag_pos[r]] = 1.0;
+      for (int k = 0; k < d; ++k) {
+        const double lam = (uniform ? 1.0 : w[o + k]) / sum;
+        if (pos[o + k] >= 0) {
+          val[pos[o + k]] = -lam;
+        } else {
+          const int j = topo.vv_index[o + k];
+          bx += lam * U(j, 0), by += lam * U(j, 1);
+        }
+      }
+      B(r, 0) = bx, B(r, 1) = by;
+    }
+    return bad;
+  }
+};
+
+}  // namespace
+
+// ----- public API ---------------------------------------------------------------------------------
+
+UvMetrics uv_metrics(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps) {
+  check_uv_input(V, F, UV);
+  return metrics_impl(V, F, UV, static_cast<int>(F.rows()), unique_edges(F), zero_area_eps);
+}
+
+VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps) {
+  check_uv_input(V, F, UV);
+  const int nf = static_cast<int>(F.rows());
+  const FaceData d = face_data(V, F, UV, nf);
+  const double norm = d.sum_area3 > 0 ? d.sum_area_uv / d.sum_area3 : 0.0;
+  VecXd s(nf);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f)
+    s[f] = is_zero_area(d.tri[f], d.sum_area_uv, zero_area_eps) ? kInf : std::sqrt(norm * d.tri[f].l2sq);
+  return s;
+}
+
+VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps) {
+  const VecXd fs = uv_face_stretch(V, F, UV, zero_area_eps);
+  const VecXd a = face_areas(V, F);
+  VecXd num = VecXd::Zero(V.rows()), den = VecXd::Zero(V.rows());
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      num[F(f, k)] += a[f] * fs[f] * fs[f];
+      den[F(f, k)] += a[f];
+    }
+  VecXd s(V.rows());
+  for (int v = 0; v < V.rows(); ++v) s[v] = den[v] > 0 ? std::sqrt(num[v] / den[v]) : 0.0;
+  return s;
+}
+
+VecXi connected_labels(int n, const MatX2i& pairs) {
+  if (n < 0) throw MeshError("connected_labels: negative size");
+  std::vector<int> parent(n);
+  std::iota(parent.begin(), parent.end(), 0);
+  auto root = [&](int x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (int p = 0; p < pairs.rows(); ++p) {
+    const int a = pairs(p, 0), b = pairs(p, 1);
+    if (a < 0 || b < 0 || a >= n || b >= n)
+      throw MeshError("connected_labels: pair " + std::to_string(p) + " has an index out of range");
+    const int ra = root(a), rb = root(b);
+    if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+  }
+  VecXi label(n);
+  std::vector<int> id(n, -1);
+  int next = 0;
+  for (int i = 0; i < n; ++i) {
+    const int r = root(i);
+    if (id[r] < 0) id[r] = next++;
+    label[i] = id[r];
+  }
+  return label;
+}
+
+UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& opt, const ProgressFn& progress_fn) {
+  if (!(opt.eta > 0 && opt.eta <= 1)) throw MeshError("unwrap: eta must be in (0, 1], got " + std::to_string(opt.eta));
+  if (opt.iterations < -1) throw MeshError("unwrap: iterations must be -1 (optimal) or >= 0");
+  if (opt.max_iterations < 0) throw MeshError("unwrap: max_iterations must be >= 0");
+  Progress progress(progress_fn);
+  progress(0.0);
+  Mesh mesh = make_mesh(Vin, Fin, kSurface | kNoLooseVertices);
+  const Topology& topo = mesh.topo;
+  const int n = topo.n_vertices, nf = topo.n_faces;
+  if (topo.n_components != 1)
+    throw MeshError("unwrap: the mesh has " + std::to_string(topo.n_components) +
+                    " connected components; a chart must be one connected piece (unwrap them separately)");
+  const int nb = static_cast<int>(topo.boundary_loops.size());
+  if (nb == 0)
+    throw MeshError("unwrap: the mesh is closed (no boundary loop); cut it into disk-like charts along seams first");
+  const int chi = n - topo.n_edges() + nf;
+  const int genus2 = 2 - chi - nb;
+  if (genus2 != 0)
+    throw MeshError("unwrap: the chart has " + std::to_string(genus2 / 2) +
+                    " handle(s) (genus > 0, Euler characteristic " + std::to_string(chi) + " with " +
+                    std::to_string(nb) + " boundary loop(s)); cut it along seams into disks first");
+
+  UnwrapResult res;
+  const auto t_start = Clock::now();
+
+  // Outer loop: the longest; the others are holes.
+  int outer = 0;
+  std::vector<double> loop_len(nb, 0.0);
+  for (int l = 0; l < nb; ++l) {
+    const auto& L = topo.boundary_loops[l];
+    for (size_t k = 0; k < L.size(); ++k) loop_len[l] += (mesh.V.row(L[(k + 1) % L.size()]) - mesh.V.row(L[k])).norm();
+    if (loop_len[l] > loop_len[outer]) outer = l;
+  }
+  res.n_holes = nb - 1;
+
+  // Fill every hole by a fan around a virtual vertex at the loop's centroid (thesis 5.5).
+  MatX3d Vf = mesh.V;
+  MatX3i Ff = mesh.F;
+  Topology topo_filled;
+  const Topology* T = &topo;
+  if (nb > 1) {
+    int extra_f = 0;
+    for (int l = 0; l < nb; ++l)
+      if (l != outer) extra_f += static_cast<int>(topo.boundary_loops[l].size());
+    Vf.conservativeResize(n + nb - 1, 3);
+    Ff.conservativeResize(nf + extra_f, 3);
+    int vi = n, fi = nf;
+    for (int l = 0; l < nb; ++l) {
+      if (l == outer) continue;
+      const auto& L = topo.boundary_loops[l];
+      Vec3 c = Vec3::Zero();
+      for (int v : L) c += mesh.V.row(v).transpose();
+      Vf.row(vi) = (c / static_cast<double>(L.size())).transpose();
+      // The loop runs along its faces' edges a->b, so the fan face holds b->a.
+      for (size_t k = 0; k < L.size(); ++k) Ff.row(fi++) << L[(k + 1) % L.size()], L[k], vi;
+      ++vi;
+    }
+    topo_filled = build_topology(Ff, static_cast<int>(Vf.rows()));
+    T = &topo_filled;
+  }
+  const int nv = T->n_vertices;
+  std::vector<int> loop = topo.boundary_loops[outer];
+  std::vector<char> fixed(nv, 0);
+  // Ears: outer boundary vertices with a single triangle (a, tip, b). All three corners would lie
+  // on the polygon, a zero-area (on a straight side) or sliver (on the circle) UV triangle. The tips
+  // are taken off the polygon and placed after every solve with the ear's own 3D shape on the UV
+  // chord (a, b), outside the convex polygon, where they cannot overlap anything.
+  struct Ear {
+    int tip, a, b;
+  };
+  std::vector<Ear> ears;
+  if (loop.size() > 5) {
+    std::vector<int> kept;
+    for (size_t k = 0; k < loop.size(); ++k) {
+      const int v = loop[k];
+      const bool single = topo.vf_offset[v + 1] - topo.vf_offset[v] == 1;
+      const bool prev_tip = !ears.empty() && ears.back().tip == loop[(k + loop.size() - 1) % loop.size()];
+      const bool wraps = k + 1 == loop.size() && !ears.empty() && ears.front().tip == loop[0];
+      if (single && !prev_tip && !wraps) {
+        const int f = topo.vf_index[topo.vf_offset[v]];
+        const int c = mesh.F(f, 0) == v ? 0 : mesh.F(f, 1) == v ? 1 : 2;
+        ears.push_back({v, mesh.F(f, (c + 1) % 3), mesh.F(f, (c + 2) % 3)});  // (tip, a, b) in face order
+        fixed[v] = 1;
+      } else {
+        kept.push_back(v);
+      }
+    }
+    if (kept.size() >= 4) {
+      loop.swap(kept);
+    } else {
+      for (const Ear& e : ears) fixed[e.tip] = 0;
+      ears.clear();
+    }
+  }
+  std::vector<int> loop_pos(nv, -1);
+  for (size_t k = 0; k < loop.size(); ++k) fixed[loop[k]] = 1, loop_pos[loop[k]] = static_cast<int>(k);
+  auto place_ears = [&](MatX2d& Ucur) {
+    for (const Ear& e : ears) {
+      const Vec3 A = mesh.V.row(e.a), B = mesh.V.row(e.b), P = mesh.V.row(e.tip);
+      const Vec3 ab = B - A;
+      const double l2 = std::max(ab.squaredNorm(), 1e-300);
+      const double along = (P - A).dot(ab) / l2, across = (P - A).cross(ab).norm() / l2;
+      const Vec2 ua = Ucur.row(e.a), ub = Ucur.row(e.b), d = ub - ua, perp(-d.y(), d.x());
+      Vec2 t = ua + along * d + across * perp;
+      if (cross2(ua - t, ub - t) < 0) t = ua + along * d - across * perp;  // face (tip, a, b) counter-clockwise
+      Ucur.row(e.tip) = t.transpose();
+    }
+  };
+
+  // ---- boundary polygon ----
+  MatX2d U = MatX2d::Zero(nv, 2);
+  const std::vector<double> t = arc_length(mesh.V, loop);
+  UvBoundary bnd = opt.boundary;
+  BoundaryCurve curve;
+  curve.anchors = {0};
+  if (bnd == UvBoundary::Free) {
+    // Pins: a diameter-like pair of outer boundary vertices.
+    auto farthest = [&](int from) {
+      int best = loop[0];
+      double bd = -1;
+      for (int v : loop) {
+        const double d = (mesh.V.row(v) - mesh.V.row(from)).squaredNorm();
+        if (d > bd) bd = d, best = v;
+      }
+      return best;
+    };
+    const int p0 = farthest(loop[0]), p1 = farthest(p0);
+    MatX2d L = lscm(mesh.V, mesh.F, topo, p0, p1);
+    // The conformal energy favours the faces' orientation; mirror if the image came out negative.
+    double signed_area = 0;
+    for (int f = 0; f < nf; ++f) {
+      const Vec2 a = L.row(mesh.F(f, 0)), b = L.row(mesh.F(f, 1)), c = L.row(mesh.F(f, 2));
+      signed_area += cross2(b - a, c - a);
+    }
+    if (signed_area < 0) L.col(1) *= -1;
+    for (int v : loop) U.row(v) = L.row(v);
+    fit_unit_box(U, loop);
+    const int reflex = reflex_count(U, loop);
+    res.boundary_convex = reflex == 0;
+    if (reflex)
+      res.warnings.push_back("free boundary is not convex (" + std::to_string(reflex) +
+                             " reflex boundary vertices): Tutte's no-flip guarantee does not hold");
+    std::vector<Vec2> pts;
+    for (int v : loop) pts.push_back(U.row(v).transpose());
+    curve.set_polygon(std::move(pts));
+    curve.s.assign(curve.S.begin(), curve.S.end() - 1);
+  }
+  if (bnd == UvBoundary::Square) {
+    std::vector<std::pair<int, int>> chords;
+    for (int e = 0; e < T->n_edges(); ++e) {
+      const int a = T->edges(e, 0), b = T->edges(e, 1);
+      if (loop_pos[a] < 0 || loop_pos[b] < 0) continue;
+      const int gap = std::abs(loop_pos[a] - loop_pos[b]);
+      if (gap != 1 && gap != static_cast<int>(loop.size()) - 1) chords.emplace_back(loop_pos[a], loop_pos[b]);
+    }
+    int c[4];
+    if (square_corners(loop, t, chords, c)) {
+      place_square(loop, t, c, U);
+      for (int s = 0; s < 4; ++s) res.corners.push_back(loop[c[s]]);
+      // Rotate the loop so that it starts at the first corner: then s increases from 0.
+      std::rotate(loop.begin(), loop.begin() + c[0], loop.end());
+      for (size_t k = 0; k < loop.size(); ++k) loop_pos[loop[k]] = static_cast<int>(k);
+      curve.set_polygon({Vec2(0, 0), Vec2(1, 0), Vec2(1, 1), Vec2(0, 1)});
+      curve.s.resize(loop.size());
+      for (size_t k = 0; k < loop.size(); ++k) {
+        const Vec2 p = U.row(loop[k]);
+        // Perimeter parameter of a point on the square, walking counter-clockwise from (0,0).
+        double x = p.y() <= 0 ? p.x() : p.x() >= 1 ? 1 + p.y() : p.y() >= 1 ? 3 - p.x() : 4 - p.y();
+        if (k == 0) x = 0;
+        while (k > 0 && x < curve.s[k - 1]) x += 4;
+        curve.s[k] = x;
+      }
+      curve.anchors.clear();
+      for (int q = 0; q < 4; ++q) curve.anchors.push_back(loop_pos[res.corners[q]]);
+    } else {
+      res.warnings.push_back("no placement of the square's corners avoids degenerate triangles (" +
+                             std::to_string(loop.size()) + " boundary vertices); used a circle");
+      bnd = UvBoundary::Circle;
+    }
+  }
+  if (bnd == UvBoundary::Circle) {
+    place_circle(loop, t, U);
+    curve.circle = true;
+    curve.period = 1;
+    curve.s.assign(t.begin(), t.end() - 1);
+  }
+  res.boundary_used = bnd;
+
+  // ---- U0 (eq. 5.3) ----
+  WeightStats ws;
+  std::vector<double> w = base_weights(Vf, *T, fixed, opt.weights, ws);
+  if (ws.fallback)
+    res.warnings.push_back(std::to_string(ws.fallback) + " vertices with rings Floater's construction cannot flatten used mean-value weights");
+  if (ws.negative)
+    res.warnings.push_back(std::to_string(ws.negative) + " negative cotangent weights: the initial map may fold");
+  System sys;
+  sys.build(*T, fixed);
+  ChartSolver solver(opt.solver, opt.tolerance, static_cast<int>(sys.free_v.size()));
+  res.solver = solver.name();
+  std::vector<std::pair<int, int>> edges(topo.n_edges());
+  for (int e = 0; e < topo.n_edges(); ++e) edges[e] = {topo.edges(e, 0), topo.edges(e, 1)};
+  // The 3D angles of the angle distortion do not change between steps.
+  std::vector<double> angles3(3 * static_cast<size_t>(nf));
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3), c = mesh.F(f, (k + 2) % 3);
+      angles3[3 * f + k] = angle3(mesh.V.row(b) - mesh.V.row(a), mesh.V.row(c) - mesh.V.row(a));
+    }
+
+  auto solve_step = [&](MatX2d& Ucur) {
+    const int bad = sys.fill(*T, w, Ucur);
+    (void)bad;
+    const int m = static_cast<int>(sys.free_v.size());
+    Eigen::MatrixXd X(m, 2);
+    for (int r = 0; r < m; ++r) X.row(r) = Ucur.row(sys.free_v[r]);
+    const int it = solver.solve(sys.A, sys.B, X);
+    for (int r = 0; r < m; ++r) Ucur.row(sys.free_v[r]) = X.row(r);
+    place_ears(Ucur);
+    return it;
+  };
+  auto metrics_of = [&](const MatX2d& Ucur) {
+    return metrics_impl(mesh.V, mesh.F, Ucur, nf, edges, opt.zero_area_eps, &angles3);
+  };
+  const bool optimal = opt.iterations < 0;
+  const int max_steps = optimal ? opt.max_iterations : opt.iterations;
+  auto frac = [&](int h) { return optimal ? std::min(0.95, 0.1 + 0.85 * h / (h + 3.0)) : 0.1 + 0.9 * h / (max_steps + 1.0); };
+
+  {
+    UnwrapStep st;
+    // Free vertices start at the polygon's centre (only the iterative solver uses the guess).
+    for (int v : sys.free_v) U.row(v) = Vec2(0.5, 0.5).transpose();
+    if (bnd == UvBoundary::Free) {
+      Vec2 c = Vec2::Zero();
+      for (int v : loop) c += U.row(v).transpose();
+      c /= static_cast<double>(loop.size());
+      for (int v : sys.free_v) U.row(v) = c.transpose();
+    }
+    st.solver_iterations = solve_step(U);
+    st.metrics = metrics_of(U);
+    st.seconds = seconds_since(t_start);  // includes the boundary and the weights
+    res.steps.push_back(st);
+  }
+  // A free boundary that is not convex may fold the map: fall back to the circle. (Zero-area
+  // triangles are not a sign of folding: a circle gives them too on near-degenerate scan triangles.)
+  if (bnd == UvBoundary::Free && res.steps[0].metrics.flipped) {
+    res.warnings.push_back("the free boundary folded the initial map (" + std::to_string(res.steps[0].metrics.flipped) +
+                           " flipped, " + std::to_string(res.steps[0].metrics.zero_area) +
+                           " zero-area triangles); used a circle instead");
+    bnd = UvBoundary::Circle;
+    res.boundary_used = bnd;
+    res.boundary_convex = true;
+    place_circle(loop, t, U);
+    curve = BoundaryCurve();
+    curve.circle = true;
+    curve.anchors = {0};
+    curve.s.assign(t.begin(), t.end() - 1);
+    const auto t0 = Clock::now();
+    UnwrapStep st;
+    st.solver_iterations = solve_step(U);
+    st.metrics = metrics_of(U);
+    st.seconds = seconds_since(t0);
+    res.steps[0] = st;
+  }
+  progress(frac(0));
+
+  // ---- stretch equalization (eq. 5.1, 5.4-5.6) ----
+  MatX2d best = U;
+  res.chosen = 0;
+  VecXd sigma;
+  const double cap = opt.stretch_cap;
+  for (int h = 1; h <= max_steps; ++h) {
+    const auto t0 = Clock::now();
+    vertex_stretch_impl(Vf, Ff, *T, U, opt.zero_area_eps, cap, sigma);
+    if (opt.slide_boundary) {
+      curve.slide(loop, sigma, opt.eta);
+      curve.place(loop, U);
+    }
+    // w^{h+1}_ij = w^h_ij / sigma_j^eta
+    const int nw = static_cast<int>(w.size());
+#pragma omp parallel for schedule(static)
+    for (int k = 0; k < nw; ++k) {
+      if (w[k] == 0) continue;
+      const double s = std::max(sigma[T->vv_index[k]], 1.0 / cap);
+      w[k] /= opt.eta == 1.0 ? s : std::pow(s, opt.eta);
+    }
+    // Keep the weights in range: rows are normalised anyway, so a global rescale changes nothing.
+    double wmax = 0;
+    for (int k = 0; k < nw; ++k) wmax = std::max(wmax, std::abs(w[k]));
+    if (wmax > 1e100 || (wmax > 0 && wmax < 1e-100)) {
+      for (double& x : w) x /= wmax;
+    }
+    UnwrapStep st;
+    st.solver_iterations = solve_step(U);
+    st.metrics = metrics_of(U);
+    st.seconds = seconds_since(t0);
+    res.steps.push_back(st);
+    progress(frac(h));
+    if (!optimal) {
+      best = U;
+      res.chosen = h;
+      continue;
+    }
+    const UvMetrics& prev = res.steps[res.chosen].metrics;
+    const UvMetrics& cur = st.metrics;
+    // Fewer failed (flipped or zero-area) triangles first, then eq. 5.5 over the others.
+    const int fail_prev = prev.flipped + prev.zero_area, fail_cur = cur.flipped + cur.zero_area;
+    const bool better = fail_cur < fail_prev || (fail_cur == fail_prev && cur.stretch_l2_finite < prev.stretch_l2_finite * (1 - 1e-12));
+    if (!better) break;
+    const bool small = fail_cur == fail_prev && cur.stretch_l2_finite > prev.stretch_l2_finite * (1 - opt.min_improvement);
+    best = U;
+    res.chosen = h;
+    if (small) break;
+  }
+  if (solver.fell_back()) res.warnings.push_back("BiCGSTAB did not converge; switched to UMFPACK");
+  res.solver = solver.name();
+  res.uv = best.topRows(n);
+  progress(1.0);
+  return res;
+}
+
+}  // namespace dgmesh

@@ -1,0 +1,330 @@
+// Low-stretch unwrap (thesis chapter 5): known answers on planes, hemispheres, cylinders, holes,
+// and scanned disks from Debian's CGAL data.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <string>
+
+#include "dgmesh/errors.h"
+#include "dgmesh/io.h"
+#include "dgmesh/mesh.h"
+#include "dgmesh/shapes.h"
+#include "dgmesh/unwrap.h"
+#include "dgmesh/validate.h"
+
+using namespace dgmesh;
+
+namespace {
+
+// Keeps the faces whose centroid satisfies keep(c), and compacts the vertices.
+template <class Keep>
+TriMesh select_faces(const TriMesh& m, Keep keep) {
+  std::vector<int> faces;
+  for (int f = 0; f < m.F.rows(); ++f) {
+    const Vec3 c = (m.V.row(m.F(f, 0)) + m.V.row(m.F(f, 1)) + m.V.row(m.F(f, 2))) / 3.0;
+    if (keep(c)) faces.push_back(f);
+  }
+  std::vector<int> id(m.V.rows(), -1);
+  TriMesh out;
+  out.F.resize(static_cast<int>(faces.size()), 3);
+  int nv = 0;
+  for (size_t i = 0; i < faces.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      int& v = id[m.F(faces[i], k)];
+      if (v < 0) v = nv++;
+      out.F(static_cast<int>(i), k) = v;
+    }
+  out.V.resize(nv, 3);
+  for (int v = 0; v < m.V.rows(); ++v)
+    if (id[v] >= 0) out.V.row(id[v]) = m.V.row(v);
+  return out;
+}
+
+// Disk of radius 1 in the z = 0 plane (grid clipped to the disk), optionally bent by z(x, y).
+TriMesh planar_disk(int n) {
+  TriMesh g = grid(n, n);
+  g.V.array() = g.V.array() * 2.0 - 1.0;
+  g.V.col(2).setZero();
+  return select_faces(g, [](const Vec3& c) { return c.head<2>().norm() < 0.95; });
+}
+
+constexpr double kHalfPi = 1.57079632679489661923;
+
+std::string cgal_mesh(const std::string& name) {
+  const std::string p = std::string(DGMESH_SOURCE_DIR) + "/.cache/cgal-data/data/meshes/" + name;
+  std::ifstream f(p);
+  return f.good() ? p : std::string();
+}
+
+}  // namespace
+
+TEST(Unwrap, PlanarDiskWithFreeBoundaryIsIsometric) {
+  const TriMesh d = planar_disk(24);
+  UnwrapOptions o;
+  o.boundary = UvBoundary::Free;
+  const UnwrapResult r = unwrap(d.V, d.F, o);
+  EXPECT_EQ(r.boundary_used, UvBoundary::Free);
+  // LSCM reproduces a planar mesh up to a similarity; its boundary is then convex and Floater's
+  // weights reproduce the interior (linear precision), so the map is the plane itself.
+  EXPECT_NEAR(r.steps[0].metrics.stretch_l2, 1.0, 1e-6);
+  EXPECT_NEAR(r.steps[0].metrics.angle, 0.0, 1e-6);
+  EXPECT_EQ(r.chosen, 0);  // nothing left to improve
+  const UvMetrics m = uv_metrics(d.V, d.F, r.uv);
+  EXPECT_NEAR(m.stretch_linf, 1.0, 1e-6);
+  EXPECT_NEAR(m.edge, 0.0, 1e-6);
+  EXPECT_NEAR(m.area, 0.0, 1e-6);
+  EXPECT_EQ(m.flipped, 0);
+}
+
+TEST(Unwrap, MetricsOfKnownMaps) {
+  const TriMesh g = grid(8, 8);
+  MatX2d UV = g.V.leftCols<2>();
+  UvMetrics m = uv_metrics(g.V, g.F, UV);
+  EXPECT_NEAR(m.stretch_l2, 1.0, 1e-12);
+  EXPECT_NEAR(m.stretch_linf, 1.0, 1e-12);
+  EXPECT_NEAR(m.angle, 0.0, 1e-12);
+  // Scaling the UV map changes nothing (Sander's normalisation), stretching x by 2 does:
+  // singular values sqrt(2) and 1/sqrt(2) after normalisation, sqrt((2 + 1/2)/2).
+  UV.col(0) *= 2.0;
+  m = uv_metrics(g.V, g.F, UV);
+  EXPECT_NEAR(m.stretch_l2, std::sqrt(1.25), 1e-12);
+  EXPECT_NEAR(m.stretch_linf, std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(m.area, 0.0, 1e-12);
+  // A mirrored map is not "flipped" (consistent orientation); one folded triangle is.
+  UV.col(0) *= -1.0;
+  EXPECT_EQ(uv_metrics(g.V, g.F, UV).flipped, 0);
+  MatX2d U2 = g.V.leftCols<2>();
+  const int v = 4 * 9 + 4;  // an interior grid vertex, dragged across its neighbours
+  U2.row(v) += Eigen::RowVector2d(0.3, 0.3);
+  m = uv_metrics(g.V, g.F, U2);
+  EXPECT_GT(m.flipped, 0);
+  // Collapse a triangle to zero area: infinite stretch, counted.
+  MatX2d U3 = g.V.leftCols<2>();
+  U3.row(g.F(0, 2)) = 0.5 * (U3.row(g.F(0, 0)) + U3.row(g.F(0, 1)));
+  m = uv_metrics(g.V, g.F, U3);
+  EXPECT_GE(m.zero_area, 1);
+  EXPECT_TRUE(std::isinf(m.stretch_l2));
+  EXPECT_TRUE(std::isfinite(m.stretch_l2_finite));
+}
+
+TEST(Unwrap, HemisphereReachesLowStretchWithoutFlips) {
+  const TriMesh s = icosphere(4);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.05; });
+  for (UvBoundary b : {UvBoundary::Square, UvBoundary::Circle}) {
+    UnwrapOptions o;
+    o.boundary = b;
+    const UnwrapResult r = unwrap(h.V, h.F, o);
+    const UvMetrics& m0 = r.steps[0].metrics;
+    const UvMetrics& mo = r.steps[r.chosen].metrics;
+    EXPECT_GE(r.chosen, 1);
+    EXPECT_LT(mo.stretch_l2, m0.stretch_l2);
+    // The hemisphere's area-preserving (Lambert) maps have L2 stretch about 1.08-1.1; Floater's
+    // conformal-like U0 on a circle has ~1.2.
+    EXPECT_LT(mo.stretch_l2, b == UvBoundary::Circle ? 1.12 : 1.2);
+    for (const UnwrapStep& st : r.steps) {
+      EXPECT_EQ(st.metrics.flipped, 0);
+      EXPECT_EQ(st.metrics.zero_area, 0);
+    }
+    // Uopt's stopping rule: every accepted step decreased eq. 5.5.
+    for (int k = 1; k <= r.chosen; ++k) EXPECT_LT(r.steps[k].metrics.stretch_l2, r.steps[k - 1].metrics.stretch_l2);
+  }
+}
+
+TEST(Unwrap, CylinderPatchIsDevelopable) {
+  // A quarter cylinder is isometric to a rectangle: with the free boundary the stretch is ~1.
+  const int nu = 40, nv = 30;
+  TriMesh g = grid(nu, nv);
+  MatX3d V(g.V.rows(), 3);
+  for (int i = 0; i < g.V.rows(); ++i) {
+    const double a = g.V(i, 0) * kHalfPi;
+    V.row(i) << std::cos(a), std::sin(a), 1.5 * g.V(i, 1);
+  }
+  UnwrapOptions o;
+  o.boundary = UvBoundary::Free;
+  UnwrapResult r = unwrap(V, g.F, o);
+  EXPECT_LT(r.steps[r.chosen].metrics.stretch_l2, 1.001);
+  EXPECT_EQ(r.steps[r.chosen].metrics.flipped, 0);
+  // On the unit square the rectangle (pi/2 x 1.5) is squeezed: stretch > 1 but equalization helps.
+  o.boundary = UvBoundary::Square;
+  r = unwrap(V, g.F, o);
+  EXPECT_LT(r.steps[r.chosen].metrics.stretch_l2, 1.01 * std::sqrt(0.5 * (1.5 / (kHalfPi) + kHalfPi / 1.5)));
+  EXPECT_EQ(r.steps[r.chosen].metrics.flipped, 0);
+}
+
+TEST(Unwrap, HolesStayOpenAndNothingFlips) {
+  // An annulus-like disk with two square holes: the holes must keep a positive UV area.
+  TriMesh g = grid(30, 30);
+  const TriMesh m = select_faces(g, [](const Vec3& c) {
+    const bool h1 = std::abs(c.x() - 0.3) < 0.1 && std::abs(c.y() - 0.5) < 0.1;
+    const bool h2 = std::abs(c.x() - 0.7) < 0.08 && std::abs(c.y() - 0.4) < 0.12;
+    return !h1 && !h2;
+  });
+  // Bend it so that the map is not trivially the identity.
+  MatX3d V = m.V;
+  for (int i = 0; i < V.rows(); ++i) V(i, 2) = 0.3 * std::sin(3 * V(i, 0)) * std::cos(2 * V(i, 1));
+  const Mesh mesh = make_mesh(V, m.F);
+  ASSERT_EQ(mesh.topo.boundary_loops.size(), 3u);
+  for (UvBoundary b : {UvBoundary::Square, UvBoundary::Circle, UvBoundary::Free}) {
+    UnwrapOptions o;
+    o.boundary = b;
+    const UnwrapResult r = unwrap(V, m.F, o);
+    EXPECT_EQ(r.n_holes, 2);
+    for (const UnwrapStep& st : r.steps) EXPECT_EQ(st.metrics.flipped, 0);
+    // Each hole's UV polygon (shoelace over its loop) has a clearly positive area.
+    const double total = [&] {
+      double a = 0;
+      for (int f = 0; f < m.F.rows(); ++f) {
+        const Eigen::Vector2d p = r.uv.row(m.F(f, 0)), q = r.uv.row(m.F(f, 1)), s = r.uv.row(m.F(f, 2));
+        a += 0.5 * ((q - p).x() * (s - p).y() - (s - p).x() * (q - p).y());
+      }
+      return a;
+    }();
+    int holes_checked = 0;
+    for (const auto& loop : mesh.topo.boundary_loops) {
+      if (loop.size() > 100) continue;  // the outer loop
+      double a = 0;
+      for (size_t k = 0; k < loop.size(); ++k) {
+        const Eigen::Vector2d p = r.uv.row(loop[k]), q = r.uv.row(loop[(k + 1) % loop.size()]);
+        a += 0.5 * (p.x() * q.y() - q.x() * p.y());
+      }
+      EXPECT_GT(std::abs(a), 0.002 * total) << "hole collapsed";
+      ++holes_checked;
+    }
+    EXPECT_EQ(holes_checked, 2);
+  }
+}
+
+TEST(Unwrap, SquareCornersAvoidDegenerateEars) {
+  // A grid with ears on its boundary: a triangle glued to a boundary edge turns that edge into a
+  // chord, and if both its ends lie on one side of the square the ear gets zero UV area. The ears
+  // sit where quarter-spaced corners starting at the loop's first vertex would put them on a side.
+  const int n = 8;
+  TriMesh g = grid(n, n);
+  const Mesh base = make_mesh(g.V, g.F);
+  const std::vector<int>& loop = base.topo.boundary_loops[0];
+  const int nb = static_cast<int>(loop.size());
+  std::vector<int> ear_at;
+  for (int k = 1; k < nb; k += nb / 6) ear_at.push_back(k);
+  MatX3d V(g.V.rows() + static_cast<int>(ear_at.size()), 3);
+  V.topRows(g.V.rows()) = g.V;
+  MatX3i F(g.F.rows() + static_cast<int>(ear_at.size()), 3);
+  F.topRows(g.F.rows()) = g.F;
+  for (size_t e = 0; e < ear_at.size(); ++e) {
+    const int a = loop[ear_at[e]], b = loop[(ear_at[e] + 1) % nb];
+    const Vec3 mid = 0.5 * (g.V.row(a) + g.V.row(b)).transpose();
+    const Vec3 out = (mid - Vec3(0.5, 0.5, 0)).normalized();
+    const int v = static_cast<int>(g.V.rows() + e);
+    V.row(v) = (mid + 0.3 / n * out).transpose();
+    F.row(static_cast<int>(g.F.rows() + e)) << b, a, v;  // the boundary edge runs a->b in its face
+  }
+  UnwrapOptions o;
+  o.iterations = 0;
+  const UnwrapResult r = unwrap(V, F, o);
+  EXPECT_EQ(r.steps[0].metrics.zero_area, 0);
+  EXPECT_EQ(r.steps[0].metrics.flipped, 0);
+  ASSERT_EQ(r.boundary_used, UvBoundary::Square) << "a valid rotation of the corners exists";
+  ASSERT_EQ(r.corners.size(), 4u);
+  // No triangle has all three corners on one side of the square.
+  for (int f = 0; f < F.rows(); ++f)
+    for (int side = 0; side < 4; ++side) {
+      int on = 0;
+      for (int k = 0; k < 3; ++k) {
+        const Eigen::Vector2d p = r.uv.row(F(f, k));
+        const double c = side == 0 ? p.y() : side == 1 ? 1 - p.x() : side == 2 ? 1 - p.y() : p.x();
+        on += std::abs(c) < 1e-12;
+      }
+      EXPECT_LT(on, 3) << "face " << f << " lies on side " << side;
+    }
+  // A boundary made of ears all around (a cut icosphere) has no valid corners: circle, with a warning.
+  const TriMesh s = icosphere(3);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > -0.3; });
+  const UnwrapResult rh = unwrap(h.V, h.F, o);
+  EXPECT_EQ(rh.steps[0].metrics.zero_area, 0);
+  if (rh.boundary_used == UvBoundary::Circle) {
+    EXPECT_FALSE(rh.warnings.empty());
+  }
+}
+
+TEST(Unwrap, SolversAgree) {
+  const TriMesh s = icosphere(3);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > -0.3; });
+  UnwrapOptions o;
+  o.iterations = 3;
+  o.solver = UvSolver::Umfpack;
+  const UnwrapResult ref = unwrap(h.V, h.F, o);
+  for (UvSolver k : {UvSolver::SparseLU, UvSolver::BiCGSTAB, UvSolver::Multigrid}) {
+    o.solver = k;
+    const UnwrapResult r = unwrap(h.V, h.F, o);
+    EXPECT_LT((r.uv - ref.uv).cwiseAbs().maxCoeff(), 1e-6) << r.solver;
+    EXPECT_EQ(r.steps.size(), ref.steps.size()) << r.solver;
+  }
+}
+
+TEST(Unwrap, WeightsAndEta) {
+  const TriMesh s = icosphere(4);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.2; });
+  for (UvWeights w : {UvWeights::Floater, UvWeights::MeanValue, UvWeights::Cotangent, UvWeights::Uniform}) {
+    UnwrapOptions o;
+    o.weights = w;
+    o.boundary = UvBoundary::Circle;
+    const UnwrapResult r = unwrap(h.V, h.F, o);
+    EXPECT_LT(r.steps[r.chosen].metrics.stretch_l2, r.steps[0].metrics.stretch_l2);
+    EXPECT_EQ(r.steps[r.chosen].metrics.flipped, 0);
+  }
+  // Smaller eta: a gentler first step (thesis fig. 5.3): U1 stays closer to U0.
+  UnwrapOptions a, b;
+  a.iterations = b.iterations = 1;
+  b.eta = 0.3;
+  const UnwrapResult ra = unwrap(h.V, h.F, a), rb = unwrap(h.V, h.F, b);
+  EXPECT_LT((rb.uv - unwrap(h.V, h.F, UnwrapOptions{UvBoundary::Square, UvWeights::Floater, 1.0, 0}).uv).norm(),
+            (ra.uv - unwrap(h.V, h.F, UnwrapOptions{UvBoundary::Square, UvWeights::Floater, 1.0, 0}).uv).norm());
+}
+
+TEST(Unwrap, RejectsNonDisks) {
+  const TriMesh s = icosphere(2);
+  EXPECT_THROW(unwrap(s.V, s.F), MeshError);  // closed
+  const TriMesh t = torus(2, 0.5, 16, 8);
+  const TriMesh tcut = select_faces(t, [](const Vec3& c) { return c.x() < 2.2; });  // handle + boundary
+  try {
+    unwrap(tcut.V, tcut.F);
+    ADD_FAILURE() << "a torus with a hole is not a disk";
+  } catch (const MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("handle"), std::string::npos) << e.what();
+  }
+  // Two components.
+  const TriMesh g = grid(3, 3);
+  MatX3d V(2 * g.V.rows(), 3);
+  V << g.V, g.V.rowwise() + Eigen::RowVector3d(5, 0, 0);
+  MatX3i F(2 * g.F.rows(), 3);
+  F << g.F, g.F.array() + static_cast<int>(g.V.rows());
+  EXPECT_THROW(unwrap(V, F), MeshError);
+  UnwrapOptions o;
+  o.eta = 0;
+  EXPECT_THROW(unwrap(g.V, g.F, o), MeshError);
+}
+
+TEST(Unwrap, Cancels) {
+  const TriMesh g = grid(20, 20);
+  int calls = 0;
+  EXPECT_THROW(unwrap(g.V, g.F, UnwrapOptions{}, [&](double) { return ++calls < 2; }), CancelledError);
+}
+
+TEST(Unwrap, ScannedDisksWithoutFailures) {
+  // Disk scans from Debian's CGAL data (one boundary loop, genus 0). The square with the
+  // thesis's settings: no flipped and no zero-area triangles, and Uopt far below U0.
+  int tested = 0;
+  for (const char* name : {"mushroom.off", "mannequin-devil.off", "lion-head.off", "nefertiti.off"}) {
+    const std::string path = cgal_mesh(name);
+    if (path.empty()) continue;
+    const MeshData md = read_mesh(path);
+    const UnwrapResult r = unwrap(md.V, md.F);
+    const UvMetrics& m = r.steps[r.chosen].metrics;
+    EXPECT_EQ(m.flipped, 0) << name;
+    EXPECT_EQ(m.zero_area, 0) << name;
+    EXPECT_LT(m.stretch_l2, 2.0) << name;
+    EXPECT_LE(m.stretch_l2, r.steps[0].metrics.stretch_l2_finite) << name;
+    ++tested;
+  }
+  if (tested == 0) GTEST_SKIP() << "CGAL data not unpacked (bash scripts/cgal_data.sh)";
+}

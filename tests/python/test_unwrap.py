@@ -1,0 +1,177 @@
+"""dgmesh.unwrap / uv_metrics / uv_stretch: known answers and scanned disks."""
+
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh import shapes
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def _keep_faces(V, F, mask):
+    F = F[mask]
+    used, inv = np.unique(F, return_inverse=True)
+    return V[used], inv.reshape(-1, 3).astype(np.int32)
+
+
+def hemisphere(level=4, zmin=0.05):
+    V, F = shapes.icosphere(level)
+    c = V[F].mean(axis=1)
+    return _keep_faces(V, F, c[:, 2] > zmin)
+
+
+@pytest.fixture(scope="module")
+def cgal():
+    out = subprocess.run(["bash", str(ROOT / "scripts" / "cgal_data.sh")], capture_output=True, text=True)
+    if out.returncode != 0:
+        pytest.skip("CGAL data not available")
+    return pathlib.Path(out.stdout.strip())
+
+
+def test_planar_grid_unwraps_to_itself_up_to_similarity():
+    V, F = shapes.grid(12, 9)
+    V = V * np.array([2.0, 1.5, 0.0])  # a rectangle, not the unit square
+    r = dgmesh.unwrap(V, F, boundary="free")
+    assert r.boundary == "free"
+    m = dgmesh.uv_metrics(V, F, r.uv)
+    assert m["stretch_l2"] == pytest.approx(1.0, abs=1e-6)
+    assert m["angle"] == pytest.approx(0.0, abs=1e-6)
+    assert m["flipped"] == 0 and m["zero_area"] == 0
+    # Up to a similarity: distances are proportional.
+    d3 = np.linalg.norm(V[:, :2] - V[0, :2], axis=1)[1:]
+    du = np.linalg.norm(r.uv - r.uv[0], axis=1)[1:]
+    ratio = du / d3
+    assert ratio.std() / ratio.mean() < 1e-6
+
+
+def test_uv_metrics_known_values():
+    V, F = shapes.grid(6, 6)
+    UV = V[:, :2].copy()
+    m = dgmesh.uv_metrics(V, F, UV)
+    assert m["stretch_l2"] == pytest.approx(1.0) and m["stretch_linf"] == pytest.approx(1.0)
+    UV[:, 0] *= 3.0  # singular values sqrt(3), 1/sqrt(3) after area normalisation
+    m = dgmesh.uv_metrics(V, F, UV)
+    assert m["stretch_l2"] == pytest.approx(np.sqrt((3 + 1 / 3) / 2))
+    assert m["stretch_linf"] == pytest.approx(np.sqrt(3))
+    assert m["area"] == pytest.approx(0.0, abs=1e-12)
+    assert m["edge"] > 0.05
+    # Corner UVs give the same per-triangle metrics.
+    mc = dgmesh.uv_metrics(V, F, UV[F])
+    for key in ("stretch_l2", "stretch_linf", "angle", "area", "flipped", "zero_area"):
+        assert mc[key] == pytest.approx(m[key])
+
+
+def test_uv_stretch_per_face_and_vertex():
+    V, F = shapes.grid(5, 5)
+    UV = V[:, :2] * np.array([2.0, 1.0])
+    fs = dgmesh.uv_stretch(V, F, UV, per="face")
+    vs = dgmesh.uv_stretch(V, F, UV)
+    assert fs.shape == (len(F),) and vs.shape == (len(V),)
+    np.testing.assert_allclose(fs, np.sqrt(1.25))
+    np.testing.assert_allclose(vs, np.sqrt(1.25))
+
+
+def test_hemisphere_u0_u1_uopt():
+    V, F = hemisphere()
+    r0 = dgmesh.unwrap(V, F, iterations=0)
+    r1 = dgmesh.unwrap(V, F, iterations=1)
+    ro = dgmesh.unwrap(V, F)
+    assert len(r0.metrics) == 1 and r0.chosen == 0
+    assert r1.chosen == 1
+    s0, s1, so = (r.final["stretch_l2"] for r in (r0, r1, ro))
+    assert s1 < s0 and so <= s1
+    assert so < 1.2
+    assert all(m["flipped"] == 0 and m["zero_area"] == 0 for m in ro.metrics)
+    # The returned uv is the chosen step's map.
+    assert dgmesh.uv_metrics(V, F, ro.uv)["stretch_l2"] == pytest.approx(so)
+    assert ro.uv.min() >= -1e-12 and ro.uv.max() <= 1 + 1e-12
+
+
+def test_boundaries():
+    V, F = hemisphere()
+    sq = dgmesh.unwrap(V, F, boundary="square", iterations=0)
+    assert len(sq.corners) == 4
+    corners = sq.uv[sq.corners]
+    np.testing.assert_allclose(corners, [[0, 0], [1, 0], [1, 1], [0, 1]], atol=1e-12)
+    ci = dgmesh.unwrap(V, F, boundary="circle", iterations=0)
+    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    np.testing.assert_allclose(np.linalg.norm(ci.uv[loop] - 0.5, axis=1), 0.5, atol=1e-12)
+    fr = dgmesh.unwrap(V, F, boundary="free")
+    assert fr.final["flipped"] == 0
+
+
+def test_cotangent_weights_and_eta():
+    V, F = hemisphere(zmin=0.3)
+    r = dgmesh.unwrap(V, F, weights="cotangent", boundary="circle")
+    assert r.final["stretch_l2"] < r.initial["stretch_l2"]
+    for w in ("mean_value", "uniform"):
+        assert dgmesh.unwrap(V, F, weights=w).final["flipped"] == 0
+    gentle = dgmesh.unwrap(V, F, eta=0.2, iterations=1).final["stretch_l2"]
+    strong = dgmesh.unwrap(V, F, eta=1.0, iterations=1).final["stretch_l2"]
+    base = dgmesh.unwrap(V, F, iterations=0).final["stretch_l2"]
+    assert strong < gentle < base
+
+
+def test_progress_and_cancel():
+    V, F = hemisphere()
+    seen = []
+    dgmesh.unwrap(V, F, progress=lambda f: seen.append(f) or True)
+    assert seen[0] == 0.0 and seen[-1] == 1.0
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.unwrap(V, F, progress=lambda f: f < 0.05)
+
+
+@pytest.mark.parametrize("kwargs", [
+    dict(boundary="triangle"), dict(weights="harmonic"), dict(eta=0.0), dict(eta=1.5),
+    dict(iterations=-2), dict(iterations="best"), dict(solver="magic"),
+])
+def test_bad_options(kwargs):
+    V, F = hemisphere(level=2)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.unwrap(V, F, **kwargs)
+
+
+def test_non_disk_inputs_are_rejected_with_advice():
+    V, F = shapes.icosphere(2)
+    with pytest.raises(dgmesh.MeshError, match="closed"):
+        dgmesh.unwrap(V, F)
+    V, F = shapes.torus(2.0, 0.5, 16, 8)
+    c = V[F].mean(axis=1)
+    Vt, Ft = _keep_faces(V, F, c[:, 0] < 2.2)
+    with pytest.raises(dgmesh.MeshError, match="handle"):
+        dgmesh.unwrap(Vt, Ft)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.uv_metrics(V, F, np.zeros((3, 2)))
+
+
+def test_multiple_boundaries_keep_holes(cgal):
+    V, F = dgmesh.read_mesh(cgal / "holes.off")
+    loops = dgmesh.topology(V, F)["boundary_loops"]
+    assert len(loops) > 2
+    r = dgmesh.unwrap(V, F, boundary="circle")
+    assert r.n_holes == len(loops) - 1
+    assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+    lengths = [sum(np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1)) for l in map(np.asarray, loops)]
+    outer = int(np.argmax(lengths))
+    for i, loop in enumerate(loops):
+        if i == outer:
+            continue
+        p = r.uv[loop]
+        area = 0.5 * abs(np.dot(p[:, 0], np.roll(p[:, 1], -1)) - np.dot(np.roll(p[:, 0], -1), p[:, 1]))
+        assert area > 1e-5, f"hole {i} collapsed"
+
+
+@pytest.mark.parametrize("name", ["mushroom", "mannequin-devil", "lion-head"])
+def test_scanned_disks(cgal, name):
+    V, F = dgmesh.read_mesh(cgal / f"{name}.off")
+    r = dgmesh.unwrap(V, F)
+    m = r.final
+    assert m["flipped"] == 0 and m["zero_area"] == 0
+    assert m["stretch_l2"] < 0.3 * r.initial["stretch_l2_finite"]
+    # Every accepted step improved eq. 5.5 (the thesis's stopping rule).
+    for k in range(1, r.chosen + 1):
+        assert r.metrics[k]["stretch_l2_finite"] < r.metrics[k - 1]["stretch_l2_finite"]
