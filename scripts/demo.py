@@ -95,6 +95,40 @@ def curvature(demo):
 
 
 @step
+def unwrap(demo):
+    """Low-stretch UV unwrap (thesis ch. 5) of a disk-like scan, checker material, render."""
+    obj = make_fixtures.load_cgal_object("mannequin-devil")
+    obj.data.polygons.foreach_set("use_smooth", np.ones(len(obj.data.polygons), dtype=bool))
+    # Fit the scan into the main model's frame: same centre and size, seen by the same camera.
+    main = demo.obj
+    bpy.context.view_layer.update()
+    size = max(main.dimensions) / max(max(obj.dimensions), 1e-9)
+    obj.scale = (size, size, size)
+    obj.rotation_euler = main.rotation_euler
+    bpy.context.view_layer.update()
+    centre = sum((main.matrix_world @ Vector(c) for c in main.bound_box), Vector()) / 8
+    own = sum((obj.matrix_world @ Vector(c) for c in obj.bound_box), Vector()) / 8
+    obj.location = obj.location + centre - own
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    with demo.timed("unwrap"):
+        result = bpy.ops.dgmesh.unwrap()
+    assert result == {'FINISHED'}, result
+    assert bpy.ops.dgmesh.stretch_map(checker=True) == {'FINISHED'}
+    mat = bpy.data.materials["DG Checker"]
+    mat.node_tree.nodes["DG Checker"].inputs["Scale"].default_value = 24.0
+    main.hide_render = True
+    scene = bpy.context.scene
+    scene.render.filepath = str(demo.outdir / "unwrap_checker.png")
+    with demo.timed("render unwrap_checker.png"):
+        bpy.ops.render.render(write_still=True)
+    main.hide_render = False
+    obj.hide_render = True
+    bpy.context.view_layer.objects.active = main
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == main)
+    demo.note(f"unwrapped {obj.name} ({len(obj.data.vertices)} vertices)")@step
 def save(demo):
     path = demo.outdir / "demo.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)

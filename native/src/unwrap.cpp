@@ -1159,7 +1159,8 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     const int m = static_cast<int>(sys.free_v.size());
     Eigen::MatrixXd X(m, 2);
     for (int r = 0; r < m; ++r) X.row(r) = Ucur.row(sys.free_v[r]);
-    const int it = solver.solve(sys.A, sys.B, X);
+    // A chart without interior vertices (e.g. a fan-triangulated n-gon) has nothing to solve.
+    const int it = m > 0 ? solver.solve(sys.A, sys.B, X) : 0;
     for (int r = 0; r < m; ++r) Ucur.row(sys.free_v[r]) = X.row(r);
     place_ears(Ucur);
     return it;

@@ -7,6 +7,12 @@ a topological disk (holes are allowed); a closed or non-disk chart is reported b
 count, and nothing is written. UVs are written per face corner of the user's polygons (quads and
 n-gons keep their faces; Blender's loop triangulation only feeds the solver), only for the faces
 unwrapped; other corners of the active UV map are left untouched.
+
+Each chart is scaled to its 3D area, then Blender's packer (uv.pack_islands) lays the charts out;
+in Object mode the operator enters Edit mode for the packing with exactly the unwrapped faces
+selected and restores the selection afterwards. The report gives the L2 stretch (eq. 5.5) of the
+active UV map on the unwrapped faces before and after. Long runs show progress and Esc cancels
+(jobs.NativeJobOperator); nothing is written before the computation has finished.
 """
 
 import sys
@@ -17,6 +23,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
+from .jobs import NativeJobOperator
 from .prefs import api
 
 ATTR_STRETCH = "dg_uv_stretch"
@@ -100,7 +107,7 @@ def split_charts(start, total, face_mask, loop_edge, seam):
     return corner_class, chart_of_class
 
 
-class DGMESH_OT_unwrap(bpy.types.Operator):
+class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
     bl_idname = "dgmesh.unwrap"
     bl_label = "Low-Stretch Unwrap"
     bl_description = (
@@ -128,13 +135,20 @@ class DGMESH_OT_unwrap(bpy.types.Operator):
         ),
         default='FLOATER',
     )
-    eta: FloatProperty(name="Strength", description="Exponent eta of each equalization step",
-                       default=1.0, min=0.05, max=1.0)
+    # Defaults measured on the CGAL disk scans (bench/RESULTS.md, unwrap_quality): free boundary,
+    # eta 0.5 and sliding boundary give the lowest L2 stretch on lion-head, mushroom, nefertiti,
+    # three_peaks and head; the thesis's setting is Square, eta 1, no sliding.
+    eta: FloatProperty(name="Strength", description="Exponent eta of each equalization step (eq. 5.6)",
+                       default=0.5, min=0.05, max=1.0)
+    slide_boundary: BoolProperty(
+        name="Slide Boundary", default=True,
+        description="Also equalize stretch along the boundary polygon (its shape stays, so no flips)")
     optimal: BoolProperty(name="Optimal", default=True,
                           description="Iterate until the L2 stretch stops decreasing")
     iterations: IntProperty(name="Iterations", default=1, min=0, max=200,
                             description="Equalization steps when not optimal (0: initial map)")
-    pack: BoolProperty(name="Pack", default=True, description="Pack the charts with Blender's packer")
+    pack: BoolProperty(name="Pack", default=True,
+                       description="Pack the charts with Blender's packer (charts keep their 3D size ratio)")
     margin: FloatProperty(name="Margin", default=0.02, min=0.0, max=0.5)
 
     @classmethod
@@ -145,110 +159,243 @@ class DGMESH_OT_unwrap(bpy.types.Operator):
             return _poll_fail(cls, "Select one or more mesh objects")
         return True
 
-    def execute(self, context):
+    # --- main thread: read --------------------------------------------------------------------
+    def prepare(self, context):
         dg = api()
         edit = context.mode == 'EDIT_MESH'
-        results, errors = [], []
-        objects = _mesh_objects(context)
-        # Edit mode keeps UVs in the edit-mesh: work on the synced datablocks, write only if every
-        # chart of every object succeeded (all or nothing).
+        items = []
+        # Edit mode keeps the real data in the edit-mesh: read the synced datablocks.
         with bridge.object_mode(context):
-            for obj in objects:
-                try:
-                    results.append(self._compute(obj, edit, dg))
-                except ValueError as exc:  # MeshError is a ValueError
-                    errors.append(f"'{obj.name}': {exc}")
-            results = [r for r in results if r is not None]
-            if not errors:
-                for r in results:
-                    self._write(r)
-        if errors:
-            for msg in errors:
-                self.report({'ERROR'}, f"Unwrap failed on {msg}")
-            return {'CANCELLED'}  # nothing written
-        if not results:
+            for obj in _mesh_objects(context):
+                if obj.data.library is not None:
+                    self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': mesh data is linked from a library")
+                    return None
+                item = _read_charts(obj, edit, dg)
+                if item is not None:
+                    items.append(item)
+        if not items:
             self.report({'WARNING'}, "No faces to unwrap (select faces in Edit mode)")
-            return {'CANCELLED'}
+            return None
+        opts = dict(boundary=self.boundary.lower(), weights=self.weights.lower(), eta=self.eta,
+                    slide_boundary=self.slide_boundary,
+                    iterations="optimal" if self.optimal else self.iterations)
+        total = float(sum(len(Fc) for it in items for (_, Fc, _, _) in it["charts"]))
+
+        def work(progress):
+            # All or nothing: the first chart that cannot be unwrapped stops the run.
+            done = 0.0
+            for it in items:
+                n_charts = len(it["charts"])
+                it["uv_class"] = np.zeros((it["n_classes"], 2))
+                it["stretch"] = []
+                for c, (classes, Fc, Vc, first_poly) in enumerate(it["charts"]):
+                    def sub(f, done=done, n=len(Fc)):
+                        return progress((done + f * n) / total)
+                    try:
+                        r = dg.unwrap(Vc, Fc, progress=sub, **opts)
+                    except dg.Cancelled:
+                        raise
+                    except dg.MeshError as exc:
+                        raise dg.MeshError(
+                            f"'{it['name']}' chart {c + 1} of {n_charts} ({len(Fc)} triangles, with face "
+                            f"#{first_poly}): {exc}. Add seams so that every chart is a disk, or split "
+                            "it with dgmesh.segment") from None
+                    # Scale each chart to its 3D area so the packer keeps the charts' relative size.
+                    uv = r.uv - r.uv.mean(0)
+                    a3 = _area3(Vc, Fc)
+                    auv = _area2(uv, Fc)
+                    it["uv_class"][classes] = uv * (np.sqrt(a3 / auv) if auv > 0 else 1.0)
+                    it["stretch"].append((r.final["stretch_l2"], len(Fc), r.warnings))
+                    done += len(Fc)
+            return items
+
+        return work
+
+    # --- main thread: write, pack, report ------------------------------------------------------
+    def finish(self, context, items):
+        dg = api()
+        edit = context.mode == 'EDIT_MESH'
+        with bridge.object_mode(context):
+            for it in items:
+                obj = bpy.data.objects.get(it["name"])
+                if obj is None or (len(obj.data.loops), len(obj.data.polygons)) != it["counts"]:
+                    self.report({'ERROR'}, f"Unwrap failed on '{it['name']}': the mesh changed while it was computed")
+                    return {'CANCELLED'}
+            for it in items:
+                _write_uvs(bpy.data.objects[it["name"]], it, normalise=not self.pack)
+        packed = False
         if self.pack:
-            self._pack(context, results)
-        n_charts = sum(len(r["charts"]) for r in results)
-        before = [r["before"] for r in results if r["before"] is not None]
-        after = np.mean([r["after"] for r in results])
-        text = f"Unwrapped {n_charts} chart(s): L2 stretch {after:.3f}"
-        if before:
-            text += f" (before {np.mean(before):.3f})"
+            packed = self._pack(context, items, edit)
+        # Measure the stretch of what was written, over the same triangles as "before".
+        with bridge.object_mode(context):
+            after = []
+            for it in items:
+                mesh = bpy.data.objects[it["name"]].data
+                uv = _layer_uv(mesh.uv_layers.active)
+                after.append(dg.uv_metrics(it["V"], it["F"], uv[it["tri_loops"]]))
+        n_charts = sum(len(it["charts"]) for it in items)
+        n_tris = sum(len(it["F"]) for it in items)
+        l2 = float(np.sqrt(sum(m["stretch_l2"] ** 2 * len(it["F"]) for m, it in zip(after, items)) / n_tris))
+        flipped = sum(m["flipped"] for m in after)
+        zero = sum(m["zero_area"] for m in after)
+        before = [it["before"] for it in items]
+        text = f"Unwrapped {n_charts} chart(s) on {len(items)} object(s): L2 stretch {l2:.3f}"
+        if all(b is not None for b in before):
+            b = float(np.sqrt(sum(x ** 2 * len(it["F"]) for x, it in zip(before, items)) / n_tris))
+            text += f" (before {b:.3f})" if np.isfinite(b) else " (before: degenerate UVs)"
+        else:
+            text += " (no UV map before)"
+        text += f", {flipped} flipped, {zero} zero-area"
+        if self.pack:
+            text += ", packed" if packed else ", not packed"
         self.report({'INFO'}, text)
+        warnings = sorted({w for it in items for (_, _, ws) in it["stretch"] for w in ws})
+        for w in warnings[:3]:
+            self.report({'WARNING'}, w)
         return {'FINISHED'}
 
-    def _compute(self, obj, edit, dg):
-        mesh = obj.data
-        arrays = bridge.read_mesh(mesh)
-        start, total, sel, lv, le, seam = _read_polys(mesh)
-        mask = sel if edit else np.ones(len(start), bool)
-        if not mask.any():
-            return None
-        corner_class, chart_of_class = split_charts(start, total, mask, le, seam)
-        tri_mask = mask[arrays.tri_poly]
-        tri_loops = arrays.tri_loops[tri_mask]
-        tri_cls = corner_class[tri_loops]
-        vert_of_class = np.empty(len(chart_of_class), np.int64)
-        vert_of_class[corner_class[corner_class >= 0]] = lv[corner_class >= 0]
-        # Existing UVs of these corners, for the "before" figure.
-        before = None
-        uv_layer = mesh.uv_layers.active
-        if uv_layer is not None:
-            uv = np.empty(2 * len(mesh.loops), np.float32)
-            uv_layer.data.foreach_get("uv", uv)
-            uv = uv.reshape(-1, 2).astype(np.float64)
-            try:
-                before = dg.uv_metrics(arrays.V, arrays.F[tri_mask], uv[tri_loops])["stretch_l2"]
-            except ValueError:
-                before = None
-        uv_class = np.zeros((len(chart_of_class), 2))
-        charts, stretch = [], []
-        tri_chart = chart_of_class[tri_cls[:, 0]]
-        for c in range(chart_of_class.max() + 1):
-            tc = tri_cls[tri_chart == c]
-            classes, Fc = np.unique(tc, return_inverse=True)
-            Fc = Fc.reshape(-1, 3).astype(np.int32)
-            Vc = arrays.V[vert_of_class[classes]]
-            try:
-                r = dg.unwrap(Vc, Fc, boundary=self.boundary.lower(), weights=self.weights.lower(),
-                              eta=self.eta, iterations="optimal" if self.optimal else self.iterations)
-            except ValueError as exc:
-                raise ValueError(
-                    f"chart {c + 1} of {chart_of_class.max() + 1} ({len(Fc)} triangles): {exc}. "
-                    "Add seams so that every chart is a disk, or split it with dgmesh.segment") from None
-            uv_class[classes] = r.uv
-            charts.append((classes, Fc, Vc))
-            stretch.append((r.final["stretch_l2"], len(Fc)))
-        after = sum(s * n for s, n in stretch) / sum(n for _, n in stretch)
-        loops = np.nonzero(corner_class >= 0)[0]
-        return dict(obj=obj, loops=loops, uv=uv_class[corner_class[loops]], charts=charts,
-                    before=before, after=after)
-
-    @staticmethod
-    def _write(r):
-        mesh = r["obj"].data
-        if mesh.uv_layers.active is None:
-            mesh.uv_layers.new(name="UVMap")
-        layer = mesh.uv_layers.active
-        uv = np.empty(2 * len(mesh.loops), np.float32)
-        layer.data.foreach_get("uv", uv)
-        uv = uv.reshape(-1, 2)
-        # Lay the charts side by side (unit squares) so the packer sees separate islands.
-        uv[r["loops"]] = r["uv"]
-        layer.data.foreach_set("uv", uv.ravel())
-        mesh.update()
-
-    def _pack(self, context, results):
+    def _pack(self, context, items, edit):
+        """Blender's packer on the unwrapped faces only. In Object mode: enter Edit mode for
+        the duration with exactly those faces selected, then restore selection and mode."""
+        names = [it["name"] for it in items]
+        saved = {}
         try:
-            if context.mode != 'EDIT_MESH':
-                return  # Object mode: charts stay in [0,1]^2 each (packing needs Edit mode)
-            bpy.ops.uv.select_all(action='SELECT')
-            bpy.ops.uv.pack_islands(margin=self.margin)
+            if not edit:
+                active = context.view_layer.objects.active
+                sel_objs = [o for o in context.view_layer.objects if o.select_get()]
+                for it in items:
+                    mesh = bpy.data.objects[it["name"]].data
+                    saved[it["name"]] = _get_selection(mesh)
+                    _set_face_selection(mesh, it["mask"])
+                for o in context.view_layer.objects:
+                    o.select_set(o.name in names)
+                context.view_layer.objects.active = bpy.data.objects[names[0]]
+                bpy.ops.object.mode_set(mode='EDIT')
+            try:
+                tool = context.scene.tool_settings
+                sync = tool.use_uv_select_sync
+                tool.use_uv_select_sync = False
+                bpy.ops.uv.select_all(action='SELECT')
+                bpy.ops.uv.pack_islands(margin=self.margin)
+                tool.use_uv_select_sync = sync
+            finally:
+                if not edit:
+                    bpy.ops.object.mode_set(mode='OBJECT')
+                    for name, sel in saved.items():
+                        _set_selection(bpy.data.objects[name].data, sel)
+                    for o in context.view_layer.objects:
+                        o.select_set(o in sel_objs)
+                    context.view_layer.objects.active = active
+            return True
         except RuntimeError as exc:
             self.report({'WARNING'}, f"Packing failed: {exc}")
+            return False
+
+
+def _area3(V, F):
+    return 0.5 * float(np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum())
+
+
+def _area2(U, F):
+    a, b, c = U[F[:, 0]], U[F[:, 1]], U[F[:, 2]]
+    return 0.5 * float(np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])).sum())
+
+
+def _layer_uv(layer):
+    uv = np.empty(2 * len(layer.data), np.float32)
+    layer.data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2).astype(np.float64)
+
+
+def _read_charts(obj, edit, dg):
+    """Charts of the faces to unwrap, as arrays for the worker (no bpy objects inside)."""
+    mesh = obj.data
+    arrays = bridge.read_mesh(mesh)
+    start, total, sel, lv, le, seam = _read_polys(mesh)
+    mask = sel.copy() if edit else np.ones(len(start), bool)
+    if not mask.any():
+        return None
+    corner_class, chart_of_class = split_charts(start, total, mask, le, seam)
+    tri_mask = mask[arrays.tri_poly]
+    tri_loops = arrays.tri_loops[tri_mask]
+    tri_cls = corner_class[tri_loops]
+    tri_poly = arrays.tri_poly[tri_mask]
+    vert_of_class = np.empty(len(chart_of_class), np.int64)
+    vert_of_class[corner_class[corner_class >= 0]] = lv[corner_class >= 0]
+    F = arrays.F[tri_mask]
+    before = None
+    if mesh.uv_layers.active is not None:
+        try:
+            before = dg.uv_metrics(arrays.V, F, _layer_uv(mesh.uv_layers.active)[tri_loops])["stretch_l2"]
+        except ValueError:
+            before = None
+    charts = []
+    tri_chart = chart_of_class[tri_cls[:, 0]]
+    for c in range(chart_of_class.max() + 1):
+        in_c = tri_chart == c
+        classes, Fc = np.unique(tri_cls[in_c], return_inverse=True)
+        Fc = Fc.reshape(-1, 3).astype(np.int32)
+        Vc = np.ascontiguousarray(arrays.V[vert_of_class[classes]])
+        charts.append((classes, Fc, Vc, int(tri_poly[in_c].min())))
+    loops = np.nonzero(corner_class >= 0)[0]
+    return dict(name=obj.name, counts=(len(mesh.loops), len(mesh.polygons)), mask=mask,
+                loops=loops, corner_class=corner_class[loops], n_classes=len(chart_of_class),
+                charts=charts, V=arrays.V, F=F, tri_loops=tri_loops, before=before)
+
+
+def _write_uvs(obj, it, normalise):
+    """Writes the charts' UVs into the active UV map (created if none), only at the unwrapped
+    corners. Without packing every chart is fitted to [0, 1]^2 on its own."""
+    mesh = obj.data
+    if mesh.uv_layers.active is None:
+        mesh.uv_layers.new(name="UVMap")
+    layer = mesh.uv_layers.active
+    uv = _layer_uv(layer)
+    uvc = it["uv_class"].copy()
+    for classes, _, _, _ in it["charts"]:
+        if normalise:
+            p = uvc[classes]
+            lo, hi = p.min(0), p.max(0)
+            s = max(float((hi - lo).max()), 1e-300)
+            uvc[classes] = (p - lo) / s + 0.5 * (1 - (hi - lo) / s)
+    uv[it["loops"]] = uvc[it["corner_class"]]
+    layer.data.foreach_set("uv", uv.astype(np.float32).ravel())
+    mesh.update()
+
+
+def _get_selection(mesh):
+    out = []
+    for coll in (mesh.vertices, mesh.edges, mesh.polygons):
+        a = np.empty(len(coll), bool)
+        coll.foreach_get("select", a)
+        out.append(a)
+    return out
+
+
+def _set_selection(mesh, saved):
+    for coll, a in zip((mesh.vertices, mesh.edges, mesh.polygons), saved):
+        coll.foreach_set("select", a)
+    mesh.update()
+
+
+def _set_face_selection(mesh, mask):
+    """Selects exactly the faces in mask (with their vertices and edges)."""
+    start, total = np.empty(len(mesh.polygons), np.int32), np.empty(len(mesh.polygons), np.int32)
+    mesh.polygons.foreach_get("loop_start", start)
+    mesh.polygons.foreach_get("loop_total", total)
+    lv = np.empty(len(mesh.loops), np.int32)
+    le = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", lv)
+    mesh.loops.foreach_get("edge_index", le)
+    in_mask = np.repeat(mask, total)
+    vs = np.zeros(len(mesh.vertices), bool)
+    vs[lv[in_mask]] = True
+    es = np.zeros(len(mesh.edges), bool)
+    es[le[in_mask]] = True
+    mesh.vertices.foreach_set("select", vs)
+    mesh.edges.foreach_set("select", es)
+    mesh.polygons.foreach_set("select", mask)
+    mesh.update()
 
 
 class DGMESH_OT_stretch_map(bpy.types.Operator):

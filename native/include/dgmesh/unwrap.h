@@ -72,7 +72,7 @@ struct UnwrapOptions {
   int max_iterations = 100;   // cap for Uopt
   double min_improvement = 1e-3;  // Uopt also stops after a step improving eq. 5.5 by less than this (relative)
   UvSolver solver = UvSolver::Auto;
-  double tolerance = 1e-10;   // relative residual of the iterative solver
+  double tolerance = 1e-8;    // relative residual of the iterative solvers (the thesis used 1e-6)
   double zero_area_eps = 1e-10;
   // Triangle stretches above this are clipped in eq. 5.1 so that a near-degenerate scan triangle
   // (a 3D sliver) cannot dominate the stretch of its vertices.

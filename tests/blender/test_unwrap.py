@@ -1,0 +1,317 @@
+"""dgmesh.unwrap and dgmesh.stretch_map inside Blender (thesis chapter 5)."""
+
+import bpy
+import numpy as np
+import pytest
+
+from helpers import attribute_array, mesh_snapshot, open_fixture, select
+from make_fixtures import add_mesh_object
+
+from dgmesh.blender import bridge
+
+
+def unwrap(**props):
+    """Run the operator the way the UI does: with an undo push."""
+    return bpy.ops.dgmesh.unwrap('EXEC_DEFAULT', True, **props)
+
+
+def stretch_map(**props):
+    return bpy.ops.dgmesh.stretch_map('EXEC_DEFAULT', True, **props)
+
+
+def layer_uv(mesh, name=None):
+    layer = mesh.uv_layers[name] if name else mesh.uv_layers.active
+    uv = np.empty(2 * len(mesh.loops), np.float32)
+    layer.data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)
+
+
+def set_seams(mesh, edge_mask):
+    mesh.edges.foreach_set("use_seam", np.asarray(edge_mask, bool))
+    mesh.update()
+
+
+def edges_of(mesh):
+    E = np.empty(2 * len(mesh.edges), np.int32)
+    mesh.edges.foreach_get("vertices", E)
+    return E.reshape(-1, 2)
+
+
+def coords(mesh):
+    co = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def chart_faces(mesh):
+    """Polygon index sets of the charts the operator should find: faces joined across non-seam,
+    two-face edges (a plain Python flood fill, independent of the add-on)."""
+    faces_of_edge = {}
+    for p in mesh.polygons:
+        for k in p.edge_keys:
+            faces_of_edge.setdefault(k, []).append(p.index)
+    key_seam = {e.key: e.use_seam for e in mesh.edges}
+    adj = {p.index: [] for p in mesh.polygons}
+    for k, fs in faces_of_edge.items():
+        if len(fs) == 2 and not key_seam[k]:
+            adj[fs[0]].append(fs[1])
+            adj[fs[1]].append(fs[0])
+    seen, charts = set(), []
+    for p in adj:
+        if p in seen:
+            continue
+        stack, comp = [p], set()
+        while stack:
+            q = stack.pop()
+            if q in comp:
+                continue
+            comp.add(q)
+            stack.extend(adj[q])
+        seen |= comp
+        charts.append(comp)
+    return charts
+
+
+def check_charts(dg, obj, charts):
+    """Every chart's triangles: no flip, no zero-area triangle, finite stretch; corners of one
+    vertex inside a chart share a UV unless a seam separates them."""
+    mesh = obj.data
+    arrays = bridge.read_mesh(mesh)
+    uv = layer_uv(mesh).astype(np.float64)
+    stretch = []
+    for comp in charts:
+        tri = np.isin(arrays.tri_poly, list(comp))
+        m = dg.uv_metrics(arrays.V, arrays.F[tri], uv[arrays.tri_loops[tri]])
+        assert m["flipped"] == 0 and m["zero_area"] == 0, m
+        assert np.isfinite(m["stretch_l2"])
+        stretch.append(m["stretch_l2"])
+    return stretch
+
+
+def ngon_cylinder_with_seams():
+    """NgonCylinder (16 quads around, two 16-gon caps) with seams on both cap rims and one
+    vertical edge: three charts (two n-gon disks and the side slit open)."""
+    open_fixture("shapes")
+    obj = bpy.data.objects["NgonCylinder"]
+    mesh = obj.data
+    V = coords(mesh)
+    E = edges_of(mesh)
+    cap_edges = set()
+    for p in mesh.polygons:
+        if p.loop_total > 4:
+            cap_edges |= {mesh.loops[p.loop_start + k].edge_index for k in range(p.loop_total)}
+    vertical = np.nonzero(np.abs(V[E[:, 0], 2] - V[E[:, 1], 2]) > 1.0)[0]
+    seam = np.zeros(len(E), bool)
+    seam[list(cap_edges)] = True
+    seam[vertical[0]] = True
+    set_seams(mesh, seam)
+    return obj
+
+
+def test_seams_split_closed_ngon_cylinder_into_three_charts(dg, capsys):
+    obj = ngon_cylinder_with_seams()
+    mesh = obj.data
+    n_poly, n_loop = len(mesh.polygons), len(mesh.loops)
+    select("NgonCylinder")
+    assert "UVMap" not in mesh.uv_layers
+    assert unwrap(pack=True) == {'FINISHED'}
+    out = capsys.readouterr().out
+    assert "Unwrapped 3 chart(s) on 1 object(s)" in out and "(no UV map before)" in out
+    assert "0 flipped, 0 zero-area" in out and "packed" in out and "not packed" not in out
+    assert bpy.context.mode == 'OBJECT'
+    # The user's polygons are kept: UVs per corner of the 16-gons and quads.
+    assert (len(mesh.polygons), len(mesh.loops)) == (n_poly, n_loop)
+    assert max(p.loop_total for p in mesh.polygons) == 16
+    assert mesh.uv_layers.active is not None
+    charts = chart_faces(mesh)
+    assert len(charts) == 3
+    stretch = check_charts(dg, obj, charts)
+    # A planar n-gon cap maps to itself up to similarity; the slit side is a developable strip.
+    assert min(stretch) < 1.01 and max(stretch) < 1.2, stretch
+    uv = layer_uv(mesh)
+    # Packed: inside the unit square, and the charts' bounding boxes do not overlap.
+    assert uv.min() >= -1e-4 and uv.max() <= 1 + 1e-4
+    boxes = []
+    for comp in charts:
+        loops = [l for p in comp for l in range(mesh.polygons[p].loop_start,
+                                                mesh.polygons[p].loop_start + mesh.polygons[p].loop_total)]
+        boxes.append((uv[loops].min(0), uv[loops].max(0)))
+    for i in range(3):
+        for j in range(i + 1, 3):
+            (lo1, hi1), (lo2, hi2) = boxes[i], boxes[j]
+            overlap = np.minimum(hi1, hi2) - np.maximum(lo1, lo2)
+            assert (overlap <= 1e-3).any(), (boxes[i], boxes[j])
+    # Corners of the same vertex away from seams share one UV; across the vertical seam they differ.
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    side = [p.index for p in mesh.polygons if p.loop_total == 4]
+    side_loops = np.array([l for p in side for l in range(mesh.polygons[p].loop_start, mesh.polygons[p].loop_start + 4)])
+    seam_verts = set(edges_of(mesh)[[e.index for e in mesh.edges if e.use_seam and
+                                     abs(mesh.vertices[e.vertices[0]].co.z - mesh.vertices[e.vertices[1]].co.z) > 1]].ravel())
+    for v in np.unique(lv[side_loops]):
+        pts = np.unique(np.round(uv[side_loops[lv[side_loops] == v]], 5), axis=0)
+        assert len(pts) == (2 if v in seam_verts else 1), (v, pts)
+
+
+def test_quad_grid_unwraps_to_itself_and_ngons_keep_corners(dg):
+    # A planar quad grid with one hexagon: a disk chart; the map is a similarity (stretch 1).
+    n = 8
+    x, y = np.meshgrid(np.linspace(0, 1.4, n + 1), np.linspace(0, 1, n + 1), indexing="ij")
+    V = np.c_[x.ravel(), y.ravel(), np.zeros(x.size)]
+    idx = lambda i, j: i * (n + 1) + j  # noqa: E731
+    faces = [[idx(i, j), idx(i + 1, j), idx(i + 1, j + 1), idx(i, j + 1)] for i in range(n) for j in range(n)
+             if not (i == 3 and j in (3, 4))]
+    faces.append([idx(3, 3), idx(4, 3), idx(4, 4), idx(4, 5), idx(3, 5), idx(3, 4)])
+    obj = add_mesh_object("Grid", V, faces)
+    select("Grid")
+    assert unwrap(boundary='FREE', pack=False) == {'FINISHED'}
+    mesh = obj.data
+    assert max(p.loop_total for p in mesh.polygons) == 6
+    uv = layer_uv(mesh).astype(np.float64)
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    # One UV per vertex (no seams), and UV = similarity of (x, y).
+    per_vertex = np.zeros((len(V), 2))
+    per_vertex[lv] = uv
+    assert np.abs(per_vertex[lv] - uv).max() < 1e-6
+    A = np.c_[V[:, :2], np.ones(len(V))]
+    coef, *_ = np.linalg.lstsq(A, per_vertex, rcond=None)
+    assert np.abs(A @ coef - per_vertex).max() < 1e-4
+    s = np.linalg.svd(coef[:2])[1]
+    assert s[0] / s[1] == pytest.approx(1.0, abs=1e-4)
+
+
+def test_partial_selection_leaves_other_uvs_untouched(dg):
+    open_fixture("shapes")
+    obj = bpy.data.objects["QuadSphere"]
+    mesh = obj.data
+    layer = mesh.uv_layers.new(name="Existing")
+    rng = np.random.default_rng(0)
+    layer.data.foreach_set("uv", rng.random(2 * len(mesh.loops)).astype(np.float32))
+    other = mesh.uv_layers.new(name="Other")
+    other.data.foreach_set("uv", rng.random(2 * len(mesh.loops)).astype(np.float32))
+    mesh.uv_layers.active = layer
+    # Select the northern cap (quads and the pole's triangles): one disk chart.
+    centers = np.array([p.center.z for p in mesh.polygons])
+    sel = centers > 0.45
+    mesh.polygons.foreach_set("select", sel)
+    before = layer_uv(mesh).copy()
+    before_other = layer_uv(mesh, "Other").copy()
+    select("QuadSphere")
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert unwrap() == {'FINISHED'}
+    assert bpy.context.mode == 'EDIT_MESH'
+    bpy.ops.object.mode_set(mode='OBJECT')
+    after = layer_uv(mesh)
+    poly_of_loop = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    untouched = ~sel[poly_of_loop]
+    assert untouched.any() and (~untouched).any()
+    assert after[untouched].tobytes() == before[untouched].tobytes()
+    assert np.abs(after[~untouched] - before[~untouched]).max() > 1e-3
+    assert layer_uv(mesh, "Other").tobytes() == before_other.tobytes()
+    check_charts(dg, obj, [set(np.nonzero(sel)[0])])
+
+
+def test_undo_restores_the_uv_map():
+    obj = ngon_cylinder_with_seams()
+    select("NgonCylinder")
+    obj.data.uv_layers.new(name="UVMap")
+    before = mesh_snapshot(obj.data)
+    bpy.ops.ed.undo_push(message="before")
+    assert unwrap() == {'FINISHED'}
+    assert mesh_snapshot(bpy.data.objects["NgonCylinder"].data)["uv_layers"] != before["uv_layers"]
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    assert mesh_snapshot(bpy.data.objects["NgonCylinder"].data) == before
+
+
+def test_closed_chart_is_an_error_and_changes_nothing():
+    open_fixture("shapes")
+    mesh = bpy.data.objects["Torus"].data
+    mesh.uv_layers.new(name="UVMap")
+    before = mesh_snapshot(mesh)
+    select("Torus")
+    with pytest.raises(RuntimeError) as info:
+        unwrap()
+    msg = str(info.value)
+    assert "'Torus' chart 1 of 1 (1024 triangles" in msg and "closed" in msg
+    assert "seams" in msg and "dgmesh.segment" in msg
+    assert mesh_snapshot(mesh) == before
+
+
+def test_chart_with_a_handle_is_named_and_nothing_is_written():
+    # Seams around one quad of the torus: that quad is a disk chart, the rest is a torus with a
+    # hole (genus 1): the error names that chart and neither chart is written.
+    open_fixture("shapes")
+    mesh = bpy.data.objects["Torus"].data
+    quad = mesh.polygons[37]
+    seam = np.zeros(len(mesh.edges), bool)
+    seam[[mesh.loops[quad.loop_start + k].edge_index for k in range(4)]] = True
+    set_seams(mesh, seam)
+    before = mesh_snapshot(mesh)
+    select("Torus")
+    with pytest.raises(RuntimeError) as info:
+        unwrap()
+    msg = str(info.value)
+    assert "'Torus' chart" in msg and "of 2 (1022 triangles" in msg and "handle" in msg
+    assert mesh_snapshot(mesh) == before
+    assert mesh.uv_layers.active is None
+
+
+def test_torus_cut_along_meridian_and_longitude_is_one_disk(dg, capsys):
+    open_fixture("shapes")
+    obj = bpy.data.objects["Torus"]
+    mesh = obj.data
+    nu, nv = 32, 16
+    E = edges_of(mesh)
+    i, j = E // nv, E % nv
+    meridian = (i[:, 0] == 0) & (i[:, 1] == 0)          # the ring of vertices i == 0
+    longitude = (j[:, 0] == 0) & (j[:, 1] == 0)         # the ring j == 0
+    set_seams(mesh, meridian | longitude)
+    select("Torus")
+    assert unwrap(pack=False) == {'FINISHED'}
+    assert "Unwrapped 1 chart(s)" in capsys.readouterr().out
+    check_charts(dg, obj, [set(range(len(mesh.polygons)))])
+    # Only the meridian cut: a tube (two boundary loops): unwrapped with the inner loop kept open.
+    set_seams(mesh, meridian)
+    assert unwrap(pack=False) == {'FINISHED'}
+    check_charts(dg, obj, [set(range(len(mesh.polygons)))])
+
+
+def test_object_mode_several_objects_and_stretch_map_with_checker(dg, capsys):
+    obj = ngon_cylinder_with_seams()
+    grid_V = np.array([[x, y, 0.1 * np.sin(3 * x)] for x in np.linspace(0, 1, 6) for y in np.linspace(0, 1, 6)])
+    quads = [[i * 6 + j, (i + 1) * 6 + j, (i + 1) * 6 + j + 1, i * 6 + j + 1] for i in range(5) for j in range(5)]
+    grid = add_mesh_object("Wavy", grid_V, quads)
+    select("NgonCylinder", "Wavy")
+    assert unwrap() == {'FINISHED'}
+    out = capsys.readouterr().out
+    assert "Unwrapped 4 chart(s) on 2 object(s)" in out
+    check_charts(dg, grid, chart_faces(grid.data))
+    check_charts(dg, obj, chart_faces(obj.data))
+
+    before = {o.name: mesh_snapshot(o.data) for o in (obj, grid)}
+    assert stretch_map(checker=True) == {'FINISHED'}
+    assert "Stretch map: vertex stretch" in capsys.readouterr().out
+    for o in (obj, grid):
+        mesh = o.data
+        attr = mesh.attributes["dg_uv_stretch"]
+        assert (attr.domain, attr.data_type) == ('POINT', 'FLOAT')
+        got = attribute_array(attr).ravel()
+        arrays = bridge.read_mesh(mesh)
+        ref = dg.uv_stretch(arrays.V, arrays.F, layer_uv(mesh).astype(np.float64)[arrays.tri_loops])
+        np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-6)
+        assert "dg_uv_stretch_color" in mesh.color_attributes
+        assert "DG Checker" in [m.name for m in mesh.materials if m]
+        # Nothing else changed: positions, topology, UVs.
+        snap = mesh_snapshot(mesh)
+        for key in ("co", "loop_vertex", "uv_layers"):
+            assert snap[key] == before[o.name][key]
+    mat = bpy.data.materials["DG Checker"]
+    assert any(n.bl_idname == "ShaderNodeTexChecker" for n in mat.node_tree.nodes)
+
+
+def test_stretch_map_without_uvs_is_an_error():
+    open_fixture("shapes")
+    select("QuadSphere")
+    before = mesh_snapshot(bpy.data.objects["QuadSphere"].data)
+    with pytest.raises(RuntimeError, match="no UV map"):
+        stretch_map()
+    assert mesh_snapshot(bpy.data.objects["QuadSphere"].data) == before
