@@ -34,6 +34,7 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     write_mesh,
 )
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
+from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
 
 

@@ -30,6 +30,7 @@ inline ProgressFn progress_from(const pb::object& cb) {
 
 void bind_core(pb::module_& m);
 void bind_crest(pb::module_& m);
+void bind_fair(pb::module_& m);
 void bind_unwrap(pb::module_& m);
 
 }  // namespace dgmesh::py

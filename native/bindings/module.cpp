@@ -29,5 +29,6 @@ PYBIND11_MODULE(_native, m) {
   });
   dgmesh::py::bind_core(m);
   dgmesh::py::bind_crest(m);
+  dgmesh::py::bind_fair(m);
   dgmesh::py::bind_unwrap(m);
 }

@@ -9,6 +9,8 @@ OPERATORS = [
     ("dgmesh.crest_lines", "Crest Lines", 'IPO_EASE_IN_OUT'),
     ("dgmesh.decimate_features", "Feature Decimate", 'MOD_DECIM'),
     ("dgmesh.segment", "Segment", 'MOD_EXPLODE'),
+    ("dgmesh.fair", "Fair", 'SPHERECURVE'),
+    ("dgmesh.regularize", "Regularize", 'MESH_GRID'),
     ("dgmesh.unwrap", "Low-Stretch Unwrap", 'UV'),
     ("dgmesh.stretch_map", "UV Stretch Map", 'UV_DATA'),
 ]

@@ -1,0 +1,360 @@
+"""Operators dgmesh.fair and dgmesh.regularize (thesis chapter 3).
+
+Fair: Object mode fairs whole objects (mesh-boundary vertices fixed or sliding). Edit mode fairs
+the selection: the selected faces are the region (they are refined by Subdivisions), the
+selected vertices inside it move, and everything else -- including the border of the selection --
+stays, so a patch blends smoothly (position and tangent) into the rest. The hole workflow:
+delete faces, fill the hole (F / Grid Fill), keep the new face(s) selected, Fair with
+Subdivisions >= 1 when the fill has no inner vertices.
+
+Without subdivision only vertex positions change. With subdivision the selected polygons are
+replaced by triangles through bmesh; every other face keeps its data (UVs, colours, attributes),
+the new faces copy material and smoothing from the polygon they replace and interpolate its
+corner data.
+
+Nothing is written before the native run ends: errors and Esc leave the mesh untouched.
+"""
+
+import time
+
+import bmesh
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+
+from . import bridge
+from .jobs import NativeJobOperator
+from .prefs import api
+
+METHODS = (
+    ('WILLMORE', "Willmore", "Discrete Willmore flow: minimises the bending energy (integral of H\u00b2); "
+     "spheres stay spheres, patches blend smoothly"),
+    ('BILAPLACIAN', "Bilaplacian", "Bi-umbrella flow (thesis comparison flow): simple, flattens more"),
+    ('LAPLACIAN_OF_H', "Laplacian of H", "Laplacian-of-mean-curvature flow (thesis eq. 3.12)"),
+)
+SCHEMES = (
+    ('SEMI_IMPLICIT', "Semi-Implicit", "Large stable steps (linearised implicit bi-Laplacian); same result, far faster"),
+    ('EXPLICIT', "Explicit", "The thesis's explicit steps (tau = A_min\u00b2/150); slow on fine meshes"),
+)
+BOUNDARIES = (
+    ('FIXED', "Fixed", "Open mesh boundaries do not move"),
+    ('SLIDING', "Sliding", "Open mesh boundary vertices slide along the boundary"),
+)
+
+
+def _poll_fail(cls, message):
+    if hasattr(cls, "poll_message_set"):
+        cls.poll_message_set(message)
+    return False
+
+
+def target_objects(context):
+    if context.mode == 'EDIT_MESH':
+        objects = context.objects_in_mode_unique_data
+    elif context.mode == 'OBJECT':
+        objects = [o for o in context.selected_objects if o.type == 'MESH']
+    else:
+        return []
+    seen, out = set(), []
+    for o in objects:
+        if o.data.as_pointer() not in seen:
+            seen.add(o.data.as_pointer())
+            out.append(o)
+    return out
+
+
+def _flags(collection, key="select"):
+    a = np.empty(len(collection), dtype=bool)
+    collection.foreach_get(key, a)
+    return a
+
+
+class _Target:
+    def __init__(self, obj, arrays, mask, faces):
+        self.obj = obj
+        self.name = obj.name
+        self.arrays = arrays
+        self.mask = mask  # movable vertices or None
+        self.faces = faces  # region triangles or None
+        self.result = None
+
+
+def _read_target(obj, edit_mode, keep_border):
+    """Arrays and masks of one object; raises MeshError with a user-facing message."""
+    dg = api()
+    if obj.data.library is not None:
+        raise dg.MeshError("mesh data is linked from a library and cannot be changed")
+    arrays = bridge.read_object(obj)
+    if len(arrays.F) == 0:
+        raise dg.MeshError("mesh has no faces")
+    if not edit_mode:
+        return _Target(obj, arrays, None, None)
+    mesh = obj.data
+    vsel = _flags(mesh.vertices)
+    if not vsel.any():
+        return None
+    psel = _flags(mesh.polygons)
+    tri_sel = psel[arrays.tri_poly]
+    movable = vsel.copy()
+    if keep_border:
+        # Vertices of unselected faces are the border: they stay, with the ring beyond them.
+        touched = np.zeros(len(vsel), dtype=bool)
+        touched[arrays.F[~tri_sel].ravel()] = True
+        movable &= ~touched
+    faces = tri_sel if tri_sel.any() else None
+    return _Target(obj, arrays, movable, faces)
+
+
+class _FairBase(NativeJobOperator):
+    @classmethod
+    def poll(cls, context):
+        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
+            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
+        if not target_objects(context):
+            return _poll_fail(cls, "Select one or more mesh objects")
+        return True
+
+    def _collect(self, context):
+        edit = context.mode == 'EDIT_MESH'
+        targets, failures = [], []
+        for obj in target_objects(context):
+            try:
+                t = _read_target(obj, edit, getattr(self, "keep_border", True))
+            except api().MeshError as exc:
+                failures.append((obj.name, str(exc)))
+                continue
+            if t is not None:
+                targets.append(t)
+        for name, msg in failures:
+            self.report({'ERROR'}, f"{self.bl_label} failed on '{name}': {msg}")
+        if not targets:
+            if not failures:
+                self.report({'ERROR'}, f"{self.bl_label}: nothing selected (select vertices or faces in Edit mode)")
+            return None
+        return targets
+
+    def prepare(self, context):
+        targets = self._collect(context)
+        if targets is None:
+            return None
+        self._t0 = time.perf_counter()
+
+        def work(progress):
+            n = len(targets)
+            for i, t in enumerate(targets):
+                def sub(f, i=i):
+                    return progress((i + f) / n)
+                t.result = self._run(t, sub)
+            return targets
+
+        return work
+
+
+class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
+    bl_idname = "dgmesh.fair"
+    bl_label = "Fair"
+    bl_description = (
+        "Fair the mesh by a curvature flow (discrete Willmore flow by default): whole objects in "
+        "Object mode, the selection in Edit mode (its border stays fixed, so a filled hole blends "
+        "smoothly into the surface)"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    method: EnumProperty(name="Method", items=METHODS, default='WILLMORE')
+    scheme: EnumProperty(name="Scheme", items=SCHEMES, default='SEMI_IMPLICIT')
+    subdivisions: IntProperty(
+        name="Subdivisions", default=0, min=0, max=4,
+        description="Coarse-to-fine levels: fair, subdivide the region 1-to-4, fair again. "
+        "Needed when a filled hole has no inner vertices")
+    tolerance: FloatProperty(
+        name="Tolerance", default=1e-4, min=1e-9, max=0.1, precision=6,
+        description="Stop when the relative change of the bending energy falls below this")
+    max_iterations: IntProperty(
+        name="Max Iterations", default=300, min=1, max=100000,
+        description="Iteration budget per subdivision level")
+    boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
+    tangential: BoolProperty(
+        name="Even Out Triangles", default=True,
+        description="Add the tangential drift that keeps triangles regular (thesis eq. 3.8)")
+    keep_border: BoolProperty(
+        name="Keep Selection Border", default=True,
+        description="Edit mode: vertices on the border of the selection stay fixed")
+
+    def draw(self, context):
+        col = self.layout.column()
+        for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential"):
+            col.prop(self, p)
+        if context.mode == 'EDIT_MESH':
+            col.prop(self, "keep_border")
+
+    def _run(self, t, progress):
+        return api().fair(
+            t.arrays.V, t.arrays.F, method=self.method.lower(), mask=t.mask, faces=t.faces,
+            boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
+            max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
+            progress=progress)
+
+    def finish(self, context, targets):
+        written, failures = [], []
+        edit = context.mode == 'EDIT_MESH'
+        with bridge.object_mode(context):
+            for t in targets:
+                try:
+                    if t.result.subdivided:
+                        _write_subdivided(t, select=edit)
+                    else:
+                        bridge.write_positions(t.obj.data, t.result.vertices)
+                except Exception as exc:  # leave other objects written, report this one
+                    failures.append((t.name, f"could not write the result: {type(exc).__name__}: {exc}"))
+                else:
+                    written.append(t)
+        for name, msg in failures:
+            self.report({'ERROR'}, f"Fair failed on '{name}': {msg}")
+        if not written:
+            return {'CANCELLED'}
+        secs = time.perf_counter() - self._t0
+        parts = []
+        for t in written:
+            r = t.result
+            e0, e1 = float(r.energy[0]), float(r.energy[-1])
+            parts.append(
+                f"'{t.name}': {int(r.moved.sum())} vertices moved"
+                + (f", {len(r.vertices) - len(t.arrays.V)} added" if r.subdivided else "")
+                + f", {r.iterations} iterations, bending energy {e0:.4g} \u2192 {e1:.4g}"
+                + ("" if r.converged else " (iteration budget reached)"))
+        self.report({'INFO'}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts))
+        return {'FINISHED'}
+
+
+def _corner_layers(bm):
+    out = [(layer, "uv") for layer in bm.loops.layers.uv.values()]
+    for kind in ("color", "float_color"):
+        group = getattr(bm.loops.layers, kind, None)
+        if group is not None:
+            out += [(layer, None) for layer in group.values()]
+    return out
+
+
+def _interpolate_corners(face, src, layers):
+    """Corner data (UVs, corner colours) of a new face from the polygon it replaces:
+    inverse-distance weights to the old polygon's corners (exact at shared vertices).
+    (BMLoop.copy_from_face_interp would do this but fails on Blender 3.4 with Python 3.11.)"""
+    if not layers:
+        return
+    corners = list(src.loops)
+    pos = [c.vert.co.copy() for c in corners]
+    for loop in face.loops:
+        p = loop.vert.co
+        d = [(p - q).length for q in pos]
+        exact = [i for i, x in enumerate(d) if x < 1e-12]
+        w = [0.0] * len(d)
+        if exact:
+            w[exact[0]] = 1.0
+        else:
+            w = [1.0 / (x * x) for x in d]
+        total = sum(w)
+        for layer, key in layers:
+            if key == "uv":
+                u = sum(wi * c[layer].uv[0] for wi, c in zip(w, corners)) / total
+                v = sum(wi * c[layer].uv[1] for wi, c in zip(w, corners)) / total
+                loop[layer].uv = (u, v)
+            else:
+                n = len(corners[0][layer])
+                loop[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) / total for k in range(n)]
+
+
+def _write_subdivided(t, select):
+    """Replace the refined polygons by the output triangles with bmesh; other faces untouched."""
+    mesh = t.obj.data
+    r = t.result
+    V, F, origin = r.vertices, r.faces, r.face_origin
+    n_old = len(t.arrays.V)
+    tri_poly = t.arrays.tri_poly
+    m = len(t.arrays.F)
+    # Input triangles that were split have extra children (rows >= m); their polygons are
+    # replaced whole, so the rows of the polygons' other triangles come along.
+    refined = np.zeros(m, dtype=bool)
+    refined[origin[m:]] = True
+    polys = np.unique(tri_poly[refined])
+    poly_of_row = tri_poly[origin]
+    rows = np.flatnonzero(np.isin(poly_of_row, polys))
+
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(mesh)
+        bm.verts.ensure_lookup_table()
+        bm.faces.ensure_lookup_table()
+        moved = np.flatnonzero(r.moved[:n_old])
+        for i in moved:
+            bm.verts[i].co = V[i]
+        verts = list(bm.verts)
+        for j in range(n_old, len(V)):
+            verts.append(bm.verts.new(V[j]))
+        bm.verts.index_update()
+        by_poly = {int(p): bm.faces[int(p)] for p in polys}
+        old_faces = list(by_poly.values())
+        layers = _corner_layers(bm)
+        new_faces = []
+        for row in rows:
+            src = by_poly[int(poly_of_row[row])]
+            f = bm.faces.new([verts[k] for k in F[row]], src)  # example face: material, smooth
+            _interpolate_corners(f, src, layers)
+            f.select = select
+            new_faces.append(f)
+        old_edges = {e for f in old_faces for e in f.edges}
+        bmesh.ops.delete(bm, geom=old_faces, context='FACES_ONLY')
+        # Edges of the old polygons that were split now have no face: remove them.
+        loose = [e for e in old_edges if e.is_valid and not e.link_faces]
+        if loose:
+            bmesh.ops.delete(bm, geom=loose, context='EDGES')
+        if select:
+            for f in new_faces:
+                for v in f.verts:
+                    v.select = True
+        bm.normal_update()
+        bm.to_mesh(mesh)
+    finally:
+        bm.free()
+    mesh.update()
+
+
+class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
+    bl_idname = "dgmesh.regularize"
+    bl_label = "Regularize"
+    bl_description = (
+        "Even out triangle sizes and shapes by sliding vertices along the surface (tangential "
+        "drift of the thesis, eq. 3.8 with no normal motion): the selection in Edit mode, whole "
+        "objects in Object mode"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    iterations: IntProperty(name="Iterations", default=100, min=1, max=100000)
+    boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
+    strength: FloatProperty(
+        name="Step", default=1.0, min=0.01, max=4.0,
+        description="Multiplies the thesis's step (12 times the smallest triangle area)")
+    keep_on_surface: BoolProperty(
+        name="Keep on Surface", default=True,
+        description="Project moved vertices back onto the original surface after each step")
+    keep_border: BoolProperty(
+        name="Keep Selection Border", default=False,
+        description="Edit mode: vertices on the border of the selection stay fixed")
+
+    def _run(self, t, progress):
+        V = api().regularize(t.arrays.V, t.arrays.F, iterations=self.iterations, mask=t.mask,
+                             boundary=self.boundary.lower(), step_scale=self.strength,
+                             project=self.keep_on_surface, progress=progress)
+        return V
+
+    def finish(self, context, targets):
+        with bridge.object_mode(context):
+            for t in targets:
+                bridge.write_positions(t.obj.data, t.result)
+        moved = sum(int(np.any(t.result != t.arrays.V, axis=1).sum()) for t in targets)
+        secs = time.perf_counter() - self._t0
+        self.report({'INFO'}, f"Regularize: {moved} vertices moved on {len(targets)} object(s), "
+                              f"{self.iterations} iterations in {secs:.2f} s")
+        return {'FINISHED'}
+
+
+classes = (DGMESH_OT_fair, DGMESH_OT_regularize)

@@ -1,0 +1,163 @@
+"""Fairing by the discrete Willmore flow, hole restoration and tangential regularisation
+(thesis chapter 3).
+
+``fair`` moves vertices to decrease the elastica energy (the integral of H^2 dA, "Willmore
+energy"): a sphere stays a sphere, an elongated closed shape rounds up, a patch filled into a
+hole blends smoothly into the surrounding surface. ``regularize`` only slides vertices in their
+tangent planes to even out triangle sizes and shapes.
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .core import MeshError, _native, as_faces, as_vertices
+
+__all__ = ["FairResult", "fair", "regularize", "willmore_energy", "subdivide_region"]
+
+METHODS = ("willmore", "bilaplacian", "laplacian_of_h")
+SCHEMES = ("explicit", "semi_implicit")
+BOUNDARIES = ("fixed", "sliding")
+
+
+@dataclass
+class FairResult:
+    """Result of :func:`fair`.
+
+    vertices: (n', 3) positions; the input's vertices keep their indices (fixed ones are exactly
+        unchanged), new vertices from subdivision follow.
+    faces: (m', 3); the same array as the input when nothing was subdivided. Row f < m holds a
+        child of input face f (or f itself), the extra children follow.
+    face_origin: (m',) input face each output face comes from.
+    energy: Willmore energy after each iteration; energy[0] is the input's (of the faired region
+        and its first fixed ring in region mode).
+    moved: (n',) bool, vertices that were free to move.
+    """
+
+    vertices: np.ndarray
+    faces: np.ndarray
+    face_origin: np.ndarray
+    energy: np.ndarray
+    moved: np.ndarray
+    iterations: int = 0
+    level_iterations: list = field(default_factory=list)
+    converged: bool = False
+    lam: float = 1.0
+
+    @property
+    def subdivided(self):
+        return len(self.faces) != len(self.face_origin) or bool(np.any(self.face_origin != np.arange(len(self.faces))))
+
+
+def _mask(mask, n, what):
+    if mask is None:
+        return None
+    m = np.asarray(mask)
+    if m.dtype != bool:
+        if m.ndim == 1 and m.size and np.issubdtype(m.dtype, np.integer) and len(m) != n:
+            # Index list.
+            if m.min() < 0 or m.max() >= n:
+                raise MeshError(f"{what} has indices out of range [0, {n})")
+            b = np.zeros(n, dtype=bool)
+            b[m] = True
+            return b
+        m = m.astype(bool)
+    if m.shape != (n,):
+        raise MeshError(f"{what} must be a bool array of length {n} or a list of indices, got shape {m.shape}")
+    return np.ascontiguousarray(m)
+
+
+def _choice(value, allowed, what):
+    v = str(value).lower()
+    if v not in allowed:
+        raise MeshError(f"{what} must be one of {', '.join(allowed)}; got {value!r}")
+    return v
+
+
+def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", subdivisions=0,
+         tolerance=1e-4, max_iterations=None, tangential=True, scheme="semi_implicit",
+         max_seconds=0.0, step_scale=1.0, progress=None):
+    """Fair a triangle mesh (or a region of it) by a curvature flow.
+
+    method: "willmore" (thesis eq. 3.5: speed -Lap(H) - 2H(H^2-K) along the normal, plus the
+        tangential drift of eq. 3.10), "laplacian_of_h" (eq. 3.12) or "bilaplacian"
+        (P <- P - tau U0^2(P)), the thesis's comparison flows.
+    mask: vertices allowed to move (bool per vertex, or indices). The fixed vertices next to them
+        keep position and tangent plane, so a filled hole blends smoothly (G1) into the surface.
+        None: the whole mesh moves (mesh-boundary vertices per ``boundary``).
+    faces: faces refined by ``subdivisions`` (bool per face or indices); default: the faces
+        touching a movable vertex. Edges shared with faces outside are not split, so the rest of
+        the mesh keeps its topology. A hole filled without interior vertices (one n-gon, a fan)
+        needs ``faces`` and ``subdivisions >= 1``: the new edge midpoints are the ones that move.
+    boundary: "fixed" or "sliding" (boundary vertices slide along the boundary curve).
+    subdivisions: coarse-to-fine levels: fair, refine 1-to-4 (linear), fair again (fig. 3.5).
+    tolerance: stop when the relative energy change over a window of flow time falls below it.
+    max_iterations: per level; default 5000 (explicit) or 200 (semi-implicit).
+    tangential: add the tangential drift that equalises triangles (eq. 3.8).
+    scheme: "semi_implicit" (default: a linearised implicit bi-Laplacian step, same fixed points,
+        far larger steps) or "explicit" (the thesis's forward Euler with tau = A_min^2 / 150).
+    max_seconds: wall-clock budget (0 = none). step_scale: multiplies the explicit time step.
+    progress: callable(fraction) -> bool/None; returning False cancels (raises Cancelled).
+
+    Returns a :class:`FairResult`.
+    """
+    V = as_vertices(V)
+    F = as_faces(F)
+    method = _choice(method, METHODS, "method")
+    scheme = _choice(scheme, SCHEMES, "scheme")
+    boundary = _choice(boundary, BOUNDARIES, "boundary")
+    vm = _mask(mask, len(V), "mask")
+    fm = _mask(faces, len(F), "faces")
+    if fm is not None and vm is None:
+        vm = np.zeros(len(V), dtype=bool)
+        inner = np.zeros(len(V), dtype=bool)
+        inner[F[fm].ravel()] = True
+        # Without a vertex mask, the vertices of the region's faces move except its border.
+        border = np.zeros(len(V), dtype=bool)
+        border[F[~fm].ravel()] = True
+        vm = inner & ~border
+    if max_iterations is None:
+        max_iterations = 5000 if scheme == "explicit" else 200
+    if int(subdivisions) != subdivisions or not 0 <= subdivisions <= 6:
+        raise MeshError(f"subdivisions must be an integer in [0, 6], got {subdivisions!r}")
+    r = _native.fair(V, F, method, scheme, boundary, vm, fm, int(subdivisions), float(tolerance),
+                     int(max_iterations), float(max_seconds), bool(tangential), float(step_scale), progress)
+    return FairResult(
+        vertices=r["vertices"], faces=r["faces"], face_origin=r["face_origin"], energy=r["energy"],
+        moved=r["vertex_mask"], iterations=r["iterations"], level_iterations=list(r["level_iterations"]),
+        converged=r["converged"], lam=r["lambda"])
+
+
+def regularize(V, F, *, iterations=100, mask=None, boundary="fixed", step_scale=1.0, project=True,
+               progress=None):
+    """Tangential regularisation (thesis eq. 3.8 with tau = 0, fig. 3.3-3.4): vertices drift in
+    their tangent planes by the tangent part of the area-weighted bi-umbrella operator, which
+    evens out triangle sizes and shapes while keeping the surface. Returns the new (n, 3)
+    positions; vertices outside ``mask`` (bool per vertex or indices) are unchanged.
+    ``project`` puts moved vertices back onto the input surface after each step (the drift
+    alone leaves a curved surface by O(step^2 * curvature) per step)."""
+    V = as_vertices(V)
+    F = as_faces(F)
+    boundary = _choice(boundary, BOUNDARIES, "boundary")
+    vm = _mask(mask, len(V), "mask")
+    if int(iterations) != iterations or iterations < 0:
+        raise MeshError(f"iterations must be a non-negative integer, got {iterations!r}")
+    return _native.regularize(V, F, int(iterations), vm, boundary, float(step_scale), bool(project), progress)
+
+
+def willmore_energy(V, F):
+    """Discrete Willmore energy sum H_i^2 A_i (mixed areas): 4 pi for a sphere, 2 pi^2 for the
+    torus with radii ratio sqrt(2)."""
+    return _native.willmore_energy(as_vertices(V), as_faces(F))
+
+
+def subdivide_region(V, F, faces):
+    """Linear 1-to-4 subdivision of the faces selected by ``faces`` only; edges shared with other
+    faces are not split (the faces along the border become 2 or 3 triangles). Returns
+    (V, F, face_origin)."""
+    V = as_vertices(V)
+    F = as_faces(F)
+    fm = _mask(faces, len(F), "faces")
+    if fm is None:
+        fm = np.ones(len(F), dtype=bool)
+    return _native.subdivide_region(V, F, fm)

@@ -1,0 +1,101 @@
+// Fair surfaces by the discrete Willmore flow (thesis chapter 3): the elastica energy
+// integral of H^2 dA is decreased by moving vertices along their normals with speed
+// F = -Laplace_S(H) - 2H(H^2 - K) (eq. 3.5-3.7), plus a tangential drift that equalises the
+// triangles (eq. 3.8, 3.10), optionally refining coarse-to-fine by linear 1-to-4 subdivision.
+// Also: the bilaplacian and Laplacian-of-H comparison flows, region mode for hole restoration,
+// and tangential regularisation alone (tau = 0).
+#pragma once
+#include <vector>
+
+#include "dgmesh/progress.h"
+#include "dgmesh/types.h"
+
+namespace dgmesh {
+
+enum class FairMethod {
+  Willmore,      // F = -Laplace_S(H) - 2H(H^2 - K)           (eq. 3.5)
+  Bilaplacian,   // P <- P - tau U0^2(P), uniform bi-umbrella   (section 3.2)
+  LaplacianOfH,  // F = -Laplace_S(H)                          (eq. 3.12)
+};
+
+enum class FairBoundary {
+  Fixed,    // mesh-boundary vertices do not move
+  Sliding,  // mesh-boundary vertices slide along the (original) boundary polyline
+};
+
+enum class FairScheme {
+  // The thesis's forward-Euler step (3.8) with tau = A_min^2/150 (times step_scale).
+  Explicit,
+  // Same speed, preconditioned by a linearised implicit bi-Laplacian step:
+  // u = tau (M + tau/2 L M^-1 L)^-1 M F N. It has the same fixed points as the explicit flow
+  // (F = 0), is stable for any tau, and tau adapts (grows on success, shrinks when the energy
+  // rises). For the bilaplacian flow it is backward Euler (I + tau U0^2) P' = P.
+  SemiImplicit,
+};
+
+struct FairOptions {
+  FairMethod method = FairMethod::Willmore;
+  FairScheme scheme = FairScheme::Explicit;
+  FairBoundary boundary = FairBoundary::Fixed;
+  // Vertices allowed to move (size n); empty: every vertex (mesh boundary per `boundary`).
+  // Region mode: the fixed vertices next to the region keep positions and, through their
+  // curvature, tangent planes (the two fixed rings of the thesis's hole restoration).
+  std::vector<char> vertex_mask;
+  // Faces refined by subdivision (size m); empty: faces touching a movable vertex (or every face
+  // without a vertex mask). Edges between a refined and an unrefined face are never split, so
+  // the faces outside the region keep their topology.
+  std::vector<char> face_mask;
+  int subdivisions = 0;       // coarse-to-fine levels (thesis fig. 3.5)
+  double tolerance = 1e-4;    // relative energy change per unit of flow time (see fair.cpp)
+  int max_iterations = 5000;  // per level
+  double max_seconds = 0;     // wall-clock budget for the whole run; 0 = none
+  bool tangential = true;     // add the tangential drift eps T (eq. 3.8)
+  double step_scale = 1.0;    // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
+};
+
+struct FairResult {
+  MatX3d V;              // original vertices first (same indices), then new ones
+  MatX3i F;              // unchanged when not subdivided
+  VecXi face_origin;     // input face each output face comes from
+  std::vector<char> vertex_mask;  // vertices that were movable at the last level
+  std::vector<double> energy;     // Willmore energy (sum H^2 A) after each iteration; [0] = input
+  std::vector<int> level_iterations;  // iterations spent on each level
+  int iterations = 0;
+  bool converged = false;  // the last level met the tolerance
+  double lambda = 1.0;     // last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
+};
+
+FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress = {});
+
+struct RegularizeOptions {
+  int iterations = 100;
+  std::vector<char> vertex_mask;  // movable vertices; empty = all
+  FairBoundary boundary = FairBoundary::Fixed;
+  double step_scale = 1.0;  // multiplies the thesis's eps = 12 A_min
+  // Project moved vertices back onto the input surface after each step (the drift alone leaves
+  // a curved surface by O(step^2 * curvature) per step, which accumulates).
+  bool project = true;
+};
+
+// Tangential drift alone (eq. 3.8 with tau = 0, fig. 3.3-3.4): equalises triangle sizes and
+// shapes, moving vertices in their tangent planes. Returns the new positions.
+MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt,
+                  const ProgressFn& progress = {});
+
+// Discrete Willmore energy sum_i H_i^2 A_i (mixed areas): 4 pi on a round sphere.
+double willmore_energy(const MatX3d& V, const MatX3i& F);
+
+struct RegionSubdivision {
+  MatX3d V;
+  MatX3i F;
+  VecXi face_origin;
+  std::vector<char> face_mask;  // faces of the refined region
+  std::vector<int> edge_a, edge_b;  // parents of each new vertex n + i
+};
+
+// Linear subdivision of the faces in `face_mask` only: edges whose faces are all in the region
+// get their midpoint; a face with 3/2/1/0 split edges becomes 4/3/2/1 triangles. Border edges
+// are not split, so faces outside the region are unchanged (same rows, same indices).
+RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask);
+
+}  // namespace dgmesh

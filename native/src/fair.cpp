@@ -1,0 +1,1075 @@
+// Discrete Willmore flow and its companions (thesis chapter 3). See fair.h for the interface.
+//
+// Conventions. Everything runs on a working submesh (the faces within reach of the movable
+// vertices) in normalised coordinates: centred and divided by the mean edge length, so that
+// the numerical thresholds are scale-free. The thesis's step rules tau = A_min^2/150 and
+// eps = 12 A_min are dimensionally homogeneous (F ~ 1/L^3, T ~ 1/L), so normalising does not
+// change the flow, only the numbers. H follows the thesis: H = N . Laplace_S(P) / 2 with the
+// area-weighted normal (negative on a sphere with outward normals); with it F = -Lap(H) -
+// 2H(H^2-K) is the stable (descending) direction.
+//
+// Convergence: the explicit step is tiny, so a per-iteration energy change says nothing. We
+// compare the energy over windows of flow time t_w = h^4 / 8 (h the current mean edge length,
+// ~ the relaxation time of one-ring features) and stop when the relative change over a window
+// drops below the tolerance.
+#include "dgmesh/fair.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <unordered_map>
+
+#include "dgmesh/errors.h"
+#include "dgmesh/geometry.h"
+#include "dgmesh/mesh.h"
+#include "dgmesh/sparse_solver.h"
+#include "dgmesh/spatial_index.h"
+#include "dgmesh/validate.h"
+
+namespace dgmesh {
+
+namespace {
+
+// Below this many elements a loop runs serially: OpenMP start-up costs more than it saves.
+constexpr int kParallelMin = 4096;
+
+using Mat3Row = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
+
+inline long long edge_key(int a, int b) {
+  return (static_cast<long long>(std::min(a, b)) << 32) | static_cast<unsigned>(std::max(a, b));
+}
+
+inline int corner_of(const MatX3i& F, int f, int v) { return F(f, 0) == v ? 0 : (F(f, 1) == v ? 1 : 2); }
+
+// Per-iteration geometry of the working mesh; buffers are reused across iterations.
+struct Geo {
+  Mat3Row cot, cmix, ang;  // per face corner: cotangent, mixed (Voronoi) area, angle
+  MatX3d fcross;           // per face: (b-a) x (c-a) = 2 area n
+  VecXd farea;
+  VecXd A, H, K;           // per vertex: mixed area, mean curvature (thesis sign), Gaussian
+  MatX3d N, LP;            // area-weighted unit normal (eq. 3.7), Laplace_S(P) (eq. 3.11)
+};
+
+void extend_to_boundary(VecXd& x, const Topology& t, const VecXd& interior) {
+#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+  for (int v = 0; v < t.n_vertices; ++v) {
+    if (!t.on_boundary[v]) continue;
+    double s = 0;
+    int c = 0;
+    for (int j = t.vv_offset[v]; j < t.vv_offset[v + 1]; ++j)
+      if (!t.on_boundary[t.vv_index[j]]) s += interior[t.vv_index[j]], ++c;
+    x[v] = c ? s / c : 0.0;
+  }
+}
+
+void compute_geometry(const MatX3d& P, const MatX3i& F, const Topology& t, Geo& g) {
+  const int m = static_cast<int>(F.rows()), n = t.n_vertices;
+  g.cot.resize(m, 3);
+  g.cmix.resize(m, 3);
+  g.ang.resize(m, 3);
+  g.fcross.resize(m, 3);
+  g.farea.resize(m);
+#pragma omp parallel for schedule(static) if (m > kParallelMin)
+  for (int f = 0; f < m; ++f) {
+    const Vec3 p[3] = {P.row(F(f, 0)), P.row(F(f, 1)), P.row(F(f, 2))};
+    const Vec3 cr = (p[1] - p[0]).cross(p[2] - p[0]);
+    const double twice = cr.norm();
+    g.fcross.row(f) = cr;
+    g.farea[f] = 0.5 * twice;
+    const double inv = twice > 0 ? 1.0 / twice : 0.0;
+    double dots[3], len2[3];
+    bool obtuse = false;
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 u = p[(k + 1) % 3] - p[k], w = p[(k + 2) % 3] - p[k];
+      dots[k] = u.dot(w);
+      len2[k] = (p[(k + 1) % 3] - p[(k + 2) % 3]).squaredNorm();  // edge opposite corner k
+      g.cot(f, k) = dots[k] * inv;
+      g.ang(f, k) = std::atan2(twice, dots[k]);
+      obtuse |= dots[k] < 0;
+    }
+    for (int k = 0; k < 3; ++k) {
+      // Meyer et al.'s mixed area: Voronoi part of corner k, or area/2 (obtuse at k) / area/4.
+      const int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+      if (!obtuse)
+        g.cmix(f, k) = (len2[k2] * g.cot(f, k2) + len2[k1] * g.cot(f, k1)) / 8.0;
+      else
+        g.cmix(f, k) = dots[k] < 0 ? g.farea[f] / 2 : g.farea[f] / 4;
+    }
+  }
+  g.A.resize(n);
+  g.H.resize(n);
+  g.K.resize(n);
+  g.N.resize(n, 3);
+  g.LP.resize(n, 3);
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int v = 0; v < n; ++v) {
+    double a = 0, angle = 0;
+    Vec3 nn = Vec3::Zero(), lap = Vec3::Zero();
+    const Vec3 pv = P.row(v);
+    for (int i = t.vf_offset[v]; i < t.vf_offset[v + 1]; ++i) {
+      const int f = t.vf_index[i], k = corner_of(F, f, v), k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+      a += g.cmix(f, k);
+      angle += g.ang(f, k);
+      nn += g.fcross.row(f).transpose();
+      // Edge v-b is opposite corner k2, edge v-c opposite k1 (eq. 3.11, cotangent weights).
+      lap += 0.5 * (g.cot(f, k2) * (Vec3(P.row(F(f, k1))) - pv) + g.cot(f, k1) * (Vec3(P.row(F(f, k2))) - pv));
+    }
+    const double len = nn.norm();
+    const Vec3 N = len > 0 ? Vec3(nn / len) : Vec3::Zero();
+    g.N.row(v) = N;
+    g.A[v] = a;
+    if (a > 0) lap /= a;
+    g.LP.row(v) = lap;
+    g.H[v] = 0.5 * N.dot(lap);
+    g.K[v] = a > 0 ? (2.0 * M_PI - angle) / a : 0.0;
+  }
+  // Boundary vertices have no angle deficit of their own: extrapolate from the interior.
+  const VecXd H0 = g.H, K0 = g.K;
+  extend_to_boundary(g.H, t, H0);
+  extend_to_boundary(g.K, t, K0);
+}
+
+// Laplace_S of a scalar field with the cotangent weights of g, at vertex v.
+inline double laplace_scalar(const MatX3i& F, const Topology& t, const Geo& g, const VecXd& x, int v) {
+  double s = 0;
+  for (int i = t.vf_offset[v]; i < t.vf_offset[v + 1]; ++i) {
+    const int f = t.vf_index[i], k = corner_of(F, f, v), k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+    s += 0.5 * (g.cot(f, k2) * (x[F(f, k1)] - x[v]) + g.cot(f, k1) * (x[F(f, k2)] - x[v]));
+  }
+  return g.A[v] > 0 ? s / g.A[v] : 0.0;
+}
+
+// Working state of one level: a validated submesh in normalised coordinates.
+struct Work {
+  MatX3d P;
+  MatX3i F;
+  Topology topo;
+  std::vector<char> movable;   // per vertex
+  std::vector<char> sliding;   // movable boundary vertices (sliding mode)
+  std::vector<char> energy_set;  // movable vertices and their neighbours
+  std::vector<char> region;    // per face: refined by subdivision
+  std::vector<char> near;      // per face: touches a movable vertex (for A_min)
+};
+
+void prepare_level(Work& w, FairBoundary boundary) {
+  const Topology& t = w.topo;
+  const int n = t.n_vertices;
+  w.sliding.assign(n, 0);
+  for (int v = 0; v < n; ++v) {
+    if (!w.movable[v] || !t.on_boundary[v]) continue;
+    if (boundary == FairBoundary::Fixed)
+      w.movable[v] = 0;
+    else
+      w.sliding[v] = 1;
+  }
+  w.energy_set.assign(n, 0);
+  for (int v = 0; v < n; ++v) {
+    if (!w.movable[v]) continue;
+    w.energy_set[v] = 1;
+    for (int j = t.vv_offset[v]; j < t.vv_offset[v + 1]; ++j) w.energy_set[t.vv_index[j]] = 1;
+  }
+  w.near.assign(w.F.rows(), 0);
+  for (int f = 0; f < w.F.rows(); ++f)
+    w.near[f] = w.movable[w.F(f, 0)] || w.movable[w.F(f, 1)] || w.movable[w.F(f, 2)];
+}
+
+double energy_of(const Work& w, const Geo& g) {
+  double e = 0;
+  const int n = w.topo.n_vertices;
+#pragma omp parallel for schedule(static) reduction(+ : e) if (n > kParallelMin)
+  for (int v = 0; v < n; ++v)
+    if (w.energy_set[v]) e += g.H[v] * g.H[v] * g.A[v];
+  return e;
+}
+
+double min_area_near(const Work& w, const Geo& g) {
+  double a = std::numeric_limits<double>::infinity();
+  for (int f = 0; f < w.F.rows(); ++f)
+    if (w.near[f]) a = std::min(a, g.farea[f]);
+  return std::isfinite(a) ? a : 0.0;
+}
+
+double mean_edge_length(const MatX3d& P, const Topology& t) {
+  double s = 0;
+  const int ne = t.n_edges();
+  for (int e = 0; e < ne; ++e) s += (P.row(t.edges(e, 0)) - P.row(t.edges(e, 1))).norm();
+  return ne ? s / ne : 1.0;
+}
+
+// The original boundary polylines, onto which sliding vertices are projected.
+struct BoundaryCurves {
+  std::vector<std::vector<Vec3>> loops;
+  std::vector<std::pair<int, int>> hint;  // per vertex: (loop, segment) last found; (-1, -1) unknown
+
+  void build(const Work& w) {
+    loops.clear();
+    for (const auto& loop : w.topo.boundary_loops) {
+      bool any = false;
+      for (int v : loop) any |= w.sliding[v] != 0;
+      if (!any) continue;
+      std::vector<Vec3> pts;
+      for (int v : loop) pts.push_back(w.P.row(v).transpose());
+      loops.push_back(std::move(pts));
+    }
+  }
+  static Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b, double& d2) {
+    const Vec3 ab = b - a;
+    const double l2 = ab.squaredNorm();
+    const double s = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+    const Vec3 q = a + s * ab;
+    d2 = (p - q).squaredNorm();
+    return q;
+  }
+  // Projects p onto the curves; searches near the hint, or everywhere without one.
+  Vec3 project(const Vec3& p, std::pair<int, int>& h) const {
+    double best = std::numeric_limits<double>::infinity();
+    Vec3 q = p;
+    auto try_seg = [&](int l, int s) {
+      const auto& L = loops[l];
+      const int ns = static_cast<int>(L.size());
+      s = ((s % ns) + ns) % ns;
+      double d2;
+      const Vec3 c = closest_on_segment(p, L[s], L[(s + 1) % ns], d2);
+      if (d2 < best) best = d2, q = c, h = {l, s};
+    };
+    if (h.first >= 0) {
+      const auto start = h;
+      for (int ds = -4; ds <= 4; ++ds) try_seg(start.first, start.second + ds);
+    } else {
+      for (int l = 0; l < static_cast<int>(loops.size()); ++l)
+        for (int s = 0; s < static_cast<int>(loops[l].size()); ++s) try_seg(l, s);
+    }
+    return q;
+  }
+};
+
+// 1D equalisation of sliding boundary vertices along their boundary, then projection.
+void slide_boundary(Work& w, BoundaryCurves& curves, double step) {
+  const Topology& t = w.topo;
+  const int n = t.n_vertices;
+  if (curves.hint.size() != static_cast<size_t>(n)) curves.hint.assign(n, {-1, -1});
+  const MatX3d P0 = w.P;
+  for (int v = 0; v < n; ++v) {
+    if (!w.sliding[v]) continue;
+    // A boundary vertex's ring starts and ends at its two boundary neighbours.
+    const int a = t.vv_index[t.vv_offset[v]], b = t.vv_index[t.vv_offset[v + 1] - 1];
+    const Vec3 pa = P0.row(a), pb = P0.row(b), pv = P0.row(v);
+    Vec3 tan = pb - pa;
+    const double len = tan.norm();
+    if (len <= 0) continue;
+    tan /= len;
+    const Vec3 target = pv + step * (0.5 * (pa + pb) - pv).dot(tan) * tan;
+    w.P.row(v) = curves.project(target, curves.hint[v]);
+  }
+}
+
+// Tangential drift (eq. 3.8, 3.10): P += eps * T, T = -(U2 - (U2.N)N), U2 = U_area(U_area(P)).
+struct Tangential {
+  std::vector<double> wts;  // CSR weights aligned with topo.vv_index
+  MatX3d U, U2;
+
+  void weights(const MatX3d& P, const Topology& t) {
+    wts.assign(t.vv_index.size(), 0.0);
+#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+    for (int v = 0; v < t.n_vertices; ++v) {
+      const int b = t.vv_offset[v], d = t.vv_offset[v + 1] - b;
+      if (t.on_boundary[v] || d == 0) continue;  // U_area = 0 on the boundary (thesis)
+      const Vec3 p = P.row(v);
+      double A = 0;
+      for (int i = 0; i < d; ++i) {
+        const int j = (i + 1) % d;
+        const double a = 0.5 * (Vec3(P.row(t.vv_index[b + i])) - p).cross(Vec3(P.row(t.vv_index[b + j])) - p).norm();
+        A += a;
+        wts[b + i] += a;
+        wts[b + j] += a;
+      }
+      for (int i = 0; i < d; ++i) {
+        const double len = (Vec3(P.row(t.vv_index[b + i])) - p).norm();
+        wts[b + i] = (A > 0 && len > 0) ? wts[b + i] / (2.0 * A * d * len) : 0.0;
+      }
+    }
+  }
+  void apply(const MatX3d& X, MatX3d& out, const Topology& t) const {
+    out.resize(X.rows(), 3);
+#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+    for (int v = 0; v < t.n_vertices; ++v) {
+      Vec3 s = Vec3::Zero();
+      const Vec3 x = X.row(v);
+      for (int j = t.vv_offset[v]; j < t.vv_offset[v + 1]; ++j) s += wts[j] * (Vec3(X.row(t.vv_index[j])) - x);
+      out.row(v) = s;
+    }
+  }
+  // Computes T into U2 (as the tangent field) for the current positions and normals.
+  void field(const MatX3d& P, const MatX3d& N, const Topology& t) {
+    weights(P, t);
+    apply(P, U, t);
+    apply(U, U2, t);
+#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+    for (int v = 0; v < t.n_vertices; ++v) {
+      const Vec3 u = U2.row(v), nv = N.row(v);
+      U2.row(v) = -(u - u.dot(nv) * nv);
+    }
+  }
+};
+
+// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double denom = 1.0 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+// Projection onto a frozen copy of the input surface: the closest point on the faces around the
+// few nearest input vertices. Keeps regularisation from drifting off curved surfaces (each
+// tangent-plane step leaves the surface by O(step^2 * curvature)).
+class SurfaceProjector {
+ public:
+  SurfaceProjector(const MatX3d& V, const MatX3i& F, const Topology& t) : V_(V), F_(F), topo_(t), tree_(V) {}
+  Vec3 project(const Vec3& p, std::vector<int>& idx, std::vector<double>& d2) const {
+    const int k = tree_.knn(p, 4, idx, d2);
+    double best = std::numeric_limits<double>::infinity();
+    Vec3 q = p;
+    for (int i = 0; i < k; ++i)
+      for (int j = topo_.vf_offset[idx[i]]; j < topo_.vf_offset[idx[i] + 1]; ++j) {
+        const int f = topo_.vf_index[j];
+        const Vec3 c = closest_on_triangle(p, V_.row(F_(f, 0)), V_.row(F_(f, 1)), V_.row(F_(f, 2)));
+        const double dd = (c - p).squaredNorm();
+        if (dd < best) best = dd, q = c;
+      }
+    return q;
+  }
+
+ private:
+  MatX3d V_;
+  MatX3i F_;
+  Topology topo_;
+  KdTree tree_;
+};
+
+// Area-weighted unit vertex normals (eq. 3.7) and face areas, serial below kParallelMin.
+void area_normals(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& N, VecXd& farea, MatX3d& fcross) {
+  const int m = static_cast<int>(F.rows()), n = t.n_vertices;
+  fcross.resize(m, 3);
+  farea.resize(m);
+#pragma omp parallel for schedule(static) if (m > kParallelMin)
+  for (int f = 0; f < m; ++f) {
+    const Vec3 c = (P.row(F(f, 1)) - P.row(F(f, 0))).cross(P.row(F(f, 2)) - P.row(F(f, 0)));
+    fcross.row(f) = c;
+    farea[f] = 0.5 * c.norm();
+  }
+  N.resize(n, 3);
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int v = 0; v < n; ++v) {
+    Vec3 s = Vec3::Zero();
+    for (int i = t.vf_offset[v]; i < t.vf_offset[v + 1]; ++i) s += fcross.row(t.vf_index[i]).transpose();
+    const double len = s.norm();
+    N.row(v) = len > 0 ? Vec3(s / len) : Vec3::Zero();
+  }
+}
+
+struct Clock {
+  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
+  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
+};
+
+// Willmore / Laplacian-of-H speed F at movable vertices (eq. 3.5 / 3.12), with the thesis's
+// rescaling of H where the discrete H^2 - K < 0 (applied in the nonlinear term, so that
+// Laplace_S(H) stays a smooth function of the geometry). Returns lambda.
+double normal_speed(const Work& w, const Geo& g, FairMethod method, VecXd& speed) {
+  const int n = w.topo.n_vertices;
+  double lambda = 1.0;
+  if (method == FairMethod::Willmore)
+    for (int v = 0; v < n; ++v) {
+      const double h = g.H[v], k = g.K[v];
+      if (w.movable[v] && h != 0 && h * h - k < 0) lambda = std::min(lambda, std::sqrt(h * h / k));
+    }
+  speed.setZero(n);
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+  for (int v = 0; v < n; ++v) {
+    if (!w.movable[v] || w.sliding[v]) continue;
+    double s = -laplace_scalar(w.F, w.topo, g, g.H, v);
+    if (method == FairMethod::Willmore) {
+      double h = g.H[v];
+      const double k = g.K[v];
+      if (h != 0 && h * h - k < 0) h /= lambda;
+      s -= 2.0 * h * (h * h - k);
+    }
+    speed[v] = s;
+  }
+  return lambda;
+}
+
+// Cotangent stiffness matrix from the per-corner cotangents in g.
+SpMat stiffness(const Work& w, const Geo& g) {
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(12 * w.F.rows());
+  for (int f = 0; f < w.F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = w.F(f, (k + 1) % 3), j = w.F(f, (k + 2) % 3);
+      const double c = 0.5 * g.cot(f, k);
+      trip.emplace_back(i, j, c);
+      trip.emplace_back(j, i, c);
+      trip.emplace_back(i, i, -c);
+      trip.emplace_back(j, j, -c);
+    }
+  SpMat L(w.topo.n_vertices, w.topo.n_vertices);
+  L.setFromTriplets(trip.begin(), trip.end());
+  return L;
+}
+
+// Rows/columns of the movable vertices of a square matrix.
+SpMat restrict_movable(const SpMat& A, const std::vector<int>& idx, int nm) {
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(A.nonZeros());
+  for (int c = 0; c < A.outerSize(); ++c) {
+    if (idx[c] < 0) continue;
+    for (SpMat::InnerIterator it(A, c); it; ++it)
+      if (idx[it.row()] >= 0) trip.emplace_back(idx[it.row()], idx[c], it.value());
+  }
+  SpMat R(nm, nm);
+  R.setFromTriplets(trip.begin(), trip.end());
+  return R;
+}
+
+struct LevelReport {
+  int iterations = 0;
+  bool converged = false;
+  double lambda = 1.0;
+};
+
+class Driver {
+ public:
+  Driver(const FairOptions& o, Progress& p, Clock& c, std::vector<double>& e) : opt_(o), progress_(p), clock_(c), energy_(e) {}
+
+  LevelReport run(Work& w, int level, int levels) {
+    level_ = level;
+    levels_ = levels;
+    curves_.build(w);
+    curves_.hint.assign(w.topo.n_vertices, {-1, -1});
+    movable_idx_.assign(w.topo.n_vertices, -1);
+    nm_ = 0;
+    for (int v = 0; v < w.topo.n_vertices; ++v)
+      if (w.movable[v] && !w.sliding[v]) movable_idx_[v] = nm_++;
+    h_ = mean_edge_length(w.P, w.topo);
+    if (opt_.method == FairMethod::Bilaplacian) return run_bilaplacian(w);
+    return run_curvature_flow(w);
+  }
+
+ private:
+  bool out_of_budget(int it) const {
+    return it >= opt_.max_iterations || (opt_.max_seconds > 0 && clock_.seconds() > opt_.max_seconds);
+  }
+  void report(int it) {
+    const double frac = (level_ + std::min(1.0, double(it) / std::max(1, opt_.max_iterations))) / (levels_ + 1);
+    progress_(std::min(frac, 0.999));
+  }
+  // Tracks flow time; returns true when a window ended with a relative change below tolerance.
+  bool window_converged(double dt, double e, double t_window) {
+    t_acc_ += dt;
+    if (t_acc_ < t_window) return false;
+    const double rel = std::abs(e_mark_ - e) / std::max(std::abs(e_mark_), 1e-300);
+    t_acc_ = 0;
+    e_mark_ = e;
+    return rel < opt_.tolerance;
+  }
+  // Relative change over the last two accepted steps (rejected steps do not count).
+  bool semi_converged(double e) {
+    accepted_.push_back(e);
+    const size_t k = accepted_.size();
+    if (k < 3) return false;
+    const double e2 = accepted_[k - 3];
+    return std::abs(e2 - e) / std::max(std::abs(e2), 1e-300) < opt_.tolerance;
+  }
+  void tangential_step(Work& w, const MatX3d& N, double eps) {
+    tan_.field(w.P, N, w.topo);
+    const int n = w.topo.n_vertices;
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+    for (int v = 0; v < n; ++v)
+      if (movable_idx_[v] >= 0) w.P.row(v) += eps * tan_.U2.row(v);
+  }
+
+  LevelReport run_curvature_flow(Work& w) {
+    LevelReport rep;
+    compute_geometry(w.P, w.F, w.topo, g_);
+    double e = energy_of(w, g_);
+    if (!std::isfinite(e)) throw Error("fair: the curvature of the input is not finite");
+    e_mark_ = e;
+    t_acc_ = 0;
+    accepted_.assign(1, e);
+    const double t_window = std::pow(h_, 4) / 8.0;
+    const bool semi = opt_.scheme == FairScheme::SemiImplicit;
+    // Semi-implicit: tau = s h^4. Start large (the step is stable for any tau; the energy test
+    // shortens it when needed) and grow until the slowest modes of the region relax in one step.
+    double s = 64.0;
+    constexpr double s_max = 1e6;
+    double s_used = 0;
+    SparseSolver solver;
+    bool have_pattern = false;
+    double factored_tau = -1;
+    int since_factor = 0;
+    MatX3d P_prev;
+    int it = 0;
+    while (!out_of_budget(it)) {
+      report(it);
+      rep.lambda = normal_speed(w, g_, opt_.method, speed_);
+      const double amin = min_area_near(w, g_);
+      const double eps = opt_.tangential ? 12.0 * amin : 0.0;
+      double dt;
+      if (!semi) {
+        // Eq. 3.8: P += tau F N + eps T, tau = A_min^2 / 150.
+        const double tau = opt_.step_scale * amin * amin / 150.0;
+        if (opt_.tangential) tan_.field(w.P, g_.N, w.topo);
+        const int n = w.topo.n_vertices;
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+        for (int v = 0; v < n; ++v) {
+          if (movable_idx_[v] < 0) continue;
+          Vec3 d = tau * speed_[v] * Vec3(g_.N.row(v));
+          if (opt_.tangential) d += eps * Vec3(tan_.U2.row(v));
+          w.P.row(v) += d;
+        }
+        if (opt_.boundary == FairBoundary::Sliding) slide_boundary(w, curves_, 0.25);
+        compute_geometry(w.P, w.F, w.topo, g_);
+        e = energy_of(w, g_);
+        if (!std::isfinite(e)) throw Error("fair: the explicit flow diverged (try a smaller step_scale)");
+        dt = tau;
+      } else {
+        if (nm_ == 0) break;
+        const double tau = s * std::pow(h_, 4);
+        // u = tau (M + tau/2 L M^-1 L)^-1 M F N over the movable vertices. The matrix is only a
+        // preconditioner (the fixed points are F = 0 whatever it is), so it is rebuilt when tau
+        // changes or every few iterations, not at every step.
+        if (tau != factored_tau || since_factor >= 4) {
+          const SpMat L = stiffness(w, g_);
+          const VecXd Minv = g_.A.cwiseInverse();
+          const SpMat S = SpMat(L * Minv.asDiagonal()) * L;
+          SpMat A = restrict_movable(S, movable_idx_, nm_) * (0.5 * tau);
+          for (int v = 0; v < w.topo.n_vertices; ++v)
+            if (movable_idx_[v] >= 0) A.coeffRef(movable_idx_[v], movable_idx_[v]) += g_.A[v];
+          A.makeCompressed();
+          if (!have_pattern) {
+            solver.factor(A, SparseSolver::Kind::Cholesky);
+            have_pattern = true;
+          } else {
+            solver.refactor(A);
+          }
+          factored_tau = tau;
+          since_factor = 0;
+        }
+        ++since_factor;
+        Eigen::MatrixXd rhs(nm_, 3);
+        for (int v = 0; v < w.topo.n_vertices; ++v) {
+          const int i = movable_idx_[v];
+          if (i >= 0) rhs.row(i) = tau * g_.A[v] * speed_[v] * g_.N.row(v);
+        }
+        Eigen::MatrixXd u = solver.solve(rhs);
+        // Keep one step below half an edge: the preconditioned step is a descent direction,
+        // so shortening it is safe.
+        const double umax = u.rowwise().norm().maxCoeff();
+        if (umax > 0.5 * h_) u *= 0.5 * h_ / umax;
+        P_prev = w.P;
+        for (int v = 0; v < w.topo.n_vertices; ++v)
+          if (movable_idx_[v] >= 0) w.P.row(v) += u.row(movable_idx_[v]);
+        compute_geometry(w.P, w.F, w.topo, g_);
+        const double e_new = energy_of(w, g_);
+        // Energy rose by more than the tolerance allows: reject and shorten the step. When even
+        // short steps cannot lower it, the discrete flow is at its steady state.
+        if (!(e_new <= e * (1 + 0.1 * opt_.tolerance))) {
+          w.P = P_prev;
+          compute_geometry(w.P, w.F, w.topo, g_);
+          s /= 16;
+          ++it;
+          energy_.push_back(e);
+          if (s < 1e-2) {
+            rep.converged = true;
+            break;
+          }
+          continue;
+        }
+        s_used = s;
+        s = std::min(s * 4, s_max);
+        if (opt_.tangential) {
+          // A few explicit drift sub-steps per (large) normal step keep the mesh regular.
+          const double eps_t = 12.0 * min_area_near(w, g_);
+          for (int k = 0; k < 4; ++k) {
+            if (k > 0) compute_geometry(w.P, w.F, w.topo, g_);
+            tangential_step(w, g_.N, eps_t);
+          }
+        }
+        if (opt_.boundary == FairBoundary::Sliding) slide_boundary(w, curves_, 0.25);
+        compute_geometry(w.P, w.F, w.topo, g_);
+        e = energy_of(w, g_);
+        dt = tau;
+      }
+      energy_.push_back(e);
+      ++it;
+      // Semi-implicit: every step is long (s >= 64 h^4 is ~5e4 explicit steps), so the window
+      // is three iterations (an accept/accept/reject cycle of the step control).
+      // Semi-implicit: only a long step (s >= 1e3) that barely changes the energy shows a
+      // steady state; a step shortened by the energy test says nothing.
+      if (semi ? semi_converged(e) && s_used >= 1e3 : window_converged(dt, e, t_window)) {
+        rep.converged = true;
+        break;
+      }
+    }
+    rep.iterations = it;
+    return rep;
+  }
+
+  // P <- P - tau U0^2(P) (thesis section 3.2), explicit or backward Euler.
+  LevelReport run_bilaplacian(Work& w) {
+    LevelReport rep;
+    const int n = w.topo.n_vertices;
+    const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
+    const SpMat B = SpMat(W * W);
+    compute_geometry(w.P, w.F, w.topo, g_);
+    double e = energy_of(w, g_);
+    e_mark_ = e;
+    t_acc_ = 0;
+    const bool semi = opt_.scheme == FairScheme::SemiImplicit;
+    double tau = semi ? 1.0 : 0.2 * opt_.step_scale;  // explicit: stable below 0.5
+    SparseSolver solver;
+    SpMat Bmm, Bmf;
+    if (semi) {
+      // Split B into movable and fixed columns over the movable rows.
+      std::vector<Eigen::Triplet<double>> tm, tf;
+      std::vector<int> fixed_idx(n, -1);
+      int nf = 0;
+      for (int v = 0; v < n; ++v)
+        if (movable_idx_[v] < 0) fixed_idx[v] = nf++;
+      for (int c = 0; c < B.outerSize(); ++c)
+        for (SpMat::InnerIterator it(B, c); it; ++it) {
+          const int r = movable_idx_[it.row()];
+          if (r < 0) continue;
+          if (movable_idx_[c] >= 0)
+            tm.emplace_back(r, movable_idx_[c], it.value());
+          else
+            tf.emplace_back(r, fixed_idx[c], it.value());
+        }
+      Bmm.resize(nm_, nm_);
+      Bmm.setFromTriplets(tm.begin(), tm.end());
+      Bmf.resize(nm_, nf);
+      Bmf.setFromTriplets(tf.begin(), tf.end());
+      fixed_pos_.resize(nf, 3);
+      for (int v = 0; v < n; ++v)
+        if (fixed_idx[v] >= 0) fixed_pos_.row(fixed_idx[v]) = w.P.row(v);
+    }
+    bool factored = false;
+    int it = 0;
+    MatX3d BP;
+    while (!out_of_budget(it) && nm_ > 0) {
+      report(it);
+      const MatX3d P_prev = w.P;
+      if (!semi) {
+        BP = B * w.P;
+#pragma omp parallel for schedule(static) if (n > kParallelMin)
+        for (int v = 0; v < n; ++v)
+          if (movable_idx_[v] >= 0) w.P.row(v) -= tau * BP.row(v);
+      } else {
+        SpMat A = Bmm * tau;
+        for (int i = 0; i < nm_; ++i) A.coeffRef(i, i) += 1.0;
+        A.makeCompressed();
+        if (!factored) {
+          solver.factor(A, SparseSolver::Kind::LU);
+          factored = true;
+        } else {
+          solver.refactor(A);
+        }
+        Eigen::MatrixXd rhs(nm_, 3);
+        for (int v = 0; v < n; ++v)
+          if (movable_idx_[v] >= 0) rhs.row(movable_idx_[v]) = w.P.row(v);
+        if (Bmf.cols() > 0) rhs -= tau * (Bmf * Eigen::MatrixXd(fixed_pos_));
+        const Eigen::MatrixXd x = solver.solve(rhs);
+        for (int v = 0; v < n; ++v)
+          if (movable_idx_[v] >= 0) w.P.row(v) = x.row(movable_idx_[v]);
+      }
+      if (opt_.boundary == FairBoundary::Sliding) slide_boundary(w, curves_, 0.25);
+      compute_geometry(w.P, w.F, w.topo, g_);
+      const double e_new = energy_of(w, g_);
+      if (!std::isfinite(e_new) || g_.farea.minCoeff() <= 1e-14 * h_ * h_) {
+        // The flow collapses closed or unconstrained meshes; stop at the last regular state.
+        w.P = P_prev;
+        compute_geometry(w.P, w.F, w.topo, g_);
+        break;
+      }
+      e = e_new;
+      energy_.push_back(e);
+      ++it;
+      const double dt = tau;
+      if (semi) tau = std::min(tau * 4, 1e6);
+      if (window_converged(dt, e, semi ? 0.0 : 1.0)) {
+        rep.converged = true;
+        break;
+      }
+    }
+    rep.iterations = it;
+    return rep;
+  }
+
+  const FairOptions& opt_;
+  Progress& progress_;
+  Clock& clock_;
+  std::vector<double>& energy_;
+  int level_ = 0, levels_ = 0, nm_ = 0;
+  std::vector<double> accepted_;
+  double h_ = 1, t_acc_ = 0, e_mark_ = 0;
+  std::vector<int> movable_idx_;
+  Geo g_;
+  VecXd speed_;
+  Tangential tan_;
+  BoundaryCurves curves_;
+  MatX3d fixed_pos_;
+};
+
+// The input reduced to the faces within reach of the movable vertices and the region.
+struct Submesh {
+  std::vector<int> verts;  // local -> full vertex
+  std::vector<int> faces;  // local -> full face
+  Work work;
+};
+
+Submesh extract(const MatX3d& V, const MatX3i& F, const std::vector<char>& movable_full,
+                const std::vector<char>& region_full, bool whole) {
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  Submesh s;
+  std::vector<int> local(n, -1);
+  if (whole) {
+    s.faces.resize(m);
+    std::iota(s.faces.begin(), s.faces.end(), 0);
+  } else {
+    // S = vertices of faces touching a movable vertex or in the region; keep faces touching S.
+    std::vector<char> inS(n, 0);
+    for (int f = 0; f < m; ++f) {
+      const bool touch = region_full[f] || movable_full[F(f, 0)] || movable_full[F(f, 1)] || movable_full[F(f, 2)];
+      if (touch)
+        for (int k = 0; k < 3; ++k) inS[F(f, k)] = 1;
+    }
+    for (int f = 0; f < m; ++f)
+      if (inS[F(f, 0)] || inS[F(f, 1)] || inS[F(f, 2)]) s.faces.push_back(f);
+  }
+  const int ms = static_cast<int>(s.faces.size());
+  Work& w = s.work;
+  w.F.resize(ms, 3);
+  for (int i = 0; i < ms; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int v = F(s.faces[i], k);
+      if (local[v] < 0) {
+        local[v] = static_cast<int>(s.verts.size());
+        s.verts.push_back(v);
+      }
+      w.F(i, k) = local[v];
+    }
+  const int ns = static_cast<int>(s.verts.size());
+  w.P.resize(ns, 3);
+  w.movable.assign(ns, 0);
+  for (int i = 0; i < ns; ++i) {
+    w.P.row(i) = V.row(s.verts[i]);
+    w.movable[i] = movable_full[s.verts[i]];
+  }
+  w.region.assign(ms, 0);
+  for (int i = 0; i < ms; ++i) w.region[i] = region_full[s.faces[i]];
+  return s;
+}
+
+void check_input(const MatX3d& V, const MatX3i& F, const std::vector<char>& vmask, const std::vector<char>* fmask) {
+  validate(V, F, kNonEmpty | kIndices | kFinite);
+  if (!vmask.empty() && vmask.size() != static_cast<size_t>(V.rows()))
+    throw MeshError("mask has " + std::to_string(vmask.size()) + " entries but the mesh has " +
+                    std::to_string(V.rows()) + " vertices");
+  if (fmask && !fmask->empty() && fmask->size() != static_cast<size_t>(F.rows()))
+    throw MeshError("face mask has " + std::to_string(fmask->size()) + " entries but the mesh has " +
+                    std::to_string(F.rows()) + " faces");
+}
+
+Topology validated_topology(Work& w, bool whole) {
+  try {
+    return validate(w.P, w.F, kSurface);
+  } catch (const MeshError& e) {
+    if (whole) throw;
+    throw MeshError(std::string("in the region being faired (indices local to it): ") + e.what());
+  }
+}
+
+}  // namespace
+
+RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask) {
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  if (face_mask.size() != static_cast<size_t>(m)) throw MeshError("subdivide_region: face mask size differs from the face count");
+  // Count, for each edge of a region face, its region faces and all its faces.
+  std::unordered_map<long long, std::pair<int, int>> count;  // key -> (region, all)
+  for (int f = 0; f < m; ++f)
+    if (face_mask[f])
+      for (int k = 0; k < 3; ++k) count[edge_key(F(f, k), F(f, (k + 1) % 3))].first++;
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) {
+      auto it = count.find(edge_key(F(f, k), F(f, (k + 1) % 3)));
+      if (it != count.end()) it->second.second++;
+    }
+  RegionSubdivision out;
+  std::unordered_map<long long, int> mid;
+  auto midpoint = [&](int a, int b) -> int {
+    const long long key = edge_key(a, b);
+    const auto& c = count[key];
+    if (c.first != c.second) return -1;  // border edge: keep it whole
+    auto [it, inserted] = mid.try_emplace(key, n + static_cast<int>(out.edge_a.size()));
+    if (inserted) out.edge_a.push_back(std::min(a, b)), out.edge_b.push_back(std::max(a, b));
+    return it->second;
+  };
+  std::vector<Eigen::Vector3i> extra;
+  std::vector<int> extra_origin;
+  out.F = F;
+  auto emit = [&](int f, bool& first, int a, int b, int c) {
+    if (first) {
+      out.F.row(f) << a, b, c;
+      first = false;
+    } else {
+      extra.emplace_back(a, b, c);
+      extra_origin.push_back(f);
+    }
+  };
+  for (int f = 0; f < m; ++f) {
+    if (!face_mask[f]) continue;
+    const int v[3] = {F(f, 0), F(f, 1), F(f, 2)};
+    int mids[3];
+    int split = 0;
+    for (int k = 0; k < 3; ++k) split += (mids[k] = midpoint(v[k], v[(k + 1) % 3])) >= 0;
+    bool first = true;
+    if (split == 3) {
+      emit(f, first, mids[0], mids[1], mids[2]);
+      emit(f, first, v[0], mids[0], mids[2]);
+      emit(f, first, mids[0], v[1], mids[1]);
+      emit(f, first, mids[2], mids[1], v[2]);
+    } else if (split == 2) {
+      int j = 0;  // the unsplit edge, rotated to (c, a)
+      while (mids[j] >= 0) ++j;
+      const int r = (j + 1) % 3;
+      const int a = v[r], b = v[(r + 1) % 3], c = v[(r + 2) % 3];
+      const int mab = mids[r], mbc = mids[(r + 1) % 3];
+      emit(f, first, mab, b, mbc);
+      auto pos = [&](int i) -> Vec3 {
+        if (i < n) return V.row(i).transpose();
+        const int e = i - n;
+        return 0.5 * (V.row(out.edge_a[e]) + V.row(out.edge_b[e])).transpose();
+      };
+      if ((pos(a) - pos(mbc)).squaredNorm() <= (pos(mab) - pos(c)).squaredNorm()) {
+        emit(f, first, a, mab, mbc);
+        emit(f, first, a, mbc, c);
+      } else {
+        emit(f, first, a, mab, c);
+        emit(f, first, mab, mbc, c);
+      }
+    } else if (split == 1) {
+      int j = 0;
+      while (mids[j] < 0) ++j;
+      const int a = v[j], b = v[(j + 1) % 3], c = v[(j + 2) % 3];
+      emit(f, first, a, mids[j], c);
+      emit(f, first, mids[j], b, c);
+    }
+  }
+  const int ne = static_cast<int>(out.edge_a.size()), nx = static_cast<int>(extra.size());
+  out.V.resize(n + ne, 3);
+  out.V.topRows(n) = V;
+  for (int e = 0; e < ne; ++e) out.V.row(n + e) = 0.5 * (V.row(out.edge_a[e]) + V.row(out.edge_b[e]));
+  out.F.conservativeResize(m + nx, 3);
+  out.face_origin.resize(m + nx);
+  std::iota(out.face_origin.data(), out.face_origin.data() + m, 0);
+  for (int i = 0; i < nx; ++i) {
+    out.F.row(m + i) = extra[i].transpose();
+    out.face_origin[m + i] = extra_origin[i];
+  }
+  out.face_mask.assign(m + nx, 0);
+  for (int i = 0; i < m + nx; ++i) out.face_mask[i] = face_mask[out.face_origin[i]];
+  return out;
+}
+
+double willmore_energy(const MatX3d& V, const MatX3i& F) {
+  Work w;
+  w.P = V;
+  w.F = F;
+  w.topo = validate(V, F, kSurface);
+  w.energy_set.assign(w.topo.n_vertices, 1);
+  Geo g;
+  compute_geometry(w.P, w.F, w.topo, g);
+  return energy_of(w, g);
+}
+
+FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
+  check_input(V, F, opt.vertex_mask, &opt.face_mask);
+  if (opt.subdivisions < 0 || opt.subdivisions > 6) throw MeshError("subdivisions must be between 0 and 6");
+  if (!(opt.tolerance >= 0)) throw MeshError("tolerance must be >= 0");
+  if (opt.max_iterations < 0) throw MeshError("max_iterations must be >= 0");
+  if (!(opt.step_scale > 0)) throw MeshError("step_scale must be > 0");
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  const bool whole = opt.vertex_mask.empty() && opt.face_mask.empty();
+  std::vector<char> movable_full(n, 1), region_full(m, 1);
+  if (!opt.vertex_mask.empty())
+    for (int v = 0; v < n; ++v) movable_full[v] = opt.vertex_mask[v] != 0;
+  if (!opt.face_mask.empty()) {
+    for (int f = 0; f < m; ++f) region_full[f] = opt.face_mask[f] != 0;
+  } else if (!opt.vertex_mask.empty()) {
+    for (int f = 0; f < m; ++f)
+      region_full[f] = movable_full[F(f, 0)] || movable_full[F(f, 1)] || movable_full[F(f, 2)];
+  }
+  if (!whole && std::none_of(movable_full.begin(), movable_full.end(), [](char c) { return c; }) &&
+      (opt.subdivisions == 0 || std::none_of(region_full.begin(), region_full.end(), [](char c) { return c; })))
+    throw MeshError("nothing to fair: the mask selects no vertex (and no face to subdivide)");
+
+  Submesh sub = extract(V, F, movable_full, region_full, whole);
+  Work& w = sub.work;
+  w.topo = validated_topology(w, whole);
+  const int ns0 = w.topo.n_vertices, ms0 = static_cast<int>(w.F.rows());
+
+  // Normalise: centred, unit mean edge length.
+  const Vec3 centre = w.P.colwise().mean();
+  const double scale = mean_edge_length(w.P, w.topo);
+  w.P = ((w.P.rowwise() - centre.transpose()) / scale).eval();
+
+  Progress progress(progress_fn);
+  progress(0.0);
+  Clock clock;
+  FairResult res;
+  VecXi origin = VecXi::LinSpaced(ms0, 0, ms0 - 1);  // working face -> level-0 working face
+  Driver driver(opt, progress, clock, res.energy);
+  bool first_energy = true;
+  for (int level = 0; level <= opt.subdivisions; ++level) {
+    if (level > 0) {
+      RegionSubdivision rs = subdivide_region(w.P, w.F, w.region);
+      const int nold = w.topo.n_vertices;
+      w.P = std::move(rs.V);
+      w.F = std::move(rs.F);
+      VecXi o(rs.face_origin.size());
+      for (int i = 0; i < o.size(); ++i) o[i] = origin[rs.face_origin[i]];
+      origin = std::move(o);
+      w.region = std::move(rs.face_mask);
+      w.topo = validated_topology(w, whole);
+      w.movable.resize(w.topo.n_vertices, 1);  // midpoints of interior region edges move
+      (void)nold;
+    }
+    prepare_level(w, opt.boundary);
+    if (first_energy) {
+      Geo g;
+      compute_geometry(w.P, w.F, w.topo, g);
+      res.energy.push_back(energy_of(w, g));
+      first_energy = false;
+    }
+    if (std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; })) {
+      res.level_iterations.push_back(0);
+      continue;
+    }
+    const LevelReport rep = driver.run(w, level, opt.subdivisions);
+    res.level_iterations.push_back(rep.iterations);
+    res.iterations += rep.iterations;
+    res.converged = rep.converged;
+    res.lambda = rep.lambda;
+    if (opt.max_seconds > 0 && clock.seconds() > opt.max_seconds && level < opt.subdivisions) {
+      // Out of time: still refine (so the output has the requested resolution), without flow.
+      continue;
+    }
+  }
+  if (std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; }) && !whole)
+    throw MeshError("nothing to fair: every selected vertex is on the border of the selection or the mesh boundary; "
+                    "select the region's interior or add subdivisions");
+
+  // Back to the caller's coordinates and indices.
+  const int ns = w.topo.n_vertices, ms = static_cast<int>(w.F.rows());
+  const int n_new = ns - ns0;
+  res.V.resize(n + n_new, 3);
+  res.V.topRows(n) = V;
+  res.vertex_mask.assign(n + n_new, 0);
+  auto full_index = [&](int i) { return i < ns0 ? sub.verts[i] : n + (i - ns0); };
+  for (int i = 0; i < ns; ++i) {
+    if (i < ns0 && !w.movable[i] && !w.sliding[i]) continue;  // fixed: exactly the input
+    const int fi = full_index(i);
+    res.V.row(fi) = w.P.row(i) * scale + centre.transpose();
+    res.vertex_mask[fi] = w.movable[i] || w.sliding[i];
+  }
+  res.F = F;
+  res.face_origin = VecXi::LinSpaced(m, 0, m - 1);
+  const int extra = ms - ms0;
+  res.F.conservativeResize(m + extra, 3);
+  res.face_origin.conservativeResize(m + extra);
+  for (int r = 0; r < ms; ++r) {
+    const int row = r < ms0 ? sub.faces[r] : m + (r - ms0);
+    for (int k = 0; k < 3; ++k) res.F(row, k) = full_index(w.F(r, k));
+    res.face_origin[row] = sub.faces[origin[r]];
+  }
+  progress(1.0);
+  return res;
+}
+
+MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt, const ProgressFn& progress_fn) {
+  check_input(V, F, opt.vertex_mask, nullptr);
+  if (opt.iterations < 0) throw MeshError("iterations must be >= 0");
+  if (!(opt.step_scale > 0)) throw MeshError("step_scale must be > 0");
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  const bool whole = opt.vertex_mask.empty();
+  std::vector<char> movable_full(n, 1), region_full(m, 0);
+  if (!whole)
+    for (int v = 0; v < n; ++v) movable_full[v] = opt.vertex_mask[v] != 0;
+  Submesh sub = extract(V, F, movable_full, region_full, whole);
+  Work& w = sub.work;
+  w.topo = validated_topology(w, whole);
+  prepare_level(w, opt.boundary);
+  const Vec3 centre = w.P.colwise().mean();
+  const double scale = mean_edge_length(w.P, w.topo);
+  w.P = ((w.P.rowwise() - centre.transpose()) / scale).eval();
+
+  Progress progress(progress_fn);
+  progress(0.0);
+  Tangential tan;
+  BoundaryCurves curves;
+  if (opt.boundary == FairBoundary::Sliding) curves.build(w);
+  std::vector<char> moves(w.topo.n_vertices, 0);
+  for (int v = 0; v < w.topo.n_vertices; ++v) moves[v] = w.movable[v] && !w.sliding[v];
+  VecXd areas;
+  MatX3d N, fcross;
+  const SurfaceProjector projector(w.P, w.F, w.topo);
+  for (int it = 0; it < opt.iterations; ++it) {
+    progress(double(it) / std::max(1, opt.iterations));
+    area_normals(w.P, w.F, w.topo, N, areas, fcross);
+    double amin = std::numeric_limits<double>::infinity();
+    for (int f = 0; f < w.F.rows(); ++f)
+      if (w.near[f]) amin = std::min(amin, areas[f]);
+    if (!std::isfinite(amin)) break;
+    // Eq. 3.8 with tau = 0: P += eps T, eps = 12 A_min.
+    const double eps = opt.step_scale * 12.0 * amin;
+    tan.field(w.P, N, w.topo);
+    const int nv = w.topo.n_vertices;
+#pragma omp parallel for schedule(static) if (nv > kParallelMin)
+    for (int v = 0; v < nv; ++v) {
+      if (!moves[v]) continue;
+      const Vec3 p = Vec3(w.P.row(v)) + eps * Vec3(tan.U2.row(v));
+      if (opt.project) {
+        thread_local std::vector<int> idx;
+        thread_local std::vector<double> d2;
+        w.P.row(v) = projector.project(p, idx, d2);
+      } else {
+        w.P.row(v) = p;
+      }
+    }
+    if (opt.boundary == FairBoundary::Sliding) slide_boundary(w, curves, 0.25);
+  }
+  MatX3d out = V;
+  for (int i = 0; i < w.topo.n_vertices; ++i)
+    if (w.movable[i] || w.sliding[i]) out.row(sub.verts[i]) = w.P.row(i) * scale + centre.transpose();
+  if (!out.allFinite()) throw Error("regularize: the drift diverged (try a smaller step_scale)");
+  progress(1.0);
+  return out;
+}
+
+}  // namespace dgmesh

@@ -1,0 +1,160 @@
+"""dgmesh.fair and dgmesh.regularize in Blender: the hole workflow a user follows, UVs of the
+untouched faces, Object mode, errors and undo."""
+
+import bmesh
+import bpy
+import numpy as np
+import pytest
+
+from helpers import mesh_snapshot, select
+
+R = 1.0
+
+
+def _fresh_sphere(name="Ball", segments=32, rings=16):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=segments, ring_count=rings, radius=R)
+    obj = bpy.context.object
+    obj.name = name
+    return obj
+
+
+def _positions(mesh):
+    co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3).astype(np.float64)
+
+
+def _uv_by_polygon(mesh):
+    """{sorted vertex tuple: sorted corner UVs} for every polygon (stable across re-indexing)."""
+    uv = mesh.uv_layers.active.data
+    out = {}
+    for p in mesh.polygons:
+        key = tuple(sorted(mesh.loops[i].vertex_index for i in p.loop_indices))
+        out[key] = sorted((mesh.loops[i].vertex_index, round(uv[i].uv[0], 6), round(uv[i].uv[1], 6))
+                          for i in p.loop_indices)
+    return out
+
+
+def _cut_and_fill(obj, zcut=0.8):
+    """Edit mode: delete the vertices above zcut (a polar cap), fill the hole with one n-gon (F)
+    and leave it selected, as a user would."""
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = v.co.z > zcut * R
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.delete(type='VERT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.mesh.select_non_manifold()
+    bpy.ops.mesh.edge_face_add()  # one n-gon, selected
+
+
+def test_hole_workflow_with_subdivision_keeps_other_uvs_and_undoes():
+    obj = _fresh_sphere()
+    _cut_and_fill(obj)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    uv_before = _uv_by_polygon(mesh)
+    ngon = [p for p in mesh.polygons if p.select]
+    assert len(ngon) == 1 and ngon[0].loop_total == 32
+    ngon_key = tuple(sorted(ngon[0].vertices))
+    rim = np.array(sorted(ngon[0].vertices))
+    V_before = _positions(mesh)
+    n_before, p_before = len(mesh.vertices), len(mesh.polygons)
+    snap = mesh_snapshot(mesh)
+
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.ed.undo_push(message="before fair")
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, subdivisions=3) == {'FINISHED'}
+    assert obj.mode == 'EDIT'
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    V = _positions(mesh)
+    assert len(V) > n_before and len(mesh.polygons) > p_before
+    # Old vertices: unchanged (the rim and everything else are fixed).
+    assert np.array_equal(V[:n_before], V_before)
+    # The new patch is close to the removed spherical cap (the flat n-gon is 0.2 away).
+    new = V[n_before:]
+    dev = np.abs(np.linalg.norm(new, axis=1) - R)
+    assert dev.max() < 0.02, dev.max()
+    assert new[:, 2].max() > 0.95 * R
+    # Untouched faces keep their UVs; only the n-gon was replaced.
+    uv_after = _uv_by_polygon(mesh)
+    for key, val in uv_before.items():
+        if key == ngon_key:
+            assert key not in uv_after
+        else:
+            assert uv_after[key] == val
+    # The patch is selected, the mesh is a closed manifold.
+    sel = np.zeros(len(mesh.vertices), bool)
+    mesh.vertices.foreach_get("select", sel)
+    assert sel[n_before:].all() and sel[rim].all()
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    assert all(e.is_manifold for e in bm.edges)
+    bm.free()
+
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert mesh_snapshot(bpy.data.objects["Ball"].data) == snap
+
+
+def test_grid_fill_hole_without_subdivision_moves_only_inner_vertices():
+    obj = _fresh_sphere(segments=32, rings=16)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = v.co.z > 0.7 * R
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.delete(type='VERT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.mesh.select_non_manifold()
+    bpy.ops.mesh.fill_grid()  # quads with inner vertices, selected
+    bpy.ops.object.mode_set(mode='OBJECT')
+    V0 = _positions(obj.data)
+    sel = np.zeros(len(V0), bool)
+    obj.data.vertices.foreach_get("select", sel)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    V = _positions(obj.data)
+    assert len(V) == len(V0)
+    moved = np.any(V != V0, axis=1)
+    assert moved.any() and not (moved & ~sel).any()
+    # Grid fill is flat; after fairing the inner vertices are near the sphere.
+    d0 = np.abs(np.linalg.norm(V0[moved], axis=1) - R).max()
+    d1 = np.abs(np.linalg.norm(V[moved], axis=1) - R).max()
+    assert d1 < 0.25 * d0
+
+
+def test_object_mode_and_regularize():
+    obj = _fresh_sphere(segments=24, rings=12)
+    obj.scale = (2.0, 1.0, 1.0)
+    bpy.ops.object.transform_apply(scale=True)
+    select("Ball")
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    V = _positions(obj.data)
+    ext = V.max(0) - V.min(0)
+    assert ext.max() / ext.min() < 1.15  # rounded up (the input is 2:1:1)
+    assert bpy.ops.dgmesh.regularize('EXEC_DEFAULT', True, iterations=20) == {'FINISHED'}
+
+
+def test_errors_leave_the_mesh_untouched():
+    obj = _fresh_sphere()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    bm.verts.ensure_lookup_table()
+    bm.verts[5].select = True  # a single vertex: on its own selection border
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    snap = mesh_snapshot(obj.data)
+    bpy.ops.object.mode_set(mode='EDIT')
+    with pytest.raises(RuntimeError, match="nothing to fair"):
+        bpy.ops.dgmesh.fair('EXEC_DEFAULT', True)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert mesh_snapshot(obj.data) == snap

@@ -1,0 +1,159 @@
+"""dgmesh.fair / dgmesh.regularize: the numpy API over the native Willmore flow."""
+
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh import shapes
+
+
+def _cap_hole(level=4, z0=0.75):
+    """Unit icosphere with the cap above z0 flattened: (V_flat, F, movable mask, cap faces)."""
+    V, F = shapes.icosphere(level)
+    above = (V[F][:, :, 2] > z0).all(axis=1)
+    outside = np.zeros(len(V), dtype=bool)
+    outside[F[~above].ravel()] = True
+    movable = ~outside & (V[:, 2] > z0)
+    W = V.copy()
+    W[movable, 2] = z0
+    return W, F, movable, above
+
+
+def test_sphere_energy_and_invariance():
+    V, F = shapes.icosphere(3, 2.0)
+    assert dgmesh.willmore_energy(V, F) == pytest.approx(4 * np.pi, rel=0.03)
+    r = dgmesh.fair(V, F, max_iterations=50)
+    rad = np.linalg.norm(r.vertices, axis=1)
+    assert np.ptp(rad) / rad.mean() < 2e-3
+    assert r.energy[-1] == pytest.approx(r.energy[0], rel=0.01)
+    assert r.faces is not None and np.array_equal(r.faces, F)
+    assert not r.subdivided
+
+
+def test_hole_restoration_region_mode():
+    W, F, movable, _ = _cap_hole()
+    r = dgmesh.fair(W, F, mask=movable)
+    assert r.converged
+    assert np.array_equal(r.vertices[~movable], W[~movable])  # bit-identical outside
+    dev = np.abs(np.linalg.norm(r.vertices[movable], axis=1) - 1)
+    assert dev.max() < 2e-3
+    rb = dgmesh.fair(W, F, mask=movable, method="bilaplacian")
+    devb = np.abs(np.linalg.norm(rb.vertices[movable], axis=1) - 1)
+    assert dev.max() < 0.2 * devb.max()
+    assert np.all(np.diff(r.energy) <= 1e-4 * r.energy[:-1])
+
+
+def test_fill_without_interior_vertices_needs_subdivision():
+    """A hole filled by a fan (no interior vertex), refined and faired: the user's workflow of
+    delete -> fill -> fair."""
+    V, F = shapes.icosphere(3)
+    c = int(np.argmax(V[:, 2]))
+    star = (F == c).any(axis=1)
+    nxt = {}
+    for f in F[star]:
+        k = list(f).index(c)
+        nxt[f[(k + 1) % 3]] = f[(k + 2) % 3]
+    ring = [next(iter(nxt))]
+    while len(ring) < len(nxt):
+        ring.append(nxt[ring[-1]])
+    fan = np.array([[ring[0], ring[i], ring[i + 1]] for i in range(1, len(ring) - 1)], dtype=np.int32)
+    F2 = np.concatenate([F[~star], fan])
+    region = np.zeros(len(F2), bool)
+    region[-len(fan):] = True
+    with pytest.raises(dgmesh.MeshError, match="nothing to fair"):
+        dgmesh.fair(V, F2, mask=np.zeros(len(V), bool))
+    from dgmesh.fair import subdivide_region
+
+    flat = subdivide_region(V, F2, region)[0][len(V):]
+    r = dgmesh.fair(V, F2, faces=region, subdivisions=3)
+    assert r.subdivided and len(r.faces) > len(F2)
+    new = np.arange(len(V), len(r.vertices))
+    dev = np.abs(np.linalg.norm(r.vertices[new], axis=1) - 1)
+    dev_flat = np.abs(np.linalg.norm(flat, axis=1) - 1)
+    assert dev.max() < 0.2 * dev_flat.max()
+    # Faces outside the refined region keep their rows; the rest of the mesh is untouched.
+    assert np.array_equal(r.faces[:len(F2)][~region], F2[~region])
+    assert np.array_equal(r.face_origin[:len(F2)], np.arange(len(F2)))
+    assert np.array_equal(r.vertices[:len(V)], V)
+    dgmesh.validate(r.vertices, r.faces)
+
+
+@pytest.mark.parametrize("method", ["willmore", "bilaplacian", "laplacian_of_h"])
+@pytest.mark.parametrize("scheme", ["explicit", "semi_implicit"])
+def test_methods_and_schemes_lower_the_energy(method, scheme):
+    W, F, movable, _ = _cap_hole(level=3, z0=0.6)
+    r = dgmesh.fair(W, F, mask=movable, method=method, scheme=scheme, max_iterations=300, step_scale=4)
+    assert r.energy[-1] < r.energy[0]
+    assert np.isfinite(r.vertices).all()
+
+
+def test_boundary_modes():
+    V, F = shapes.grid(10, 10)
+    V[:, 2] = 0.2 * np.sin(3 * V[:, 0]) * np.sin(3 * V[:, 1])
+    loops = dgmesh.topology(V, F)["boundary_loops"]
+    b = np.unique(np.concatenate(loops))
+    fixed = dgmesh.fair(V, F, max_iterations=30)
+    assert np.array_equal(fixed.vertices[b], V[b])
+    sliding = dgmesh.fair(V, F, boundary="sliding", max_iterations=30)
+    x, y = sliding.vertices[b, 0], sliding.vertices[b, 1]
+    side = np.minimum.reduce([np.abs(x), np.abs(1 - x), np.abs(y), np.abs(1 - y)])
+    assert side.max() < 1e-9
+    assert not np.array_equal(sliding.vertices[b], V[b])
+
+
+def test_regularize_improves_min_angle_and_stays_on_surface():
+    V, F = shapes.grid(12, 12)
+    rng = np.random.default_rng(1)
+    inner = (V[:, 0] > 0) & (V[:, 0] < 1) & (V[:, 1] > 0) & (V[:, 1] < 1)
+    Vj = V.copy()
+    Vj[inner, :2] += rng.uniform(-0.03, 0.03, (inner.sum(), 2))
+    Vj[:, 2] = 0.3 * Vj[:, 0] ** 2  # a curved (parabolic) surface
+    def min_angle(X):
+        P = X[F]
+        a = []
+        for k in range(3):
+            u = P[:, (k + 1) % 3] - P[:, k]
+            w = P[:, (k + 2) % 3] - P[:, k]
+            c = (u * w).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)
+            a.append(np.degrees(np.arccos(np.clip(c, -1, 1))))
+        return np.min(a)
+    R = dgmesh.regularize(Vj, F, iterations=200)
+    assert min_angle(R) > min_angle(Vj) + 3
+    # On the surface: z = 0.3 x^2 up to the chord error of the input's triangles.
+    assert np.abs(R[:, 2] - 0.3 * R[:, 0] ** 2).max() < 2e-3
+    assert np.array_equal(R[~inner], Vj[~inner])
+    # mask: only those move
+    m = np.zeros(len(V), bool)
+    m[np.flatnonzero(inner)[:10]] = True
+    Rm = dgmesh.regularize(Vj, F, iterations=20, mask=m)
+    assert np.array_equal(Rm[~m], Vj[~m])
+
+
+def test_bad_input():
+    V, F = shapes.icosphere(1)
+    with pytest.raises(dgmesh.MeshError, match="method"):
+        dgmesh.fair(V, F, method="nope")
+    with pytest.raises(dgmesh.MeshError, match="boundary"):
+        dgmesh.fair(V, F, boundary="nope")
+    with pytest.raises(dgmesh.MeshError, match="mask"):
+        dgmesh.fair(V, F, mask=np.ones(3, bool))
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.fair(V, F, subdivisions=-1)
+    bad = V.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.fair(bad, F)
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.regularize(V, F[:, :2])
+    Vc = V.copy()
+    dgmesh.fair(Vc, F, max_iterations=3)
+    assert np.array_equal(Vc, V)  # input untouched
+
+
+def test_progress_and_cancel():
+    V, F = shapes.icosphere(2)
+    seen = []
+    dgmesh.fair(V, F, max_iterations=20, progress=lambda f: seen.append(f))
+    assert seen and seen[0] == 0.0 and seen[-1] == 1.0
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.fair(V, F, progress=lambda f: f < 0.0001 and f == 0.0)
