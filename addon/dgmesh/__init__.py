@@ -36,6 +36,8 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
 from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
+from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
+from .multires import Multires  # noqa: E402
 
 
 def register():

@@ -31,4 +31,6 @@ PYBIND11_MODULE(_native, m) {
   dgmesh::py::bind_crest(m);
   dgmesh::py::bind_fair(m);
   dgmesh::py::bind_unwrap(m);
+  dgmesh::py::bind_skeletal(m);
+  dgmesh::py::bind_multires(m);
 }

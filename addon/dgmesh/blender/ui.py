@@ -13,6 +13,10 @@ OPERATORS = [
     ("dgmesh.regularize", "Regularize", 'MESH_GRID'),
     ("dgmesh.unwrap", "Low-Stretch Unwrap", 'UV'),
     ("dgmesh.stretch_map", "UV Stretch Map", 'UV_DATA'),
+    ("dgmesh.multires_preview", "Multires Preview", 'MOD_MULTIRES'),
+    ("dgmesh.skeletal_bind", "Skeletal Bind", 'ARMATURE_DATA'),
+    ("dgmesh.skeletal_bake", "Skeletal Bake", 'FILE_CACHE'),
+    ("dgmesh.skeletal_unbind", "Skeletal Unbind", 'UNLINKED'),
 ]
 
 

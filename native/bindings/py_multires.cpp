@@ -1,0 +1,139 @@
+// Displaced-subdivision multiresolution layer (thesis 6.4): thin wrappers; the Python-facing class,
+// defaults and documentation live in addon/dgmesh/multires.py.
+#include "common.h"
+#include "dgmesh/errors.h"
+#include "dgmesh/multires.h"
+
+namespace dgmesh::py {
+
+namespace {
+
+pb::tuple sparse_rows(const SpMatR& W) {
+  const auto nnz = W.nonZeros();
+  pb::array_t<int> indptr(W.rows() + 1), indices(nnz);
+  pb::array_t<double> data(nnz);
+  std::copy(W.outerIndexPtr(), W.outerIndexPtr() + W.rows() + 1, indptr.mutable_data());
+  std::copy(W.innerIndexPtr(), W.innerIndexPtr() + nnz, indices.mutable_data());
+  std::copy(W.valuePtr(), W.valuePtr() + nnz, data.mutable_data());
+  return pb::make_tuple(data, indices, indptr, pb::make_tuple(W.rows(), W.cols()));
+}
+
+}  // namespace
+
+void bind_multires(pb::module_& m) {
+  using MatX2dR = MatX2d;
+  pb::class_<Multires>(m, "Multires")
+      .def_static(
+          "build",
+          [](InV V, InF F, int control_faces, int level, double min_quality, int fit_iterations,
+             double fit_regularization, int projection_iterations, const pb::object& progress) {
+            MultiresOptions o;
+            o.control_faces = control_faces;
+            o.level = level;
+            o.min_quality = min_quality;
+            o.fit_iterations = fit_iterations;
+            o.fit_regularization = fit_regularization;
+            o.projection_iterations = projection_iterations;
+            const ProgressFn cb = progress_from(progress);
+            pb::gil_scoped_release nogil;
+            return Multires::build(V, F, o, cb);
+          },
+          pb::arg("V"), pb::arg("F"), pb::arg("control_faces"), pb::arg("level"), pb::arg("min_quality"),
+          pb::arg("fit_iterations"), pb::arg("fit_regularization"), pb::arg("projection_iterations"),
+          pb::arg("progress") = pb::none())
+      .def_static(
+          "bind",
+          [](InV control_V, InF control_F, InV V, int level, int projection_iterations, const pb::object& progress) {
+            const ProgressFn cb = progress_from(progress);
+            pb::gil_scoped_release nogil;
+            return Multires::bind(control_V, control_F, V, level, cb, projection_iterations);
+          },
+          pb::arg("control_V"), pb::arg("control_F"), pb::arg("V"), pb::arg("level"),
+          pb::arg("projection_iterations"), pb::arg("progress") = pb::none())
+      .def_static(
+          "from_arrays",
+          [](InV control_V, InF control_F, int level, const VecXi& face, const MatX2dR& st, InV disp) {
+            MultiresData d;
+            d.control_V = control_V;
+            d.control_F = control_F;
+            d.level = level;
+            d.face = face;
+            d.st = st;
+            d.disp = disp;
+            pb::gil_scoped_release nogil;
+            return Multires::from_data(d);
+          },
+          pb::arg("control_V"), pb::arg("control_F"), pb::arg("level"), pb::arg("face"), pb::arg("st"),
+          pb::arg("disp"))
+      .def_property_readonly("n_dense", &Multires::n_dense)
+      .def_property_readonly("n_control", &Multires::n_control)
+      .def_property_readonly("level", &Multires::level)
+      .def_property_readonly("control_vertices", [](const Multires& r) { return MatX3d(r.control_vertices()); })
+      .def_property_readonly("control_faces", [](const Multires& r) { return MatX3i(r.control_faces()); })
+      .def_property_readonly("base_face", [](const Multires& r) { return VecXi(r.base_face()); })
+      .def_property_readonly("base_st", [](const Multires& r) { return MatX2dR(r.base_st()); })
+      .def_property_readonly("displacement", [](const Multires& r) { return MatX3d(r.displacement()); })
+      .def_property_readonly("n_patch_points", &Multires::n_patch_points)
+      .def_property_readonly("memory_bytes", &Multires::memory_bytes)
+      .def_property_readonly("timings",
+                             [](const Multires& r) {
+                               const MultiresTimings& t = r.timings();
+                               pb::dict d;
+                               d["decimate"] = t.decimate;
+                               d["surface"] = t.surface;
+                               d["bind"] = t.bind;
+                               d["fit"] = t.fit;
+                               d["stencils"] = t.stencils;
+                               return d;
+                             })
+      .def(
+          "reconstruct",
+          [](const Multires& r, InV X, std::optional<Eigen::Ref<MatX3d>> out) -> pb::object {
+            if (out) {
+              {
+                pb::gil_scoped_release nogil;
+                r.reconstruct(X, *out);
+              }
+              return pb::none();
+            }
+            MatX3d res(r.n_dense(), 3);
+            {
+              pb::gil_scoped_release nogil;
+              r.reconstruct(X, res);
+            }
+            return pb::cast(std::move(res));
+          },
+          pb::arg("control_V"), pb::arg("out") = pb::none())
+      .def(
+          "limit_points",
+          [](const Multires& r, const MatX3d& X) {
+            MatX3d P, N;
+            {
+              pb::gil_scoped_release nogil;
+              r.limit_points(X, P, &N);
+            }
+            return pb::make_tuple(std::move(P), std::move(N));
+          },
+          pb::arg("control_V"))
+      .def(
+          "evaluate",
+          [](const Multires& r, const MatX3d& X, const VecXi& face, const MatX2dR& st) {
+            MatX3d P, Ds, Dt;
+            {
+              pb::gil_scoped_release nogil;
+              r.evaluate(X, face, st, P, &Ds, &Dt);
+            }
+            return pb::make_tuple(std::move(P), std::move(Ds), std::move(Dt));
+          },
+          pb::arg("control_V"), pb::arg("face"), pb::arg("st"))
+      .def("limit_matrix", [](const Multires& r) {
+        SpMatR W;
+        {
+          pb::gil_scoped_release nogil;
+          W = r.limit_matrix();
+        }
+        return sparse_rows(W);
+      });
+}
+
+}  // namespace dgmesh::py

@@ -1,0 +1,146 @@
+// Skeleton-driven, thickness-preserving mesh deformation (thesis chapter 6, after Yoshizawa,
+// Belyaev and Seidel [YBS03, YBS06]).
+//
+// A closed mesh M is written as M = S + d N (eq. 6.1): S is a skeletal mesh (one Voronoi pole per
+// vertex, the connectivity of M, thesis 6.1) and d(i) = |x_i - s_i| the medial-ball radius (eq.
+// 6.7). Posing the bones deforms S by skeletal subspace deformation (eq. 6.2); the deformed mesh is
+// rebuilt around the deformed skeleton, either variationally (6.5: per-triangle frames, eq. 6.8,
+// stitched by the graph Laplacian L0 of eq. 6.9-6.12, factorised once) followed by the
+// shape-preserving self-intersection fairing eq. 6.15, or by the basic homotopy method of 6.3
+// (eq. 6.3-6.6) for comparison. A dense mesh goes through the multiresolution layer (multires.h):
+// the skeletal machinery runs on its decimated control mesh.
+#pragma once
+#include <memory>
+#include <vector>
+
+#include "dgmesh/mesh.h"
+#include "dgmesh/multires.h"
+#include "dgmesh/progress.h"
+#include "dgmesh/types.h"
+
+namespace dgmesh {
+
+using Mat4 = Eigen::Matrix4d;
+
+struct SkeletonOptions {
+  // Bilaplacian tangential flow applied to a copy of the mesh before the Voronoi poles are taken
+  // (thesis 6.1 "Pre-Smoothing"); the mesh itself is not changed.
+  int presmooth_iterations = 10;
+  double presmooth_step = 0.2;  // of the uniform bi-umbrella (stable below 0.5)
+  // Post-smoothing of the skeletal mesh (thesis 6.1 end): bi-umbrella steps applied at skeletal
+  // vertices whose smoothing vector points against the mesh normal, and always at spikes (radius
+  // above spike_factor times the median of the ring's radii) and at inverted vertices (on the
+  // outer side of the surface).
+  int postsmooth_iterations = 20;
+  double postsmooth_step = 0.2;
+  double spike_factor = 2.5;
+  // Inner pole candidates: Voronoi vertices of the cell that lie within this angle (radians) of
+  // the inward normal.
+  double max_pole_angle = 1.2;
+};
+
+struct SkeletalMesh {
+  MatX3d S;      // skeletal vertices, one per mesh vertex; faces are the mesh's
+  VecXd radii;   // d(i) = |x_i - s_i| (eq. 6.7)
+  int n_fallback = 0;       // vertices without an inner Voronoi pole (placed from their ring)
+  int n_postsmoothed = 0;   // vertices moved by the post-smoothing
+};
+
+// Skeletal mesh of a closed, consistently oriented manifold mesh (validated by the caller).
+SkeletalMesh skeletal_mesh(const Mesh& mesh, const SkeletonOptions& opt = {});
+
+// Normalised Gaussian weights of the distance from each point to the bone segments
+// (head, tail): w_j ~ exp(-(dist_j^2 - min_k dist_k^2) / (2 sigma^2)). Returns n x B.
+Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, const MatX3d& tails, double sigma);
+
+// Skeletal subspace deformation (eq. 6.2): z -> sum_j w_j (pose_j rest_j^-1) z. W is n x B with
+// rows summing to 1. If `linear` is given it receives, row-major (n x 9), the rotation of each
+// point's frame: the bone rotations blended as normalised quaternions.
+MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const std::vector<Mat4>& rest,
+                                const std::vector<Mat4>& pose, Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>* linear = nullptr);
+
+// Signed distance to the union of balls (s_j, r_j) (eq. 6.13) for each point, through a kd-tree;
+// exact (every ball that can matter is visited). `nearest` (optional) receives the minimising ball.
+VecXd union_of_balls_distance(const MatX3d& X, const MatX3d& centers, const VecXd& radii,
+                              std::vector<int>* nearest = nullptr);
+
+enum class SkeletalMethod {
+  Variational,  // 6.5: eq. 6.8-6.12 and the fairing eq. 6.15
+  Basic,        // 6.3: homotopy eq. 6.3-6.4, folds/protrusions eq. 6.5, self-intersections eq. 6.6
+};
+
+struct SkeletalRigOptions {
+  SkeletonOptions skeleton;
+  // The multiresolution layer is used when the mesh has more faces than this; the skeletal
+  // machinery then runs on a control mesh of about this many faces.
+  int control_faces = 5000;
+  int multires_level = 2;
+  int multires_fit_iterations = 1;
+  // Gaussian weights when none are given: sigma, 0 = a fifth of the median medial radius.
+  double gaussian_sigma = 0;
+  // Frames of degenerate skeletal triangles (a region collapsed to a curve or a point, thesis 6.5
+  // discussion): the triangle's rotation is fitted to its edges plus this weight (relative to the
+  // mean squared skeletal edge length) times the SSD-blended bone rotation, which fixes the
+  // directions the edges do not determine (the twist about a curve, all of them at a point).
+  double frame_regularization = 0.05;
+};
+
+struct SkeletalDeformOptions {
+  SkeletalMethod method = SkeletalMethod::Variational;
+  int fairing_steps = 2;     // steps of eq. 6.15 (variational) or of eq. 6.6 (basic)
+  double fairing_step = 1.5; // epsilon of eq. 6.15 (over-relaxed: L0^-1 damps the update)
+  int homotopy_steps = 3;    // L of eq. 6.3
+  int fold_iterations = 10;  // steps of eq. 6.5 (basic)
+};
+
+// The arrays that define a binding (save/load).
+struct SkeletalRigData {
+  MatX3d control_V;  // rest control mesh (the mesh itself when no multires layer)
+  MatX3i control_F;
+  MatX3d S;          // skeletal vertices
+  Eigen::MatrixXd weights;  // n_control x B, rows sum to 1
+  std::vector<Mat4> bones_rest;
+  bool has_multires = false;
+  MultiresData multires;
+  double frame_regularization = 0.05;
+};
+
+class SkeletalRig {
+ public:
+  // Binds the mesh (V, F) to the bones (4x4 rest matrices in the mesh's object space).
+  // `weights` is n x B (per vertex of V) or empty; when empty, Gaussian weights of the distance of
+  // the skeletal vertices to the bone segments (bone_heads, bone_tails, B x 3) are used.
+  // The mesh must be closed and manifold; throws MeshError (nothing bound) otherwise, and when
+  // some vertex has no weight in any bone.
+  static SkeletalRig bind(const MatX3d& V, const MatX3i& F, const std::vector<Mat4>& bones_rest,
+                          const Eigen::MatrixXd& weights, const MatX3d& bone_heads, const MatX3d& bone_tails,
+                          const SkeletalRigOptions& opt = {}, const ProgressFn& progress = {});
+  static SkeletalRig from_data(const SkeletalRigData& data);
+  SkeletalRigData data() const;
+
+  // Deformed dense positions for the given pose matrices (B of them, same space as the rest ones).
+  MatX3d deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt = {}) const;
+  // The same on the control mesh only, also returning the deformed skeletal vertices.
+  MatX3d deform_control(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt,
+                        MatX3d* skeleton_pose = nullptr) const;
+
+  int n_vertices() const;   // dense
+  int n_control() const;
+  int n_bones() const;
+  bool has_multires() const;
+  const MatX3d& control_vertices() const;
+  const MatX3i& control_faces() const;
+  const MatX3d& skeleton_vertices() const;
+  const VecXd& radii() const;
+  const Eigen::MatrixXd& weights() const;  // per control vertex
+  // Skeletal vertices deformed by SSD (eq. 6.2) for a pose.
+  MatX3d skeleton_pose(const std::vector<Mat4>& bones_pose) const;
+
+  struct Impl;
+
+ private:
+  explicit SkeletalRig(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+  std::shared_ptr<const Impl> impl_;
+};
+
+}  // namespace dgmesh

@@ -1,0 +1,1118 @@
+// Displaced subdivision multiresolution layer (thesis 6.4, end of 6.5; [LMH00]). See multires.h.
+//
+// Evaluation goes through OpenSubdiv only (no hand-written Loop rules): the control topology is
+// refined adaptively with Sdc::SCHEME_LOOP, Far::PatchTableFactory builds box-spline patches for
+// regular regions and Gregory-triangle end caps at the isolation level, and a StencilTable with
+// intermediate levels plus the patch table's local-point stencils expresses every patch point as a
+// combination of control vertices. A location (control face, s, t) is a ptex location (for Loop,
+// ptex face = control face, corners (0,0), (1,0), (0,1)), found in the patch table by Far::PatchMap.
+#include "dgmesh/multires.h"
+
+#include <opensubdiv/far/patchMap.h>
+#include <opensubdiv/far/patchTable.h>
+#include <opensubdiv/far/patchTableFactory.h>
+#include <opensubdiv/far/ptexIndices.h>
+#include <opensubdiv/far/stencilTable.h>
+#include <opensubdiv/far/stencilTableFactory.h>
+#include <opensubdiv/far/topologyDescriptor.h>
+#include <opensubdiv/far/topologyRefinerFactory.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "dgmesh/decimate.h"
+#include "dgmesh/errors.h"
+#include "dgmesh/parallel.h"
+#include "dgmesh/sparse_solver.h"
+#include "dgmesh/spatial_index.h"
+#include "dgmesh/validate.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace dgmesh {
+
+namespace {
+
+namespace Far = OpenSubdiv::Far;
+namespace Sdc = OpenSubdiv::Sdc;
+
+constexpr int kMaxCvs = 20;
+// Patch points padded to 4 doubles per row: 32-byte rows that SSE2/AVX handle as whole packets.
+using MatX4d = Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>;
+using Vec4 = Eigen::Vector4d;
+using CMap4 = Eigen::Map<const Vec4, Eigen::Aligned16>;  // largest patch (Gregory basis); Loop patches have 12 or 18 points
+constexpr int kMaxLevel = 5;
+
+// Runs fn(i) for i in [0, n) in parallel, in blocks so that the (single-threaded) progress callback
+// is called between blocks and can cancel. fn must not throw.
+template <class Fn>
+void parallel_blocks(int n, Progress& progress, double f0, double f1, Fn&& fn) {
+  const int block = std::max(8192, n / 40);
+  for (int start = 0; start < n; start += block) {
+    const int end = std::min(n, start + block);
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int i = start; i < end; ++i) fn(i);
+    progress(f0 + (f1 - f0) * double(end) / std::max(1, n));
+  }
+}
+
+// The frame (t1, t2, n) of the limit surface from its first derivatives. Falls back to the control
+// face's plane where the derivatives are degenerate (only on degenerate control geometry).
+inline void make_frame(const Vec3& Ds, const Vec3& Dt, const Vec3& face_normal, const Vec3& face_edge, Vec3& t1,
+                       Vec3& t2, Vec3& n) {
+  n = Ds.cross(Dt);
+  const double ls = Ds.norm(), lt = Dt.norm(), ln = n.norm();
+  if (ln > 1e-10 * ls * lt && ln > 0) {
+    n /= ln;
+    t1 = Ds / ls;
+  } else {
+    const double fn = face_normal.norm();
+    n = fn > 0 ? Vec3(face_normal / fn) : Vec3(0, 0, 1);
+    Vec3 e = face_edge - face_edge.dot(n) * n;
+    if (!(e.norm() > 0)) e = n.unitOrthogonal();
+    t1 = e.normalized();
+  }
+  t2 = n.cross(t1);
+}
+
+inline Vec3 face_normal_of(const MatX3d& X, const MatX3i& F, int f, Vec3* edge) {
+  const Vec3 a = X.row(F(f, 0)), b = X.row(F(f, 1)), c = X.row(F(f, 2));
+  if (edge) *edge = b - a;
+  return (b - a).cross(c - a);
+}
+
+struct Loc {
+  int f;
+  double s, t;
+};
+
+// The two reconstruction kernels are compiled twice, for the baseline x86-64 and for AVX2 + FMA,
+// and the loader picks one for the running CPU (GCC function multi-versioning).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define DGMESH_CLONES __attribute__((target_clones("default", "arch=haswell")))
+#else
+#define DGMESH_CLONES
+#endif
+
+// Patch points P (4 doubles per row) of rows [r0, r1) from control points X4 (4 per row):
+// P_r = X_c0 + sum_k w_k (X_ck - X_c0), c0 the row's first entry. Relative to the first entry, the
+// single-precision weights reproduce translations exactly (they sum to 1 only to ~1e-7).
+DGMESH_CLONES
+void points_kernel(int r0, int r1, const int* off, const int* idx, const float* w, const double* X4, double* P) {
+  for (int r = r0; r < r1; ++r) {
+    const double* x0 = X4 + 4 * static_cast<size_t>(idx[off[r]]);
+    double a[4] = {0, 0, 0, 0}, b[4] = {0, 0, 0, 0};  // two chains for more parallelism
+    int k = off[r] + 1;
+    for (; k + 1 < off[r + 1]; k += 2) {
+      const double* x = X4 + 4 * static_cast<size_t>(idx[k]);
+      const double* y = X4 + 4 * static_cast<size_t>(idx[k + 1]);
+      const double wa = w[k], wb = w[k + 1];
+      for (int d = 0; d < 4; ++d) a[d] += wa * (x[d] - x0[d]), b[d] += wb * (y[d] - x0[d]);
+    }
+    if (k < off[r + 1]) {
+      const double* x = X4 + 4 * static_cast<size_t>(idx[k]);
+      for (int d = 0; d < 4; ++d) a[d] += w[k] * (x[d] - x0[d]);
+    }
+    double* q = P + 4 * static_cast<size_t>(r);
+    for (int d = 0; d < 4; ++d) q[d] = x0[d] + (a[d] + b[d]);
+  }
+}
+
+// For slots [j0, j1): limit point S and derivatives from the patch points (relative to the
+// slot's first point, see Impl), the frame, and either the displaced position (disp given:
+// out row order[j] = S + a t1 + b t2 + c n) or the frame itself (out row j = S, t1, t2, n).
+// Returns the first slot whose derivatives are degenerate (the caller redoes those), or j1.
+DGMESH_CLONES
+int dense_kernel(int j0, int j1, const int* cv_begin, const int64_t* w_off, const int* patch_cvs, const float* w,
+                 const double* P, const double* disp, const int* order, double* out, unsigned char* degenerate) {
+  int first_bad = j1;
+  for (int j = j0; j < j1; ++j) {
+    const int* cv = patch_cvs + cv_begin[j];
+    const float* wi = w + w_off[j];
+    const int k = 1 + static_cast<int>((w_off[j + 1] - w_off[j]) / 3);
+    const double* p0 = P + 4 * static_cast<size_t>(cv[0]);
+    double S[4] = {0, 0, 0, 0}, A[4] = {0, 0, 0, 0}, B[4] = {0, 0, 0, 0};
+    for (int q = 1; q < k; ++q, wi += 3) {
+      const double* pq = P + 4 * static_cast<size_t>(cv[q]);
+      const double ws = wi[0], wa = wi[1], wb = wi[2];
+      for (int d = 0; d < 4; ++d) {
+        const double e = pq[d] - p0[d];
+        S[d] += ws * e, A[d] += wa * e, B[d] += wb * e;
+      }
+    }
+    for (int d = 0; d < 3; ++d) S[d] += p0[d];
+    double n[3] = {A[1] * B[2] - A[2] * B[1], A[2] * B[0] - A[0] * B[2], A[0] * B[1] - A[1] * B[0]};
+    const double ln2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    const double la2 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2], lb2 = B[0] * B[0] + B[1] * B[1] + B[2] * B[2];
+    if (!(ln2 > 1e-20 * la2 * lb2 && ln2 > 0)) {
+      degenerate[j] = 1;
+      if (first_bad == j1) first_bad = j;
+      continue;
+    }
+    const double in = 1 / std::sqrt(ln2), ia = 1 / std::sqrt(la2);
+    for (int d = 0; d < 3; ++d) n[d] *= in, A[d] *= ia;  // A becomes t1
+    const double t2[3] = {n[1] * A[2] - n[2] * A[1], n[2] * A[0] - n[0] * A[2], n[0] * A[1] - n[1] * A[0]};
+    if (disp) {
+      const double a = disp[3 * j], b = disp[3 * j + 1], c = disp[3 * j + 2];
+      double* o = out + 3 * static_cast<size_t>(order[j]);
+      for (int d = 0; d < 3; ++d) o[d] = S[d] + a * A[d] + b * t2[d] + c * n[d];
+    } else {
+      double* o = out + 12 * static_cast<size_t>(j);
+      for (int d = 0; d < 3; ++d) o[d] = S[d], o[3 + d] = A[d], o[6 + d] = t2[d], o[9 + d] = n[d];
+    }
+  }
+  return first_bad;
+}
+
+inline void clamp_st(double& s, double& t) {
+  s = std::clamp(s, 0.0, 1.0);
+  t = std::clamp(t, 0.0, 1.0);
+  if (s + t > 1) {
+    const double k = 1 / (s + t);
+    s *= k;
+    t *= k;
+  }
+}
+
+}  // namespace
+
+// The Loop limit surface of a control topology: everything that does not depend on positions.
+struct LimitSurface {
+  int n_control = 0;
+  MatX3i F;
+  Topology topo;
+  std::unique_ptr<Far::TopologyRefiner> refiner;
+  std::unique_ptr<const Far::PatchTable> patches;
+  std::unique_ptr<Far::PatchMap> map;
+  std::vector<int> ptex;  // ptex face of each control face
+  // Every patch point (control vertex, refined vertex of some level or end-cap local point) that a
+  // patch uses, as a combination of control vertices (CSR row per point). Points are numbered by
+  // first use in patch order and patch_cvs refers to this numbering, so that the points of nearby
+  // patches sit together in memory (reconstruction gathers them; see Impl::order).
+  int n_points = 0;
+  std::vector<int> st_off, st_idx;
+  std::vector<double> st_w;
+  std::vector<float> st_wf;  // single-precision copy for points() (memory traffic)
+  std::vector<int> patch_cvs;  // the patch table's flat patch-point index table
+  // OpenSubdiv 3.5 multiplies the second derivatives of rotated triangular sub-patches by the sign
+  // that only the first derivatives need; init() detects it (by finite differences) and we undo it.
+  bool flip_rotated_second = false;
+
+  void init(const MatX3i& F_, int n_vertices, int level);
+
+  // All patch points for control positions X.
+  // Double-precision patch points, for evaluate() and the closest-point search.
+  void points_exact(const MatX3d& X, MatX4d& P) const {
+    P.resize(n_points, 4);
+#pragma omp parallel for schedule(static)
+    for (int r = 0; r < n_points; ++r) {
+      Vec3 acc = Vec3::Zero();
+      for (int k = st_off[r]; k < st_off[r + 1]; ++k) acc += st_w[k] * X.row(st_idx[k]).transpose();
+      P.row(r) << acc.transpose(), 0.0;
+    }
+  }
+
+  // The patch points that reconstruction uses (single-precision stencil weights, see points_kernel).
+  void points(const MatX3d& X, MatX4d& P) const {
+    MatX4d X4(X.rows(), 4);
+    X4.leftCols<3>() = X;
+    X4.col(3).setZero();
+    P.resize(n_points, 4);
+#pragma omp parallel
+    {
+      int nt = 1, t = 0;
+#ifdef _OPENMP
+      nt = omp_get_num_threads(), t = omp_get_thread_num();
+#endif
+      const int r0 = static_cast<int>(static_cast<int64_t>(n_points) * t / nt);
+      const int r1 = static_cast<int>(static_cast<int64_t>(n_points) * (t + 1) / nt);
+      points_kernel(r0, r1, st_off.data(), st_idx.data(), st_wf.data(), X4.data(), P.data());
+    }
+  }
+
+  const Far::PatchTable::PatchHandle* handle(int f, double s, double t) const {
+    clamp_st(s, t);
+    return map->FindPatch(ptex[f], s, t);
+  }
+
+  // Basis weights of the patch under (f, s, t): positions, first derivatives w.r.t. (s, t) and, if
+  // wSS is given, second derivatives (their availability is returned in *second). Returns the
+  // number of patch points (0 if none), whose indices go to cvs.
+  //
+  // Two corrections to OpenSubdiv 3.5's EvaluateBasis: (1) rotated triangular sub-patches get their
+  // second derivatives with a wrong sign (flip_rotated_second); (2) Gregory end caps return pseudo
+  // derivatives that ignore the rational blending (OSD's default unless built with
+  // OPENSUBDIV_GREGORY_EVAL_TRUE_DERIVATIVES), off by a few percent: the projection then stalls and
+  // the normal tilts. There the first derivatives are finite differences of the exact position
+  // weights within the same patch, and no second derivatives are offered.
+  int basis(int f, double s, double t, const int*& cvs, double* wP, double* wS, double* wT, double* wSS = nullptr,
+            double* wST = nullptr, double* wTT = nullptr, bool* second = nullptr) const {
+    clamp_st(s, t);
+    const Far::PatchTable::PatchHandle* h = map->FindPatch(ptex[f], s, t);
+    if (!h) return 0;
+    const Far::PatchDescriptor desc = patches->GetPatchArrayDescriptor(h->arrayIndex);
+    const int k = desc.GetNumControlVertices();
+    const Far::PatchDescriptor::Type type = desc.GetType();
+    const bool gregory = type == Far::PatchDescriptor::GREGORY_TRIANGLE ||
+                         type == Far::PatchDescriptor::GREGORY_BASIS || type == Far::PatchDescriptor::GREGORY ||
+                         type == Far::PatchDescriptor::GREGORY_BOUNDARY;
+    const Far::ConstIndexArray idx = patches->GetPatchVertices(*h);
+    cvs = patch_cvs.data() + (&idx[0] - &patches->GetPatchControlVerticesTable()[0]);  // our numbering
+    if (second) *second = wSS && !gregory;
+    if (!gregory) {
+      if (wSS) {
+        patches->EvaluateBasis(*h, s, t, wP, wS, wT, wSS, wST, wTT);
+        if (flip_rotated_second && patches->GetPatchParam(*h).IsTriangleRotated())
+          for (int j = 0; j < k; ++j) wSS[j] = -wSS[j], wST[j] = -wST[j], wTT[j] = -wTT[j];
+      } else {
+        patches->EvaluateBasis(*h, s, t, wP, wS, wT);
+      }
+      return k;
+    }
+    patches->EvaluateBasis(*h, s, t, wP, wS, wT);  // pseudo derivatives: the last resort below
+    const double size = 1.0 / (1 << patches->GetPatchParam(*h).GetDepth());
+    double w1[kMaxCvs], w2[kMaxCvs];
+    auto at = [&](double u, double v, double* w) {
+      if (u < 0 || v < 0 || u + v > 1 || map->FindPatch(ptex[f], u, v) != h) return false;
+      patches->EvaluateBasis(*h, u, v, w);
+      return true;
+    };
+    // First differences along (du, dv) * step: central, else second-order one-sided.
+    auto first = [&](double du, double dv, double step, double* out) {
+      if (at(s + du * step, t + dv * step, w1) && at(s - du * step, t - dv * step, w2)) {
+        for (int j = 0; j < k; ++j) out[j] = (w1[j] - w2[j]) / (2 * step);
+      } else if (at(s + du * step, t + dv * step, w1) && at(s + 2 * du * step, t + 2 * dv * step, w2)) {
+        for (int j = 0; j < k; ++j) out[j] = (-3 * wP[j] + 4 * w1[j] - w2[j]) / (2 * step);
+      } else if (at(s - du * step, t - dv * step, w1) && at(s - 2 * du * step, t - 2 * dv * step, w2)) {
+        for (int j = 0; j < k; ++j) out[j] = (3 * wP[j] - 4 * w1[j] + w2[j]) / (2 * step);
+      } else {
+        return false;
+      }
+      return true;
+    };
+    // Second differences along (du, dv) * step: central, else one-sided.
+    auto second_diff = [&](double du, double dv, double step, double* out) {
+      const double h2 = step * step;
+      if (at(s + du * step, t + dv * step, w1) && at(s - du * step, t - dv * step, w2)) {
+        for (int j = 0; j < k; ++j) out[j] = (w1[j] - 2 * wP[j] + w2[j]) / h2;
+      } else if (at(s + du * step, t + dv * step, w1) && at(s + 2 * du * step, t + 2 * dv * step, w2)) {
+        for (int j = 0; j < k; ++j) out[j] = (wP[j] - 2 * w1[j] + w2[j]) / h2;
+      } else if (at(s - du * step, t - dv * step, w1) && at(s - 2 * du * step, t - 2 * dv * step, w2)) {
+        for (int j = 0; j < k; ++j) out[j] = (wP[j] - 2 * w1[j] + w2[j]) / h2;
+      } else {
+        return false;
+      }
+      return true;
+    };
+    first(1, 0, 1e-5 * size, wS);
+    first(0, 1, 1e-5 * size, wT);
+    if (wSS) {
+      // Larger steps for second differences (rounding grows as 1/step^2); the mixed term from the
+      // second difference along the diagonal: D_dd = Sss + 2 Sst + Stt.
+      const double step = 1e-3 * size;
+      double wD[kMaxCvs];
+      const bool ok = second_diff(1, 0, step, wSS) && second_diff(0, 1, step, wTT) && second_diff(1, 1, step, wD);
+      if (ok)
+        for (int j = 0; j < k; ++j) wST[j] = 0.5 * (wD[j] - wSS[j] - wTT[j]);
+      if (second) *second = ok;
+    }
+    return k;
+  }
+
+  // Double-precision limit position and derivatives w.r.t. (s, t) from patch points P; second
+  // derivatives too when H is given (Suu, Suv, Svv); returns false if there is no patch. *second
+  // tells whether H was filled.
+  bool eval(const MatX4d& P, const Loc& l, Vec3& S, Vec3& Ss, Vec3& St, Vec3* H = nullptr,
+            bool* second = nullptr) const {
+    double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs], wSS[kMaxCvs], wST[kMaxCvs], wTT[kMaxCvs];
+    const int* cvs = nullptr;
+    bool has2 = false;
+    const int k = basis(l.f, l.s, l.t, cvs, wP, wS, wT, H ? wSS : nullptr, wST, wTT, &has2);
+    if (second) *second = has2;
+    if (k == 0) return false;
+    S.setZero(), Ss.setZero(), St.setZero();
+    for (int j = 0; j < k; ++j) {
+      const Eigen::Map<const Vec3> p(P.data() + 4 * static_cast<size_t>(cvs[j]));
+      S += wP[j] * p, Ss += wS[j] * p, St += wT[j] * p;
+    }
+    if (H) {
+      H[0].setZero(), H[1].setZero(), H[2].setZero();
+      if (has2)
+        for (int j = 0; j < k; ++j) {
+          const Eigen::Map<const Vec3> p(P.data() + 4 * static_cast<size_t>(cvs[j]));
+          H[0] += wSS[j] * p, H[1] += wST[j] * p, H[2] += wTT[j] * p;
+        }
+    }
+    return true;
+  }
+
+  // Moves l by the parameter step (ds, dt). A step leaving the face continues into the neighbour
+  // across the edge (the two triangles unfolded into a parallelogram, barycentric coordinates
+  // carried by the shared corners); on a boundary edge it slides along the edge.
+  Loc advance(Loc l, double ds, double dt) const {
+    double b[3] = {1 - l.s - l.t, l.s, l.t};
+    double d[3] = {-ds - dt, ds, dt};
+    for (int crossing = 0; crossing < 8; ++crossing) {
+      double alpha = 1;
+      int hit = -1;
+      for (int k = 0; k < 3; ++k)
+        if (d[k] < 0 && b[k] + alpha * d[k] < 0) alpha = std::max(0.0, b[k] / -d[k]), hit = k;
+      for (int k = 0; k < 3; ++k) b[k] += alpha * d[k], d[k] *= 1 - alpha;
+      if (hit < 0) break;
+      b[hit] = 0;
+      const int ka = (hit + 1) % 3, kb = (hit + 2) % 3;  // the edge F(f,ka) -> F(f,kb)
+      const int e = topo.face_edges(l.f, ka);
+      const int g = topo.edge_faces(e, 0) == l.f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
+      if (g < 0) {  // boundary: keep the along-edge part of the rest of the step
+        d[ka] += 0.5 * d[hit], d[kb] += 0.5 * d[hit], d[hit] = 0;
+        continue;
+      }
+      const int va = F(l.f, ka), vb = F(l.f, kb);
+      int ga = 0, gb = 0, gc = 0;
+      for (int j = 0; j < 3; ++j) {
+        if (F(g, j) == va) ga = j;
+        else if (F(g, j) == vb) gb = j;
+        else gc = j;
+      }
+      // Corner hit of f sits at va + vb - (g's third corner) in the unfolded parallelogram.
+      double nb[3], nd[3];
+      nb[ga] = b[ka], nb[gb] = b[kb], nb[gc] = 0;
+      nd[ga] = d[ka] + d[hit], nd[gb] = d[kb] + d[hit], nd[gc] = -d[hit];
+      std::copy(nb, nb + 3, b);
+      std::copy(nd, nd + 3, d);
+      l.f = g;
+    }
+    l.s = std::max(0.0, b[1]);
+    l.t = std::max(0.0, b[2]);
+    clamp_st(l.s, l.t);
+    return l;
+  }
+
+  // Local minimum of f = |p - S(s,t)|^2 / 2 from `loc`: Newton with second derivatives (Gauss-Newton
+  // crawls where the distance approaches the radius of curvature), Gauss-Newton where the Hessian is
+  // not positive definite, step halving, walking across faces. d2 gets the final |p - S|^2.
+  Loc newton(const MatX4d& P, const Vec3& p, Loc loc, int iterations, double& d2) const {
+    Vec3 S, Ss, St, H[3];
+    bool second = false;
+    d2 = std::numeric_limits<double>::infinity();
+    if (!eval(P, loc, S, Ss, St, H, &second)) return loc;
+    d2 = (p - S).squaredNorm();
+    for (int it = 0; it < iterations; ++it) {
+      const Vec3 r = p - S;
+      const double ra = Ss.dot(r), rb = St.dot(r);  // -gradient
+      double a = Ss.dot(Ss), b = Ss.dot(St), c = St.dot(St);
+      const double jdet = a * c - b * b;
+      if (!(jdet > 1e-14 * a * c)) break;
+      const double na = a - r.dot(H[0]), nb = b - r.dot(H[1]), nc = c - r.dot(H[2]);
+      if (second && na > 0 && na * nc - nb * nb > 1e-3 * jdet) a = na, b = nb, c = nc;  // Newton
+      const double det = a * c - b * b;
+      double ds = (c * ra - b * rb) / det, dt = (a * rb - b * ra) / det;
+      double len = std::abs(ds) + std::abs(dt);
+      if (!(len > 1e-13)) break;
+      if (len > 0.5) ds *= 0.5 / len, dt *= 0.5 / len, len = 0.5;  // a local model: one face at most
+      bool accepted = false;
+      for (int tries = 0; tries < 8 && !accepted; ++tries, ds *= 0.5, dt *= 0.5) {
+        const Loc n = advance(loc, ds, dt);
+        Vec3 S2, Ss2, St2, H2[3];
+        bool second2 = false;
+        if (!eval(P, n, S2, Ss2, St2, H2, &second2)) continue;
+        const double d2n = (p - S2).squaredNorm();
+        if (d2n < d2) {
+          loc = n, S = S2, Ss = Ss2, St = St2, d2 = d2n, accepted = true, second = second2;
+          std::copy(H2, H2 + 3, H);
+        }
+      }
+      if (!accepted || len < 1e-11) break;
+    }
+    return loc;
+  }
+
+  // Closest point of p on the limit surface near `start`. A search that ends on an edge or at a
+  // corner of its face (where the parameter directions of the neighbours do not unfold well) is
+  // restarted inside every face sharing that edge or corner; the nearest result wins. Never returns
+  // a point farther than the start.
+  Loc project(const MatX4d& P, const Vec3& p, Loc loc, int iterations) const {
+    double d2;
+    loc = newton(P, p, loc, iterations, d2);
+    for (int round = 0; round < 3; ++round) {
+      const double b[3] = {1 - loc.s - loc.t, loc.s, loc.t};
+      constexpr double eps = 1e-7;
+      const int zeros = (b[0] < eps) + (b[1] < eps) + (b[2] < eps);
+      if (zeros == 0) break;
+      Loc best = loc;
+      double best_d2 = d2;
+      auto restart = [&](int g, const double* bg) {
+        // Nudged into the face so that its own parameter directions are used.
+        const double q0 = 0.96 * bg[0] + 0.04 / 3, q1 = 0.96 * bg[1] + 0.04 / 3, q2 = 0.96 * bg[2] + 0.04 / 3;
+        (void)q0;
+        double dn;
+        const Loc r = newton(P, p, Loc{g, q1, q2}, iterations, dn);
+        if (dn < best_d2) best = r, best_d2 = dn;
+      };
+      if (zeros >= 2) {  // at a corner: every face around its vertex
+        const int k = b[0] >= b[1] && b[0] >= b[2] ? 0 : (b[1] >= b[2] ? 1 : 2);
+        const int v = F(loc.f, k);
+        for (int q = topo.vf_offset[v]; q < topo.vf_offset[v + 1]; ++q) {
+          const int g = topo.vf_index[q];
+          double bg[3] = {0, 0, 0};
+          for (int j = 0; j < 3; ++j)
+            if (F(g, j) == v) bg[j] = 1;
+          restart(g, bg);
+        }
+      } else {  // on an edge: the face across it
+        const int z = b[0] < eps ? 0 : (b[1] < eps ? 1 : 2);
+        const int ka = (z + 1) % 3, kb = (z + 2) % 3;
+        const int e = topo.face_edges(loc.f, ka);
+        const int g = topo.edge_faces(e, 0) == loc.f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
+        if (g >= 0) {
+          double bg[3] = {0, 0, 0};
+          for (int j = 0; j < 3; ++j) {
+            if (F(g, j) == F(loc.f, ka)) bg[j] = b[ka];
+            if (F(g, j) == F(loc.f, kb)) bg[j] = b[kb];
+          }
+          restart(g, bg);
+        }
+      }
+      if (!(best_d2 < d2)) break;
+      loc = best, d2 = best_d2;
+    }
+    return loc;
+  }
+
+  size_t memory_bytes() const {
+    return (st_off.size() + st_idx.size() + patch_cvs.size() + ptex.size()) * sizeof(int) +
+           st_w.size() * sizeof(double) + st_wf.size() * sizeof(float);
+  }
+};
+
+void LimitSurface::init(const MatX3i& F_, int n_vertices, int level) {
+  F = F_;
+  n_control = n_vertices;
+  topo = build_topology(F, n_vertices);
+  const int m = static_cast<int>(F.rows());
+  std::vector<int> counts(m, 3);
+  Far::TopologyDescriptor desc;
+  desc.numVertices = n_vertices;
+  desc.numFaces = m;
+  desc.numVertsPerFace = counts.data();
+  desc.vertIndicesPerFace = F.data();
+  Sdc::Options sdc;
+  sdc.SetVtxBoundaryInterpolation(Sdc::Options::VTX_BOUNDARY_EDGE_ONLY);  // as loop_subdivide
+  using Factory = Far::TopologyRefinerFactory<Far::TopologyDescriptor>;
+  refiner.reset(Factory::Create(desc, Factory::Options(Sdc::SCHEME_LOOP, sdc)));
+  if (!refiner) throw MeshError("OpenSubdiv could not build the Loop topology of the control mesh");
+
+  Far::PatchTableFactory::Options po(level);
+  po.SetEndCapType(Far::PatchTableFactory::Options::ENDCAP_GREGORY_BASIS);
+  po.SetPatchPrecision<double>();
+  po.useInfSharpPatch = true;
+  po.generateVaryingTables = false;
+  po.generateVaryingLocalPoints = false;
+  refiner->RefineAdaptive(po.GetRefineAdaptiveOptions());
+  patches.reset(Far::PatchTableFactory::Create(*refiner, po));
+  if (!patches) throw Error("OpenSubdiv could not build the limit patches of the control mesh");
+
+  // Refined vertices of every level as combinations of control vertices, then the end-cap points.
+  using StencilFactory = Far::StencilTableFactoryReal<double>;
+  using Table = Far::StencilTableReal<double>;
+  StencilFactory::Options so;
+  so.generateOffsets = true;
+  so.generateIntermediateLevels = true;
+  std::unique_ptr<const Table> base;
+  if (refiner->GetMaxLevel() > 0) base.reset(StencilFactory::Create(*refiner, so));
+  std::unique_ptr<const Table> combined;
+  const Table* local = patches->GetLocalPointStencilTable<double>();
+  if (local && local->GetNumStencils() > 0) {
+    if (base) {
+      combined.reset(StencilFactory::AppendLocalPointStencilTable(*refiner, base.get(), local, true));
+    } else {
+      combined.reset(new Table(*local));  // nothing refined: local points refer to control vertices
+    }
+  }
+  const Table* table = combined ? combined.get() : base.get();
+  const int rows = table ? table->GetNumStencils() : 0;
+  const int n_all = n_control + rows;  // OpenSubdiv's numbering: control vertices, then the table's
+  const auto& pv = patches->GetPatchControlVerticesTable();
+  std::vector<int> renum(n_all, -1), old_of;
+  old_of.reserve(n_all);
+  patch_cvs.resize(pv.size());
+  for (size_t q = 0; q < pv.size(); ++q) {
+    const int c = pv[q];
+    if (c < 0 || c >= n_all) throw Error("OpenSubdiv patch refers to a missing patch point");
+    if (renum[c] < 0) renum[c] = static_cast<int>(old_of.size()), old_of.push_back(c);
+    patch_cvs[q] = renum[c];
+  }
+  n_points = static_cast<int>(old_of.size());
+  st_off.assign(n_points + 1, 0);
+  st_idx.clear();
+  st_w.clear();
+  for (int r = 0; r < n_points; ++r) {
+    const int c = old_of[r];
+    if (c < n_control) {
+      st_idx.push_back(c);
+      st_w.push_back(1.0);
+    } else {
+      const int q = c - n_control;
+      const int size = table->GetSizes()[q], off = table->GetOffsets()[q];
+      for (int k = 0; k < size; ++k) {
+        const int v = table->GetControlIndices()[off + k];
+        if (v < 0 || v >= n_control) throw Error("OpenSubdiv stencil refers to a missing control vertex");
+        st_idx.push_back(v);
+        st_w.push_back(table->GetWeights()[off + k]);
+      }
+    }
+    st_off[r + 1] = static_cast<int>(st_idx.size());
+  }
+  st_wf.assign(st_w.begin(), st_w.end());
+  for (int a = 0; a < patches->GetNumPatchArrays(); ++a)
+    if (patches->GetPatchArrayDescriptor(a).GetNumControlVertices() > kMaxCvs)
+      throw Error("unexpected OpenSubdiv patch type");
+
+  map = std::make_unique<Far::PatchMap>(*patches);
+  Far::PtexIndices pi(*refiner);
+  ptex.resize(m);
+  for (int f = 0; f < m; ++f) ptex[f] = pi.GetFaceId(f);
+
+  // The centre child of a refined triangle is rotated and contains (1/3, 1/3).
+  for (int f = 0; f < m; ++f) {
+    const double u = 1.0 / 3, v = 1.0 / 3, h = 1e-5;
+    const Far::PatchTable::PatchHandle* hd = map->FindPatch(ptex[f], u, v);
+    if (!hd || !patches->GetPatchParam(*hd).IsTriangleRotated()) continue;
+    double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs], wSS[kMaxCvs], wST[kMaxCvs], wTT[kMaxCvs], wS1[kMaxCvs];
+    patches->EvaluateBasis(*hd, u, v, wP, wS, wT, wSS, wST, wTT);
+    patches->EvaluateBasis(*hd, u + h, v, wP, wS1, wT);
+    double dot = 0;
+    for (int j = 0; j < patches->GetPatchArrayDescriptor(hd->arrayIndex).GetNumControlVertices(); ++j)
+      dot += wSS[j] * (wS1[j] - wS[j]) / h;
+    flip_rotated_second = dot < 0;
+    break;
+  }
+}
+
+struct Multires::Impl {
+  int n() const { return static_cast<int>(face.size()); }
+  void compute_weights();
+
+  LimitSurface surf;
+  MultiresTimings timings;
+  MatX3d control_V;
+  int level = 2;
+  VecXi face;
+  MatX2d st;
+  MatX3d disp;
+  // The stencils are stored per slot, slots sorted by patch so that consecutive vertices reuse the
+  // same patch points from cache; slot j holds dense vertex order[j]. Slot j's patch points are
+  // surf.patch_cvs[cv_begin[j] ...] and, for each point after the first, the weights (position,
+  // d/ds, d/dt) as floats in w[w_off[j] ...]. Evaluation is relative to the first point,
+  // S = P0 + sum_j w_j (P_j - P0), exact for translations whatever the rounding of the weights
+  // (position weights sum to 1, derivative weights to 0).
+  std::vector<int> order;
+  std::vector<int> cv_begin;
+  std::vector<int64_t> w_off;
+  std::vector<float> w;
+  std::vector<double> disp_slot;  // (a, b, c) per slot
+
+  void eval_f(const double* P, int j, Vec3& S, Vec3& Ds, Vec3& Dt) const {
+    const int* cv = surf.patch_cvs.data() + cv_begin[j];
+    const float* wi = w.data() + w_off[j];
+    const int k = 1 + static_cast<int>((w_off[j + 1] - w_off[j]) / 3);
+    const CMap4 p0(P + 4 * static_cast<size_t>(cv[0]));
+    Vec4 s = Vec4::Zero(), a = Vec4::Zero(), b = Vec4::Zero();
+    for (int q = 1; q < k; ++q, wi += 3) {
+      const Vec4 d = CMap4(P + 4 * static_cast<size_t>(cv[q])) - p0;
+      s += double(wi[0]) * d;
+      a += double(wi[1]) * d;
+      b += double(wi[2]) * d;
+    }
+    S = (p0 + s).head<3>();
+    Ds = a.head<3>();
+    Dt = b.head<3>();
+  }
+  // Limit point and frame (t1, t2, n) of slot j.
+  void frame_at(const MatX3d& X, const double* P, int j, Vec3& S, Vec3& t1, Vec3& t2, Vec3& n) const {
+    Vec3 Ds, Dt;
+    eval_f(P, j, S, Ds, Dt);
+    n = Ds.cross(Dt);
+    const double ln2 = n.squaredNorm(), ls2 = Ds.squaredNorm(), lt2 = Dt.squaredNorm();
+    if (ln2 > 1e-20 * ls2 * lt2 && ln2 > 0) {
+      n *= 1 / std::sqrt(ln2);
+      t1 = Ds * (1 / std::sqrt(ls2));
+      t2 = n.cross(t1);
+    } else {  // degenerate derivatives (degenerate control geometry): the control face's plane
+      Vec3 edge;
+      const Vec3 fnrm = face_normal_of(X, surf.F, face[order[j]], &edge);
+      make_frame(Ds, Dt, fnrm, edge, t1, t2, n);
+    }
+  }
+  // Runs dense_kernel over all slots in parallel; slots with degenerate derivatives are redone with
+  // frame_at (fallback frame). disp == nullptr: frames (12 doubles per slot) into out.
+  void run_dense(const MatX3d& X, const MatX4d& P, const double* disp_ptr, double* out) const {
+    const int nd = n();
+    std::vector<unsigned char> degenerate(nd, 0);
+    std::atomic<bool> any{false};
+#pragma omp parallel
+    {
+      int nt = 1, t = 0;
+#ifdef _OPENMP
+      nt = omp_get_num_threads(), t = omp_get_thread_num();
+#endif
+      const int j0 = static_cast<int>(static_cast<int64_t>(nd) * t / nt);
+      const int j1 = static_cast<int>(static_cast<int64_t>(nd) * (t + 1) / nt);
+      if (dense_kernel(j0, j1, cv_begin.data(), w_off.data(), surf.patch_cvs.data(), w.data(), P.data(), disp_ptr,
+                       order.data(), out, degenerate.data()) != j1)
+        any = true;
+    }
+    if (!any) return;
+    for (int j = 0; j < nd; ++j) {
+      if (!degenerate[j]) continue;
+      Vec3 S, t1, t2, nn;
+      frame_at(X, P.data(), j, S, t1, t2, nn);
+      if (disp_ptr) {
+        const Vec3 x = S + disp_ptr[3 * j] * t1 + disp_ptr[3 * j + 1] * t2 + disp_ptr[3 * j + 2] * nn;
+        for (int d = 0; d < 3; ++d) out[3 * static_cast<size_t>(order[j]) + d] = x[d];
+      } else {
+        for (int d = 0; d < 3; ++d) {
+          double* o = out + 12 * static_cast<size_t>(j);
+          o[d] = S[d], o[3 + d] = t1[d], o[6 + d] = t2[d], o[9 + d] = nn[d];
+        }
+      }
+    }
+  }
+
+  void validate_control(const MatX3d& X) const {
+    if (X.rows() != surf.n_control)
+      throw MeshError("control vertices: expected " + std::to_string(surf.n_control) + " rows, got " +
+                      std::to_string(X.rows()));
+    if (!X.allFinite()) throw MeshError("control vertices contain NaN or infinite coordinates");
+  }
+};
+
+void Multires::Impl::compute_weights() {
+  const int nd = n();
+  std::vector<int> begin(nd, 0), count(nd, 0);
+  std::atomic<bool> missing{false};
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < nd; ++i) {
+    const auto* h = surf.handle(face[i], st(i, 0), st(i, 1));
+    if (!h) {
+      missing = true;
+      continue;
+    }
+    const Far::ConstIndexArray cvs = surf.patches->GetPatchVertices(*h);
+    begin[i] = static_cast<int>(&cvs[0] - &surf.patches->GetPatchControlVerticesTable()[0]);
+    count[i] = cvs.size();
+  }
+  if (missing) throw Error("a base point lies on no limit patch (hole face?)");
+  order.resize(nd);
+  for (int i = 0; i < nd; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return begin[a] < begin[b]; });
+  cv_begin.resize(nd);
+  w_off.assign(nd + 1, 0);
+  for (int j = 0; j < nd; ++j) {
+    cv_begin[j] = begin[order[j]];
+    w_off[j + 1] = w_off[j] + 3 * static_cast<int64_t>(count[order[j]] - 1);
+  }
+  w.assign(w_off[nd], 0.0f);
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < nd; ++j) {
+    const int i = order[j];
+    double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs];
+    const int* cvs = nullptr;
+    const int k = surf.basis(face[i], st(i, 0), st(i, 1), cvs, wP, wS, wT);
+    float* out = w.data() + w_off[j];
+    for (int q = 1; q < k; ++q, out += 3) {
+      out[0] = static_cast<float>(wP[q]);
+      out[1] = static_cast<float>(wS[q]);
+      out[2] = static_cast<float>(wT[q]);
+    }
+  }
+  disp_slot.assign(3 * static_cast<size_t>(nd), 0.0);
+  if (disp.rows() == nd)
+    for (int j = 0; j < nd; ++j)
+      for (int d = 0; d < 3; ++d) disp_slot[3 * j + d] = disp(order[j], d);
+}
+
+namespace {
+
+// Bind the points V to the limit surface for control positions X: closest points seeded by the
+// nearest limit sample (a (2^level+1)-per-edge grid on every face), then Gauss-Newton.
+void bind_points(Multires::Impl& m, const MatX3d& X, const MatX3d& V, int iterations, bool warm_start,
+                 Progress& progress, double f0, double f1) {
+  const LimitSurface& L = m.surf;
+  MatX4d P;
+  L.points_exact(X, P);
+  const int nd = static_cast<int>(V.rows());
+  if (!warm_start) {
+    const int N = 1 << std::min(m.level, 3);
+    const int per_face = (N + 1) * (N + 2) / 2;
+    const int nf = static_cast<int>(L.F.rows());
+    MatX3d samples(static_cast<Eigen::Index>(nf) * per_face, 3);
+    std::vector<Loc> sample_loc(samples.rows());
+#pragma omp parallel for schedule(static)
+    for (int f = 0; f < nf; ++f) {
+      int k = f * per_face;
+      for (int i = 0; i <= N; ++i)
+        for (int j = 0; i + j <= N; ++j, ++k) {
+          const Loc l{f, double(i) / N, double(j) / N};
+          Vec3 S, Ss, St;
+          if (!L.eval(P, l, S, Ss, St)) S = X.row(L.F(f, 0)).transpose();
+          samples.row(k) = S.transpose();
+          sample_loc[k] = l;
+        }
+    }
+    progress(f0 + 0.15 * (f1 - f0));
+    const KdTree tree(samples);
+    m.face.resize(nd);
+    m.st.resize(nd, 2);
+    parallel_blocks(nd, progress, f0 + 0.2 * (f1 - f0), f0 + 0.4 * (f1 - f0), [&](int i) {
+      const int s = tree.nearest(V.row(i).transpose());
+      const Loc l = sample_loc[std::max(0, s)];
+      m.face[i] = l.f;
+      m.st(i, 0) = l.s;
+      m.st(i, 1) = l.t;
+    });
+  }
+  parallel_blocks(nd, progress, f0 + 0.4 * (f1 - f0), f1, [&](int i) {
+    const Loc l = L.project(P, V.row(i).transpose(), Loc{m.face[i], m.st(i, 0), m.st(i, 1)}, iterations);
+    m.face[i] = l.f;
+    m.st(i, 0) = l.s;
+    m.st(i, 1) = l.t;
+  });
+}
+
+// Rows of the limit matrix (positions over control vertices) for the dense vertices `rows`.
+SpMatR limit_rows(const LimitSurface& L, const VecXi& face, const MatX2d& st, const std::vector<int>& rows) {
+  const int nr = static_cast<int>(rows.size());
+  const int nt = std::max(1, num_threads());
+  std::vector<std::vector<int>> cols(nt);
+  std::vector<std::vector<double>> vals(nt);
+  std::vector<int> row_nnz(nr, 0);
+  std::vector<int> chunk_begin(nt + 1);
+  for (int t = 0; t <= nt; ++t) chunk_begin[t] = static_cast<int>(static_cast<int64_t>(nr) * t / nt);
+  // One contiguous chunk of rows per task, each with its own output lists (concatenated in order).
+#pragma omp parallel for schedule(static, 1)
+  for (int t = 0; t < nt; ++t) {
+    std::vector<double> acc(L.n_control, 0.0);
+    std::vector<int> touched;
+    double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs];
+    for (int r = chunk_begin[t]; r < chunk_begin[t + 1]; ++r) {
+      const int i = rows[r];
+      const int* cvs = nullptr;
+      const int k = L.basis(face[i], st(i, 0), st(i, 1), cvs, wP, wS, wT);
+      touched.clear();
+      auto add = [&](int c, double w) {
+        if (acc[c] == 0.0) touched.push_back(c);
+        acc[c] += w;
+        if (acc[c] == 0.0) acc[c] = 1e-300;  // keep it marked as touched
+      };
+      for (int j = 0; j < k; ++j) {
+        const int c = cvs[j];
+        for (int q = L.st_off[c]; q < L.st_off[c + 1]; ++q) add(L.st_idx[q], wP[j] * L.st_w[q]);
+      }
+      std::sort(touched.begin(), touched.end());
+      for (int c : touched) {
+        cols[t].push_back(c);
+        vals[t].push_back(acc[c]);
+        acc[c] = 0.0;
+      }
+      row_nnz[r] = static_cast<int>(touched.size());
+    }
+  }
+  SpMatR W(nr, L.n_control);
+  std::vector<int64_t> start(nr + 1, 0);
+  for (int r = 0; r < nr; ++r) start[r + 1] = start[r] + row_nnz[r];
+  W.resizeNonZeros(start[nr]);
+  int64_t pos = 0;
+  for (int t = 0; t < nt; ++t)
+    for (size_t q = 0; q < cols[t].size(); ++q, ++pos) {
+      W.innerIndexPtr()[pos] = cols[t][q];
+      W.valuePtr()[pos] = vals[t][q];
+    }
+  for (int r = 0; r <= nr; ++r) W.outerIndexPtr()[r] = static_cast<int>(start[r]);
+  return W;
+}
+
+// [LMH00]'s fit: control positions whose limit surface passes closest (least squares) to the dense
+// vertices at their base points, with a weak pull towards the current positions X0.
+MatX3d fit_control(const Multires::Impl& m, const MatX3d& X0, const MatX3d& V, double reg) {
+  const int nd = static_cast<int>(V.rows());
+  // At most ~40 samples per control vertex: plenty for the fit and keeps the normal equations cheap.
+  const int stride = std::max(1, nd / std::max(1, 40 * m.surf.n_control));
+  std::vector<int> rows;
+  rows.reserve(nd / stride + 1);
+  for (int i = 0; i < nd; i += stride) rows.push_back(i);
+  const SpMatR Wr = limit_rows(m.surf, m.face, m.st, rows);
+  const SpMat W = Wr;  // column major for the normal equations
+  SpMat A = SpMat(W.transpose()) * W;
+  MatX3d Vr(rows.size(), 3);
+  for (size_t r = 0; r < rows.size(); ++r) Vr.row(r) = V.row(rows[r]);
+  Eigen::MatrixXd B = W.transpose() * Vr;
+  const double mu = reg * A.diagonal().sum() / std::max<Eigen::Index>(1, A.rows());
+  for (int c = 0; c < A.rows(); ++c) A.coeffRef(c, c) += mu;
+  B += mu * X0;
+  SparseSolver solver;
+  solver.factor(A, SparseSolver::Kind::Cholesky);
+  const Eigen::MatrixXd X = solver.solve(B);
+  if (!X.allFinite()) throw SolverError("the control-mesh fit produced non-finite positions");
+  return X;
+}
+
+// Displacement coefficients (a, b, c) of V in the frames of the base points.
+void compute_displacements(Multires::Impl& m, const MatX3d& V) {
+  MatX4d P;
+  m.surf.points(m.control_V, P);
+  const int nd = m.n();
+  std::vector<double> frames(12 * static_cast<size_t>(nd));
+  m.run_dense(m.control_V, P, nullptr, frames.data());
+  m.disp.resize(nd, 3);
+  m.disp_slot.resize(3 * static_cast<size_t>(nd));
+#pragma omp parallel for schedule(static)
+  for (int j = 0; j < nd; ++j) {
+    const int i = m.order[j];
+    const Eigen::Map<const Vec3> S(&frames[12 * static_cast<size_t>(j)]), t1(&frames[12 * static_cast<size_t>(j) + 3]),
+        t2(&frames[12 * static_cast<size_t>(j) + 6]), n(&frames[12 * static_cast<size_t>(j) + 9]);
+    const Vec3 d = V.row(i).transpose() - S;
+    m.disp.row(i) << d.dot(t1), d.dot(t2), d.dot(n);
+    for (int q = 0; q < 3; ++q) m.disp_slot[3 * static_cast<size_t>(j) + q] = m.disp(i, q);
+  }
+}
+
+void check_level(int level) {
+  if (level < 1 || level > kMaxLevel)
+    throw MeshError("level must be between 1 and " + std::to_string(kMaxLevel) + ", got " + std::to_string(level));
+}
+
+}  // namespace
+
+Multires Multires::build(const Mesh& dense, const MultiresOptions& opt, const ProgressFn& progress_fn) {
+  check_level(opt.level);
+  if (opt.control_faces < 4) throw MeshError("control_faces must be at least 4");
+  if (opt.fit_iterations < 0) throw MeshError("fit_iterations must be >= 0");
+  if (!(opt.fit_regularization > 0)) throw MeshError("fit_regularization must be > 0");
+  if (opt.projection_iterations < 0) throw MeshError("projection_iterations must be >= 0");
+  Progress progress(progress_fn);
+  progress(0.0);
+  using Clock = std::chrono::steady_clock;
+  auto t0 = Clock::now();
+  auto lap = [&t0]() {
+    const auto t = Clock::now();
+    const double s = std::chrono::duration<double>(t - t0).count();
+    t0 = t;
+    return s;
+  };
+
+  // 1. Control mesh: quadric decimation, manifold and topology preserving, sliver guard.
+  DecimateOptions dopt;
+  dopt.target_faces = opt.control_faces;
+  dopt.min_quality = opt.min_quality;
+  dopt.preserve_boundary = false;  // the boundary may coarsen too (held by constraint planes)
+  const ProgressFn sub = progress_fn ? ProgressFn([&](double x) { return progress_fn(0.35 * x); }) : ProgressFn();
+  DecimateResult dec = decimate(dense, dopt, sub);
+  try {
+    validate(dec.V, dec.F, kSurface | kNoLooseVertices);
+  } catch (const MeshError& e) {
+    throw MeshError(std::string("the decimated control mesh is not usable: ") + e.what());
+  }
+  progress(0.35);
+
+  auto impl = std::make_shared<Impl>();
+  Impl& m = *impl;
+  m.timings.decimate = lap();
+  m.level = opt.level;
+  m.control_V = std::move(dec.V);
+  m.surf.init(dec.F, static_cast<int>(m.control_V.rows()), opt.level);
+  m.timings.surface = lap();
+  progress(0.4);
+
+  // 2. Bind, fit, re-bind (warm started from the previous base points).
+  const int rounds = opt.fit_iterations;
+  const double span = 0.55 / (1 + rounds);
+  bind_points(m, m.control_V, dense.V, opt.projection_iterations, false, progress, 0.4, 0.4 + span);
+  m.timings.bind = lap();
+  for (int r = 0; r < rounds; ++r) {
+    m.control_V = fit_control(m, m.control_V, dense.V, opt.fit_regularization);
+    m.timings.fit += lap();
+    const double f0 = 0.4 + span * (r + 1);
+    bind_points(m, m.control_V, dense.V, opt.projection_iterations, true, progress, f0, f0 + span);
+    m.timings.bind += lap();
+  }
+  // 3. Stencils and displacements.
+  m.compute_weights();
+  compute_displacements(m, dense.V);
+  m.timings.stencils = lap();
+  progress(1.0);
+  return Multires(std::move(impl));
+}
+
+Multires Multires::build(const MatX3d& V, const MatX3i& F, const MultiresOptions& opt, const ProgressFn& progress) {
+  const Mesh mesh = make_mesh(V, F, kSurface);
+  return build(mesh, opt, progress);
+}
+
+Multires Multires::bind(const MatX3d& control_V, const MatX3i& control_F, const MatX3d& V, int level,
+                        const ProgressFn& progress_fn, int projection_iterations) {
+  check_level(level);
+  if (projection_iterations < 0) throw MeshError("projection_iterations must be >= 0");
+  try {
+    validate(control_V, control_F, kSurface | kNoLooseVertices);
+  } catch (const MeshError& e) {
+    throw MeshError(std::string("control mesh: ") + e.what());
+  }
+  validate_points(V);
+  Progress progress(progress_fn);
+  progress(0.0);
+  auto impl = std::make_shared<Impl>();
+  Impl& m = *impl;
+  m.level = level;
+  m.control_V = control_V;
+  m.surf.init(control_F, static_cast<int>(control_V.rows()), level);
+  bind_points(m, m.control_V, V, projection_iterations, false, progress, 0.1, 0.95);
+  m.compute_weights();
+  compute_displacements(m, V);
+  progress(1.0);
+  return Multires(std::move(impl));
+}
+
+Multires Multires::from_data(const MultiresData& d) {
+  check_level(d.level);
+  try {
+    validate(d.control_V, d.control_F, kSurface | kNoLooseVertices);
+  } catch (const MeshError& e) {
+    throw MeshError(std::string("multires data: control mesh: ") + e.what());
+  }
+  const Eigen::Index nd = d.face.size();
+  if (d.st.rows() != nd || d.disp.rows() != nd)
+    throw MeshError("multires data: face, st and disp must have one row per dense vertex (" + std::to_string(nd) +
+                    ", " + std::to_string(d.st.rows()) + ", " + std::to_string(d.disp.rows()) + ")");
+  const int nf = static_cast<int>(d.control_F.rows());
+  for (Eigen::Index i = 0; i < nd; ++i) {
+    if (d.face[i] < 0 || d.face[i] >= nf)
+      throw MeshError("multires data: base face " + std::to_string(d.face[i]) + " of vertex " + std::to_string(i) +
+                      " is out of range");
+    const double s = d.st(i, 0), t = d.st(i, 1);
+    if (!(s >= -1e-9 && t >= -1e-9 && s + t <= 1 + 1e-9))
+      throw MeshError("multires data: (s, t) of vertex " + std::to_string(i) + " lies outside its triangle");
+  }
+  if (!d.disp.allFinite()) throw MeshError("multires data: displacements contain NaN or infinite values");
+  auto impl = std::make_shared<Impl>();
+  Impl& m = *impl;
+  m.level = d.level;
+  m.control_V = d.control_V;
+  m.surf.init(d.control_F, static_cast<int>(d.control_V.rows()), d.level);
+  m.face = d.face;
+  m.st = d.st;
+  m.disp = d.disp;
+  m.compute_weights();
+  return Multires(std::move(impl));
+}
+
+MultiresData Multires::data() const {
+  MultiresData d;
+  d.control_V = impl_->control_V;
+  d.control_F = impl_->surf.F;
+  d.level = impl_->level;
+  d.face = impl_->face;
+  d.st = impl_->st;
+  d.disp = impl_->disp;
+  return d;
+}
+
+int Multires::n_dense() const { return impl_->n(); }
+int Multires::n_control() const { return impl_->surf.n_control; }
+int Multires::level() const { return impl_->level; }
+const MatX3d& Multires::control_vertices() const { return impl_->control_V; }
+const MatX3i& Multires::control_faces() const { return impl_->surf.F; }
+const VecXi& Multires::base_face() const { return impl_->face; }
+const MatX2d& Multires::base_st() const { return impl_->st; }
+const MatX3d& Multires::displacement() const { return impl_->disp; }
+int Multires::n_patch_points() const { return impl_->surf.n_points; }
+const MultiresTimings& Multires::timings() const { return impl_->timings; }
+
+size_t Multires::memory_bytes() const {
+  const Impl& m = *impl_;
+  return m.surf.memory_bytes() + (m.cv_begin.size() + m.order.size()) * sizeof(int) +
+         m.w_off.size() * sizeof(int64_t) + m.w.size() * sizeof(float) + m.disp_slot.size() * sizeof(double) +
+         static_cast<size_t>(m.n()) * (sizeof(int) + 5 * sizeof(double));
+}
+
+void Multires::reconstruct(const Eigen::Ref<const MatX3d>& Xr, Eigen::Ref<MatX3d> out) const {
+  const Impl& m = *impl_;
+  const int nd = m.n();
+  if (out.rows() != nd) throw MeshError("reconstruct: the output needs " + std::to_string(nd) + " rows");
+  const MatX3d X = Xr;  // the control mesh is small
+  m.validate_control(X);
+  MatX4d P;
+  m.surf.points(X, P);
+  // x_i = S + a t1 + b t2 + c n in the deformed frame.
+  if (out.outerStride() == 3) {
+    m.run_dense(X, P, m.disp_slot.data(), out.data());
+  } else {
+    MatX3d tmp(nd, 3);
+    m.run_dense(X, P, m.disp_slot.data(), tmp.data());
+    out = tmp;
+  }
+}
+
+MatX3d Multires::reconstruct(const MatX3d& X) const {
+  MatX3d out(n_dense(), 3);
+  reconstruct(X, out);
+  return out;
+}
+
+void Multires::limit_points(const MatX3d& X, MatX3d& points, MatX3d* normals) const {
+  const Impl& m = *impl_;
+  m.validate_control(X);
+  MatX4d P;
+  m.surf.points(X, P);
+  const int nd = m.n();
+  std::vector<double> frames(12 * static_cast<size_t>(nd));
+  m.run_dense(X, P, nullptr, frames.data());
+  points.resize(nd, 3);
+  if (normals) normals->resize(nd, 3);
+  for (int j = 0; j < nd; ++j) {
+    const double* f = &frames[12 * static_cast<size_t>(j)];
+    points.row(m.order[j]) << f[0], f[1], f[2];
+    if (normals) normals->row(m.order[j]) << f[9], f[10], f[11];
+  }
+}
+
+void Multires::evaluate(const MatX3d& X, const VecXi& face, const MatX2d& st, MatX3d& P, MatX3d* Ds,
+                        MatX3d* Dt) const {
+  const Impl& m = *impl_;
+  m.validate_control(X);
+  const Eigen::Index n = face.size();
+  if (st.rows() != n) throw MeshError("evaluate: face and st must have the same number of rows");
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (face[i] < 0 || face[i] >= m.surf.F.rows()) throw MeshError("evaluate: face out of range");
+    if (!(st(i, 0) >= 0 && st(i, 1) >= 0 && st(i, 0) + st(i, 1) <= 1 + 1e-12))
+      throw MeshError("evaluate: (s, t) must satisfy s, t >= 0, s + t <= 1");
+  }
+  MatX4d pts;
+  m.surf.points_exact(X, pts);
+  P.resize(n, 3);
+  if (Ds) Ds->resize(n, 3);
+  if (Dt) Dt->resize(n, 3);
+#pragma omp parallel for schedule(static)
+  for (Eigen::Index i = 0; i < n; ++i) {
+    Vec3 S, Ss, St;
+    m.surf.eval(pts, Loc{face[i], st(i, 0), st(i, 1)}, S, Ss, St);  // a patch covers every face
+    P.row(i) = S.transpose();
+    if (Ds) Ds->row(i) = Ss.transpose();
+    if (Dt) Dt->row(i) = St.transpose();
+  }
+}
+
+SpMatR Multires::limit_matrix() const {
+  std::vector<int> rows(n_dense());
+  for (int i = 0; i < n_dense(); ++i) rows[i] = i;
+  return limit_rows(impl_->surf, impl_->face, impl_->st, rows);
+}
+
+}  // namespace dgmesh

@@ -1,0 +1,698 @@
+// Skeleton-driven deformation (thesis chapter 6). See skeletal.h.
+#include "dgmesh/skeletal.h"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include "dgmesh/delaunay.h"
+#include "dgmesh/errors.h"
+#include "dgmesh/geometry.h"
+#include "dgmesh/sparse_solver.h"
+#include "dgmesh/spatial_index.h"
+#include "dgmesh/validate.h"
+
+namespace dgmesh {
+
+using Mat3 = Eigen::Matrix3d;
+using MatX9d = Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>;
+
+namespace {
+
+// Nearest rotation (polar decomposition) of a 3x3 matrix; the identity for a zero matrix.
+Mat3 nearest_rotation(const Mat3& C) {
+  if (!(C.squaredNorm() > 1e-300) || !C.allFinite()) return Mat3::Identity();
+  Eigen::JacobiSVD<Mat3> svd(C, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Mat3 U = svd.matrixU();
+  const Mat3 V = svd.matrixV();
+  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
+  return U * V.transpose();
+}
+
+// Rotation taking unit a to unit b by the shortest arc (identity when they coincide).
+Mat3 rotation_between(const Vec3& a, const Vec3& b) {
+  const Vec3 c = a.cross(b);
+  const double s = c.norm(), co = a.dot(b);
+  if (s < 1e-12) {
+    if (co > 0) return Mat3::Identity();
+    // opposite: a half turn about any axis perpendicular to a
+    Vec3 p = std::abs(a.x()) < 0.9 ? Vec3::UnitX() : Vec3::UnitY();
+    p = (p - p.dot(a) * a).normalized();
+    return 2 * p * p.transpose() - Mat3::Identity();
+  }
+  return Eigen::AngleAxisd(std::atan2(s, co), c / s).toRotationMatrix();
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+  return v[v.size() / 2];
+}
+
+double signed_volume(const MatX3d& V, const MatX3i& F) {
+  double vol = 0;
+  for (int f = 0; f < F.rows(); ++f) vol += row3(V, F(f, 0)).dot(row3(V, F(f, 1)).cross(row3(V, F(f, 2))));
+  return vol / 6;
+}
+
+// Tangential part of the uniform bi-umbrella flow (thesis 6.1 pre-smoothing [WDSB00]).
+MatX3d bilaplacian_tangential(MatX3d V, const MatX3i& F, const Topology& topo, int iterations, double step) {
+  const int n = static_cast<int>(V.rows());
+  for (int it = 0; it < iterations; ++it) {
+    const MatX3d U2 = bi_umbrella(V, topo, Umbrella::Uniform);
+    const MatX3d N = vertex_normals(V, F, topo, NormalWeights::Area);
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      if (topo.on_boundary[i] || topo.is_loose(i)) continue;
+      const Vec3 u = row3(U2, i), nn = row3(N, i);
+      V.row(i) -= step * (u - u.dot(nn) * nn).transpose();
+    }
+  }
+  return V;
+}
+
+// Closest point of segment [a, b] to p, squared distance.
+double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double l2 = ab.squaredNorm();
+  double t = l2 > 0 ? (p - a).dot(ab) / l2 : 0;
+  t = std::clamp(t, 0.0, 1.0);
+  return (a + t * ab - p).squaredNorm();
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Skeletal mesh (thesis 6.1)
+
+SkeletalMesh skeletal_mesh(const Mesh& mesh, const SkeletonOptions& opt) {
+  const int n = static_cast<int>(mesh.V.rows());
+  const Topology& topo = mesh.topo;
+  // Poles are taken on a regularised copy: sliver triangles give spiky Voronoi poles (fig. 6.6).
+  const MatX3d Vs = bilaplacian_tangential(mesh.V, mesh.F, topo, opt.presmooth_iterations, opt.presmooth_step);
+  MatX3d N = vertex_normals(Vs, mesh.F, topo, NormalWeights::Area);
+  if (signed_volume(Vs, mesh.F) < 0) N = -N;  // inside-out faces: the inner side is along +N
+  const Delaunay3 del = delaunay_3d(Vs);
+  const double cos_max = std::cos(opt.max_pole_angle);
+
+  SkeletalMesh out;
+  out.S.resize(n, 3);
+  std::vector<char> found(n, 0);
+  // Inner Voronoi pole: the farthest vertex of the Voronoi cell on the inner side of the surface
+  // (against the outward normal), i.e. the centre of the largest empty ball touching x_i inside.
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    const Vec3 p = row3(Vs, i), inward = -row3(N, i);
+    double best = -1;
+    Vec3 pole = p;
+    for (int k = del.point_offset[i]; k < del.point_offset[i + 1]; ++k) {
+      const Vec3 c = row3(del.circumcenters, del.point_tets[k]);
+      const Vec3 d = c - p;
+      const double r = d.norm();
+      if (!(r > 0) || !std::isfinite(r) || d.dot(inward) < cos_max * r) continue;
+      if (r > best) best = r, pole = c;
+    }
+    if (best > 0) {
+      out.S.row(i) = pole.transpose();
+      found[i] = 1;
+    }
+  }
+  // Vertices without a pole (duplicates Qhull dropped, isolated needles): their ring's mean depth.
+  std::vector<double> depth(n, 0.0);
+  for (int i = 0; i < n; ++i)
+    if (found[i]) depth[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
+  for (int pass = 0; pass < 20; ++pass) {
+    bool missing = false;
+    for (int i = 0; i < n; ++i) {
+      if (found[i]) continue;
+      double sum = 0;
+      int c = 0;
+      for (int k = topo.vv_offset[i]; k < topo.vv_offset[i + 1]; ++k)
+        if (found[topo.vv_index[k]] == 1) sum += depth[topo.vv_index[k]], ++c;
+      if (c == 0) {
+        missing = true;
+        continue;
+      }
+      depth[i] = sum / c;
+      out.S.row(i) = (row3(mesh.V, i) - depth[i] * row3(N, i)).transpose();
+      found[i] = 2;
+      ++out.n_fallback;
+    }
+    for (int i = 0; i < n; ++i)
+      if (found[i] == 2) found[i] = 1;
+    if (!missing) break;
+  }
+  for (int i = 0; i < n; ++i)
+    if (!found[i]) {  // a component without any pole: shrink to its vertex (radius 0 handled below)
+      out.S.row(i) = mesh.V.row(i);
+      ++out.n_fallback;
+    }
+
+  // Post-smoothing (thesis 6.1 end).
+  std::vector<char> moved(n, 0);
+  const SpMatR W = umbrella_matrix(out.S, topo, Umbrella::Uniform);  // uniform: depends on topology only
+  std::vector<double> ring;
+  for (int it = 0; it < opt.postsmooth_iterations; ++it) {
+    const MatX3d U = W * out.S;
+    const MatX3d U2 = W * U;
+    VecXd rad(n);
+    for (int i = 0; i < n; ++i) rad[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
+    int changed = 0;
+#pragma omp parallel for schedule(static) reduction(+ : changed)
+    for (int i = 0; i < n; ++i) {
+      if (topo.is_loose(i)) continue;
+      const Vec3 v = -row3(U2, i);  // smoothing vector of the bilaplacian flow
+      const Vec3 nn = row3(N, i);
+      const bool inverted = (row3(mesh.V, i) - row3(out.S, i)).dot(nn) <= 0;
+      double mx = 0, sum = 0;
+      int c = 0;
+      for (int k = topo.vv_offset[i]; k < topo.vv_offset[i + 1]; ++k) {
+        sum += rad[topo.vv_index[k]];
+        mx = std::max(mx, rad[topo.vv_index[k]]);
+        ++c;
+      }
+      const bool spike = c > 0 && rad[i] > opt.spike_factor * (sum / c);
+      if (v.dot(nn) < 0 || spike || inverted) {
+        out.S.row(i) += opt.postsmooth_step * v.transpose();
+        if (spike || inverted) {  // pull a spike fully to its ring (a single step is too weak)
+          out.S.row(i) = out.S.row(i) * 0.5 + 0.5 * (out.S.row(i) + row3(U, i).transpose());
+        }
+        moved[i] = 1;
+        ++changed;
+      }
+    }
+    if (!changed) break;
+  }
+  for (char m : moved) out.n_postsmoothed += m;
+
+  out.radii.resize(n);
+  for (int i = 0; i < n; ++i) out.radii[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Skeletal mesh editing (thesis 6.2)
+
+Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, const MatX3d& tails, double sigma) {
+  const int n = static_cast<int>(P.rows()), B = static_cast<int>(heads.rows());
+  if (B == 0 || tails.rows() != B) throw MeshError("Gaussian weights need as many bone heads as tails (and at least one)");
+  if (!(sigma > 0)) throw MeshError("Gaussian weights need sigma > 0");
+  Eigen::MatrixXd W(n, B);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    double dmin = std::numeric_limits<double>::infinity();
+    for (int j = 0; j < B; ++j) {
+      W(i, j) = segment_sq_dist(row3(P, i), row3(heads, j), row3(tails, j));
+      dmin = std::min(dmin, W(i, j));
+    }
+    double sum = 0;
+    for (int j = 0; j < B; ++j) sum += (W(i, j) = std::exp(-(W(i, j) - dmin) / (2 * sigma * sigma)));
+    W.row(i) /= sum;
+  }
+  return W;
+}
+
+MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const std::vector<Mat4>& rest,
+                                const std::vector<Mat4>& pose, MatX9d* linear) {
+  const int n = static_cast<int>(P.rows()), B = static_cast<int>(rest.size());
+  if (static_cast<int>(pose.size()) != B || W.cols() != B || W.rows() != n)
+    throw MeshError("SSD: expected " + std::to_string(B) + " pose matrices and an n x B weight matrix");
+  // A_j = B_j^d B_j^-1 as one affine map per bone (eq. 6.2).
+  std::vector<Eigen::Matrix<double, 3, 4>> A(B);
+  for (int j = 0; j < B; ++j) {
+    const Mat4 m = pose[j] * rest[j].inverse();
+    if (!m.allFinite()) throw MeshError("SSD: bone " + std::to_string(j) + " has a singular rest matrix");
+    A[j] = m.topRows<3>();
+  }
+  // Bone rotations as quaternions, for the blended frames (see below).
+  std::vector<Eigen::Quaterniond> q(B);
+  if (linear)
+    for (int j = 0; j < B; ++j) q[j] = Eigen::Quaterniond(nearest_rotation(A[j].leftCols<3>())).normalized();
+  MatX3d out(n, 3);
+  if (linear) linear->resize(n, 9);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
+    for (int j = 0; j < B; ++j) {
+      const double w = W(i, j);
+      if (w != 0) M += w * A[j];
+    }
+    out.row(i) = (M.leftCols<3>() * row3(P, i) + M.col(3)).transpose();
+    if (linear) {
+      // The rotation of the point's local frame: the bone rotations blended as quaternions
+      // (normalised, hemisphere-aligned). A linear blend of rotation matrices loses rank under
+      // twists (0.5 I + 0.5 R_x(pi) has no y, z axes), the frames' candy wrapper.
+      Eigen::Vector4d acc = Eigen::Vector4d::Zero();
+      int ref = -1;
+      for (int j = 0; j < B; ++j) {
+        const double w = W(i, j);
+        if (w == 0) continue;
+        if (ref < 0 || w > W(i, ref)) ref = j;
+      }
+      for (int j = 0; j < B; ++j) {
+        const double w = W(i, j);
+        if (w == 0) continue;
+        const double sgn = q[j].coeffs().dot(q[ref].coeffs()) < 0 ? -1.0 : 1.0;
+        acc += sgn * w * q[j].coeffs();
+      }
+      const Mat3 R = acc.norm() > 1e-12 ? Eigen::Quaterniond(acc / acc.norm()).toRotationMatrix() : Mat3::Identity();
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) (*linear)(i, 3 * r + c) = R(r, c);
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// min_j |x - s_j| - r_j over the balls, with the kd-tree over the centres. `bound_index` gives a
+// first candidate (its ball bounds the search); -1 starts from the nearest centre.
+double union_distance(const KdTree& tree, const MatX3d& centers, const VecXd& radii, double r_max, const Vec3& x,
+                      int bound_index, int& arg, std::vector<std::pair<int, double>>& scratch) {
+  if (bound_index < 0) bound_index = tree.nearest(x);
+  double best = (x - row3(centers, bound_index)).norm() - radii[bound_index];
+  arg = bound_index;
+  tree.radius(x, std::max(best + r_max, 0.0), scratch);
+  for (const auto& [j, d2] : scratch) {
+    const double f = std::sqrt(d2) - radii[j];
+    if (f < best) best = f, arg = j;
+  }
+  return best;
+}
+
+}  // namespace
+
+VecXd union_of_balls_distance(const MatX3d& X, const MatX3d& centers, const VecXd& radii, std::vector<int>* nearest) {
+  if (centers.rows() == 0 || radii.size() != centers.rows()) throw MeshError("union of balls: need centres and radii");
+  const KdTree tree(centers);
+  const double r_max = radii.maxCoeff();
+  const int n = static_cast<int>(X.rows());
+  VecXd f(n);
+  if (nearest) nearest->assign(n, -1);
+#pragma omp parallel
+  {
+    std::vector<std::pair<int, double>> scratch;
+#pragma omp for schedule(dynamic, 256)
+    for (int i = 0; i < n; ++i) {
+      int arg;
+      f[i] = union_distance(tree, centers, radii, r_max, row3(X, i), -1, arg, scratch);
+      if (nearest) (*nearest)[i] = arg;
+    }
+  }
+  return f;
+}
+
+// ---------------------------------------------------------------------------------------------
+// The rig
+
+struct SkeletalRig::Impl {
+  Mesh control;
+  VertexCorners corners;
+  MatX3d S;
+  VecXd radii;
+  MatX3d dirs;       // (x - s) / d: the rest unit normals of representation (6.1)
+  VecXd f_rest;      // eq. 6.13 at rest (the fairing targets the rest thickness)
+  Eigen::MatrixXd W; // n_control x B
+  std::vector<Mat4> rest;
+  std::optional<Multires> multires;
+  MatX3d cot;        // per face corner: cot of the rest angle at that corner
+  SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
+  double mu = 0;     // frame regularisation weight (absolute)
+  double frame_regularization = 0.05;
+  double r_max = 0;
+  MatX3d rest_normals;  // vertex normals of the control mesh (basic method)
+
+  void setup();
+  MatX3d solve(const MatX3d& b) const {
+    Eigen::MatrixXd B = b;
+    Eigen::MatrixXd X = solver.solve(B);
+    return X;
+  }
+  std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const;
+  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
+  MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt) const;
+  MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
+};
+
+void SkeletalRig::Impl::setup() {
+  const MatX3d& X = control.V;
+  const MatX3i& F = control.F;
+  const int n = static_cast<int>(X.rows()), m = static_cast<int>(F.rows());
+  corners = vertex_corners(F, n);
+  radii.resize(n);
+  dirs.resize(n, 3);
+  rest_normals = vertex_normals(X, F, control.topo, NormalWeights::Area);
+  if (signed_volume(X, F) < 0) rest_normals = -rest_normals;
+  for (int i = 0; i < n; ++i) {
+    const Vec3 d = row3(X, i) - row3(S, i);
+    radii[i] = d.norm();
+    // A vertex on its own skeleton (radius 0) keeps a direction: its normal.
+    dirs.row(i) = radii[i] > 1e-12 ? Eigen::RowVector3d((d / radii[i]).transpose()) : Eigen::RowVector3d(rest_normals.row(i));
+  }
+  r_max = radii.maxCoeff();
+  cot.resize(m, 3);
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(static_cast<size_t>(m) * 9 + n);
+  for (int i = 0; i < n; ++i) trip.emplace_back(i, i, 1.0);
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3);
+      const Vec3 u = row3(X, b) - row3(X, a), v = row3(X, c) - row3(X, a);
+      const double s = u.cross(v).norm();
+      const double ct = s > 1e-300 ? u.dot(v) / s : 0.0;
+      cot(f, k) = ct;  // weight of the opposite edge (b, c)
+      trip.emplace_back(b, b, ct);
+      trip.emplace_back(c, c, ct);
+      trip.emplace_back(b, c, -ct);
+      trip.emplace_back(c, b, -ct);
+    }
+  SpMat A(n, n);
+  A.setFromTriplets(trip.begin(), trip.end());
+  // L0 is factorised once (the thesis's UMFPACK); each pose is a right-hand side (eq. 6.11).
+  solver.factor(A, SparseSolver::Kind::Umfpack);
+  double e2 = 0;
+  int ne = 0;
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) e2 += (row3(S, F(f, k)) - row3(S, F(f, (k + 1) % 3))).squaredNorm(), ++ne;
+  mu = frame_regularization * std::max(e2 / std::max(ne, 1), 1e-20);
+  {
+    std::vector<int> arg;
+    const VecXd f = union_of_balls_distance(X, S, radii, &arg);
+    f_rest = f;
+  }
+}
+
+std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const {
+  const MatX3i& F = control.F;
+  const int m = static_cast<int>(F.rows());
+  std::vector<Mat3> R(m);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < m; ++f) {
+    // Frame change B_d B_0^-1 of the skeletal triangle (eq. 6.8) as the rotation that best maps
+    // its rest edges to its deformed edges; the blended bone rotation fills the directions a
+    // degenerate (collinear or collapsed) triangle leaves undetermined.
+    Mat3 C = Mat3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      C += (row3(Sd, b) - row3(Sd, a)) * (row3(S, b) - row3(S, a)).transpose();
+    }
+    Mat3 M = Mat3::Zero();
+    for (int k = 0; k < 3; ++k)
+      M += Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(lin.row(F(f, k)).data());
+    R[f] = nearest_rotation(C + (mu / 3) * M);
+  }
+  return R;
+}
+
+MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt) const {
+  const int n = static_cast<int>(S.rows());
+  const std::vector<Mat3> R = triangle_rotations(Sd, lin);
+  // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
+  // (eq. 6.8), plus the s^d column moved over from L0 u (the skeleton is the fixed boundary).
+  MatX3d b(n, 3);
+#pragma omp parallel for schedule(static)
+  for (int i = 0; i < n; ++i) {
+    Vec3 acc = row3(Sd, i);
+    const int c0 = corners.offset[i], c1 = corners.offset[i + 1];
+    const double inv_T = c1 > c0 ? 1.0 / (c1 - c0) : 0.0;
+    for (int c = c0; c < c1; ++c) {
+      const Corner& cr = corners.corners[c];
+      const Mat3& Rf = R[cr.face];
+      const int j = cr.next, k = cr.prev;
+      const Vec3 xi = row3(Sd, i) + radii[i] * (Rf * row3(dirs, i));
+      const Vec3 xj = row3(Sd, j) + radii[j] * (Rf * row3(dirs, j));
+      const Vec3 xk = row3(Sd, k) + radii[k] * (Rf * row3(dirs, k));
+      const double w1 = cot(cr.face, (cr.local + 2) % 3);  // angle at k, opposite edge (i, j)
+      const double w2 = cot(cr.face, (cr.local + 1) % 3);  // angle at j, opposite edge (i, k)
+      acc += w1 * (xi - xj) + w2 * (xi - xk) + inv_T * (xi - row3(Sd, i));
+    }
+    b.row(i) = acc.transpose();
+  }
+  MatX3d X = solve(b);
+  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt);
+  return X;
+}
+
+void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt) const {
+  const int n = static_cast<int>(X.rows());
+  const KdTree tree(Sd);
+  MatX3d G(n, 3);
+  for (int step = 0; step < opt.fairing_steps; ++step) {
+    // F(u) = f grad f at the mesh vertices, 0 at the skeleton (eq. 6.14); f is measured against
+    // its rest value so that the rest pose and rigid motions are fixed points.
+#pragma omp parallel
+    {
+      std::vector<std::pair<int, double>> scratch;
+#pragma omp for schedule(dynamic, 256)
+      for (int i = 0; i < n; ++i) {
+        int p;
+        const Vec3 x = row3(X, i);
+        const double f = union_distance(tree, Sd, radii, r_max, x, i, p, scratch) - f_rest[i];
+        const Vec3 d = x - row3(Sd, p);
+        const double len = d.norm();
+        G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
+      }
+    }
+    // Semi-implicit step (eq. 6.15): u <- u - eps L0^-1 F(u), a descent step on f^2.
+    X -= opt.fairing_step * solve(G);
+  }
+}
+
+MatX3d SkeletalRig::Impl::basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const {
+  const MatX3i& F = control.F;
+  const Topology& topo = control.topo;
+  const int n = static_cast<int>(S.rows()), m = static_cast<int>(F.rows());
+  const double sign = signed_volume(control.V, F) < 0 ? -1.0 : 1.0;
+  // Homotopy (eq. 6.3-6.4): the directions N_j follow the rotation of the mesh normals of M_{j-1}
+  // (so that the rest pose is a fixed point; N_0 = (x - s)/d).
+  MatX3d N = dirs, X = control.V;
+  const int L = std::max(opt.homotopy_steps, 1);
+  for (int j = 1; j <= L; ++j) {
+    if (j > 1) {
+      const MatX3d Nm = sign * vertex_normals(X, F, topo, NormalWeights::Area);
+#pragma omp parallel for schedule(static)
+      for (int i = 0; i < n; ++i) N.row(i) = (rotation_between(row3(rest_normals, i), row3(Nm, i)) * row3(dirs, i)).transpose();
+    }
+    const double t = double(j) / L;
+    for (int i = 0; i < n; ++i) X.row(i) = (1 - t) * S.row(i) + t * Sd.row(i) + radii[i] * N.row(i);
+  }
+  const SpMatR Wu = umbrella_matrix(X, topo, Umbrella::Uniform);
+  const double dt = 0.5;
+  // Folds and protrusions (eq. 6.5): bi-umbrella relaxation where the umbrella field is regular,
+  // a pull to the envelope of each skeletal triangle's balls, tangential bi-umbrella drift.
+  for (int it = 0; it < opt.fold_iterations; ++it) {
+    const MatX3d U = Wu * X;
+    const MatX3d U2 = Wu * U;
+    MatX3d Fe = MatX3d::Zero(n, 3);
+    std::vector<int> cnt(n, 0);
+    for (int f = 0; f < m; ++f) {
+      const Vec3 C = (row3(X, F(f, 0)) + row3(X, F(f, 1)) + row3(X, F(f, 2))) / 3;
+      const Vec3 c = (row3(Sd, F(f, 0)) + row3(Sd, F(f, 1)) + row3(Sd, F(f, 2))) / 3;
+      const double r = (radii[F(f, 0)] + radii[F(f, 1)] + radii[F(f, 2)]) / 3;
+      const Vec3 d = C - c;
+      const double len = d.norm();
+      if (len < 1e-300) continue;
+      const Vec3 g = (len - r) / len * d;  // E grad E
+      for (int k = 0; k < 3; ++k) Fe.row(F(f, k)) += g.transpose(), ++cnt[F(f, k)];
+    }
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      if (cnt[i] == 0) continue;
+      const Vec3 Fi = row3(Fe, i) / cnt[i];
+      const Vec3 u = row3(U, i);
+      int obtuse = 0, c = 0;
+      for (int k = topo.vv_offset[i]; k < topo.vv_offset[i + 1]; ++k, ++c)
+        if (u.dot(row3(U, topo.vv_index[k])) < 0) ++obtuse;
+      const double alpha = c > 0 && obtuse < 0.3 * c ? 0.25 : 0.0;
+      const Vec3 b2 = row3(U2, i);
+      const double fl = Fi.norm();
+      const Vec3 Vt = fl > 1e-300 ? Vec3(b2 - b2.dot(Fi / fl) * (Fi / fl)) : b2;
+      X.row(i) += dt * (-alpha * b2 - Fi - Vt).transpose();
+    }
+  }
+  // Global and local self-intersections (eq. 6.6): pull to the union of the balls (eq. 6.13
+  // through the kd-tree in place of the thesis's 20^3 voxel grid), bi-umbrella weighted by how far
+  // the union departs from the vertex's own ball.
+  const KdTree tree(Sd);
+  for (int it = 0; it < opt.fairing_steps * 5; ++it) {
+    const MatX3d U2 = Wu * (Wu * X);
+    MatX3d G(n, 3);
+    VecXd Wd(n);
+#pragma omp parallel
+    {
+      std::vector<std::pair<int, double>> scratch;
+#pragma omp for schedule(dynamic, 256)
+      for (int i = 0; i < n; ++i) {
+        int p;
+        const Vec3 x = row3(X, i);
+        const double f = union_distance(tree, Sd, radii, r_max, x, i, p, scratch) - f_rest[i];
+        const double own = (x - row3(Sd, i)).norm() - radii[i];
+        Wd[i] = std::abs(f - own);
+        const Vec3 d = x - row3(Sd, p);
+        const double len = d.norm();
+        G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
+      }
+    }
+    const double wmax = Wd.maxCoeff();
+    for (int i = 0; i < n; ++i) {
+      const double w = wmax > 0 ? Wd[i] / wmax : 0.0;
+      X.row(i) -= dt * (G.row(i) + w * U2.row(i));
+    }
+  }
+  return X;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vector<Mat4>& bones_rest,
+                              const Eigen::MatrixXd& weights, const MatX3d& bone_heads, const MatX3d& bone_tails,
+                              const SkeletalRigOptions& opt, const ProgressFn& progress) {
+  Progress prog(progress);
+  prog(0);
+  const int B = static_cast<int>(bones_rest.size());
+  if (B == 0) throw MeshError("skeletal bind: no deform bones");
+  for (int j = 0; j < B; ++j)
+    if (!bones_rest[j].allFinite() || std::abs(bones_rest[j].topLeftCorner<3, 3>().determinant()) < 1e-12)
+      throw MeshError("skeletal bind: rest matrix of bone " + std::to_string(j) + " is singular or not finite");
+  Mesh dense = make_mesh(V, F, kSurface | kNoLooseVertices);
+  const int n = static_cast<int>(V.rows());
+  if (!dense.topo.boundary_loops.empty())
+    throw MeshError("skeletal bind: the mesh is open (" + std::to_string(dense.topo.boundary_loops.size()) +
+                    " boundary loops); the skeletal representation M = S + dN needs a closed surface. Fill the "
+                    "holes first, or use the Armature modifier for open meshes");
+  const bool have_w = weights.size() > 0;
+  if (have_w) {
+    if (weights.rows() != n || weights.cols() != B)
+      throw MeshError("skeletal bind: weights must be " + std::to_string(n) + " x " + std::to_string(B) + ", got " +
+                      std::to_string(weights.rows()) + " x " + std::to_string(weights.cols()));
+    if (!weights.allFinite() || weights.minCoeff() < 0) throw MeshError("skeletal bind: weights must be finite and >= 0");
+    int zero = 0, first = -1;
+    for (int i = 0; i < n; ++i)
+      if (!(weights.row(i).sum() > 1e-12)) {
+        if (first < 0) first = i;
+        ++zero;
+      }
+    if (zero)
+      throw MeshError("skeletal bind: " + std::to_string(zero) + " vertices (first: " + std::to_string(first) +
+                      ") have no weight in any deform bone; weight them (e.g. automatic weights) or remove the weights "
+                      "to use distance-based weights");
+  } else if (bone_heads.rows() != B || bone_tails.rows() != B) {
+    throw MeshError("skeletal bind: without weights, bone heads and tails (B x 3) are needed");
+  }
+
+  auto impl = std::make_shared<Impl>();
+  impl->rest = bones_rest;
+  impl->frame_regularization = opt.frame_regularization;
+  if (F.rows() > opt.control_faces) {
+    MultiresOptions mo;
+    mo.control_faces = opt.control_faces;
+    mo.level = opt.multires_level;
+    mo.fit_iterations = opt.multires_fit_iterations;
+    impl->multires = Multires::build(dense, mo, [&](double f) {
+      prog(0.6 * f);
+      return true;
+    });
+    impl->control = make_mesh(impl->multires->control_vertices(), impl->multires->control_faces(),
+                              kSurface | kNoLooseVertices);
+  } else {
+    impl->control = std::move(dense);
+  }
+  prog(0.6);
+  const SkeletalMesh sk = skeletal_mesh(impl->control, opt.skeleton);
+  impl->S = sk.S;
+  prog(0.85);
+  const int nc = static_cast<int>(impl->control.V.rows());
+  if (have_w) {
+    Eigen::MatrixXd Wc(nc, B);
+    if (impl->multires) {
+      // Control vertices take the weights of their nearest dense vertex.
+      const KdTree tree(V);
+      for (int i = 0; i < nc; ++i) Wc.row(i) = weights.row(tree.nearest(row3(impl->control.V, i)));
+    } else {
+      Wc = weights;
+    }
+    for (int i = 0; i < nc; ++i) Wc.row(i) /= Wc.row(i).sum();
+    impl->W = std::move(Wc);
+  } else {
+    std::vector<double> r(nc);
+    for (int i = 0; i < nc; ++i) r[i] = sk.radii[i];
+    const double sigma = opt.gaussian_sigma > 0 ? opt.gaussian_sigma : 0.2 * std::max(median(r), 1e-9);
+    impl->W = gaussian_bone_weights(impl->S, bone_heads, bone_tails, sigma);
+  }
+  impl->setup();
+  prog(1);
+  return SkeletalRig(impl);
+}
+
+SkeletalRig SkeletalRig::from_data(const SkeletalRigData& d) {
+  auto impl = std::make_shared<Impl>();
+  const int B = static_cast<int>(d.bones_rest.size());
+  impl->control = make_mesh(d.control_V, d.control_F, kSurface | kNoLooseVertices);
+  const int nc = static_cast<int>(d.control_V.rows());
+  if (d.S.rows() != nc || d.weights.rows() != nc || d.weights.cols() != B || B == 0)
+    throw MeshError("skeletal data: skeleton / weights do not match the control mesh and bones");
+  if (!d.S.allFinite() || !d.weights.allFinite()) throw MeshError("skeletal data: not finite");
+  impl->S = d.S;
+  impl->W = d.weights;
+  impl->rest = d.bones_rest;
+  impl->frame_regularization = d.frame_regularization;
+  if (d.has_multires) {
+    impl->multires = Multires::from_data(d.multires);
+    if (impl->multires->n_control() != nc) throw MeshError("skeletal data: multires control mesh does not match");
+  }
+  impl->setup();
+  return SkeletalRig(impl);
+}
+
+SkeletalRigData SkeletalRig::data() const {
+  SkeletalRigData d;
+  d.control_V = impl_->control.V;
+  d.control_F = impl_->control.F;
+  d.S = impl_->S;
+  d.weights = impl_->W;
+  d.bones_rest = impl_->rest;
+  d.has_multires = impl_->multires.has_value();
+  if (d.has_multires) d.multires = impl_->multires->data();
+  d.frame_regularization = impl_->frame_regularization;
+  return d;
+}
+
+MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
+  return skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose);
+}
+
+MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                   MatX3d* skeleton_out) const {
+  if (static_cast<int>(pose.size()) != n_bones())
+    throw MeshError("skeletal deform: expected " + std::to_string(n_bones()) + " pose matrices, got " +
+                    std::to_string(pose.size()));
+  for (const Mat4& m : pose)
+    if (!m.allFinite()) throw MeshError("skeletal deform: pose matrices must be finite");
+  if (opt.fairing_steps < 0 || opt.homotopy_steps < 1 || opt.fold_iterations < 0)
+    throw MeshError("skeletal deform: fairing_steps and fold_iterations must be >= 0, homotopy_steps >= 1");
+  MatX9d lin;
+  const MatX3d Sd = skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, &lin);
+  if (skeleton_out) *skeleton_out = Sd;
+  return opt.method == SkeletalMethod::Variational ? impl_->variational(Sd, lin, opt) : impl_->basic(Sd, opt);
+}
+
+MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt) const {
+  const MatX3d Xc = deform_control(pose, opt);
+  return impl_->multires ? impl_->multires->reconstruct(Xc) : Xc;
+}
+
+int SkeletalRig::n_vertices() const {
+  return impl_->multires ? impl_->multires->n_dense() : static_cast<int>(impl_->control.V.rows());
+}
+int SkeletalRig::n_control() const { return static_cast<int>(impl_->control.V.rows()); }
+int SkeletalRig::n_bones() const { return static_cast<int>(impl_->rest.size()); }
+bool SkeletalRig::has_multires() const { return impl_->multires.has_value(); }
+const MatX3d& SkeletalRig::control_vertices() const { return impl_->control.V; }
+const MatX3i& SkeletalRig::control_faces() const { return impl_->control.F; }
+const MatX3d& SkeletalRig::skeleton_vertices() const { return impl_->S; }
+const VecXd& SkeletalRig::radii() const { return impl_->radii; }
+const Eigen::MatrixXd& SkeletalRig::weights() const { return impl_->W; }
+
+}  // namespace dgmesh

@@ -1,0 +1,137 @@
+"""dgmesh.Multires: rest exactness, rigid invariance, boundaries and components, save/load, errors."""
+
+import pathlib
+import subprocess
+
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh import shapes
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def cgal(name):
+    out = subprocess.run(["bash", str(ROOT / "scripts" / "cgal_data.sh")], capture_output=True, text=True)
+    path = pathlib.Path(out.stdout.strip()) / f"{name}.off"
+    if out.returncode != 0 or not path.exists():
+        pytest.skip("CGAL data not available (bash scripts/cgal_data.sh)")
+    return dgmesh.read_mesh(path)
+
+
+def diag(V):
+    return float(np.linalg.norm(V.max(0) - V.min(0)))
+
+
+def rigid(X, size):
+    axis = np.array([0.3, -1.0, 0.7]) / np.linalg.norm([0.3, -1.0, 0.7])
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    R = np.eye(3) + np.sin(2.0) * K + (1 - np.cos(2.0)) * K @ K
+    T = np.array([-1.5, 0.5, 2.0]) * size
+    return X @ R.T + T
+
+
+@pytest.mark.parametrize("name,control_faces", [("camel", 1000), ("elephant-with-holes", 500), ("blobby_3cc", 600)])
+def test_scans_rest_exact_and_rigid(name, control_faces):
+    V, F = cgal(name)
+    mr = dgmesh.Multires.build(V, F, control_faces=control_faces)
+    d = diag(V)
+    assert mr.n_dense == len(V)
+    # Decimation may stop a little above the target where the sliver guard or a boundary forbids
+    # further collapses (elephant-with-holes: many small holes).
+    assert 0.8 * control_faces <= len(mr.control_faces) <= 1.2 * control_faces
+    topo, ctopo = dgmesh.topology(V, F), dgmesh.topology(mr.control_vertices, mr.control_faces)
+    assert ctopo["n_components"] == topo["n_components"]
+    assert len(ctopo["boundary_loops"]) == len(topo["boundary_loops"])
+    assert np.abs(mr.reconstruct(mr.control_vertices) - V).max() < 1e-6 * d
+    assert np.abs(mr.reconstruct(rigid(mr.control_vertices, d)) - rigid(V, d)).max() < 1e-6 * d
+    # The control mesh is much coarser yet the displacements are small against the model.
+    assert np.sqrt((mr.normal_displacement ** 2).mean()) < 0.02 * d
+
+
+def test_plane_heights_are_normal_displacements():
+    gV, gF = shapes.grid(6, 6)
+    rng = np.random.default_rng(1)
+    P = np.column_stack([rng.uniform(0.3, 0.7, 200), rng.uniform(0.3, 0.7, 200), rng.uniform(-0.1, 0.1, 200)])
+    mr = dgmesh.Multires.bind(gV, gF, P)
+    base, normals = mr.limit_points()
+    np.testing.assert_allclose(base[:, :2], P[:, :2], atol=1e-7)
+    np.testing.assert_allclose(base[:, 2], 0, atol=1e-12)
+    np.testing.assert_allclose(np.abs(mr.normal_displacement), np.abs(P[:, 2]), atol=1e-12)
+    np.testing.assert_allclose(np.abs(normals[:, 2]), 1, atol=1e-12)
+
+
+def test_save_load_and_arrays_round_trip(tmp_path):
+    cV, cF = shapes.icosphere(1)
+    V, F = shapes.icosphere(3, 1.05)
+    mr = dgmesh.Multires.bind(cV, cF, V, level=3)
+    X = cV * np.array([1.0, 1.3, 0.8]) + 0.1
+    path = tmp_path / "bind.npz"
+    mr.save(path)
+    back = dgmesh.Multires.load(path)
+    assert back.level == 3 and back.n_dense == mr.n_dense
+    np.testing.assert_array_equal(back.reconstruct(X), mr.reconstruct(X))
+    arrays = mr.to_arrays()
+    assert set(arrays) >= {"control_vertices", "control_faces", "base_face", "base_st", "displacement", "level"}
+    again = dgmesh.Multires.from_arrays(arrays)
+    np.testing.assert_array_equal(again.reconstruct(X), mr.reconstruct(X))
+
+
+def test_reconstruct_into_preallocated_array():
+    cV, cF = shapes.icosphere(1)
+    V, _ = shapes.icosphere(2, 0.95)
+    mr = dgmesh.Multires.bind(cV, cF, V)
+    out = np.zeros_like(V)
+    assert mr.reconstruct(cV, out=out) is out
+    np.testing.assert_allclose(out, V, atol=1e-12)
+    with pytest.raises(dgmesh.MeshError):
+        mr.reconstruct(cV, out=np.zeros((len(V), 3), dtype=np.float32))
+
+
+def test_limit_matrix_reproduces_limit_points():
+    sp = pytest.importorskip("scipy.sparse")
+    cV, cF = shapes.icosphere(1)
+    V, _ = shapes.icosphere(3, 1.02)
+    mr = dgmesh.Multires.bind(cV, cF, V)
+    data, indices, indptr, shape = mr.limit_matrix()
+    W = sp.csr_matrix((data, indices, indptr), shape=shape)
+    np.testing.assert_allclose(W.sum(axis=1), 1, atol=1e-12)
+    np.testing.assert_allclose(W @ cV, mr.limit_points()[0], atol=1e-6)
+
+
+def test_bad_input_raises_clear_errors():
+    # Non-manifold: three triangles on one edge.
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1]], float)
+    F = np.array([[0, 1, 2], [1, 0, 3], [0, 1, 4]])
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.Multires.build(V, F)
+    # Degenerate face.
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.Multires.build(np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float), [[0, 1, 2]])
+    cV, cF = shapes.icosphere(1)
+    with pytest.raises(dgmesh.MeshError, match="level"):
+        dgmesh.Multires.build(cV, cF, level=9)
+    mr = dgmesh.Multires.bind(cV, cF, cV * 1.1)
+    with pytest.raises(dgmesh.MeshError, match="rows"):
+        mr.reconstruct(cV[:5])
+    bad = cV.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(dgmesh.MeshError):
+        mr.reconstruct(bad)
+    arrays = mr.to_arrays()
+    with pytest.raises(dgmesh.MeshError, match="lacks"):
+        dgmesh.Multires.from_arrays({k: v for k, v in arrays.items() if k != "displacement"})
+    arrays["base_face"] = arrays["base_face"].copy()
+    arrays["base_face"][0] = len(cF)
+    with pytest.raises(dgmesh.MeshError, match="out of range"):
+        dgmesh.Multires.from_arrays(arrays)
+
+
+def test_progress_can_cancel():
+    V, F = shapes.icosphere(4)
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.Multires.build(V, F, control_faces=200, progress=lambda f: f < 0.3)
+    seen = []
+    dgmesh.Multires.build(V, F, control_faces=200, progress=lambda f: seen.append(f))
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)

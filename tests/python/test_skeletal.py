@@ -1,0 +1,177 @@
+"""Python API of the skeletal deformation: bind/deform on a capsule, rest exactness, rigid motion,
+twist and bend thickness, save/load, vertex-group weights, errors, Delaunay wrappers."""
+
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh.skeletal import capsule, gaussian_bone_weights, skeletal_subspace_deform
+
+
+def bone(head):
+    m = np.eye(4)
+    m[:3, 0] = (0, -1, 0)
+    m[:3, 1] = (1, 0, 0)
+    m[:3, 2] = (0, 0, 1)
+    m[:3, 3] = head
+    return m
+
+
+def rot(axis, angle, pivot=(0, 0, 0)):
+    axis = np.asarray(axis, float) / np.linalg.norm(axis)
+    K = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
+    R = np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+    m = np.eye(4)
+    m[:3, :3] = R
+    m[:3, 3] = np.asarray(pivot) - R @ np.asarray(pivot)
+    return m
+
+
+REST = np.array([bone((-3.5, 0, 0)), bone((0, 0, 0))])
+HEADS = np.array([[-3.5, 0, 0], [0, 0, 0.0]])
+TAILS = np.array([[0, 0, 0], [3.5, 0, 0.0]])
+
+
+def seg_dist(P, a, b):
+    ab = b - a
+    t = np.clip((P - a) @ ab / (ab @ ab), 0, 1)
+    return np.linalg.norm(a + t[:, None] * ab - P, axis=1)
+
+
+def bone_dist(X, pose):
+    d = []
+    for j in range(2):
+        A = pose[j] @ np.linalg.inv(REST[j])
+        d.append(seg_dist(X, A[:3, :3] @ HEADS[j] + A[:3, 3], A[:3, :3] @ TAILS[j] + A[:3, 3]))
+    return np.min(d, axis=0)
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return capsule(0.5, 6.0, 32, 6, 48)
+
+
+@pytest.fixture(scope="module")
+def rig(mesh):
+    V, F = mesh
+    return dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS)
+
+
+def test_skeleton_on_the_axis(rig, mesh):
+    S = rig.skeleton_vertices
+    assert S.shape == mesh[0].shape
+    assert np.hypot(S[:, 1], S[:, 2]).max() < 0.05
+    assert np.allclose(rig.radii, 0.5, atol=0.05)
+    assert rig.weights.shape == (len(S), 2)
+    assert np.allclose(rig.weights.sum(1), 1)
+
+
+def test_rest_pose_exact(rig, mesh):
+    assert np.abs(rig.deform(REST) - mesh[0]).max() < 1e-9
+
+
+def test_rigid_motion(rig, mesh):
+    T = rot((1, 2, 3), 0.7)
+    T[:3, 3] += (0.3, -1, 2)
+    X = rig.deform(T[None] @ REST)
+    expect = mesh[0] @ T[:3, :3].T + T[:3, 3]
+    assert np.abs(X - expect).max() < 1e-8
+
+
+@pytest.mark.parametrize("axis,angle", [((1, 0, 0), np.pi), ((0, 0, 1), np.pi / 2)])
+def test_thickness_kept(rig, mesh, axis, angle):
+    V = mesh[0]
+    pose = np.array([REST[0], rot(axis, angle) @ REST[1]])
+    b0 = bone_dist(V, REST)
+    ok = b0 > 1e-9
+    X = rig.deform(pose, fairing_steps=4)
+    assert (bone_dist(X, pose)[ok] / b0[ok]).min() > 0.9
+    W = gaussian_bone_weights(V, HEADS, TAILS, 0.1)
+    L = skeletal_subspace_deform(V, W, REST, pose)
+    _, Sd = rig.deform_control(pose)
+    fx = dgmesh.union_of_balls_distance(rig.deform(pose), Sd, rig.radii)
+    fl = dgmesh.union_of_balls_distance(L, Sd, rig.radii)
+    assert (fx**2).sum() < 0.2 * (fl**2).sum()
+
+
+def test_basic_method_runs(rig):
+    pose = np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]])
+    X = rig.deform(pose, method="basic")
+    assert np.isfinite(X).all()
+
+
+def test_save_load(rig, tmp_path):
+    pose = np.array([REST[0], rot((0, 1, 1), 1.0) @ REST[1]])
+    path = tmp_path / "rig.npz"
+    rig.save(path)
+    back = dgmesh.SkeletalRig.load(path)
+    assert np.abs(back.deform(pose) - rig.deform(pose)).max() < 1e-12
+    back2 = dgmesh.SkeletalRig.from_arrays(rig.to_arrays())
+    assert np.abs(back2.deform(pose) - rig.deform(pose)).max() < 1e-12
+
+
+def test_vertex_group_weights(mesh):
+    V, F = mesh
+    W = np.zeros((len(V), 2))
+    W[V[:, 0] < 0, 0] = 1
+    W[V[:, 0] >= 0, 1] = 1
+    rig = dgmesh.SkeletalRig.bind(V, F, REST, W)
+    assert np.abs(rig.deform(REST) - V).max() < 1e-9
+    pose = np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]])
+    X = rig.deform(pose)
+    assert np.isfinite(X).all()
+    # Far from the joint the mesh follows its bone rigidly.
+    far = V[:, 0] > 2
+    A = pose[1] @ np.linalg.inv(REST[1])
+    assert np.abs(X[far] - (V[far] @ A[:3, :3].T + A[:3, 3])).max() < 0.02
+
+
+def test_dense_mesh_through_multires():
+    V, F = capsule(0.5, 3.0, 24, 5, 24)
+    V, F = dgmesh.shapes.subdivide_linear(V, F)
+    rest = np.array([bone((-2, 0, 0)), bone((0, 0, 0))])
+    rig = dgmesh.SkeletalRig.bind(V, F, rest, None, control_faces=len(F) // 8)
+    assert rig.has_multires and rig.n_vertices == len(V) and rig.n_control < len(V)
+    assert np.abs(rig.deform(rest) - V).max() < 1e-6
+    X = rig.deform(np.array([rest[0], rot((0, 0, 1), np.pi / 2) @ rest[1]]))
+    assert np.isfinite(X).all()
+    back = dgmesh.SkeletalRig.from_arrays(rig.to_arrays())
+    assert np.abs(back.deform(rest) - V).max() < 1e-6
+
+
+def test_errors(mesh, rig):
+    V, F = mesh
+    G, GF = dgmesh.shapes.grid(4, 4)
+    with pytest.raises(dgmesh.MeshError, match="open"):
+        dgmesh.SkeletalRig.bind(G, GF, REST, None, bone_heads=HEADS, bone_tails=TAILS)
+    with pytest.raises(dgmesh.MeshError, match="no deform bones"):
+        dgmesh.SkeletalRig.bind(V, F, np.zeros((0, 4, 4)))
+    W = np.zeros((len(V), 2))
+    W[:10, 0] = 1
+    with pytest.raises(dgmesh.MeshError, match="no weight"):
+        dgmesh.SkeletalRig.bind(V, F, REST, W)
+    with pytest.raises(dgmesh.MeshError, match="shape"):
+        dgmesh.SkeletalRig.bind(V, F, REST, np.ones((3, 2)))
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.SkeletalRig.bind(V, np.vstack([F, F[:1]]), REST)
+    with pytest.raises(dgmesh.MeshError, match="expected 2"):
+        rig.deform(REST[:1])
+    with pytest.raises(dgmesh.MeshError, match="method"):
+        rig.deform(REST, method="nope")
+    bad = REST.copy()
+    bad[1, 0, 0] = np.nan
+    with pytest.raises(dgmesh.MeshError):
+        rig.deform(bad)
+
+
+def test_delaunay_wrappers():
+    rng = np.random.default_rng(1)
+    P = rng.uniform(-1, 1, (200, 3))
+    d = dgmesh.delaunay_3d(P)
+    C, R = d["circumcenters"], d["circumradii"]
+    dist = np.linalg.norm(C[:, None] - P[None], axis=2).min(1)
+    assert np.all(dist >= R * (1 - 1e-9))
+    T = dgmesh.delaunay_2d(rng.uniform(0, 1, (50, 2)))
+    assert T.shape[1] == 3 and len(T) >= 50
+    with pytest.raises(dgmesh.MeshError):
+        dgmesh.delaunay_2d(np.c_[np.arange(5.0), np.arange(5.0)])
