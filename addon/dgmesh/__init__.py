@@ -33,6 +33,7 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     validate,
     write_mesh,
 )
+from .denoise import DenoiseResult, denoise, similarity  # noqa: E402
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
 from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402

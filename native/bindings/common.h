@@ -32,6 +32,7 @@ void bind_core(pb::module_& m);
 void bind_crest(pb::module_& m);
 void bind_fair(pb::module_& m);
 void bind_unwrap(pb::module_& m);
+void bind_denoise(pb::module_& m);
 void bind_skeletal(pb::module_& m);
 void bind_multires(pb::module_& m);
 

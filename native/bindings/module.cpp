@@ -31,6 +31,7 @@ PYBIND11_MODULE(_native, m) {
   dgmesh::py::bind_crest(m);
   dgmesh::py::bind_fair(m);
   dgmesh::py::bind_unwrap(m);
+  dgmesh::py::bind_denoise(m);
   dgmesh::py::bind_skeletal(m);
   dgmesh::py::bind_multires(m);
 }

@@ -7,10 +7,21 @@ a repeated register, e.g. on script reload) work.
 
 import bpy
 
-from . import bridge, ops_crest, ops_curvature, ops_fair, ops_multires, ops_skeletal, ops_unwrap, prefs, ui
+from . import (
+    bridge,
+    ops_crest,
+    ops_curvature,
+    ops_denoise,
+    ops_fair,
+    ops_multires,
+    ops_skeletal,
+    ops_unwrap,
+    prefs,
+    ui,
+)
 
-# Registration order: preferences, operators, then the UI that refers to them.
-_MODULES = (prefs, ops_curvature, ops_crest, ops_fair, ops_unwrap, ops_multires, ops_skeletal, ui)
+# Registration order: preferences, operators (one module per capability), then the UI.
+_MODULES = (prefs, ops_curvature, ops_denoise, ops_fair, ops_crest, ops_unwrap, ops_multires, ops_skeletal, ui)
 
 
 def _classes():
@@ -34,4 +45,4 @@ def unregister():
             bpy.utils.unregister_class(cls)
 
 
-__all__ = ["bridge", "ops_crest", "ops_curvature", "ops_fair", "ops_multires", "ops_skeletal", "ops_unwrap", "prefs", "ui", "register", "unregister"]
+__all__ = ["bridge", "prefs", "ui", "register", "unregister"]

@@ -5,14 +5,21 @@ import bpy
 
 # (bl_idname, label, icon); keep in the order they should appear.
 OPERATORS = [
+    # Interrogation
     ("dgmesh.curvature_map", "Curvature Map", 'SMOOTHCURVE'),
     ("dgmesh.crest_lines", "Crest Lines", 'IPO_EASE_IN_OUT'),
-    ("dgmesh.decimate_features", "Feature Decimate", 'MOD_DECIM'),
-    ("dgmesh.segment", "Segment", 'MOD_EXPLODE'),
+    ("dgmesh.similarity_map", "Similarity Map", 'GROUP_VERTEX'),
+    # Smoothing and fairing
+    ("dgmesh.denoise", "Denoise", 'MOD_SMOOTH'),
     ("dgmesh.fair", "Fair", 'SPHERECURVE'),
     ("dgmesh.regularize", "Regularize", 'MESH_GRID'),
+    # Simplification and segmentation
+    ("dgmesh.decimate_features", "Feature Decimate", 'MOD_DECIM'),
+    ("dgmesh.segment", "Segment", 'MOD_EXPLODE'),
+    # UVs
     ("dgmesh.unwrap", "Low-Stretch Unwrap", 'UV'),
     ("dgmesh.stretch_map", "UV Stretch Map", 'UV_DATA'),
+    # Deformation
     ("dgmesh.multires_preview", "Multires Preview", 'MOD_MULTIRES'),
     ("dgmesh.skeletal_bind", "Skeletal Bind", 'ARMATURE_DATA'),
     ("dgmesh.skeletal_bake", "Skeletal Bake", 'FILE_CACHE'),

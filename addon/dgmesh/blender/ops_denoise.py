@@ -1,0 +1,378 @@
+"""Operators dgmesh.denoise and dgmesh.similarity_map (thesis chapter 2).
+
+dgmesh.denoise works on every selected mesh object in Object mode, and on the selected vertices of
+the edited objects in Edit mode (the other vertices stay put but still inform the filter). Meshes
+with quads and n-gons are triangulated for the computation only (Blender's own loop triangles);
+triangle soups work as they are (coincident vertices move together); meshes without faces are
+point clouds and need a FLOAT_VECTOR point attribute ``normal`` (Blender 3.4 reserves that name
+for its own normals, so ``Normal``, ``normals`` and ``N`` are accepted as well).
+
+Everything is computed before anything is written: an object that fails gets an ERROR report and
+is left untouched; a cancelled run (Esc, or a progress callback returning False) writes nothing.
+Started from the UI, the native work runs in a worker thread (jobs.NativeJobOperator: progress in
+the status bar, Esc cancels); from scripts and in ``--background`` execute() runs it in a row.
+"""
+
+import threading
+import time
+
+import bmesh
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+
+from .. import colors
+from . import bridge
+from .jobs import NativeJobOperator
+from .prefs import api
+
+ATTR_RESIDUAL = "dg_denoise_residual"
+ATTR_RESIDUAL_COLOR = "dg_denoise_residual_color"
+ATTR_SIMILARITY = "dg_similarity"
+ATTR_SIMILARITY_COLOR = "dg_similarity_color"
+NORMAL_ATTRIBUTE = "normal"
+NORMAL_ATTRIBUTE_ALIASES = ("normal", "Normal", "normals", "N")
+# A cancel request for scripts (Esc does the same in an interactive run): the progress callback then
+# returns False, the native code raises Cancelled and nothing is written. Cleared when a run ends.
+cancel_event = threading.Event()
+
+METHOD_ITEMS = (
+    ('SIMILARITY', "Similarity", "Non-local means with RBF patches (thesis ch. 2): best at keeping features"),
+    ('BILATERAL', "Bilateral", "Bilateral mesh denoising (Fleishman et al. 2003): faster, rounds sharp edges"),
+)
+
+
+def _plural(n, word):
+    return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def _poll_fail(cls, message):
+    if hasattr(cls, "poll_message_set"):  # Blender 3.0+
+        cls.poll_message_set(message)
+    return False
+
+
+def target_objects(context):
+    """Edited objects in Edit mode, selected mesh objects in Object mode; one per mesh datablock."""
+    if context.mode == 'EDIT_MESH':
+        objects = context.objects_in_mode_unique_data
+    elif context.mode == 'OBJECT':
+        objects = [o for o in context.selected_objects if o.type == 'MESH']
+    else:
+        return []
+    seen, unique = set(), []
+    for obj in objects:
+        if obj.data.as_pointer() not in seen:
+            seen.add(obj.data.as_pointer())
+            unique.append(obj)
+    return unique
+
+
+def _vertex_flags(mesh, key):
+    flags = np.empty(len(mesh.vertices), dtype=bool)
+    mesh.vertices.foreach_get(key, flags)
+    return flags
+
+
+def read_point_normals(mesh):
+    """The FLOAT_VECTOR point attribute ``normal`` (or an alias) as (n, 3) float64, or None."""
+    for name in NORMAL_ATTRIBUTE_ALIASES:
+        attr = mesh.attributes.get(name)
+        if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':
+            break
+    else:
+        return None
+    buf = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    attr.data.foreach_get("vector", buf)
+    return buf.reshape(-1, 3).astype(np.float64)
+
+
+class _Job:
+    """One object's input (read on the main thread) and result (computed anywhere)."""
+
+    def __init__(self, obj, V, F, N, mask):
+        self.obj, self.name = obj, obj.name
+        self.V, self.F, self.N, self.mask = V, F, N, mask
+        self.result = None
+        self.error = None
+
+
+def _read_job(obj, edit_mode):
+    """A _Job for obj, or an error message."""
+    mesh = obj.data
+    if mesh.library is not None:
+        return "mesh data is linked from a library and cannot be changed"
+    if mesh.shape_keys is not None:
+        return "the mesh has shape keys; denoising would only change the basis (remove or apply them first)"
+    if len(mesh.vertices) == 0:
+        return "the mesh is empty"
+    arrays = bridge.read_object(obj)  # syncs the edit-mesh first
+    mask = None
+    if edit_mode:
+        mask = _vertex_flags(mesh, "select") & ~_vertex_flags(mesh, "hide")
+        if not mask.any():
+            return "no vertices selected"
+    if len(arrays.F) == 0:
+        N = read_point_normals(mesh)
+        if N is None:
+            return (f"the mesh has no faces; to denoise it as a point cloud give it a FLOAT_VECTOR "
+                    f"point attribute '{NORMAL_ATTRIBUTE}'")
+        return _Job(obj, arrays.V, None, N, mask)
+    return _Job(obj, arrays.V, arrays.F, None, mask)
+
+
+def _method_defaults(self, context):
+    """Switching the method loads its defaults (thesis table 2.1 / section 2.3)."""
+    from ..denoise import METHOD_DEFAULTS
+
+    e1, e2, e3, it = METHOD_DEFAULTS[self.method.lower()]
+    self.eta1, self.eta2, self.eta3, self.iterations = e1, e2, e3, it
+
+
+def _show_colors(context):
+    # Colour attributes only show in Solid shading with Color = Attribute.
+    space = context.space_data
+    if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':
+        space.shading.color_type = 'VERTEX'
+
+
+class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
+    bl_idname = "dgmesh.denoise"
+    bl_label = "Denoise"
+    bl_description = (
+        "Remove noise from the selected meshes, triangle soups or point clouds (attribute 'normal') "
+        "while keeping sharp features: similarity-based non-local means (thesis ch. 2) or bilateral "
+        "filtering. In Edit mode only the selected vertices move. Esc cancels long runs"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    method: EnumProperty(name="Method", items=METHOD_ITEMS, default='SIMILARITY', update=_method_defaults)
+    eta1: FloatProperty(
+        name="Similarity \u03b71",
+        description=("Similarity: deviation of the similarity kernel (about the noise level); bilateral: "
+                     "deviation of the height kernel. In units of the average edge length"),
+        default=0.4, min=0.01, soft_max=2.0, max=20.0, step=5, precision=3,
+    )
+    eta2: FloatProperty(
+        name="Domain \u03b72",
+        description="Half the radius of the averaging neighbourhood, in average edge lengths",
+        default=1.0, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
+    )
+    eta3: FloatProperty(
+        name="Patch \u03b73",
+        description=("Similarity: half the radius of the compared patches; bilateral: deviation of the "
+                     "spatial kernel. In average edge lengths"),
+        default=0.75, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
+    )
+    iterations: IntProperty(name="Iterations", default=3, min=0, soft_max=10, max=100)
+    show_residual: BoolProperty(
+        name="Show Residual",
+        description=(f"Store |x_noisy - x_smoothed| per vertex as '{ATTR_RESIDUAL}' and show it as the "
+                     f"colour attribute '{ATTR_RESIDUAL_COLOR}'"),
+        default=False,
+    )
+
+    @classmethod
+    def poll(cls, context):
+        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
+            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
+        if not target_objects(context):
+            return _poll_fail(cls, "Select one or more mesh objects")
+        return True
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        for name in ("method", "eta1", "eta2", "eta3", "iterations", "show_residual"):
+            layout.prop(self, name)
+
+    # --- running (jobs.NativeJobOperator) -------------------------------------------------------
+
+    def prepare(self, context):
+        """Reads every target (main thread); returns work(progress) or None after reporting."""
+        edit_mode = context.mode == 'EDIT_MESH'
+        jobs, failures = [], []
+        for obj in target_objects(context):
+            try:
+                job = _read_job(obj, edit_mode)
+            except Exception as exc:  # reading must never take Blender down
+                job = f"could not read the mesh: {type(exc).__name__}: {exc}"
+            if isinstance(job, str):
+                failures.append((obj.name, job))
+            else:
+                jobs.append(job)
+        if not jobs:
+            for name, message in failures:
+                self.report({'ERROR'}, f"Denoise failed on '{name}': {message}")
+            cancel_event.clear()
+            return None
+        method = self.method.lower()
+        etas = dict(eta1=self.eta1, eta2=self.eta2, eta3=self.eta3, iterations=self.iterations)
+        t0 = time.perf_counter()
+
+        def work(progress):
+            """Any thread; numpy and dgmesh only. Raises Cancelled when asked to stop."""
+            dg = api()
+            total = sum(len(j.V) for j in jobs)
+            done = 0
+            try:
+                for job in jobs:
+                    lo, span = done / total, len(job.V) / total
+
+                    def cb(f, lo=lo, span=span):
+                        return bool(progress(lo + span * f)) and not cancel_event.is_set()
+
+                    try:
+                        job.result = dg.denoise(job.V, job.F, job.N, method=method, mask=job.mask,
+                                                progress=cb, **etas)
+                    except dg.MeshError as exc:
+                        job.error = str(exc)
+                    done += len(job.V)
+            finally:
+                cancel_event.clear()
+            return jobs, failures, time.perf_counter() - t0
+
+        return work
+
+    def finish(self, context, result):
+        """Writes the results (main thread) and reports."""
+        jobs, failures, seconds = result
+        failures = failures + [(j.name, j.error) for j in jobs if j.error is not None]
+        ok = [j for j in jobs if j.result is not None]
+        written = []
+        if ok:
+            with bridge.object_mode(context):
+                for job in ok:
+                    try:
+                        self._write(job)
+                    except Exception as exc:
+                        failures.append((job.name, f"could not write the result: {type(exc).__name__}: {exc}"))
+                    else:
+                        written.append(job)
+        for name, message in failures:
+            self.report({'ERROR'}, f"Denoise failed on '{name}': {message}")
+        if not written:
+            return {'CANCELLED'}
+        if self.show_residual:
+            _show_colors(context)
+        self.report({'INFO'}, self._summary(written, seconds))
+        return {'FINISHED'}
+
+    def _write(self, job):
+        mesh = job.obj.data
+        bridge.write_positions(mesh, job.result.vertices)
+        if self.show_residual:
+            residual = job.result.residual
+            bridge.write_point_float(mesh, ATTR_RESIDUAL, residual)
+            bridge.write_point_color(mesh, ATTR_RESIDUAL_COLOR, colors.sequential(residual), 'FLOAT_COLOR',
+                                     make_active=True)
+
+    def _summary(self, written, seconds):
+        nverts = sum(len(j.V) for j in written)
+        moved = sum(int((j.result.residual > 0).sum()) for j in written)
+        H = [j.result.residual_entropy for j in written]
+        entropy = f"{H[0]:.3f} bits" if len(H) == 1 else f"{min(H):.3f}-{max(H):.3f} bits (per object)"
+        clouds = sum(1 for j in written if j.F is None)
+        welded = sum(1 for j in written if j.result.welded)
+        text = (f"Denoised {_plural(len(written), 'object')} ({nverts} vertices, {moved} moved) with "
+                f"{self.method.lower()}, {_plural(self.iterations, 'iteration')}, in {seconds:.2f} s; "
+                f"residual entropy {entropy}")
+        if clouds:
+            text += f"; {_plural(clouds, 'point cloud')}"
+        if welded:
+            text += f"; coincident vertices moved together on {_plural(welded, 'object')}"
+        return text
+
+
+def _active_vertex(obj):
+    """Index of the active vertex in Edit mode (or the first selected one), else None."""
+    bm = bmesh.from_edit_mesh(obj.data)
+    bm.verts.index_update()
+    active = bm.select_history.active
+    if isinstance(active, bmesh.types.BMVert):
+        return active.index
+    for v in bm.verts:
+        if v.select:
+            return v.index
+    return None
+
+
+class DGMESH_OT_similarity_map(bpy.types.Operator):
+    bl_idname = "dgmesh.similarity_map"
+    bl_label = "Similarity Map"
+    bl_description = (
+        "Colour the active mesh by the similarity of every vertex's neighbourhood to that of the active "
+        "vertex (Edit mode) or of the chosen vertex index (Object mode): white = different, blue = "
+        "similar (thesis fig. 2.1c)"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    vertex: IntProperty(
+        name="Vertex",
+        description="Vertex index to compare with (Object mode; Edit mode uses the active vertex)",
+        default=0, min=0,
+    )
+    mode: EnumProperty(
+        name="Compare",
+        items=(
+            ('SHAPE', "Shape", "Similar shapes anywhere on the model, however tilted"),
+            ('FILTER', "Filter Weights", "The denoising filter's own weights (vanish away from the vertex)"),
+        ),
+        default='SHAPE',
+    )
+    eta1: FloatProperty(name="Similarity \u03b71", default=0.4, min=0.01, soft_max=2.0, max=20.0, precision=3,
+                        description="Deviation of the similarity kernel, in average edge lengths")
+    eta3: FloatProperty(name="Patch \u03b73", default=0.75, min=0.1, soft_max=4.0, max=20.0, precision=2,
+                        description="Half the radius of the compared patches, in average edge lengths")
+
+    @classmethod
+    def poll(cls, context):
+        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
+            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
+        obj = context.active_object
+        if obj is None or obj.type != 'MESH':
+            return _poll_fail(cls, "The active object must be a mesh")
+        return True
+
+    def execute(self, context):
+        dg = api()
+        obj = context.active_object
+        mesh = obj.data
+        if mesh.library is not None:
+            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': mesh data is linked from a library")
+            return {'CANCELLED'}
+        vertex = self.vertex
+        if obj.mode == 'EDIT':
+            active = _active_vertex(obj)
+            if active is None:
+                self.report({'ERROR'}, "Similarity map: select a vertex (the active one is compared)")
+                return {'CANCELLED'}
+            vertex = active
+        try:
+            arrays = bridge.read_object(obj)
+            F, N = arrays.F, None
+            if len(F) == 0:
+                F, N = None, read_point_normals(mesh)
+                if N is None:
+                    raise dg.MeshError(f"the mesh has no faces and no FLOAT_VECTOR point attribute "
+                                       f"'{NORMAL_ATTRIBUTE}'")
+            w = dg.similarity(arrays.V, F, vertex, N, eta1=self.eta1, eta3=self.eta3, mode=self.mode.lower())
+        except dg.MeshError as exc:
+            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': {exc}")
+            return {'CANCELLED'}
+        except Exception as exc:
+            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': internal error: "
+                                   f"{type(exc).__name__}: {exc}")
+            return {'CANCELLED'}
+        with bridge.object_mode(context):
+            bridge.write_point_float(mesh, ATTR_SIMILARITY, w)
+            # The diverging palette's negative half runs from near-white (0) to deep blue (1).
+            bridge.write_point_color(mesh, ATTR_SIMILARITY_COLOR, colors.diverging(-w, limit=1.0), 'FLOAT_COLOR',
+                                     make_active=True)
+        _show_colors(context)
+        self.report({'INFO'}, (f"Similarity map of '{obj.name}' to vertex {vertex}: "
+                               f"{int((w > 0.5).sum())} of {len(w)} vertices above 0.5"))
+        return {'FINISHED'}
+
+
+classes = (DGMESH_OT_denoise, DGMESH_OT_similarity_map)

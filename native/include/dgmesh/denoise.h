@@ -1,0 +1,92 @@
+// Similarity-based (non-local means) denoising of meshes, triangle soups and point clouds
+// (thesis chapter 2), with bilateral mesh denoising (Fleishman et al. 2003) as the baseline.
+//
+// Only vertex positions, normals and area elements enter the filter, so meshes, soups (faces that
+// share no vertices) and point clouds with normals are handled by the same code: coincident
+// vertices are welded for the computation and every copy receives the same displacement.
+#pragma once
+#include <vector>
+
+#include "dgmesh/progress.h"
+#include "dgmesh/types.h"
+
+namespace dgmesh {
+
+enum class DenoiseMethod {
+  Similarity,  // NL-means with local RBF patches, thesis eq. 2.3-2.9
+  Bilateral,   // Fleishman, Drori, Cohen-Or 2003 ([FDCO03])
+};
+
+// sigma_i = eta_i * e with e the average edge length of the current mesh (re-evaluated every
+// iteration). Similarity: sigma1 = similarity kernel deviation (2.7), 2*sigma2 = radius of the
+// averaging domain (2.4), 2*sigma3 = radius of the RBF patch and of the compared neighbourhoods
+// (2.8, 2.9). Bilateral (thesis table 2.1 convention): sigma1 = height (range) Gaussian,
+// 2*sigma2 = neighbourhood radius, sigma3 = spatial Gaussian.
+struct DenoiseOptions {
+  DenoiseMethod method = DenoiseMethod::Similarity;
+  double eta1 = 0.4;
+  double eta2 = 1.0;
+  double eta3 = 0.75;
+  int iterations = 3;
+  // Vertices allowed to move (empty: all). Masked vertices still inform the filter. Welded copies
+  // of one point move only if all of them may move.
+  std::vector<char> movable;
+  // Point clouds: after the first iteration re-estimate normals by PCA over the 2*sigma2 ball,
+  // oriented like the input normals (false: keep the input normals throughout).
+  bool reestimate_normals = true;
+  // Vertices closer than this (relative to the bounding-box diagonal) are welded.
+  double weld_tolerance = 1e-9;
+  // Caps on neighbourhood sizes (nearest first), bounding the cost on very non-uniform meshes:
+  // points of an RBF patch / compared neighbourhood (<= 64), and points of the averaging domain.
+  // 0 = automatic: about 2.5 times what the ball holds on a regular mesh (36 eta^2), at least 12 / 24.
+  int max_patch = 0;
+  int max_window = 0;
+};
+
+// Defaults of the bilateral filter from the thesis's Fandisk setting (table 2.1, [FDCO03]).
+DenoiseOptions bilateral_defaults();
+
+struct DenoiseResult {
+  MatX3d vertices;          // denoised positions, one row per input vertex
+  VecXd residual;           // |x_noisy - x_smoothed| per input vertex
+  double residual_entropy = 0;  // see residual_entropy()
+  double edge_length = 0;   // e of the last iteration
+  int iterations = 0;
+  long long rbf_fallbacks = 0;  // RBF patches solved by the lower-order (plane) fallback
+  int welded = 0;           // vertices merged into a coincident one for the computation
+};
+
+// Meshes and soups: V (n,3), F (m,3) triangles with at least one non-degenerate face. Manifoldness
+// is not required. Vertices in no face do not move. Throws MeshError on NaN/inf, bad indices, a
+// mask of the wrong size, bad parameters; CancelledError if progress returns false.
+DenoiseResult denoise(const MatX3d& V, const MatX3i& F, const DenoiseOptions& opt, const ProgressFn& progress = {});
+
+// Point clouds with per-point normals N (n,3; need not be unit; zero normals keep the point fixed).
+// The area element is estimated from the local density (k nearest neighbours), and e as the edge
+// length of the regular triangulation of that density.
+DenoiseResult denoise_points(const MatX3d& V, const MatX3d& N, const DenoiseOptions& opt,
+                             const ProgressFn& progress = {});
+
+struct SimilarityOptions {
+  double eta1 = 0.4;
+  double eta3 = 0.75;
+  // true: compare shapes only, wherever they are and however they are tilted: y's neighbourhood is
+  // expressed in y's own frame (n_y, with x's first tangent carried over onto y's tangent plane),
+  // which shows similar features anywhere on the model (thesis fig. 2.1c). false: the filter's own
+  // weights w(x, y) of eq. 2.7 (everything in x's frame, heights from x's tangent plane), which
+  // vanish away from x.
+  bool shape_only = true;
+  int max_patch = 0;  // as DenoiseOptions::max_patch
+};
+
+// Similarity w(x, y) in [0, 1] of every vertex y to vertex x = `vertex` (eq. 2.7, 2.9); 1 at x.
+// Vertices in no face get 0.
+VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityOptions& opt = {});
+VecXd similarity_points(const MatX3d& V, const MatX3d& N, int vertex, const SimilarityOptions& opt = {});
+
+// Shannon entropy (bits) of the distribution of residual magnitudes: the histogram of r / mean(r)
+// over [0, 4) in 64 bins plus one overflow bin, so it is independent of scale (0..log2(65)).
+// Non-finite values are ignored; 0 for an empty or all-zero residual.
+double residual_entropy(const VecXd& residual);
+
+}  // namespace dgmesh
