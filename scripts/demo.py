@@ -95,6 +95,46 @@ def curvature(demo):
 
 
 @step
+def crest_lines(demo):
+    """Crest lines (thesis ch. 4) as a curve object: ridges blue, valleys red, on a grey model."""
+    with demo.timed("crest_lines"):
+        result = bpy.ops.dgmesh.crest_lines(threshold=10.0, create_curves=True)
+    assert result == {'FINISHED'}, result
+    curve = bpy.data.objects[f"{demo.obj.name} Crest Lines"]
+    demo.note(f"{len(curve.data.splines)} crest lines")
+    # Tubes thick enough to see at this size, with emissive colours (the operator only sets
+    # viewport colours); the mesh gets a plain grey material for this render.
+    radius = max(demo.obj.dimensions) / max(demo.obj.scale) * 0.0025
+    curve.data.bevel_depth = radius
+    curve.data.bevel_resolution = 1
+    for mat in curve.data.materials:
+        mat.use_nodes = True
+        nodes = mat.node_tree.nodes
+        nodes.clear()
+        em = nodes.new("ShaderNodeEmission")
+        em.inputs["Color"].default_value = mat.diffuse_color
+        em.inputs["Strength"].default_value = 1.5
+        out = nodes.new("ShaderNodeOutputMaterial")
+        mat.node_tree.links.new(em.outputs["Emission"], out.inputs["Surface"])
+    grey = bpy.data.materials.new("DG Grey")
+    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
+    grey.use_nodes = True
+    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.75, 0.75, 0.72, 1.0)
+    slots = demo.obj.material_slots
+    previous = slots[0].material if len(slots) else None
+    if len(slots):
+        slots[0].material = grey
+    else:
+        demo.obj.data.materials.append(grey)
+    scene = bpy.context.scene
+    scene.render.filepath = str(demo.outdir / "crest_lines.png")
+    with demo.timed("render crest_lines.png"):
+        bpy.ops.render.render(write_still=True)
+    if previous is not None:
+        slots[0].material = previous
+
+
+@step
 def unwrap(demo):
     """Low-stretch UV unwrap (thesis ch. 5) of a disk-like scan, checker material, render."""
     obj = make_fixtures.load_cgal_object("mannequin-devil")
@@ -128,7 +168,98 @@ def unwrap(demo):
     bpy.context.view_layer.objects.active = main
     for o in bpy.context.view_layer.objects:
         o.select_set(o == main)
-    demo.note(f"unwrapped {obj.name} ({len(obj.data.vertices)} vertices)")@step
+    demo.note(f"unwrapped {obj.name} ({len(obj.data.vertices)} vertices)")
+
+
+@step
+def skeletal(demo):
+    """Skeleton-driven deformation (thesis ch. 6): a capsule bound to a two-bone armature, the lower
+    bone bent 90 degrees and twisted 180; rendered next to Blender's Armature modifier (LBS)."""
+    from dgmesh.skeletal import capsule
+    V, F = capsule(0.5, 6.0, 48, 8, 96)
+    me = bpy.data.meshes.new("DG Capsule")
+    me.from_pydata([tuple(v) for v in V], [], [tuple(int(i) for i in f) for f in F])
+    me.polygons.foreach_set("use_smooth", np.ones(len(me.polygons), dtype=bool))
+    me.update()
+    ad = bpy.data.armatures.new("DG Rig")
+    arm = bpy.data.objects.new("DG Rig", ad)
+    scene = bpy.context.scene
+    bpy.context.view_layer.active_layer_collection.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    b1 = ad.edit_bones.new("Upper")
+    b1.head, b1.tail = (-3.5, 0, 0), (0, 0, 0)
+    b2 = ad.edit_bones.new("Lower")
+    b2.head, b2.tail = (0, 0, 0), (3.5, 0, 0)
+    b2.parent, b2.use_connect = b1, True
+    bpy.ops.object.mode_set(mode='OBJECT')
+    # Two copies of the capsule, side by side in the main model's frame: ours and the Armature
+    # modifier, with the same linear-ramp vertex groups over [-0.5, 0.5].
+    main = demo.obj
+    bpy.context.view_layer.update()
+    size = max(main.dimensions) / 10.0
+    centre = sum((main.matrix_world @ Vector(c) for c in main.bound_box), Vector()) / 8
+    t = np.clip(V[:, 0] + 0.5, 0, 1)
+    objs = []
+    for k, name in enumerate(("DG Capsule ours", "DG Capsule LBS")):
+        obj = bpy.data.objects.new(name, me if k == 0 else me.copy())
+        bpy.context.view_layer.active_layer_collection.collection.objects.link(obj)
+        g1, g2 = obj.vertex_groups.new(name="Upper"), obj.vertex_groups.new(name="Lower")
+        for i in range(len(V)):
+            if t[i] < 1:
+                g1.add([i], float(1 - t[i]), 'REPLACE')
+            if t[i] > 0:
+                g2.add([i], float(t[i]), 'REPLACE')
+        mod = obj.modifiers.new("Armature", 'ARMATURE')
+        mod.object = arm
+        obj.scale = (size, size, size)
+        obj.location = centre + Vector(((-2.5 if k == 0 else 2.5) * size, 0, -1.5 * size))
+        objs.append(obj)
+    arm.scale, arm.location = objs[0].scale, objs[0].location
+    ours, lbs = objs
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (ours, arm))
+    bpy.context.view_layer.objects.active = ours
+    with demo.timed("skeletal_bind"):
+        result = bpy.ops.dgmesh.skeletal_bind('EXEC_DEFAULT')
+    assert result == {'FINISHED'}, result
+    # The LBS copy follows a second armature object with the same pose (its modifier stays on).
+    arm2 = arm.copy()
+    arm2.data = arm.data
+    bpy.context.view_layer.active_layer_collection.collection.objects.link(arm2)
+    arm2.location = lbs.location
+    lbs.modifiers["Armature"].object = arm2
+    for a in (arm, arm2):
+        pb = a.pose.bones["Lower"]
+        # Bone space: twist 180 degrees about the bone (Y) first, then bend 90 degrees upwards (X).
+        pb.rotation_mode = 'YXZ'
+        pb.rotation_euler = (math.pi / 2, math.pi, 0.0)
+    with demo.timed("skeletal pose update"):
+        scene.frame_set(scene.frame_current)
+    main.hide_render = True
+    for a in (arm, arm2):
+        a.hide_render = True
+    for o in bpy.data.objects:
+        if o.name.endswith("_skeleton"):
+            o.hide_render = True
+    grey = bpy.data.materials.get("DG Grey") or bpy.data.materials.new("DG Grey")
+    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
+    for o in objs:
+        o.data.materials.clear()
+        o.data.materials.append(grey)
+    scene.render.filepath = str(demo.outdir / "skeletal_bend_twist.png")
+    with demo.timed("render skeletal_bend_twist.png"):
+        bpy.ops.render.render(write_still=True)
+    main.hide_render = False
+    for o in objs:
+        o.hide_render = True
+    bpy.context.view_layer.objects.active = main
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == main)
+    demo.note(f"skeletal: {len(V)}-vertex capsule bent 90 and twisted 180 (left: ours, right: Armature modifier LBS)")
+
+
+@step
 def save(demo):
     path = demo.outdir / "demo.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)

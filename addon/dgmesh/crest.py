@@ -197,15 +197,23 @@ def _feature_field(V, F, feature_weight, lines, rings, threshold):
 
 
 def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0,
-             preserve_boundary=True, min_quality=0.0, max_normal_angle=1.3, progress=None, return_map=False):
+             preserve_boundary=True, min_quality=0.0, max_normal_angle=1.3, progress=None, return_map=False,
+             return_face_map=False, locked=None, greedy=False):
     """Quadric edge-collapse decimation (Garland-Heckbert) to ``target_faces`` faces.
 
     ``feature_weight`` is eta of thesis eq. 4.12: each face's quadric is weighted by 1 / F(d), d its
     geodesic distance to the nearest crest line, so the mesh stays dense near salient lines;
     0 is plain QEM. Crest lines come from ``crest_lines`` or are detected with ``rings`` and
     ``threshold``. The result is manifold; boundary vertices are kept in place when
-    ``preserve_boundary``. ``min_quality`` in [0, 1) rejects collapses that create worse slivers.
-    Returns (V, F), plus the input-to-output vertex map when ``return_map``.
+    ``preserve_boundary``; ``locked`` (bool per vertex) marks more vertices that must neither move nor
+    go (e.g. UV seams). ``min_quality`` in [0, 1) rejects collapses that create worse slivers.
+    By default collapses run in multiple-choice passes (every edge costed in parallel, the cheapest
+    independent ones taken in order); ``greedy=True`` uses one global priority queue instead, the
+    exact greedy order of Garland-Heckbert (slower on large meshes, same guards).
+    Returns (V, F), plus the input-to-output vertex map when ``return_map``, plus (when
+    ``return_face_map``) ``face_map`` (the input triangle each output triangle is, with moved
+    corners) and ``source_vertex`` (the input vertex each output vertex is): enough to carry
+    per-face and per-corner attributes over.
     """
     V = as_vertices(V)
     F = as_faces(F)
@@ -217,9 +225,16 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
         raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
     Fd, _ = _feature_field(V, F, feature_weight, crest_lines, rings, threshold) if feature_weight else (None, None)
     weights = None if Fd is None else np.ascontiguousarray(1.0 / Fd)
-    V2, F2, vmap = _native.decimate(V, F, target_faces, weights, bool(preserve_boundary), float(min_quality),
-                                    float(max_normal_angle), float("inf"), progress)
-    return (V2, F2, vmap) if return_map else (V2, F2)
+    if locked is not None:
+        locked = np.asarray(locked, dtype=bool).ravel()
+        if locked.shape != (len(V),):
+            raise MeshError(f"locked must have one value per vertex ({len(V)}), got {locked.shape[0]}")
+        locked = locked.astype(np.int32)
+    V2, F2, vmap, fmap, src = _native.decimate(V, F, target_faces, weights, bool(preserve_boundary),
+                                               float(min_quality), float(max_normal_angle), float("inf"), progress,
+                                               locked, not bool(greedy))
+    out = (V2, F2) + ((vmap,) if return_map else ()) + ((fmap, src) if return_face_map else ())
+    return out
 
 
 def segment(V, F, *, segments, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0, iterations=30,

@@ -131,25 +131,33 @@ class SkeletalRig:
         return cls(rig)
 
     def deform(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5, homotopy_steps=3,
-               fold_iterations=10):
+               fold_iterations=10, projection=1.0, out=None):
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
-        shape-preserving self-intersection fairing eq. 6.15) or "basic" (thesis 6.3: homotopy with
-        ``homotopy_steps`` steps, ``fold_iterations`` steps of eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6).
+        shape-preserving self-intersection fairing eq. 6.15, then one explicit step of weight
+        ``projection`` towards each vertex's rest distance to the union of medial balls, 0 = off) or
+        "basic" (thesis 6.3: homotopy with ``homotopy_steps`` steps, ``fold_iterations`` steps of
+        eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6).
+        ``out``: a C-contiguous float64 (n, 3) array to write into (returned), for repeated poses.
         """
         self._check_method(method)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
+        if out is not None:
+            if (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.shape != (self.n_vertices, 3)
+                    or not out.flags.c_contiguous or not out.flags.writeable):
+                raise MeshError("deform: out must be a writeable C-contiguous float64 array of shape (%d, 3)"
+                                % self.n_vertices)
         return self._rig.deform(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                int(fold_iterations))
+                                int(fold_iterations), float(projection), out)
 
     def deform_control(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5,
-                       homotopy_steps=3, fold_iterations=10):
+                       homotopy_steps=3, fold_iterations=10, projection=1.0):
         """(control mesh positions, deformed skeletal vertices) for a pose."""
         self._check_method(method)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         return self._rig.deform_control(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                        int(fold_iterations))
+                                        int(fold_iterations), float(projection))
 
     def skeleton_pose(self, bones_pose):
         """Skeletal vertices deformed by SSD (eq. 6.2)."""

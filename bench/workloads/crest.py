@@ -1,13 +1,21 @@
 """Crest-line workloads (thesis chapter 4): accuracy on the analytic waving surface (table 4.1),
-speed of fitting + tracing and of quadric decimation.
+triangulation independence (fig. 4.7), speed of fitting + tracing and of quadric decimation, and
+renders of crest lines, feature-sensitive decimation and segmentation (figs. 4.1-4.2, 4.19, 4.26).
 
-    /usr/bin/python3 bench/run.py crest_accuracy crest_speed
+    /usr/bin/python3 bench/run.py crest_accuracy crest_independence crest_speed crest_renders
 """
+
+import json
+import os
+import resource
+import pathlib
+import tempfile
+import time
 
 import numpy as np
 
 import dgmesh
-from bench.common import cgal_mesh, median_time, table
+from bench.common import IMAGES, cgal_mesh, loop_subdivide, median_time, run_blender, table
 
 THESIS = {  # table 4.1, one-ring fit, with normals: (L2, Linf)
     (False, "max"): (0.116, 0.415), (False, "min"): (0.141, 0.852),
@@ -101,28 +109,286 @@ def crest_accuracy(quick):
     return {"markdown": md, "data": data}
 
 
+def _qem_total(V, F, V2, vmap):
+    """The quadric error both decimation modes minimise: area-weighted squared distances of the
+    output positions of each input face's corners to that face's plane."""
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    area2 = np.linalg.norm(n, axis=1)
+    n = n / np.maximum(area2, 1e-300)[:, None]
+    d = -(n * V[F[:, 0]]).sum(1)
+    err = sum(((n * V2[vmap[F[:, k]]]).sum(1) + d) ** 2 for k in range(3))
+    return float((0.5 * area2 * err).sum() / 3)
+
+
+def _cpu_seconds():
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
+
+
+def _timed(fn, repeats):
+    """Median wall time and the process CPU time (all threads) of that same run."""
+    runs = []
+    for _ in range(repeats):
+        c0 = _cpu_seconds()
+        t, _ = median_time(fn, repeats=1, warmup=0)
+        runs.append((t, _cpu_seconds() - c0))
+    runs.sort()
+    return runs[len(runs) // 2]
+
+
 def crest_speed(quick):
+    load = os.getloadavg()[0]
     V, F = cgal_mesh("armadillo")
     Vs, Fs = dgmesh._native.subdivide_linear(V, F)  # 208K triangles
     rows, data = [], {}
     for k in ((1,) if quick else (1, 2, 3, 4)):
-        t, _ = median_time(lambda: dgmesh.crest_lines(Vs, Fs, rings=k), repeats=3 if quick else 5)
-        rows.append([f"crest lines (fit + trace), k = {k}", len(Fs), t])
+        dgmesh.crest_lines(Vs, Fs, rings=k)  # warm-up
+        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k), repeats=3 if quick else 5)
+        rows.append([f"crest lines (fit + trace), k = {k}", len(Fs), t, c])
         data[f"crest_k{k}"] = t
     if not quick:
         V2, F2 = dgmesh._native.subdivide_linear(Vs, Fs)  # 832K
         V3, F3 = dgmesh._native.subdivide_linear(V2, F2)  # 3.3M
-        t, _ = median_time(lambda: dgmesh.crest_lines(V3, F3, rings=1), repeats=3)
-        rows.append(["crest lines (fit + trace), k = 1", len(F3), t])
+        t, c = _timed(lambda: dgmesh.crest_lines(V2, F2, rings=1), repeats=3)
+        rows.append(["crest lines (fit + trace), k = 1", len(F2), t, c])
+        data["crest_k1_832K"] = t
+        t, c = _timed(lambda: dgmesh.crest_lines(V3, F3, rings=1), repeats=3)
+        rows.append(["crest lines (fit + trace), k = 1", len(F3), t, c])
         data["crest_k1_3M"] = t
-        t, _ = median_time(lambda: dgmesh.decimate(V2, F2, target_faces=100_000), repeats=3)
-        rows.append(["decimate to 100K triangles", len(F2), t])
-        data["decimate_832K"] = t
-    md = ("### Crest lines: speed\n\nArmadillo (CGAL data) linearly subdivided; median wall time "
-          "including input validation. Targets: fit + trace on ~200K triangles, k = 1 <= 0.3 s; "
-          "decimating 1M -> 100K <= 3 s.\n\n" + table(["task", "triangles", "seconds"], rows)
+    Vb, Fb = loop_subdivide(*cgal_mesh("bunny00"), 2)  # 1.2M triangles
+    t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000), repeats=1 if quick else 3)
+    rows.append(["decimate to 100K triangles (eta = 0)", len(Fb), t, c])
+    data["decimate_1.2M_to_100K"] = t
+    if not quick:
+        t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000, greedy=True), repeats=1)
+        rows.append(["decimate to 100K triangles (eta = 0, greedy=True: one global queue)", len(Fb), t, c])
+        data["decimate_1.2M_to_100K_greedy"] = t
+    if not quick:
+        lines = dgmesh.crest_lines(Vb, Fb, rings=1, threshold=10.0)
+        t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000, feature_weight=6.0,
+                                              crest_lines=lines), repeats=3)
+        rows.append(["decimate to 100K triangles (eta = 6, lines given)", len(Fb), t, c])
+        data["decimate_1.2M_to_100K_eta6"] = t
+    quality = ""
+    if not quick:
+        qrows = []
+        for model in ("bunny00", "armadillo", "fandisk"):
+            V, F = cgal_mesh(model)
+            errs = []
+            for greedy in (False, True):
+                V2, F2, vm = dgmesh.decimate(V, F, target_faces=len(F) // 10, greedy=greedy, return_map=True)
+                errs.append(_qem_total(V, F, V2, vm))
+            qrows.append([model, len(F), len(F) // 10, errs[0] / errs[1]])
+            data[f"qem_ratio_{model}"] = errs[0] / errs[1]
+        quality = ("\n\nQuality of the default multiple-choice passes against the exact greedy queue: total "
+                   "quadric error (area-weighted squared distances of each input face's corners, at their "
+                   "output positions, to the face's plane), decimating by 90%.\n\n"
+                   + table(["model", "triangles", "target", "QEM passes / QEM greedy"], qrows))
+    md = ("### Crest lines: speed\n\nCrest lines: armadillo (CGAL data) linearly subdivided; decimation: "
+          "bunny00 Loop-subdivided twice. Median wall time including input validation, "
+          f"{dgmesh.num_threads()} threads, load average {load:.1f} when the run started (other jobs "
+          "share the machine). Targets: fit + trace on ~200K triangles, k = 1 <= 0.3 s; "
+          "decimating 1M -> 100K <= 3 s. CPU seconds are the process's user + system time over all "
+          "threads for the same run (less sensitive to the machine's load than wall time).\n\n"
+          + table(["task", "triangles", "wall seconds", "CPU seconds"], rows) + quality
           + "\n\n`/usr/bin/python3 bench/run.py crest_speed`\n")
     return {"markdown": md, "data": data}
 
 
-WORKLOADS = {"crest_accuracy": crest_accuracy, "crest_speed": crest_speed}
+# --- triangulation independence (thesis fig. 4.7) ------------------------------------------------
+
+def bumpy(P):
+    """The smooth test surface z = f(x, y): elliptic waves plus a tilted bump."""
+    x, y = P[:, 0], P[:, 1]
+    return 0.8 * np.cos(np.hypot(x, 1.5 * y)) + 0.6 * np.exp(-((x - 2.0) ** 2 + (y + 1.0) ** 2) / 2.0)
+
+
+def _compact(P, T, keep_vertex):
+    T = T[keep_vertex[T].all(1)]
+    used = np.unique(T)
+    remap = np.full(len(P), -1)
+    remap[used] = np.arange(len(used))
+    P = P[used]
+    return np.column_stack([P, bumpy(P)]), remap[T].astype(np.int32)
+
+
+def union_jack(R, h):
+    """Square grid of spacing h with alternating diagonals (valences 4 and 8), clipped to a disc."""
+    n = int(np.ceil(R / h)) + 1
+    xs = np.arange(-n, n + 1) * h
+    X, Y = np.meshgrid(xs, xs, indexing="ij")
+    P = np.column_stack([X.ravel(), Y.ravel()])
+    m = 2 * n + 1
+    I, J = np.meshgrid(np.arange(2 * n), np.arange(2 * n), indexing="ij")
+    I, J = I.ravel(), J.ravel()
+    a, b, c, d = I * m + J, (I + 1) * m + J, (I + 1) * m + J + 1, I * m + J + 1
+    flip = ((I + J) & 1) == 0
+    T = np.concatenate([np.where(flip[:, None], np.stack([a, b, c], 1), np.stack([a, b, d], 1)),
+                        np.where(flip[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1))])
+    return _compact(P, T, np.hypot(P[:, 0], P[:, 1]) <= R)
+
+
+def jittered_lattice(R, h, angle, jitter, seed=1):
+    """Equilateral lattice of spacing h, rotated by `angle`, vertices jittered by `jitter` h."""
+    V, T = waving_disc(1.5 * R, h)
+    P = V[:, :2]
+    c, s = np.cos(angle), np.sin(angle)
+    P = P @ np.array([[c, -s], [s, c]])
+    P = P + np.random.default_rng(seed).uniform(-jitter * h, jitter * h, P.shape)
+    return _compact(P, T, np.hypot(P[:, 0], P[:, 1]) <= R)
+
+
+def _samples(lines, step):
+    out = []
+    for poly in lines.polylines:
+        for a, b in zip(poly[:-1], poly[1:]):
+            k = max(1, int(np.ceil(np.linalg.norm(b - a) / step)))
+            out.append(a + (b - a) * (np.arange(k)[:, None] / k))
+    return np.concatenate(out) if out else np.zeros((0, 3))
+
+
+def _nearest(A, B, chunk=2048):
+    d = np.empty(len(A))
+    for i in range(0, len(A), chunk):
+        d[i:i + chunk] = np.sqrt(((A[i:i + chunk, None, :] - B[None, :, :]) ** 2).sum(2).min(1))
+    return d
+
+
+def _mean_edge(V, F):
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    return float(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1).mean())
+
+
+def crest_independence(quick):
+    R = 2.2 * np.pi
+    VA, FA = union_jack(R, 0.16)
+    VB, FB = jittered_lattice(R, 0.11, np.radians(17.0), 0.15)
+    hA, hB = _mean_edge(VA, FA), _mean_edge(VB, FB)
+    h = max(hA, hB)
+    rows, data = [], {"triangles_A": int(len(FA)), "triangles_B": int(len(FB)), "edge_A": hA, "edge_B": hB}
+    inner = 0.85 * R  # compare away from the boundary, where the fits are one-sided
+    for T in (0.0, 1.0, 3.0, 10.0):
+        la = dgmesh.crest_lines(VA, FA, rings=1, threshold=T)
+        lb = dgmesh.crest_lines(VB, FB, rings=1, threshold=T)
+        sa, sb = _samples(la, 0.1 * h), _samples(lb, 0.1 * h)
+        sa = sa[np.hypot(sa[:, 0], sa[:, 1]) < inner]
+        sb = sb[np.hypot(sb[:, 0], sb[:, 1]) < inner]
+        dab, dba = _nearest(sa, sb), _nearest(sb, sa)
+        rec = {"lines_A": len(la), "lines_B": len(lb), "mean_AB": float(dab.mean() / h),
+               "mean_BA": float(dba.mean() / h), "median_AB": float(np.median(dab) / h),
+               "within1_A": float((dab < h).mean()), "within1_B": float((dba < h).mean())}
+        data[f"T={T:g}"] = rec
+        rows.append([f"{T:g}", f"{len(la)} / {len(lb)}", rec["mean_AB"], rec["mean_BA"], rec["median_AB"],
+                     f"{100 * rec['within1_A']:.0f}% / {100 * rec['within1_B']:.0f}%"])
+    md = ("### Crest lines: triangulation independence (thesis fig. 4.7)\n\n"
+          "The graph z = 0.8 cos(|(x, 1.5 y)|) + 0.6 exp(-|(x, y) - (2, -1)|^2 / 2) over a disc of radius "
+          f"{R:.3g}, meshed twice: A, a square grid with alternating diagonals (valence 4/8, {len(FA)} "
+          f"triangles, mean edge {hA:.3g}); B, an equilateral lattice rotated by 17 degrees with vertices "
+          f"jittered by 15% of the spacing ({len(FB)} triangles, mean edge {hB:.3g}). One-ring fits. "
+          "Distances from points on one set of crest lines to the nearest point of the other, over the "
+          f"disc of radius {inner:.3g} (boundary fits are one-sided), in units of the larger mean edge "
+          f"length h = {h:.3g}.\n\n"
+          + table(["threshold T", "lines A / B", "mean A->B (h)", "mean B->A (h)", "median A->B (h)",
+                   "within 1 h (A / B)"], rows)
+          + "\n\nUnfiltered, the jittered mesh B has extra short lines (B->A is large); a small threshold "
+          "removes them and the two sets agree. Larger thresholds drop different lines on the two meshes "
+          "when a crest is traced in several pieces on one of them: T (length x integral) of a piece falls "
+          "faster than linearly with its length.\n"
+          + "\n`/usr/bin/python3 bench/run.py crest_independence`\n")
+    return {"markdown": md, "data": data}
+
+
+# --- renders (thesis figs. 4.1-4.2, 4.19, 4.26) ------------------------------------------------------
+
+RENDER_SCRIPT = pathlib.Path(__file__).with_name("_crest_render.py")
+
+
+def _render(name, panels, **meta):
+    """Panels side by side, rendered by Blender (Cycles CPU) into bench/images/<name>."""
+    arrays = {}
+    for i, p in enumerate(panels):
+        arrays[f"V{i}"] = np.asarray(p["V"], np.float64)
+        arrays[f"F{i}"] = np.asarray(p["F"], np.int32)
+        if "colors" in p:
+            arrays[f"C{i}"] = np.asarray(p["colors"], np.float32)
+        if p.get("wire"):
+            arrays[f"W{i}"] = np.ones(1)
+        if "lines" in p:
+            lines = p["lines"]
+            arrays[f"P{i}"] = lines.points[lines.line_points]
+            arrays[f"O{i}"] = lines.line_offset
+            arrays[f"K{i}"] = lines.line_kind
+    meta = dict(meta, panels=len(panels))
+    out = IMAGES / name
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        inp = pathlib.Path(tmp) / "in.npz"
+        np.savez(inp, meta=json.dumps(meta), **arrays)
+        run_blender(RENDER_SCRIPT, [inp, out])
+    return out
+
+
+def _segment_rgb(labels):
+    from dgmesh import colors
+    import colorsys
+    n = int(labels.max()) + 1
+    hues = (np.arange(n) * 0.618033988749895) % 1.0
+    rgb = np.array([colorsys.hsv_to_rgb(h, 0.55 + 0.3 * (i % 2), 0.9 - 0.15 * (i % 3 == 2)) for i, h in enumerate(hues)])
+    return colors.srgb_to_linear(rgb)[labels]
+
+
+def crest_renders(quick):
+    names, data = [], {}
+    size = (360, 270) if not quick else (180, 135)
+    samples = 16 if not quick else 4
+    prefix = "crest_" if not quick else "quick_crest_"
+    t0 = time.perf_counter()
+    # T = 10 is the Blender operators' default threshold.
+    models = (("fandisk", "Z", (10.0,), (0.6, -1.0, 0.5), 0.0, 0.5),
+              ("bunny00", "Y", (10.0, 25.0), (0.0, -1.0, 0.2), 0.0, 0.08),
+              ("armadillo", "Y", (10.0, 25.0), (0.0, -1.0, 0.15), 180.0, 0.08))
+    for model, up, Ts, view, spin, gap in (models[:1] if quick else models):
+        V, F = cgal_mesh(model)
+        lines = dgmesh.crest_lines(V, F, rings=1)
+        panels = [{"V": V, "F": F, "lines": lines}]
+        kept = [lines.filter(T) for T in Ts]
+        panels += [{"V": V, "F": F, "lines": k} for k in kept]
+        name = f"{prefix}lines_{model}.png"
+        _render(name, panels, up=up, view=view, spin=spin, gap=gap, size=(len(panels) * size[0], size[1]),
+                samples=samples, line=0.0015)
+        filt = ", ".join(f"T >= {T:g} ({len(k)})" for T, k in zip(Ts, kept))
+        names.append((name, f"{model} ({len(F)} triangles), one-ring fit: every crest line ({len(lines)}, left), "
+                            f"then {filt}; ridges blue, valleys red"))
+        data[model] = {"lines": len(lines), "kept": {f"{T:g}": len(k) for T, k in zip(Ts, kept)}}
+    if not quick:
+        V, F = cgal_mesh("bunny00")
+        lines = dgmesh.crest_lines(V, F, rings=3, threshold=10.0)
+        target = len(F) // 10
+        panels = []
+        for eta in (0.0, 6.0):
+            V2, F2 = dgmesh.decimate(V, F, target_faces=target, feature_weight=eta, crest_lines=lines)
+            panels.append({"V": V2, "F": F2, "wire": True})
+        name = f"{prefix}decimate_bunny.png"
+        _render(name, panels, up="Y", view=(0.0, -1.0, 0.2), size=(2 * 440, 330) if not quick else size,
+                samples=samples, wire=0.0009)
+        names.append((name, f"bunny00 decimated by 90% ({len(F)} -> {target} triangles): eta = 0 (plain QEM, "
+                            f"left) and eta = 6 (right), crest lines k = 3, T >= 10 ({len(lines)} lines)"))
+        panels = []
+        for eta in (0.0, 2.0):
+            labels = dgmesh.segment(V, F, segments=25, feature_weight=eta, crest_lines=lines)
+            panels.append({"V": V, "F": F, "colors": _segment_rgb(labels)})
+        name = f"{prefix}segment_bunny.png"
+        _render(name, panels, up="Y", view=(0.0, -1.0, 0.2), size=(2 * size[0], size[1]), samples=samples)
+        names.append((name, "bunny00 in 25 segments (VSA, L^{2,1}): eta = 0 (left) and eta = 2 (right), "
+                            "same crest lines"))
+    for name, _ in names:
+        data[name] = {"bytes": os.path.getsize(IMAGES / name)}
+    md = ("### Crest lines: renders\n\nBlender Cycles CPU, " f"{samples} samples, no denoising, "
+          f"{size[0]}x{size[1]} per panel.\n\n"
+          + "\n\n".join(f"![{cap}](images/{n})\n\n{cap}." for n, cap in names)
+          + f"\n\n{time.perf_counter() - t0:.0f} s. `/usr/bin/python3 bench/run.py crest_renders`\n")
+    return {"markdown": md, "data": data}
+
+
+WORKLOADS = {"crest_accuracy": crest_accuracy, "crest_independence": crest_independence,
+             "crest_speed": crest_speed, "crest_renders": crest_renders}

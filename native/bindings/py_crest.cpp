@@ -114,7 +114,8 @@ void bind_crest(pb::module_& m) {
   m.def(
       "decimate",
       [](InV Vin, InF Fin, int target_faces, std::optional<VecXd> face_weights, bool preserve_boundary,
-         double min_quality, double max_normal_angle, double max_error, const pb::object& cb) {
+         double min_quality, double max_normal_angle, double max_error, const pb::object& cb,
+         std::optional<std::vector<int>> locked, bool batched) {
         DecimateResult r;
         {
           pb::gil_scoped_release nogil;
@@ -126,13 +127,17 @@ void bind_crest(pb::module_& m) {
           opt.min_quality = min_quality;
           opt.max_normal_angle = max_normal_angle;
           opt.max_error = max_error;
+          if (locked) opt.locked.assign(locked->begin(), locked->end());
+          opt.batched = batched;
           r = decimate(mesh, opt, progress_from(cb));
         }
-        return pb::make_tuple(std::move(r.V), std::move(r.F), int_array(r.vertex_map));
+        return pb::make_tuple(std::move(r.V), std::move(r.F), int_array(r.vertex_map), int_array(r.face_map),
+                              int_array(r.source_vertex));
       },
       pb::arg("V"), pb::arg("F"), pb::arg("target_faces"), pb::arg("face_weights") = pb::none(),
       pb::arg("preserve_boundary") = true, pb::arg("min_quality") = 0.0, pb::arg("max_normal_angle") = 1.3,
-      pb::arg("max_error") = std::numeric_limits<double>::infinity(), pb::arg("progress") = pb::none());
+      pb::arg("max_error") = std::numeric_limits<double>::infinity(), pb::arg("progress") = pb::none(),
+      pb::arg("locked") = pb::none(), pb::arg("batched") = true);
 
   m.def(
       "segment",

@@ -39,8 +39,9 @@ SkeletalMethod method_from(const std::string& s) {
 }
 
 SkeletalDeformOptions deform_options(const std::string& method, int fairing_steps, double fairing_step,
-                                     int homotopy_steps, int fold_iterations) {
+                                     int homotopy_steps, int fold_iterations, double projection = 1.0) {
   SkeletalDeformOptions o;
+  o.projection = projection;
   o.method = method_from(method);
   o.fairing_steps = fairing_steps;
   o.fairing_step = fairing_step;
@@ -140,24 +141,43 @@ void bind_skeletal(pb::module_& m) {
           pb::arg("progress"))
       .def(
           "deform",
-          [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs, int fi) {
+          [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs, int fi,
+             double proj, pb::object out) -> pb::object {
             const auto p = to_mats(pose, "bones_pose");
-            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi);
-            pb::gil_scoped_release nogil;
-            return rig.deform(p, o);
-          })
+            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj);
+            if (out.is_none()) {
+              MatX3d X;
+              {
+                pb::gil_scoped_release nogil;
+                X = rig.deform(p, o);
+              }
+              return pb::cast(std::move(X));
+            }
+            // A C-contiguous float64 (n, 3) array is written in place (no copy, no allocation).
+            auto ref = out.cast<Eigen::Ref<MatX3d>>();
+            {
+              pb::gil_scoped_release nogil;
+              rig.deform(p, o, ref);
+            }
+            return out;
+          },
+          pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
+          pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
+          pb::arg("out") = pb::none())
       .def("deform_control",
            [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs,
-              int fi) {
+              int fi, double proj) {
              const auto p = to_mats(pose, "bones_pose");
-             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi);
+             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj);
              MatX3d X, Sd;
              {
                pb::gil_scoped_release nogil;
                X = rig.deform_control(p, o, &Sd);
              }
              return pb::make_tuple(std::move(X), std::move(Sd));
-           })
+           },
+           pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
+           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0)
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");

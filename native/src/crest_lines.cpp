@@ -32,6 +32,15 @@ inline double cubic_form(const double* c, double t1, double t2) {
   return c[0] * t1 * t1 * t1 + 3 * c[1] * t1 * t1 * t2 + 3 * c[2] * t1 * t2 * t2 + c[3] * t2 * t2 * t2;
 }
 
+// A += r r^T, b += r z with r padded to 8: a fixed 8x8 outer product vectorises fully (Eigen's
+// rankUpdate on a 7x7 self-adjoint view dominated the fit's profile).
+using Mat8 = Eigen::Matrix<double, 8, 8>;
+using Vec8 = Eigen::Matrix<double, 8, 1>;
+inline void accumulate(Mat8& A, Vec8& b, const Vec8& r, double z) {
+  A.noalias() += r * r.transpose();
+  b.noalias() += r * z;
+}
+
 struct FitScratch {
   std::vector<int> ring, mark;
 };
@@ -62,9 +71,8 @@ void fit_vertex(int i, const MatX3d& P, const MatX3d& N, const Topology& topo, c
   if (count < 2 || mean_dist <= 0.0) return zero();
   const double scale = count / mean_dist;  // fit in units of the mean neighbour distance
 
-  Mat7 A = Mat7::Zero();
-  Vec7 b = Vec7::Zero();
-  Vec7 row;
+  Mat8 A8 = Mat8::Zero();
+  Vec8 b8 = Vec8::Zero();
   for (size_t j = 1; j < s.ring.size(); ++j) {
     const int v = s.ring[j];
     const Vec3 m = N.row(v);
@@ -72,21 +80,20 @@ void fit_vertex(int i, const MatX3d& P, const MatX3d& N, const Topology& topo, c
     const Vec3 d = (Vec3(P.row(v)) - p) * scale;
     const double x = d.dot(u), y = d.dot(w), z = d.dot(n);
     // Position: h(x, y) = z.
-    row << 0.5 * x * x, x * y, 0.5 * y * y, x * x * x / 6, 0.5 * x * x * y, 0.5 * x * y * y, y * y * y / 6;
-    A.selfadjointView<Eigen::Lower>().rankUpdate(row);
-    b += row * z;
+    Vec8 r;
+    r << 0.5 * x * x, x * y, 0.5 * y * y, x * x * x / 6, 0.5 * x * x * y, 0.5 * x * y * y, y * y * y / 6, 0;
+    accumulate(A8, b8, r, z);
     if (opt.use_normals) {
       // Normal (a, b, c) of the graph z = h(x, y) is parallel to (-h_x, -h_y, 1) [GI04].
       const double ma = m.dot(u), mb = m.dot(w), mc = m.dot(n);
-      row << x, y, 0, 0.5 * x * x, x * y, 0.5 * y * y, 0;
-      A.selfadjointView<Eigen::Lower>().rankUpdate(row);
-      b += row * (-ma / mc);
-      row << 0, x, y, 0, 0.5 * x * x, x * y, 0.5 * y * y;
-      A.selfadjointView<Eigen::Lower>().rankUpdate(row);
-      b += row * (-mb / mc);
+      r << x, y, 0, 0.5 * x * x, x * y, 0.5 * y * y, 0, 0;
+      accumulate(A8, b8, r, -ma / mc);
+      r << 0, x, y, 0, 0.5 * x * x, x * y, 0.5 * y * y, 0;
+      accumulate(A8, b8, r, -mb / mc);
     }
   }
-  A = A.selfadjointView<Eigen::Lower>();
+  Mat7 A = A8.topLeftCorner<7, 7>();
+  const Vec7 b = b8.head<7>();
   // A tiny ridge keeps under-determined fits (boundary corners, valence-3 vertices) finite.
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
   const Vec7 c = A.ldlt().solve(b);

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <queue>
+#include <cstring>
 #include <string>
 
 #include "dgmesh/errors.h"
@@ -49,12 +49,21 @@ struct Quadric {
   }
 };
 
-struct Entry {
-  double cost;
-  int a, b;            // edge; the collapse removes one of them (chosen when it is evaluated)
-  uint32_t sa, sb;     // vertex stamps when the entry was made (lazy invalidation)
-  bool operator<(const Entry& o) const { return cost > o.cost; }  // min-heap
+// A queued edge; the collapse removes one of its ends (chosen when it is evaluated). The vertex
+// stamps at queuing time invalidate it lazily once either end changes.
+struct Rec {
+  int a, b;
+  uint32_t sa, sb;
 };
+
+// Heap key: the cost as float bits (monotone for non-negative floats) above the record index, so
+// the heap moves and compares plain 64-bit integers (a third of the traffic of a struct entry).
+inline uint64_t heap_key(double cost, uint32_t rec) {
+  const float c = static_cast<float>(cost);
+  uint32_t bits;
+  std::memcpy(&bits, &c, sizeof bits);
+  return (static_cast<uint64_t>(bits) << 32) | rec;
+}
 
 struct Candidate {
   double cost;
@@ -62,9 +71,11 @@ struct Candidate {
   Vec3 p;
 };
 
-inline double tri_quality(const Vec3& a, const Vec3& b, const Vec3& c) {
+// Squared triangle quality (4 sqrt(3) A / (l0^2 + l1^2 + l2^2))^2 from the squared normal length
+// |n|^2 = (2A)^2: no square root in the collapse test.
+inline double quality2(const Vec3& a, const Vec3& b, const Vec3& c, double n2) {
   const double l = (b - a).squaredNorm() + (c - b).squaredNorm() + (a - c).squaredNorm();
-  return l > 0 ? 2 * std::sqrt(3.0) * (b - a).cross(c - a).norm() / l : 0.0;
+  return l > 0 ? 12.0 * n2 / (l * l) : 0.0;
 }
 
 class Decimator {
@@ -79,7 +90,7 @@ class Decimator {
   MatX3d V_;
   MatX3i F_;
   std::vector<Quadric> Q_;
-  std::vector<char> face_alive_, vert_alive_, boundary_;
+  std::vector<char> face_alive_, vert_alive_, boundary_, fixed_;
   std::vector<uint32_t> stamp_;
   std::vector<int> parent_;
   // Faces around each vertex: refs_[start_[v] .. start_[v] + count_[v]); a merged vertex gets a
@@ -88,9 +99,49 @@ class Decimator {
   std::vector<int> mark_;
   int mark_id_ = 0;
   std::vector<int> nbr_, tmp_faces_;
-  std::priority_queue<Entry> heap_;
+  std::vector<Rec> recs_;
+  // 4-ary min-heap of heap_key: half the depth of a binary heap, and the four children of a node
+  // share a cache line, which matters because most pops are stale entries.
+  std::vector<uint64_t> heap_;
   int n_faces_ = 0;
-  double cos_max_ = 0.0;
+  double cos_max_ = 0.0, cos_max2_ = 0.0, min_q2_ = 0.0;
+
+  void push(double cost, int a, int b) {
+    const uint64_t key = heap_key(cost, static_cast<uint32_t>(recs_.size()));
+    recs_.push_back({a, b, stamp_[a], stamp_[b]});
+    size_t i = heap_.size();
+    heap_.push_back(key);
+    while (i > 0) {
+      const size_t parent = (i - 1) / 4;
+      if (heap_[parent] <= key) break;
+      heap_[i] = heap_[parent];
+      i = parent;
+    }
+    heap_[i] = key;
+  }
+  void sift_down(size_t i) {
+    const size_t n = heap_.size();
+    const uint64_t key = heap_[i];
+    for (;;) {
+      const size_t c = 4 * i + 1;
+      if (c >= n) break;
+      size_t best = c;
+      const size_t end = std::min(n, c + 4);
+      for (size_t j = c + 1; j < end; ++j)
+        if (heap_[j] < heap_[best]) best = j;
+      if (heap_[best] >= key) break;
+      heap_[i] = heap_[best];
+      i = best;
+    }
+    heap_[i] = key;
+  }
+  uint64_t pop() {
+    const uint64_t top = heap_[0];
+    heap_[0] = heap_.back();
+    heap_.pop_back();
+    if (!heap_.empty()) sift_down(0);
+    return top;
+  }
 
   int next_mark() {
     if (++mark_id_ == INT32_MAX) std::fill(mark_.begin(), mark_.end(), 0), mark_id_ = 1;
@@ -112,6 +163,7 @@ class Decimator {
   Candidate evaluate(int a, int b) const;
   bool try_collapse(const Candidate& c);
   void push_edges_of(int v);
+  int run_batched(Progress& progress, int to_remove);
   void compact_refs();
 };
 
@@ -119,31 +171,36 @@ Candidate Decimator::evaluate(int a, int b) const {
   Candidate c;
   const Quadric Q = Q_[a] + Q_[b];
   const Vec3 pa = V_.row(a), pb = V_.row(b);
-  if (boundary_[a] != boundary_[b]) {
-    // One end on the boundary: the interior one moves onto it, so the boundary keeps its shape.
-    c.keep = boundary_[a] ? a : b;
-    c.remove = boundary_[a] ? b : a;
-    c.p = boundary_[a] ? pa : pb;
+  // Fixed vertices (locked, or on a preserved boundary) neither move nor go; else a boundary end
+  // stays where it is, so the boundary keeps its shape.
+  const char* stay = fixed_[a] != fixed_[b] ? fixed_.data() : boundary_.data();
+  if (stay[a] != stay[b]) {
+    c.keep = stay[a] ? a : b;
+    c.remove = stay[a] ? b : a;
+    c.p = stay[a] ? pa : pb;
     c.cost = Q.eval(c.p);
     return c;
   }
   c.keep = a, c.remove = b;
-  if (boundary_[a] && opt_.preserve_boundary) {
+  if (fixed_[a]) {
     c.p = pa, c.cost = std::numeric_limits<double>::infinity();
     return c;
   }
-  // Optimal placement, else the best of the ends and the midpoint (GH97 sec. 4).
+  // Optimal placement (GH97 sec. 4): with a positive definite 3x3 part it is the global minimum,
+  // so the ends and the midpoint need not be tried. Far-away optima (nearly singular quadrics)
+  // fall back to the best of the ends and the midpoint.
+  const Vec3 mid = 0.5 * (pa + pb);
+  Vec3 opt;
+  if (Q.optimum(opt) && (opt - mid).squaredNorm() <= 4 * (pa - pb).squaredNorm()) {
+    c.p = opt;
+    c.cost = std::max(0.0, Q.eval(opt));
+    return c;
+  }
   Vec3 best = pa;
   double cost = Q.eval(pa);
-  const Vec3 mid = 0.5 * (pa + pb);
   for (const Vec3& p : {pb, mid}) {
     const double e = Q.eval(p);
     if (e < cost) cost = e, best = p;
-  }
-  Vec3 opt;
-  if (Q.optimum(opt) && (opt - mid).squaredNorm() <= 4 * (pa - pb).squaredNorm()) {
-    const double e = Q.eval(opt);
-    if (e <= cost) cost = e, best = opt;
   }
   c.p = best;
   c.cost = std::max(0.0, cost);
@@ -155,7 +212,7 @@ void Decimator::push_edges_of(int v) {
   for (int w : nbr_) {
     if (w == v) continue;
     const Candidate c = evaluate(v, w);
-    if (std::isfinite(c.cost)) heap_.push({c.cost, v, w, stamp_[v], stamp_[w]});
+    if (std::isfinite(c.cost)) push(c.cost, v, w);
   }
 }
 
@@ -210,11 +267,14 @@ bool Decimator::try_collapse(const Candidate& c) {
       Vec3 na = a, nb = b, nc = cc;
       (k == 0 ? na : k == 1 ? nb : nc) = c.p;
       const Vec3 n0 = (b - a).cross(cc - a), n1 = (nb - na).cross(nc - na);
-      const double l0 = n0.norm(), l1 = n1.norm();
-      if (!(l1 > 0) || n0.dot(n1) < cos_max_ * l0 * l1) return false;
+      const double s0 = n0.squaredNorm(), s1 = n1.squaredNorm(), dot = n0.dot(n1);
+      if (!(s1 > 0)) return false;
+      // Normal turn beyond max_normal_angle, compared squared (no roots) when the limit is acute.
+      if (cos_max_ >= 0 ? (dot <= 0 || dot * dot < cos_max2_ * s0 * s1) : dot < cos_max_ * std::sqrt(s0 * s1))
+        return false;
       // Never create (near) degenerate faces: quality 1e-3 is an aspect ratio of about 1000.
-      const double q1 = tri_quality(na, nb, nc);
-      if (q1 < 1e-3 || (q1 < opt_.min_quality && q1 < tri_quality(a, b, cc))) return false;
+      const double q1 = quality2(na, nb, nc, s1);
+      if (q1 < 1e-6 || (q1 < min_q2_ && q1 < quality2(a, b, cc, s0))) return false;
     }
   }
 
@@ -253,8 +313,90 @@ bool Decimator::try_collapse(const Candidate& c) {
   start_[v] = static_cast<int>(refs_.size());
   count_[v] = static_cast<int>(tmp_faces_.size());
   refs_.insert(refs_.end(), tmp_faces_.begin(), tmp_faces_.end());
-  push_edges_of(v);
+  if (!opt_.batched) push_edges_of(v);
   return true;
+}
+
+// Multiple-choice passes (after Wu and Kobbelt 2002): every live edge is costed in parallel, the
+// cheapest half of the collapses still needed are sorted and taken in order, skipping edges with an
+// end already merged in this pass (its cost is stale). Edges not touching a merged vertex keep
+// their exact cost, so within a pass the order is the greedy one; across passes it is close to it.
+// Much less random memory traffic than a global queue holding stale entries.
+int Decimator::run_batched(Progress& progress, int to_remove) {
+  const int nf = static_cast<int>(F_.rows()), nv = static_cast<int>(V_.rows());
+  std::vector<char> touched(nv, 0);
+  std::vector<std::pair<int, int>> cand;
+  std::vector<uint64_t> keys;
+  std::vector<int> live;
+  int collapses = 0;
+  while (n_faces_ > opt_.target_faces) {
+    // Every live edge once: the half-edge with a < b (interior edges have both), plus boundary
+    // half-edges with a > b (only when boundary vertices may move).
+    cand.clear();
+    live.clear();
+    for (int f = 0; f < nf; ++f)
+      if (face_alive_[f]) live.push_back(f);
+    for (int f : live)
+      for (int k = 0; k < 3; ++k) {
+        const int a = F_(f, k), b = F_(f, (k + 1) % 3);
+        if (a < b) {
+          cand.emplace_back(a, b);
+        } else if (!opt_.preserve_boundary && boundary_[a] && boundary_[b]) {
+          bool reverse = false;  // is (b, a) a half-edge of another face?
+          for (int j = start_[a]; j < start_[a] + count_[a] && !reverse; ++j) {
+            const int g = refs_[j];
+            for (int i = 0; i < 3; ++i)
+              if (F_(g, i) == b && F_(g, (i + 1) % 3) == a) reverse = true;
+          }
+          if (!reverse) cand.emplace_back(a, b);
+        }
+      }
+    const int n = static_cast<int>(cand.size());
+    keys.resize(n);
+#pragma omp parallel for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      const double cost = evaluate(cand[i].first, cand[i].second).cost;
+      keys[i] = std::isfinite(cost) ? heap_key(cost, static_cast<uint32_t>(i)) : ~uint64_t(0);
+    }
+    const size_t needed = static_cast<size_t>(std::max(1, (n_faces_ - opt_.target_faces) / 2));
+    const size_t take = std::max<size_t>(needed / 2, 1);
+    std::fill(touched.begin(), touched.end(), 0);
+    const int before = collapses;
+    // Sorted windows of the cheapest candidates until `take` collapses succeeded: refused ones
+    // (link condition, flips) do not use up the pass.
+    bool stop = false;
+    for (size_t lo = 0; lo < keys.size() && !stop && size_t(collapses - before) < take &&
+                        n_faces_ > opt_.target_faces;) {
+      const size_t hi = std::min(keys.size(), lo + take);
+      std::nth_element(keys.begin() + lo, keys.begin() + (hi - 1), keys.end());
+      std::sort(keys.begin() + lo, keys.begin() + hi);
+      for (size_t i = lo; i < hi && n_faces_ > opt_.target_faces; ++i) {
+        if (keys[i] == ~uint64_t(0)) {
+          stop = true;
+          break;
+        }
+        const auto [a, b] = cand[static_cast<uint32_t>(keys[i])];
+        if (touched[a] || touched[b]) continue;
+        const Candidate c = evaluate(a, b);
+        if (c.cost > opt_.max_error) {
+          n_faces_ = -n_faces_ - 1;  // flag: stop after this pass (restored below)
+          stop = true;
+          break;
+        }
+        if (try_collapse(c)) {
+          touched[a] = touched[b] = 1;
+          if ((++collapses & 4095) == 0) progress(std::min(1.0, double(nf - n_faces_) / to_remove));
+        }
+      }
+      lo = hi;
+    }
+    if (n_faces_ < 0) {
+      n_faces_ = -n_faces_ - 1;
+      break;
+    }
+    if (collapses == before) break;  // nothing collapsible left
+  }
+  return collapses;
 }
 
 void Decimator::compact_refs() {
@@ -280,9 +422,14 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
   if (opt_.face_weights.size() && !opt_.face_weights.allFinite())
     throw MeshError("face_weights must be finite and non-negative");
   if (!(opt_.min_quality >= 0 && opt_.min_quality < 1)) throw MeshError("min_quality must be in [0, 1)");
+  if (!opt_.locked.empty() && opt_.locked.size() != static_cast<size_t>(nv))
+    throw MeshError("locked has " + std::to_string(opt_.locked.size()) + " values for " + std::to_string(nv) +
+                    " vertices");
   if (!(opt_.max_normal_angle > 0 && opt_.max_normal_angle <= M_PI))
     throw MeshError("max_normal_angle must be in (0, pi]");
   cos_max_ = std::cos(opt_.max_normal_angle);
+  cos_max2_ = cos_max_ * cos_max_;
+  min_q2_ = opt_.min_quality * opt_.min_quality;
   Progress progress(progress_fn);
   progress(0.0);
 
@@ -292,6 +439,9 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
   face_alive_.assign(nf, 1);
   vert_alive_.assign(nv, 1);
   boundary_.assign(topo.on_boundary.begin(), topo.on_boundary.end());
+  fixed_.assign(nv, 0);
+  for (int v = 0; v < nv; ++v)
+    fixed_[v] = (opt_.preserve_boundary && boundary_[v]) || (!opt_.locked.empty() && opt_.locked[v]);
   stamp_.assign(nv, 0);
   parent_.resize(nv);
   for (int v = 0; v < nv; ++v) parent_[v] = v;
@@ -341,28 +491,37 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
   face_q.shrink_to_fit();
 
   // All edges into the heap (costs in parallel, heapified in O(n)).
-  {
+  if (!opt_.batched) {
     const int ne = topo.n_edges();
-    std::vector<Entry> entries(ne);
+    std::vector<double> cost(ne);
 #pragma omp parallel for schedule(static)
+    for (int e = 0; e < ne; ++e) cost[e] = evaluate(topo.edges(e, 0), topo.edges(e, 1)).cost;
+    // About 7 new entries per collapse (the edges around the merged vertex), 2 faces per collapse.
+    const size_t expected = ne + 4 * static_cast<size_t>(std::max(0, nf - opt_.target_faces)) + 16;
+    recs_.clear();
+    recs_.reserve(expected);
+    heap_.clear();
+    heap_.reserve(expected);
     for (int e = 0; e < ne; ++e) {
-      const Candidate c = evaluate(topo.edges(e, 0), topo.edges(e, 1));
-      entries[e] = {c.cost, topo.edges(e, 0), topo.edges(e, 1), 0, 0};
+      if (!std::isfinite(cost[e])) continue;
+      heap_.push_back(heap_key(cost[e], static_cast<uint32_t>(recs_.size())));
+      recs_.push_back({topo.edges(e, 0), topo.edges(e, 1), 0, 0});
     }
-    entries.erase(std::remove_if(entries.begin(), entries.end(), [](const Entry& x) { return !std::isfinite(x.cost); }),
-                  entries.end());
-    entries.reserve(entries.size() + 8 * static_cast<size_t>(std::max(0, nf - opt_.target_faces)) / 2 + 16);
-    heap_ = std::priority_queue<Entry>(std::less<Entry>(), std::move(entries));
+    for (size_t i = heap_.size() / 4 + 1; i-- > 0;)
+      if (i < heap_.size()) sift_down(i);
   }
 
   int collapses = 0;
   const int to_remove = std::max(1, nf - opt_.target_faces);
-  while (n_faces_ > opt_.target_faces && !heap_.empty()) {
-    const Entry top = heap_.top();
-    heap_.pop();
+  if (opt_.batched) {
+    collapses = run_batched(progress, to_remove);
+    heap_.clear();
+  }
+  while (!opt_.batched && n_faces_ > opt_.target_faces && !heap_.empty()) {
+    const Rec top = recs_[static_cast<uint32_t>(pop())];
     if (!vert_alive_[top.a] || !vert_alive_[top.b] || stamp_[top.a] != top.sa || stamp_[top.b] != top.sb) continue;
-    if (top.cost > opt_.max_error) break;
     const Candidate c = evaluate(top.a, top.b);
+    if (c.cost > opt_.max_error) break;
     if (try_collapse(c)) {
       ++collapses;
       if ((collapses & 4095) == 0) progress(std::min(1.0, double(nf - n_faces_) / to_remove));
@@ -383,14 +542,16 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
   for (int v = 0; v < nv; ++v)
     if (new_index[v] >= 0) new_index[v] = n_out++;
   r.V.resize(n_out, 3);
+  r.source_vertex.resize(n_out);
   for (int v = 0; v < nv; ++v)
-    if (new_index[v] >= 0) r.V.row(new_index[v]) = V_.row(v);
+    if (new_index[v] >= 0) r.V.row(new_index[v]) = V_.row(v), r.source_vertex[new_index[v]] = v;
   r.F.resize(n_faces_, 3);
+  r.face_map.resize(n_faces_);
   int j = 0;
   for (int f = 0; f < nf; ++f)
     if (face_alive_[f]) {
       for (int k = 0; k < 3; ++k) r.F(j, k) = new_index[F_(f, k)];
-      ++j;
+      r.face_map[j++] = f;
     }
   r.vertex_map.resize(nv);
   for (int v = 0; v < nv; ++v) {

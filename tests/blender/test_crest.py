@@ -129,6 +129,103 @@ def test_decimate_features(cube):
     dgmesh.validate(arrays.V, arrays.F, allow_loose_vertices=False)
 
 
+def test_operators_work_on_every_selected_object():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    V, quads = rounded_cube_quads(n=10)
+    a = make_object("CubeA", V, quads)
+    b = make_object("CubeB", V * 2.0, quads)
+    a.select_set(True)  # make_object selected only b
+    assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=0.0) == {'FINISHED'}
+    for obj in (a, b):
+        assert edge_attr(obj.data, "dg_ridge").sum() > 0
+    assert bpy.ops.dgmesh.segment('EXEC_DEFAULT', segments=6, feature_weight=0.0) == {'FINISHED'}
+    assert "dg_segment" in a.data.attributes and "dg_segment" in b.data.attributes
+    n = len(a.data.polygons)
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.25, feature_weight=0.0) == {'FINISHED'}
+    assert len(a.data.polygons) < n and len(b.data.polygons) < n
+
+
+def test_one_bad_object_does_not_block_the_others():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    V, quads = rounded_cube_quads(n=8)
+    good = make_object("Good", V, quads)
+    bad = make_object("Fan", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)],
+                      [(0, 1, 2), (1, 0, 3), (0, 1, 4)])
+    good.select_set(True)
+    before = helpers.mesh_snapshot(bad.data)
+    # The ERROR report for the bad object makes bpy.ops raise, but the good one is written.
+    with pytest.raises(RuntimeError, match="Fan.*not manifold"):
+        bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=0.0)
+    assert "dg_ridge" in good.data.attributes
+    assert helpers.mesh_snapshot(bad.data) == before
+
+
+def _uv_cube_with_materials():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    V, quads = rounded_cube_quads(n=16)
+    obj = make_object("UVCube", V, quads)
+    mesh = obj.data
+    # UV = (x, y) of each corner's vertex on the top half, (x, y) + 3 on the bottom half: a seam
+    # along z = 0 with a jump of 3 in UV space.
+    co = np.array([v.co[:] for v in mesh.vertices])
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    pc = np.array([p.center[2] for p in mesh.polygons])
+    lp = np.repeat(np.arange(len(mesh.polygons)), [p.loop_total for p in mesh.polygons])
+    uv = co[lv, :2] + np.where(pc[lp] < 0, 3.0, 0.0)[:, None]
+    layer = mesh.uv_layers.new(name="Proj")
+    layer.data.foreach_set("uv", uv.astype(np.float32).ravel())
+    for name in ("Top", "Bottom"):
+        mesh.materials.append(bpy.data.materials.new(name))
+    mesh.polygons.foreach_set("material_index", (pc < 0).astype(np.int32))
+    return obj
+
+
+def _check_uvs_and_materials(obj):
+    mesh = obj.data
+    assert [l.name for l in mesh.uv_layers] == ["Proj"]
+    assert [m.name for m in mesh.materials][:2] == ["Top", "Bottom"]
+    co = np.array([v.co[:] for v in mesh.vertices])
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    uv = np.array([d.uv[:] for d in mesh.uv_layers["Proj"].data])
+    mat = np.array([p.material_index for p in mesh.polygons])
+    pc = np.array([p.center[2] for p in mesh.polygons])
+    lp = np.repeat(np.arange(len(mesh.polygons)), 3)
+    # Every face keeps one island: its corners' UVs are all top or all bottom, matching its material.
+    off = (uv[:, 0] > 1.5).reshape(-1, 3)
+    assert (off.all(1) | ~off.any(1)).all()
+    assert np.array_equal(off[:, 0], mat == 1)
+    # Far from the seam the material follows the side.
+    assert (mat[pc > 0.2] == 0).all() and (mat[pc < -0.2] == 1).all()
+    # UVs follow the (moved) vertices: UV is linear in position within each original triangle, so the
+    # barycentric lookup reproduces the projection up to the distance of a vertex from the surface.
+    expected = co[lv, :2] + np.where(mat[lp] == 1, 3.0, 0.0)[:, None]
+    assert np.abs(uv - expected).max() < 0.1
+
+
+def test_decimate_keeps_uv_maps_and_materials():
+    obj = _uv_cube_with_materials()
+    n = 2 * len(obj.data.polygons)
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.2, feature_weight=6.0) == {'FINISHED'}
+    assert len(obj.data.polygons) <= 0.2 * n + 1
+    _check_uvs_and_materials(obj)
+
+
+def test_decimate_in_edit_mode_and_undo():
+    obj = _uv_cube_with_materials()
+    n = len(obj.data.polygons)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.ed.undo_push(message="edit")
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', True, ratio=0.2, feature_weight=0.0) == {'FINISHED'}
+    assert obj.mode == 'EDIT'
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert len(obj.data.polygons) < n
+    _check_uvs_and_materials(obj)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.ed.undo()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert len(bpy.data.objects["UVCube"].data.polygons) == n
+
+
 def test_segment_writes_labels_colours_and_seams(cube):
     assert bpy.ops.dgmesh.segment('EXEC_DEFAULT', segments=6, feature_weight=2.0, threshold=8.0,
                                   mark_seams=True) == {'FINISHED'}

@@ -42,6 +42,19 @@ TEST(Decimate, SphereStaysAClosedManifoldSphere) {
   for (int w : r.vertex_map) EXPECT_TRUE(w >= 0 && w < r.V.rows());
 }
 
+TEST(Decimate, GreedyQueueAlsoKeepsAClosedManifold) {
+  const TriMesh s = icosphere(4, 1.0);
+  const Mesh m = make_mesh(s.V, s.F);
+  DecimateOptions opt;
+  opt.target_faces = 500;
+  opt.batched = false;
+  const DecimateResult r = decimate(m, opt);
+  EXPECT_LE(r.F.rows(), 500);
+  EXPECT_GE(r.F.rows(), 498);
+  EXPECT_EQ(euler(r.V, r.F), 2);
+  for (int v = 0; v < r.V.rows(); ++v) EXPECT_NEAR(r.V.row(v).norm(), 1.0, 0.03);
+}
+
 TEST(Decimate, TorusKeepsGenus) {
   const TriMesh t = torus(2.0, 0.6, 64, 32);
   const Mesh m = make_mesh(t.V, t.F);
@@ -85,6 +98,30 @@ TEST(Decimate, BoundaryCanCollapseWhenNotPreserved) {
     const double x = r.V(v, 0), y = r.V(v, 1);
     EXPECT_LT(std::min({std::abs(x), std::abs(x - 1), std::abs(y), std::abs(y - 1)}), 1e-6);
   }
+}
+
+TEST(Decimate, LockedVerticesStayAndMapsAreConsistent) {
+  const TriMesh s = icosphere(4, 1.0);
+  const Mesh m = make_mesh(s.V, s.F);
+  DecimateOptions opt;
+  opt.target_faces = 400;
+  opt.locked.assign(s.V.rows(), 0);
+  for (int v = 0; v < s.V.rows(); ++v) opt.locked[v] = std::abs(s.V(v, 2)) < 0.05;  // an equator band
+  const DecimateResult r = decimate(m, opt);
+  EXPECT_EQ(euler(r.V, r.F), 2);
+  for (int v = 0; v < s.V.rows(); ++v) {
+    if (!opt.locked[v]) continue;
+    const int w = r.vertex_map[v];
+    ASSERT_GE(w, 0);
+    EXPECT_EQ(r.source_vertex[w], v);
+    EXPECT_EQ((r.V.row(w) - s.V.row(v)).norm(), 0.0);
+  }
+  // Output face j is input face face_map[j] with its corners sent through the vertex map.
+  ASSERT_EQ(r.face_map.size(), static_cast<size_t>(r.F.rows()));
+  for (int j = 0; j < r.F.rows(); ++j)
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(r.F(j, k), r.vertex_map[s.F(r.face_map[j], k)]);
+  opt.locked.pop_back();
+  EXPECT_THROW(decimate(m, opt), MeshError);
 }
 
 TEST(Decimate, FeatureWeightsKeepDensityNearCrestLines) {

@@ -102,13 +102,40 @@ def test_snap_to_vertices_gives_mesh_edges(cube):
 
 def test_decimate_manifold_and_feature_weight(cube):
     V, F = cube
-    V2, F2 = dgmesh.decimate(V, F, target_faces=len(F) // 10)
-    assert len(F2) <= len(F) // 10
-    dgmesh.validate(V2, F2, allow_loose_vertices=False)
+    for greedy in (False, True):
+        V2, F2 = dgmesh.decimate(V, F, target_faces=len(F) // 10, greedy=greedy)
+        assert len(F2) <= len(F) // 10
+        dgmesh.validate(V2, F2, allow_loose_vertices=False)
     V3, F3, vmap = dgmesh.decimate(V, F, target_faces=len(F) // 10, feature_weight=6.0, threshold=8.0,
                                    return_map=True)
     dgmesh.validate(V3, F3, allow_loose_vertices=False)
     assert vmap.shape == (len(V),) and vmap.min() >= 0 and vmap.max() < len(V3)
+
+
+def test_decimate_face_map_and_source_vertex(cube):
+    V, F = cube
+    V2, F2, vmap, fmap, src = dgmesh.decimate(V, F, target_faces=len(F) // 5, return_map=True,
+                                              return_face_map=True)
+    assert fmap.shape == (len(F2),) and src.shape == (len(V2),)
+    # Output face j is input face fmap[j] with its corners sent through the vertex map.
+    assert np.array_equal(vmap[F[fmap]], F2)
+    # Each output vertex is a surviving input vertex, which maps to itself.
+    assert np.array_equal(vmap[src], np.arange(len(V2)))
+    assert len(np.unique(fmap)) == len(fmap)
+
+
+def test_decimate_locked_vertices_stay(cube):
+    V, F = cube
+    locked = V[:, 2] > 0.5  # the top of the cube
+    V2, F2, vmap, fmap, src = dgmesh.decimate(V, F, target_faces=len(F) // 5, locked=locked, return_map=True,
+                                              return_face_map=True)
+    # Every locked vertex survives, unmoved; the rest of the mesh is decimated.
+    assert np.array_equal(vmap[np.flatnonzero(locked)], np.searchsorted(src, np.flatnonzero(locked)))
+    assert np.isin(np.flatnonzero(locked), src).all()
+    assert np.array_equal(V2[vmap[locked]], V[locked])
+    assert len(F2) < len(F) and (V2[:, 2] <= 0.5).sum() < (V[:, 2] <= 0.5).sum() / 3
+    with pytest.raises(dgmesh.MeshError, match="one value per vertex"):
+        dgmesh.decimate(V, F, target_faces=10, locked=locked[:-1])
 
 
 def test_decimate_keeps_boundary():
@@ -153,3 +180,18 @@ def test_bad_input():
     if len(other.point_edge) and other.point_edge.max() >= len(V):
         with pytest.raises(dgmesh.MeshError):
             dgmesh.decimate(V, F, target_faces=10, feature_weight=2.0, crest_lines=other)
+
+
+@pytest.mark.parametrize("which", ["crest_lines", "decimate", "segment"])
+def test_progress_reports_and_cancels(cube, which):
+    V, F = cube
+    calls = {
+        "crest_lines": lambda cb: dgmesh.crest_lines(V, F, progress=cb),
+        "decimate": lambda cb: dgmesh.decimate(V, F, target_faces=len(F) // 10, progress=cb),
+        "segment": lambda cb: dgmesh.segment(V, F, segments=6, progress=cb),
+    }[which]
+    seen = []
+    calls(lambda f: seen.append(f) or True)
+    assert seen and all(0.0 <= f <= 1.0 for f in seen) and seen[-1] == 1.0
+    with pytest.raises(dgmesh.Cancelled):
+        calls(lambda f: False)

@@ -94,6 +94,35 @@ def test_thickness_kept(rig, mesh, axis, angle):
     assert (fx**2).sum() < 0.2 * (fl**2).sum()
 
 
+def test_projection_restores_twist_thickness(rig, mesh):
+    # The final explicit step moves each vertex to its rest distance from the union of medial balls
+    # (eq. 6.13): the thickness change after a 180-degree twist drops, and the rest pose stays exact.
+    V = mesh[0]
+    pose = np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]])
+    _, Sd = rig.deform_control(pose)
+    f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
+
+    def err(X):
+        return ((dgmesh.union_of_balls_distance(X, Sd, rig.radii) - f0) ** 2).sum()
+
+    e_off = err(rig.deform(pose, fairing_steps=2, projection=0))
+    e_on = err(rig.deform(pose, fairing_steps=2, projection=1))
+    assert e_on < 0.5 * e_off
+    assert np.abs(rig.deform(REST, projection=1) - V).max() < 1e-9
+
+
+def test_deform_into_buffer(rig, mesh):
+    pose = np.array([REST[0], rot((0, 0, 1), np.pi / 3) @ REST[1]])
+    out = np.zeros((rig.n_vertices, 3))
+    res = rig.deform(pose, out=out)
+    assert res is out
+    assert np.array_equal(out, rig.deform(pose))
+    with pytest.raises(dgmesh.MeshError):
+        rig.deform(pose, out=np.zeros((rig.n_vertices, 3), dtype=np.float32))
+    with pytest.raises(dgmesh.MeshError):
+        rig.deform(pose, out=np.zeros((rig.n_vertices + 1, 3)))
+
+
 def test_basic_method_runs(rig):
     pose = np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]])
     X = rig.deform(pose, method="basic")

@@ -1,9 +1,31 @@
 """Operators of thesis chapter 4: crest lines, feature-sensitive decimation, segmentation.
 
-All three work on the active mesh object (original data, modifiers ignored), compute everything
-before writing anything, and turn errors into ERROR reports with the mesh left untouched.
-Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the
-threshold or the marking flags only re-filter the traced lines.
+All three work on every selected mesh object in Object mode and on the edited objects in Edit mode
+(one object per mesh datablock, as dgmesh.curvature_map), on the original mesh data (modifiers
+ignored). Everything is computed before anything is written: an object that fails gets an ERROR
+report naming it and is left untouched, the others are written. Started from the UI they run the
+native work in a worker thread (jobs.NativeJobOperator): the status bar shows the progress and Esc
+cancels with nothing written. The redo panel, scripts and ``--background`` use execute().
+
+dgmesh.decimate_features rewrites the mesh datablock in place (its name, materials and users stay;
+in Edit mode it leaves and re-enters Edit mode around the write, and undo restores the old mesh).
+It keeps: UV maps (per corner: a corner keeps its UV when its vertex survives, else it takes the
+surviving vertex's UV on the same side of the seam; a vertex moved to its quadric optimum gets the
+UV interpolated at its new position in the nearest original triangle), material index and smooth
+flag per face (from the input face the output triangle was), and UV seams and material borders
+exactly (their vertices are locked). It drops: vertex groups, colour and other generic attributes,
+shape keys, custom split normals, edge flags (seams, sharp, creases) and quads/n-gons (the result
+is triangles).
+
+Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the threshold
+or the marking flags only re-filter the traced lines.
+
+The threshold is the strength T of thesis eq. 4.10, T = length * integral of the cyclideness
+sqrt(e_max^2 + e_min^2) along the line: dimensionless (the same on a scaled copy), large for long
+lines across strongly curved, non-cyclide regions. The thesis used T = 1..3 on its one-ring
+figures (its own models and meshes). On CGAL's scans T = 5 still leaves many noise-driven
+fragments on the bunny, T = 10 keeps the salient lines of fandisk, bunny and armadillo, T = 25
+only the strongest (bench/images/crest_lines_*.png), hence the default of 10.
 """
 
 import colorsys
@@ -15,6 +37,8 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
+from .jobs import NativeJobOperator
+from .ops_curvature import target_objects
 from .prefs import api
 
 ATTR_RIDGE = "dg_ridge"
@@ -23,6 +47,11 @@ ATTR_SEGMENT = "dg_segment"
 ATTR_SEGMENT_COLOR = "dg_segment_color"
 RIDGE_RGB = (0.1, 0.25, 1.0)   # thesis figures: ridges blue ...
 VALLEY_RGB = (1.0, 0.1, 0.1)   # ... valleys red
+DEFAULT_THRESHOLD = 10.0
+THRESHOLD_HELP = ("Keep crest lines whose strength T is at least this. T = line length x integral of "
+                  "the cyclideness sqrt(e_max^2 + e_min^2) along the line (thesis eq. 4.10): "
+                  "dimensionless, so it does not depend on the model's size; 0 keeps every line, "
+                  "about 10 keeps the salient lines of typical scans")
 
 _CACHE = {}  # (mesh key, rings) -> unfiltered CrestLines; a few entries only
 _CACHE_SIZE = 4
@@ -34,40 +63,89 @@ def _poll_fail(cls, message):
     return False
 
 
-def _active_mesh(context):
-    obj = context.active_object
-    return obj if obj is not None and obj.type == 'MESH' else None
+def _plural(n, word):
+    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
-def _poll_mesh(cls, context):
-    if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-        return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-    if _active_mesh(context) is None:
-        return _poll_fail(cls, "The active object must be a mesh")
-    return True
+class _PerObjectJob(NativeJobOperator):
+    """Reads every target object (main thread), computes each in the worker (an object's MeshError
+    is recorded, Cancelled stops everything), writes the successful ones in finish()."""
 
-
-class _Progress:
-    """Window-manager progress (only when there is a window) fed by native callbacks."""
-
-    def __init__(self, context, lo=0.0, hi=1.0):
-        self.wm = context.window_manager if context.window is not None else None
-        self.lo, self.hi = lo, hi
-
-    def __enter__(self):
-        if self.wm is not None:
-            self.wm.progress_begin(0, 1000)
-        return self
-
-    def __call__(self, fraction):
-        if self.wm is not None:
-            self.wm.progress_update(int(1000 * (self.lo + (self.hi - self.lo) * fraction)))
+    @classmethod
+    def poll(cls, context):
+        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
+            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
+        if not target_objects(context):
+            return _poll_fail(cls, "Select one or more mesh objects")
         return True
 
-    def __exit__(self, *exc):
-        if self.wm is not None:
-            self.wm.progress_end()
-        return False
+    # Subclasses: read(obj) -> data (main thread); compute(data, params, progress) -> result
+    # (worker thread: numpy and dgmesh only); write(context, obj, data, result) -> summary dict.
+    def params(self):
+        return {}
+
+    def prepare(self, context):
+        dg = api()
+        items, failures = [], []
+        for obj in target_objects(context):
+            if obj.data.library is not None:
+                failures.append((obj.name, "mesh data is linked from a library and cannot be changed"))
+                continue
+            try:
+                items.append((obj.name, self.read(obj)))
+            except dg.MeshError as exc:
+                failures.append((obj.name, str(exc)))
+        params = self.params()
+        compute = type(self).compute
+        if not items:
+            self._report_failures(failures)
+            return None
+
+        def work(progress):
+            results = list(failures)
+            n = len(items)
+            for i, (name, data) in enumerate(items):
+                try:
+                    result = compute(data, params, lambda f, i=i: progress((i + f) / n))
+                except dg.MeshError as exc:
+                    results.append((name, str(exc)))
+                else:
+                    results.append((name, (data, result)))
+            return results
+
+        return work
+
+    def _report_failures(self, failures):
+        for name, message in failures:
+            self.report({'ERROR'}, f"{self.bl_label} failed on '{name}': {message}")
+
+    def finish(self, context, results):
+        failures = [(n, r) for n, r in results if isinstance(r, str)]
+        done = [(n, r) for n, r in results if not isinstance(r, str)]
+        written = []
+        if done:
+            with bridge.object_mode(context):
+                for name, (data, result) in done:
+                    obj = bpy.data.objects.get(name)
+                    try:
+                        if obj is None or obj.type != 'MESH':
+                            raise RuntimeError("the object is gone")
+                        if (len(obj.data.vertices), len(obj.data.polygons)) != data["counts"]:
+                            raise RuntimeError("the mesh changed while it was computed")
+                        written.append(self.write(context, obj, data, result))
+                    except Exception as exc:
+                        failures.append((name, f"could not write: {type(exc).__name__}: {exc}"))
+        self._report_failures(failures)
+        if not written:
+            return {'CANCELLED'}
+        self.report({'INFO'}, self.summary(written))
+        return {'FINISHED'}
+
+
+def _read(obj):
+    arrays = bridge.read_object(obj, edges=True)
+    data = {"arrays": arrays, "counts": (len(obj.data.vertices), len(obj.data.polygons))}
+    return data
 
 
 def _mesh_key(arrays):
@@ -226,139 +304,6 @@ def _curve_object(context, obj, lines):
     return cobj
 
 
-class DGMESH_OT_crest_lines(bpy.types.Operator):
-    bl_idname = "dgmesh.crest_lines"
-    bl_label = "Crest Lines"
-    bl_description = (
-        "Detect ridges and valleys (crest lines) of the active mesh and mark the edges that follow "
-        "them as edge attributes dg_ridge / dg_valley (optionally seams, sharp edges and a curve object)"
-    )
-    bl_options = {'REGISTER', 'UNDO'}
-
-    rings: IntProperty(name="Rings", description="Fitting neighbourhood (k-ring): larger ignores finer "
-                       "features and gives smoother lines", default=1, min=1, max=4)
-    threshold: FloatProperty(name="Threshold", description="Keep lines whose strength T (scale "
-                             "independent, thesis eq. 4.10) is at least this", default=2.0, min=0.0,
-                             soft_max=100.0)
-    ridges: BoolProperty(name="Ridges", description="Convex crest lines", default=True)
-    valleys: BoolProperty(name="Valleys", description="Concave crest lines", default=True)
-    mark_seams: BoolProperty(name="Mark Seams", description="Also mark the edges as UV seams", default=False)
-    mark_sharp: BoolProperty(name="Mark Sharp", description="Also mark the edges as sharp", default=False)
-    create_curves: BoolProperty(name="Curve Object", description="Add a curve object with the exact "
-                                "polylines (ridges blue, valleys red)", default=False)
-
-    @classmethod
-    def poll(cls, context):
-        return _poll_mesh(cls, context)
-
-    def execute(self, context):
-        dg = api()
-        obj = _active_mesh(context)
-        if obj.data.library is not None:
-            self.report({'ERROR'}, f"'{obj.name}': mesh data is linked from a library and cannot be changed")
-            return {'CANCELLED'}
-        try:
-            arrays = bridge.read_object(obj, edges=True)
-            with _Progress(context) as progress:
-                lines = cached_crest_lines(arrays, self.rings, progress).filter(
-                    self.threshold, self.ridges, self.valleys)
-            ridge, valley = crest_edges(lines, arrays)
-        except dg.MeshError as exc:
-            self.report({'ERROR'}, f"Crest lines failed on '{obj.name}': {exc}")
-            return {'CANCELLED'}
-        except dg.Cancelled:
-            self.report({'WARNING'}, "Crest lines cancelled; nothing changed")
-            return {'CANCELLED'}
-        with bridge.object_mode(context):
-            mesh = obj.data
-            _write_edge_bool(mesh, ATTR_RIDGE, ridge)
-            _write_edge_bool(mesh, ATTR_VALLEY, valley)
-            if self.mark_seams:
-                _or_edge_flag(mesh, "seam", ridge | valley)
-            if self.mark_sharp:
-                _or_edge_flag(mesh, "sharp", ridge | valley)
-            mesh.update()
-        if self.create_curves and len(lines):
-            _curve_object(context, obj, lines)
-        n_r = int((lines.line_kind == dg.crest.RIDGE).sum())
-        self.report({'INFO'}, (
-            f"Crest lines on '{obj.name}': {len(lines)} lines ({n_r} ridges, {len(lines) - n_r} valleys), "
-            f"total length {lines.total_length:.4g}; marked {int(ridge.sum())} ridge and "
-            f"{int(valley.sum())} valley edges (threshold {self.threshold:g}, rings {self.rings})"))
-        return {'FINISHED'}
-
-
-def _replace_mesh(obj, V, F):
-    """New mesh datablock with the given triangles for obj (the old one stays for undo)."""
-    mesh = bpy.data.meshes.new(obj.data.name)
-    mesh.vertices.add(len(V))
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(V, dtype=np.float32).ravel())
-    mesh.loops.add(3 * len(F))
-    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(F, dtype=np.int32).ravel())
-    mesh.polygons.add(len(F))
-    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
-    if "loop_total" in bpy.types.MeshPolygon.bl_rna.properties and not \
-            bpy.types.MeshPolygon.bl_rna.properties["loop_total"].is_readonly:
-        mesh.polygons.foreach_set("loop_total", np.full(len(F), 3, dtype=np.int32))
-    mesh.update(calc_edges=True)
-    mesh.validate(verbose=False)
-    for mat in obj.data.materials:
-        mesh.materials.append(mat)
-    old = obj.data
-    obj.data = mesh
-    return old
-
-
-class DGMESH_OT_decimate_features(bpy.types.Operator):
-    bl_idname = "dgmesh.decimate_features"
-    bl_label = "Feature Decimate"
-    bl_description = (
-        "Quadric decimation of the active mesh that keeps density near salient crest lines "
-        "(thesis 4.8); the result is a new triangle mesh (other attributes are not carried over)"
-    )
-    bl_options = {'REGISTER', 'UNDO'}
-
-    ratio: FloatProperty(name="Ratio", description="Fraction of triangles to keep", default=0.1, min=0.001,
-                         max=1.0, subtype='FACTOR')
-    feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
-                                  "quadric decimation, larger keeps more near crest lines", default=6.0,
-                                  min=0.0, soft_max=10.0)
-    rings: IntProperty(name="Rings", default=1, min=1, max=4)
-    threshold: FloatProperty(name="Threshold", description="Crest line strength threshold", default=2.0,
-                             min=0.0, soft_max=100.0)
-
-    @classmethod
-    def poll(cls, context):
-        return _poll_mesh(cls, context)
-
-    def execute(self, context):
-        dg = api()
-        obj = _active_mesh(context)
-        if obj.data.library is not None:
-            self.report({'ERROR'}, f"'{obj.name}': mesh data is linked from a library and cannot be changed")
-            return {'CANCELLED'}
-        try:
-            arrays = bridge.read_object(obj, edges=True)
-            target = max(4, int(round(self.ratio * len(arrays.F))))
-            with _Progress(context) as progress:
-                lines = None
-                if self.feature_weight > 0:
-                    lines = cached_crest_lines(arrays, self.rings).filter(self.threshold)
-                V2, F2 = dg.decimate(arrays.V, arrays.F, target_faces=target, feature_weight=self.feature_weight,
-                                     crest_lines=lines, progress=progress)
-        except dg.MeshError as exc:
-            self.report({'ERROR'}, f"Decimation failed on '{obj.name}': {exc}")
-            return {'CANCELLED'}
-        except dg.Cancelled:
-            self.report({'WARNING'}, "Decimation cancelled; nothing changed")
-            return {'CANCELLED'}
-        with bridge.object_mode(context):
-            _replace_mesh(obj, V2, F2)
-        n_lines = 0 if lines is None else len(lines)
-        self.report({'INFO'}, (f"Decimated '{obj.name}': {len(arrays.F)} -> {len(F2)} triangles "
-                               f"(feature weight {self.feature_weight:g}, {n_lines} crest lines)"))
-        return {'FINISHED'}
-
 
 def _segment_colors(n):
     """n distinct linear RGBA colours (golden-ratio hue steps)."""
@@ -370,13 +315,272 @@ def _segment_colors(n):
     return out
 
 
-class DGMESH_OT_segment(bpy.types.Operator):
+
+class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
+    bl_idname = "dgmesh.crest_lines"
+    bl_label = "Crest Lines"
+    bl_description = (
+        "Detect ridges and valleys (crest lines, thesis ch. 4) of the selected meshes and mark the "
+        "edges that follow them as edge attributes dg_ridge / dg_valley (optionally seams, sharp "
+        "edges and a curve object). Lines are kept when their strength T (length x integrated "
+        "cyclideness, scale independent) reaches the threshold"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    rings: IntProperty(name="Rings", description="Fitting neighbourhood (k-ring): larger ignores finer "
+                       "features and gives smoother lines", default=1, min=1, max=4)
+    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DEFAULT_THRESHOLD,
+                             min=0.0, soft_max=100.0)
+    ridges: BoolProperty(name="Ridges", description="Convex crest lines", default=True)
+    valleys: BoolProperty(name="Valleys", description="Concave crest lines", default=True)
+    mark_seams: BoolProperty(name="Mark Seams", description="Also mark the edges as UV seams", default=False)
+    mark_sharp: BoolProperty(name="Mark Sharp", description="Also mark the edges as sharp", default=False)
+    create_curves: BoolProperty(name="Curve Object", description="Add a curve object '<object> Crest Lines' "
+                                "with the exact polylines (ridges blue, valleys red)", default=False)
+
+    def read(self, obj):
+        return _read(obj)
+
+    def params(self):
+        return {"rings": self.rings, "threshold": self.threshold, "ridges": self.ridges, "valleys": self.valleys}
+
+    @staticmethod
+    def compute(data, p, progress):
+        arrays = data["arrays"]
+        lines = cached_crest_lines(arrays, p["rings"], progress).filter(p["threshold"], p["ridges"], p["valleys"])
+        ridge, valley = crest_edges(lines, arrays)
+        return lines, ridge, valley
+
+    def write(self, context, obj, data, result):
+        dg = api()
+        lines, ridge, valley = result
+        mesh = obj.data
+        if len(mesh.edges) != len(ridge):
+            raise RuntimeError("the mesh changed while it was computed")
+        _write_edge_bool(mesh, ATTR_RIDGE, ridge)
+        _write_edge_bool(mesh, ATTR_VALLEY, valley)
+        if self.mark_seams:
+            _or_edge_flag(mesh, "seam", ridge | valley)
+        if self.mark_sharp:
+            _or_edge_flag(mesh, "sharp", ridge | valley)
+        mesh.update()
+        if self.create_curves and len(lines):
+            _curve_object(context, obj, lines)
+        n_r = int((lines.line_kind == dg.crest.RIDGE).sum())
+        return {"lines": len(lines), "ridges": n_r, "length": lines.total_length,
+                "ridge_edges": int(ridge.sum()), "valley_edges": int(valley.sum())}
+
+    def summary(self, written):
+        tot = {k: sum(w[k] for w in written) for k in written[0]}
+        return (f"Crest lines on {_plural(len(written), 'object')}: {tot['lines']} lines ({tot['ridges']} ridges, "
+                f"{tot['lines'] - tot['ridges']} valleys), total length {tot['length']:.4g}; marked "
+                f"{tot['ridge_edges']} ridge and {tot['valley_edges']} valley edges "
+                f"(threshold T {self.threshold:g}, rings {self.rings})")
+
+
+def _read_for_decimation(obj):
+    """Triangles plus what decimation carries over: UV maps (per corner), material index and
+    smooth flag per polygon."""
+    data = _read(obj)
+    mesh = obj.data
+    n_loops, n_poly = len(mesh.loops), len(mesh.polygons)
+    loop_vertex = np.empty(n_loops, dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", loop_vertex)
+    uvs = []
+    for layer in mesh.uv_layers:
+        uv = np.empty(2 * n_loops, dtype=np.float32)
+        layer.data.foreach_get("uv", uv)
+        uvs.append((layer.name, uv.reshape(-1, 2)))
+    mat = np.empty(n_poly, dtype=np.int32)
+    mesh.polygons.foreach_get("material_index", mat)
+    smooth = np.empty(n_poly, dtype=bool)
+    mesh.polygons.foreach_get("use_smooth", smooth)
+    # Vertices on UV seams (several UVs) or material borders are locked, so seams and borders stay
+    # exact and every decimated face keeps corners of one UV island.
+    nv = len(mesh.vertices)
+    locked = np.zeros(nv, dtype=bool)
+    if n_loops:
+        order = np.argsort(loop_vertex, kind="stable")
+        sv = loop_vertex[order]
+        first = order[np.searchsorted(sv, sv)]  # a loop of the same vertex, per sorted loop
+        for _, uv in uvs:
+            differs = np.abs(uv[order] - uv[first]).max(1) > 1e-6
+            locked[sv[differs]] = True
+        loop_mat = np.repeat(mat, np.diff(np.append(_get(mesh.polygons, "loop_start", np.int32), n_loops)))
+        locked[sv[loop_mat[order] != loop_mat[first]]] = True
+    data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked,
+                uv_active=mesh.uv_layers.active_index,
+                uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))
+    return data
+
+
+def _moved_vertex_uvs(uv, tri_loops, V, F, V2, vertex_map, moved):
+    """UV of each moved output vertex (quadric optimum) by barycentric lookup in the nearest input
+    triangle around the input vertices merged into it. Those are never locked (off UV seams), so
+    their triangles lie in one UV island. Returns (len(V2), 2), valid where ``moved``."""
+    out = np.zeros((len(V2), 2))
+    merged = np.flatnonzero((vertex_map >= 0) & moved[np.maximum(vertex_map, 0)])
+    if merged.size == 0:
+        return out
+    fv = F.ravel()
+    order = np.argsort(fv, kind="stable")
+    start = np.searchsorted(fv[order], np.arange(len(V) + 1))
+    count = start[merged + 1] - start[merged]
+    pos = np.repeat(start[merged], count) + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))
+    face = order[pos] // 3
+    w = np.repeat(vertex_map[merged], count)
+    A, B, C = (V[F[face, k]] for k in range(3))
+    p = V2[w]
+    # Barycentrics of p projected onto the triangle's plane, clamped into the triangle.
+    e0, e1, d = B - A, C - A, p - A
+    d00, d01, d11 = (e0 * e0).sum(1), (e0 * e1).sum(1), (e1 * e1).sum(1)
+    d20, d21 = (d * e0).sum(1), (d * e1).sum(1)
+    den = np.where(np.abs(d00 * d11 - d01 * d01) > 0, d00 * d11 - d01 * d01, 1.0)
+    bv, bw = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
+    bary = np.clip(np.column_stack([1 - bv - bw, bv, bw]), 0.0, None)
+    bary /= np.maximum(bary.sum(1, keepdims=True), 1e-300)
+    q = bary[:, :1] * A + bary[:, 1:2] * B + bary[:, 2:] * C
+    dist = ((p - q) ** 2).sum(1)
+    pick = np.lexsort((dist, w))
+    first = pick[np.r_[0, np.flatnonzero(np.diff(w[pick])) + 1]]
+    out[w[first]] = (bary[first, :, None] * uv[tri_loops[face[first]]]).sum(1)
+    return out
+
+
+def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex, moved_uv=None, moved=None):
+    """UVs for the corners of the decimated triangles ((m2, 3, 2)).
+
+    Output triangle j is input triangle face_map[j] with some corners now at a merged vertex.
+    A corner that kept its vertex keeps its own UV. A corner now at another surviving vertex takes
+    one of that vertex's original corner UVs: the one nearest (in UV space) to the corner's old UV,
+    i.e. the one on the same side of any seam. Vertices that moved (``moved``) take ``moved_uv``.
+    """
+    ref = tri_loops[face_map]  # (m2, 3) input loops of the output corners
+    out = uv[ref].astype(np.float64)
+    src = source_vertex[F2]    # input vertex now at each corner
+    flat = out.reshape(-1, 2)
+    changed = np.flatnonzero((loop_vertex[ref] != src).ravel())
+    if changed.size:
+        order = np.argsort(loop_vertex, kind="stable")
+        start = np.searchsorted(loop_vertex[order], np.arange(int(loop_vertex.max(initial=-1)) + 2))
+        v = src.ravel()[changed]
+        lo, hi = start[v], start[v + 1]
+        count = hi - lo
+        group = np.repeat(np.arange(changed.size), count)
+        cand = order[np.repeat(lo, count) + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))]
+        dist = ((uv[cand] - flat[changed][group]) ** 2).sum(1)
+        pick = np.lexsort((dist, group))
+        first = pick[np.r_[0, np.flatnonzero(np.diff(group[pick])) + 1]] if pick.size else pick
+        flat[changed[group[first]]] = uv[cand[first]]
+    if moved is not None:
+        at_moved = moved[F2].ravel()
+        flat[at_moved] = moved_uv[F2.ravel()[at_moved]]
+    return out
+
+
+def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
+    """Replaces the mesh's geometry in place (same datablock: its name, materials and users stay),
+    with UV maps, material indices and smooth flags carried over."""
+    arrays = data["arrays"]
+    poly = arrays.tri_poly[face_map]
+    moved = np.any(V2 != arrays.V[source_vertex], axis=1)
+    uvs = []
+    for name, uv in data["uvs"]:
+        moved_uv = _moved_vertex_uvs(uv, arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved)
+        uvs.append((name, transfer_corner_uvs(uv, arrays.tri_loops, data["loop_vertex"], F2, face_map,
+                                              source_vertex, moved_uv, moved)))
+    mesh.clear_geometry()
+    mesh.vertices.add(len(V2))
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(V2, dtype=np.float32).ravel())
+    mesh.loops.add(3 * len(F2))
+    mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(F2, dtype=np.int32).ravel())
+    mesh.polygons.add(len(F2))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F2), 3, dtype=np.int32))
+    prop = bpy.types.MeshPolygon.bl_rna.properties.get("loop_total")
+    if prop is not None and not prop.is_readonly:  # 3.x; 4.x derives it from loop_start
+        mesh.polygons.foreach_set("loop_total", np.full(len(F2), 3, dtype=np.int32))
+    mesh.polygons.foreach_set("material_index", data["material_index"][poly])
+    mesh.polygons.foreach_set("use_smooth", data["use_smooth"][poly])
+    mesh.update(calc_edges=True)
+    for name, uv in uvs:
+        layer = mesh.uv_layers.new(name=name, do_init=False)
+        layer.data.foreach_set("uv", np.ascontiguousarray(uv, dtype=np.float32).ravel())
+    if len(mesh.uv_layers):
+        mesh.uv_layers.active_index = min(max(data["uv_active"], 0), len(mesh.uv_layers) - 1)
+        mesh.uv_layers[min(data["uv_render"], len(mesh.uv_layers) - 1)].active_render = True
+    mesh.validate(verbose=False)
+    mesh.update()
+
+
+class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
+    bl_idname = "dgmesh.decimate_features"
+    bl_label = "Feature Decimate"
+    bl_description = (
+        "Quadric decimation of the selected meshes that keeps density near salient crest lines "
+        "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
+        "shading are carried over (vertices on UV seams and material borders are kept in place), "
+        "other attributes (vertex groups, colour attributes, shape keys, custom normals, edge flags) "
+        "are dropped"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    ratio: FloatProperty(name="Ratio", description="Fraction of triangles to keep", default=0.1, min=0.001,
+                         max=1.0, subtype='FACTOR')
+    feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
+                                  "quadric decimation, larger keeps more triangles near crest lines",
+                                  default=6.0, min=0.0, soft_max=10.0)
+    rings: IntProperty(name="Rings", description="Fitting neighbourhood of the crest lines (k-ring)",
+                       default=1, min=1, max=4)
+    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DEFAULT_THRESHOLD,
+                             min=0.0, soft_max=100.0)
+
+    def read(self, obj):
+        return _read_for_decimation(obj)
+
+    def prepare(self, context):
+        # UV layer data cannot be read from a mesh in Edit mode (3.4 has no loop data there): leave
+        # Edit mode for the reads (that writes the edit-mesh to the mesh) and re-enter it.
+        with bridge.object_mode(context):
+            return super().prepare(context)
+
+    def params(self):
+        return {"ratio": self.ratio, "eta": self.feature_weight, "rings": self.rings, "threshold": self.threshold}
+
+    @staticmethod
+    def compute(data, p, progress):
+        dg = api()
+        arrays = data["arrays"]
+        target = max(4, int(round(p["ratio"] * len(arrays.F))))
+        lines = None
+        if p["eta"] > 0:
+            lines = cached_crest_lines(arrays, p["rings"], lambda f: progress(0.3 * f)).filter(p["threshold"])
+        V2, F2, vmap, fmap, src = dg.decimate(arrays.V, arrays.F, target_faces=target, feature_weight=p["eta"],
+                                              crest_lines=lines, return_map=True, return_face_map=True,
+                                              locked=data["locked"],
+                                        progress=lambda f: progress((0.3 if lines is not None else 0.0) + 0.7 * f))
+        return V2, F2, vmap, fmap, src, 0 if lines is None else len(lines)
+
+    def write(self, context, obj, data, result):
+        V2, F2, vmap, fmap, src, n_lines = result
+        _write_decimated(obj.data, data, V2, F2, vmap, fmap, src)
+        return {"before": len(data["arrays"].F), "after": len(F2), "lines": n_lines, "uv": len(data["uvs"]),
+                "locked": int(data["locked"].sum())}
+
+    def summary(self, written):
+        tot = {k: sum(w[k] for w in written) for k in written[0]}
+        return (f"Decimated {_plural(len(written), 'object')}: {tot['before']} -> {tot['after']} triangles "
+                f"(feature weight {self.feature_weight:g}, {tot['lines']} crest lines; "
+                f"{_plural(tot['uv'], 'UV map')} and materials carried over, {tot['locked']} vertices on UV "
+                f"seams / material borders kept; other attributes dropped)")
+
+
+class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
     bl_idname = "dgmesh.segment"
     bl_label = "Segment"
     bl_description = (
-        "Split the active mesh into nearly planar connected segments (variational shape approximation "
-        "guided by crest lines, thesis 4.9): INT face attribute dg_segment, a colour per segment, "
-        "optionally seams on segment borders"
+        "Split the selected meshes into nearly planar connected segments (variational shape "
+        "approximation guided by crest lines, thesis 4.9): INT face attribute dg_segment, a colour "
+        "per segment, optionally seams on segment borders"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
@@ -384,39 +588,39 @@ class DGMESH_OT_segment(bpy.types.Operator):
     feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
                                   "VSA, larger makes borders follow crest lines", default=2.0, min=0.0,
                                   soft_max=10.0)
-    rings: IntProperty(name="Rings", default=1, min=1, max=4)
-    threshold: FloatProperty(name="Threshold", description="Crest line strength threshold", default=2.0,
+    rings: IntProperty(name="Rings", description="Fitting neighbourhood of the crest lines (k-ring)",
+                       default=1, min=1, max=4)
+    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DEFAULT_THRESHOLD,
                              min=0.0, soft_max=100.0)
     mark_seams: BoolProperty(name="Mark Seams", description="Mark segment borders as UV seams", default=False)
 
-    @classmethod
-    def poll(cls, context):
-        return _poll_mesh(cls, context)
-
-    def execute(self, context):
+    def read(self, obj):
         dg = api()
-        obj = _active_mesh(context)
-        if obj.data.library is not None:
-            self.report({'ERROR'}, f"'{obj.name}': mesh data is linked from a library and cannot be changed")
-            return {'CANCELLED'}
+        data = _read(obj)
+        if self.segments > len(obj.data.polygons):
+            raise dg.MeshError(f"cannot make {self.segments} segments from {len(obj.data.polygons)} faces")
+        return data
+
+    def params(self):
+        return {"segments": self.segments, "eta": self.feature_weight, "rings": self.rings,
+                "threshold": self.threshold}
+
+    @staticmethod
+    def compute(data, p, progress):
+        dg = api()
+        arrays = data["arrays"]
+        lines = None
+        if p["eta"] > 0:
+            lines = cached_crest_lines(arrays, p["rings"], lambda f: progress(0.3 * f)).filter(p["threshold"])
+        labels = dg.segment(arrays.V, arrays.F, segments=p["segments"], feature_weight=p["eta"], crest_lines=lines,
+                            progress=lambda f: progress((0.3 if lines is not None else 0.0) + 0.7 * f))
+        return labels, 0 if lines is None else len(lines)
+
+    def write(self, context, obj, data, result):
+        tri_labels, n_lines = result
+        arrays = data["arrays"]
         mesh = obj.data
-        try:
-            arrays = bridge.read_object(obj, edges=True)
-            n_poly = len(mesh.polygons)
-            if self.segments > n_poly:
-                raise dg.MeshError(f"cannot make {self.segments} segments from {n_poly} faces")
-            with _Progress(context) as progress:
-                lines = None
-                if self.feature_weight > 0:
-                    lines = cached_crest_lines(arrays, self.rings).filter(self.threshold)
-                tri_labels = dg.segment(arrays.V, arrays.F, segments=self.segments,
-                                        feature_weight=self.feature_weight, crest_lines=lines, progress=progress)
-        except dg.MeshError as exc:
-            self.report({'ERROR'}, f"Segmentation failed on '{obj.name}': {exc}")
-            return {'CANCELLED'}
-        except dg.Cancelled:
-            self.report({'WARNING'}, "Segmentation cancelled; nothing changed")
-            return {'CANCELLED'}
+        n_poly = len(mesh.polygons)
         # A polygon takes the label of its first triangle.
         labels = np.zeros(n_poly, dtype=np.int32)
         labels[arrays.tri_poly[::-1]] = tri_labels[::-1]
@@ -424,46 +628,47 @@ class DGMESH_OT_segment(bpy.types.Operator):
         loop_poly = np.repeat(np.arange(n_poly), np.diff(np.append(
             _get(mesh.polygons, "loop_start", np.int32), len(mesh.loops))))
         loop_edge = _get(mesh.loops, "edge_index", np.int32)
-        with bridge.object_mode(context):
-            mesh = obj.data
-            attr = mesh.attributes.get(ATTR_SEGMENT)
-            if attr is not None and (attr.data_type != 'INT' or attr.domain != 'FACE'):
-                mesh.attributes.remove(attr)
-                attr = None
-            if attr is None:
-                mesh.attributes.new(ATTR_SEGMENT, 'INT', 'FACE')
-            mesh.attributes[ATTR_SEGMENT].data.foreach_set("value", labels)
-            # Flat colour per face: a face-corner colour attribute.
-            rgba = _segment_colors(max(n_seg, 1))[labels[loop_poly]]
-            cattr = mesh.attributes.get(ATTR_SEGMENT_COLOR)
-            if cattr is not None and (cattr.data_type != 'FLOAT_COLOR' or cattr.domain != 'CORNER'):
-                mesh.attributes.remove(cattr)
-                cattr = None
-            if cattr is None:
-                mesh.color_attributes.new(ATTR_SEGMENT_COLOR, 'FLOAT_COLOR', 'CORNER')
-            mesh.attributes[ATTR_SEGMENT_COLOR].data.foreach_set("color", rgba.ravel())
-            bridge.set_active_color(mesh, ATTR_SEGMENT_COLOR)
-            borders = 0
-            if self.mark_seams:
-                # An edge is a border when its corners belong to faces of different segments.
-                lab = labels[loop_poly]
-                lo = np.full(len(mesh.edges), np.iinfo(np.int32).max)
-                hi = np.full(len(mesh.edges), -1)
-                np.minimum.at(lo, loop_edge, lab)
-                np.maximum.at(hi, loop_edge, lab)
-                border = (hi >= 0) & (lo != hi)
-                borders = int(border.sum())
-                _or_edge_flag(mesh, "seam", border)
-            mesh.update()
+        attr = mesh.attributes.get(ATTR_SEGMENT)
+        if attr is not None and (attr.data_type != 'INT' or attr.domain != 'FACE'):
+            mesh.attributes.remove(attr)
+            attr = None
+        if attr is None:
+            mesh.attributes.new(ATTR_SEGMENT, 'INT', 'FACE')
+        mesh.attributes[ATTR_SEGMENT].data.foreach_set("value", labels)
+        # Flat colour per face: a face-corner colour attribute.
+        rgba = _segment_colors(max(n_seg, 1))[labels[loop_poly]]
+        cattr = mesh.attributes.get(ATTR_SEGMENT_COLOR)
+        if cattr is not None and (cattr.data_type != 'FLOAT_COLOR' or cattr.domain != 'CORNER'):
+            mesh.attributes.remove(cattr)
+            cattr = None
+        if cattr is None:
+            mesh.color_attributes.new(ATTR_SEGMENT_COLOR, 'FLOAT_COLOR', 'CORNER')
+        mesh.attributes[ATTR_SEGMENT_COLOR].data.foreach_set("color", rgba.ravel())
+        bridge.set_active_color(mesh, ATTR_SEGMENT_COLOR)
+        borders = 0
+        if self.mark_seams:
+            # An edge is a border when its corners belong to faces of different segments.
+            lab = labels[loop_poly]
+            lo = np.full(len(mesh.edges), np.iinfo(np.int32).max)
+            hi = np.full(len(mesh.edges), -1)
+            np.minimum.at(lo, loop_edge, lab)
+            np.maximum.at(hi, loop_edge, lab)
+            border = (hi >= 0) & (lo != hi)
+            borders = int(border.sum())
+            _or_edge_flag(mesh, "seam", border)
+        mesh.update()
         space = context.space_data
         if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':
             space.shading.color_type = 'VERTEX'
-        text = (f"Segmented '{obj.name}' into {n_seg} segments (feature weight {self.feature_weight:g}"
-                f"{'' if lines is None else f', {len(lines)} crest lines'})")
+        return {"segments": n_seg, "lines": n_lines, "borders": borders}
+
+    def summary(self, written):
+        tot = {k: sum(w[k] for w in written) for k in written[0]}
+        text = (f"Segmented {_plural(len(written), 'object')} into {tot['segments']} segments "
+                f"(feature weight {self.feature_weight:g}, {tot['lines']} crest lines)")
         if self.mark_seams:
-            text += f"; {borders} border edges marked as seams"
-        self.report({'INFO'}, text)
-        return {'FINISHED'}
+            text += f"; {tot['borders']} border edges marked as seams"
+        return text
 
 
 def _get(collection, key, dtype):

@@ -89,9 +89,19 @@ def _rig(obj):
     return rig
 
 
+_buffers = {}  # bind id -> (float64 (n, 3), float32 (n*3,)) reused by every live update
+
+
 def _deformed(obj, pose):
     info = obj[PROP]
-    return _rig(obj).deform(pose, fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower())
+    rig = _rig(obj)
+    buf = _buffers.get(info["id"])
+    if buf is None or buf[0].shape[0] != rig.n_vertices:
+        buf = (np.empty((rig.n_vertices, 3)), np.empty(3 * rig.n_vertices, dtype=np.float32))
+        _buffers[info["id"]] = buf
+    rig.deform(pose, fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(), out=buf[0])
+    np.copyto(buf[1], buf[0].ravel())
+    return buf
 
 
 def update_object(obj, force=False):
@@ -107,11 +117,11 @@ def update_object(obj, force=False):
     sig = pose.tobytes()
     if not force and _last_pose.get(info["id"]) == sig:
         return False
-    V = _deformed(obj, pose)
     kb = obj.data.shape_keys.key_blocks.get(KEY) if obj.data.shape_keys else None
     if kb is None:
         return False
-    kb.data.foreach_set("co", V.astype(np.float32).ravel())
+    _, co = _deformed(obj, pose)
+    kb.data.foreach_set("co", co)
     obj.data.update()
     _last_pose[info["id"]] = sig
     return True
@@ -138,6 +148,7 @@ def _on_update(scene, depsgraph=None):
 def _on_load(*_args):
     _rigs.clear()
     _last_pose.clear()
+    _buffers.clear()
 
 
 def _add_handlers():
@@ -288,6 +299,7 @@ def unbind(obj):
     info = obj[PROP]
     _rigs.pop(info["id"], None)
     _last_pose.pop(info["id"], None)
+    _buffers.pop(info["id"], None)
     keys = obj.data.shape_keys
     if keys and KEY in keys.key_blocks:
         obj.shape_key_remove(keys.key_blocks[KEY])
@@ -383,7 +395,7 @@ Cache modifier (renders and exports then need no add-on)"""
         try:
             for fr in range(self.frame_start, self.frame_end + 1):
                 scene.frame_set(fr)
-                frames.append(_deformed(obj, _pose_matrices(obj, arm, list(info["bones"]))))
+                frames.append(_deformed(obj, _pose_matrices(obj, arm, list(info["bones"])))[0].copy())
         finally:
             scene.frame_set(current)
         try:

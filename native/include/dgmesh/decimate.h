@@ -24,12 +24,18 @@ struct DecimateOptions {
   // false: boundary edges may collapse along the boundary, held by perpendicular constraint planes.
   bool preserve_boundary = true;
   double boundary_weight = 100.0;  // constraint-plane weight (relative) when not preserving
+  // Per input vertex (empty: none): locked vertices never move and are never removed, e.g. the
+  // vertices on UV seams or material borders, so those stay exact and attributes stay consistent.
+  std::vector<char> locked;
   // A collapse is rejected if a face normal turns by more than this angle (radians; < pi/2 also
   // rules out flips) ...
   double max_normal_angle = 1.3;
   // ... or if it makes a triangle whose quality 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) (1 for
   // equilateral) is below min_quality and below the quality of the face before the collapse.
   double min_quality = 0.0;
+  // true: multiple-choice passes (cost every edge in parallel, take the cheapest independent ones
+  // in order); false: one global priority queue, the exact greedy order of GH97. Same guards.
+  bool batched = true;
 };
 
 struct DecimateResult {
@@ -38,6 +44,9 @@ struct DecimateResult {
   // For each input vertex, the output vertex it was merged into (itself if it survived); -1 for
   // loose input vertices (they are dropped).
   std::vector<int> vertex_map;
+  // For each output face, the input face it is (with some corners moved to merged vertices); for
+  // each output vertex, the input vertex that survived as it. Attributes (UVs, materials) follow.
+  std::vector<int> face_map, source_vertex;
   int collapses = 0;
 };
 

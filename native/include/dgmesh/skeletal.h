@@ -89,6 +89,11 @@ struct SkeletalDeformOptions {
   SkeletalMethod method = SkeletalMethod::Variational;
   int fairing_steps = 2;     // steps of eq. 6.15 (variational) or of eq. 6.6 (basic)
   double fairing_step = 1.5; // epsilon of eq. 6.15 (over-relaxed: L0^-1 damps the update)
+  // After the fairing steps (variational, fairing_steps > 0): one explicit step u <- u - w f grad f
+  // of the flow eq. 6.14 without the L0^-1 smoothing, which moves each vertex by w times its offset
+  // from its rest distance to the union of balls (w = 1: onto it). The semi-implicit steps spread a
+  // local thickness loss (a sharp twist) over the whole shape and converge slowly there; 0 = off.
+  double projection = 1.0;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
 };
@@ -120,6 +125,8 @@ class SkeletalRig {
 
   // Deformed dense positions for the given pose matrices (B of them, same space as the rest ones).
   MatX3d deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt = {}) const;
+  // The same into a caller-owned (n_vertices x 3) array (the live update reuses one buffer).
+  void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3d> out) const;
   // The same on the control mesh only, also returning the deformed skeletal vertices.
   MatX3d deform_control(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt,
                         MatX3d* skeleton_pose = nullptr) const;
