@@ -37,8 +37,8 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
+from .common import plural as _plural, poll_fail as _poll_fail, target_objects
 from .jobs import NativeJobOperator
-from .ops_curvature import target_objects
 from .prefs import api
 
 ATTR_RIDGE = "dg_ridge"
@@ -55,16 +55,6 @@ THRESHOLD_HELP = ("Keep crest lines whose strength T is at least this. T = line 
 
 _CACHE = {}  # (mesh key, rings) -> unfiltered CrestLines; a few entries only
 _CACHE_SIZE = 4
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):
-        cls.poll_message_set(message)
-    return False
-
-
-def _plural(n, word):
-    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 class _PerObjectJob(NativeJobOperator):
@@ -304,7 +294,6 @@ def _curve_object(context, obj, lines):
     return cobj
 
 
-
 def _segment_colors(n):
     """n distinct linear RGBA colours (golden-ratio hue steps)."""
     hues = (np.arange(n) * 0.618033988749895) % 1.0
@@ -313,7 +302,6 @@ def _segment_colors(n):
     out = np.ones((n, 4), dtype=np.float32)
     out[:, :3] = colors.srgb_to_linear(rgb)
     return out
-
 
 
 class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):

@@ -17,39 +17,12 @@ from bpy.props import EnumProperty, FloatProperty
 
 from .. import colors
 from . import bridge
+from .common import plural as _plural, poll_fail as _poll_fail, target_objects
 from .prefs import api
 
 ATTR_MEAN = "dg_mean_curvature"
 ATTR_GAUSSIAN = "dg_gaussian_curvature"
 ATTR_COLOR = "dg_curvature_color"
-
-
-def target_objects(context):
-    """Mesh objects to process: the edited ones in Edit mode, the selected
-    ones in Object mode; one object per mesh datablock (linked duplicates
-    share their data)."""
-    if context.mode == 'EDIT_MESH':
-        objects = context.objects_in_mode_unique_data
-    elif context.mode == 'OBJECT':
-        objects = [o for o in context.selected_objects if o.type == 'MESH']
-    else:
-        return []
-    seen, unique = set(), []
-    for obj in objects:
-        if obj.data.as_pointer() not in seen:
-            seen.add(obj.data.as_pointer())
-            unique.append(obj)
-    return unique
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):  # Blender 3.0+
-        cls.poll_message_set(message)
-    return False
-
-
-def _plural(n, word):
-    return f"{n} {word}{'' if n == 1 else 's'}"
 
 
 class DGMESH_OT_curvature_map(bpy.types.Operator):

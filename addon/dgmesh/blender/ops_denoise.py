@@ -23,6 +23,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
+from .common import plural as _plural, poll_fail as _poll_fail, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -40,32 +41,6 @@ METHOD_ITEMS = (
     ('SIMILARITY', "Similarity", "Non-local means with RBF patches (thesis ch. 2): best at keeping features"),
     ('BILATERAL', "Bilateral", "Bilateral mesh denoising (Fleishman et al. 2003): faster, rounds sharp edges"),
 )
-
-
-def _plural(n, word):
-    return f"{n} {word}{'' if n == 1 else 's'}"
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):  # Blender 3.0+
-        cls.poll_message_set(message)
-    return False
-
-
-def target_objects(context):
-    """Edited objects in Edit mode, selected mesh objects in Object mode; one per mesh datablock."""
-    if context.mode == 'EDIT_MESH':
-        objects = context.objects_in_mode_unique_data
-    elif context.mode == 'OBJECT':
-        objects = [o for o in context.selected_objects if o.type == 'MESH']
-    else:
-        return []
-    seen, unique = set(), []
-    for obj in objects:
-        if obj.data.as_pointer() not in seen:
-            seen.add(obj.data.as_pointer())
-            unique.append(obj)
-    return unique
 
 
 def _vertex_flags(mesh, key):

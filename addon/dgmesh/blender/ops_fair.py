@@ -23,6 +23,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from . import bridge
+from .common import poll_fail as _poll_fail, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -40,27 +41,6 @@ BOUNDARIES = (
     ('FIXED', "Fixed", "Open mesh boundaries do not move"),
     ('SLIDING', "Sliding", "Open mesh boundary vertices slide along the boundary"),
 )
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):
-        cls.poll_message_set(message)
-    return False
-
-
-def target_objects(context):
-    if context.mode == 'EDIT_MESH':
-        objects = context.objects_in_mode_unique_data
-    elif context.mode == 'OBJECT':
-        objects = [o for o in context.selected_objects if o.type == 'MESH']
-    else:
-        return []
-    seen, out = set(), []
-    for o in objects:
-        if o.data.as_pointer() not in seen:
-            seen.add(o.data.as_pointer())
-            out.append(o)
-    return out
 
 
 def _flags(collection, key="select"):

@@ -17,18 +17,13 @@ from bpy.props import FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
+from .common import poll_fail as _poll_fail
 from .prefs import api
 
 ATTR_DISP = "dg_multires_displacement"
 ATTR_MAG = "dg_multires_magnitude"
 ATTR_COLOR = "dg_multires_color"
 CONTROL_KEY = "dgmesh_multires_control_of"  # custom property on the control object
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):
-        cls.poll_message_set(message)
-    return False
 
 
 class _Progress:

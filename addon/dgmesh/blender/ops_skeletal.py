@@ -26,6 +26,7 @@ from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
 from . import bridge
+from .common import poll_fail as _poll_fail
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key name
@@ -37,12 +38,6 @@ METHODS = (
 _rigs = {}          # bind id -> SkeletalRig (rebuilt from the stored data after a reload)
 _last_pose = {}     # bind id -> bytes of the last pose matrices
 _updating = False   # re-entrancy guard: writing the shape key triggers another depsgraph update
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):
-        cls.poll_message_set(message)
-    return False
 
 
 def _armature_of(context, mesh_obj):

@@ -23,17 +23,12 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
+from .common import poll_fail as _poll_fail
 from .jobs import NativeJobOperator
 from .prefs import api
 
 ATTR_STRETCH = "dg_uv_stretch"
 ATTR_STRETCH_COLOR = "dg_uv_stretch_color"
-
-
-def _poll_fail(cls, message):
-    if hasattr(cls, "poll_message_set"):
-        cls.poll_message_set(message)
-    return False
 
 
 def _mesh_objects(context):

@@ -1,0 +1,29 @@
+"""Small helpers every operator shares: which objects to act on, poll messages, report wording."""
+
+
+def target_objects(context):
+    """Mesh objects an operator acts on: the edited ones in Edit mode, the selected ones in Object
+    mode; one object per mesh datablock (linked duplicates share their data)."""
+    if context.mode == 'EDIT_MESH':
+        objects = context.objects_in_mode_unique_data
+    elif context.mode == 'OBJECT':
+        objects = [o for o in context.selected_objects if o.type == 'MESH']
+    else:
+        return []
+    seen, unique = set(), []
+    for obj in objects:
+        if obj.data.as_pointer() not in seen:
+            seen.add(obj.data.as_pointer())
+            unique.append(obj)
+    return unique
+
+
+def poll_fail(cls, message):
+    """Fails a poll with a reason the UI shows in the tooltip (Blender 3.0+)."""
+    if hasattr(cls, "poll_message_set"):
+        cls.poll_message_set(message)
+    return False
+
+
+def plural(n, word):
+    return f"{n} {word}{'' if n == 1 else 's'}"
