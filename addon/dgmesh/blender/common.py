@@ -27,3 +27,12 @@ def poll_fail(cls, message):
 
 def plural(n, word):
     return f"{n} {word}{'' if n == 1 else 's'}"
+
+
+def poll_mesh_targets(cls, context, targets=target_objects):
+    """The poll of operators that act on mesh objects in Object or mesh Edit mode."""
+    if context.mode not in {'OBJECT', 'EDIT_MESH'}:
+        return poll_fail(cls, "Only available in Object mode and mesh Edit mode")
+    if not targets(context):
+        return poll_fail(cls, "Select one or more mesh objects")
+    return True

@@ -37,7 +37,7 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_fail as _poll_fail, target_objects
+from .common import plural as _plural, poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -63,11 +63,7 @@ class _PerObjectJob(NativeJobOperator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        if not target_objects(context):
-            return _poll_fail(cls, "Select one or more mesh objects")
-        return True
+        return poll_mesh_targets(cls, context)
 
     # Subclasses: read(obj) -> data (main thread); compute(data, params, progress) -> result
     # (worker thread: numpy and dgmesh only); write(context, obj, data, result) -> summary dict.

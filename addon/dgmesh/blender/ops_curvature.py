@@ -17,7 +17,7 @@ from bpy.props import EnumProperty, FloatProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_fail as _poll_fail, target_objects
+from .common import plural as _plural, poll_mesh_targets, target_objects
 from .prefs import api
 
 ATTR_MEAN = "dg_mean_curvature"
@@ -58,11 +58,7 @@ class DGMESH_OT_curvature_map(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        if not target_objects(context):
-            return _poll_fail(cls, "Select one or more mesh objects")
-        return True
+        return poll_mesh_targets(cls, context)
 
     def execute(self, context):
         dg = api()

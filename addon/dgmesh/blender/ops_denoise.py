@@ -23,7 +23,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_fail as _poll_fail, target_objects
+from .common import plural as _plural, poll_fail as _poll_fail, poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -149,11 +149,7 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        if not target_objects(context):
-            return _poll_fail(cls, "Select one or more mesh objects")
-        return True
+        return poll_mesh_targets(cls, context)
 
     def draw(self, context):
         layout = self.layout

@@ -23,7 +23,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from . import bridge
-from .common import poll_fail as _poll_fail, target_objects
+from .common import poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -88,11 +88,7 @@ def _read_target(obj, edit_mode, keep_border):
 class _FairBase(NativeJobOperator):
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        if not target_objects(context):
-            return _poll_fail(cls, "Select one or more mesh objects")
-        return True
+        return poll_mesh_targets(cls, context)
 
     def _collect(self, context):
         edit = context.mode == 'EDIT_MESH'

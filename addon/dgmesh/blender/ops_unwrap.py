@@ -23,27 +23,12 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import poll_fail as _poll_fail
+from .common import poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
 ATTR_STRETCH = "dg_uv_stretch"
 ATTR_STRETCH_COLOR = "dg_uv_stretch_color"
-
-
-def _mesh_objects(context):
-    if context.mode == 'EDIT_MESH':
-        objs = list(context.objects_in_mode_unique_data)
-    elif context.mode == 'OBJECT':
-        objs = [o for o in context.selected_objects if o.type == 'MESH']
-    else:
-        return []
-    seen, out = set(), []
-    for o in objs:
-        if o.data.as_pointer() not in seen:
-            seen.add(o.data.as_pointer())
-            out.append(o)
-    return out
 
 
 def _read_polys(mesh):
@@ -148,11 +133,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        if not _mesh_objects(context):
-            return _poll_fail(cls, "Select one or more mesh objects")
-        return True
+        return poll_mesh_targets(cls, context)
 
     # --- main thread: read --------------------------------------------------------------------
     def prepare(self, context):
@@ -161,7 +142,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         items = []
         # Edit mode keeps the real data in the edit-mesh: read the synced datablocks.
         with bridge.object_mode(context):
-            for obj in _mesh_objects(context):
+            for obj in target_objects(context):
                 if obj.data.library is not None:
                     self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': mesh data is linked from a library")
                     return None
@@ -405,16 +386,12 @@ class DGMESH_OT_stretch_map(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        if not _mesh_objects(context):
-            return _poll_fail(cls, "Select one or more mesh objects")
-        return True
+        return poll_mesh_targets(cls, context)
 
     def execute(self, context):
         dg = api()
         done = []
-        for obj in _mesh_objects(context):
+        for obj in target_objects(context):
             mesh = obj.data
             if mesh.uv_layers.active is None:
                 self.report({'ERROR'}, f"'{obj.name}' has no UV map")
