@@ -5,32 +5,7 @@ import numpy as np
 import pytest
 
 import helpers
-
-
-def rounded_cube_quads(n=16, r=0.3):
-    """Rounded cube as a quad mesh (so the triangulation has diagonals that are not real edges)."""
-    verts, quads, index = [], [], {}
-
-    def vid(c):
-        if c not in index:
-            index[c] = len(verts)
-            verts.append([2.0 * x / n - 1 for x in c])
-        return index[c]
-
-    for axis in range(3):
-        for side in (0, 1):
-            for a in range(n):
-                for b in range(n):
-                    def p(da, db):
-                        c = [0, 0, 0]
-                        c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3] = side * n, a + da, b + db
-                        return vid(tuple(c))
-                    q = (p(0, 0), p(1, 0), p(1, 1), p(0, 1))
-                    quads.append(q if side else q[::-1])
-    V = np.array(verts)
-    c = np.clip(V, -(1 - r), 1 - r)
-    V = c + r * (V - c) / np.linalg.norm(V - c, axis=1)[:, None]
-    return V, quads
+from dgmesh import shapes
 
 
 def make_object(name, V, faces):
@@ -49,7 +24,7 @@ def make_object(name, V, faces):
 @pytest.fixture
 def cube():
     bpy.ops.wm.read_homefile(use_empty=True)
-    V, quads = rounded_cube_quads()
+    V, quads = shapes.rounded_cube(16, quads=True)
     return make_object("RoundedCube", V, quads)
 
 
@@ -131,7 +106,7 @@ def test_decimate_features(cube):
 
 def test_operators_work_on_every_selected_object():
     bpy.ops.wm.read_homefile(use_empty=True)
-    V, quads = rounded_cube_quads(n=10)
+    V, quads = shapes.rounded_cube(10, quads=True)
     a = make_object("CubeA", V, quads)
     b = make_object("CubeB", V * 2.0, quads)
     a.select_set(True)  # make_object selected only b
@@ -147,7 +122,7 @@ def test_operators_work_on_every_selected_object():
 
 def test_one_bad_object_does_not_block_the_others():
     bpy.ops.wm.read_homefile(use_empty=True)
-    V, quads = rounded_cube_quads(n=8)
+    V, quads = shapes.rounded_cube(8, quads=True)
     good = make_object("Good", V, quads)
     bad = make_object("Fan", [(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1)],
                       [(0, 1, 2), (1, 0, 3), (0, 1, 4)])
@@ -162,7 +137,7 @@ def test_one_bad_object_does_not_block_the_others():
 
 def _uv_cube_with_materials():
     bpy.ops.wm.read_homefile(use_empty=True)
-    V, quads = rounded_cube_quads(n=16)
+    V, quads = shapes.rounded_cube(16, quads=True)
     obj = make_object("UVCube", V, quads)
     mesh = obj.data
     # UV = (x, y) of each corner's vertex on the top half, (x, y) + 3 on the bottom half: a seam

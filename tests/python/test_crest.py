@@ -5,37 +5,13 @@ import pytest
 
 import dgmesh
 from dgmesh import _native
+from dgmesh import shapes
 from dgmesh.crest import RIDGE, VALLEY, snap_to_vertices
-
-
-def rounded_cube(n=20, r=0.3):
-    verts, tris, index = [], [], {}
-
-    def vid(c):
-        if c not in index:
-            index[c] = len(verts)
-            verts.append([2.0 * x / n - 1 for x in c])
-        return index[c]
-
-    for axis in range(3):
-        for side in (0, 1):
-            for a in range(n):
-                for b in range(n):
-                    def p(da, db):
-                        c = [0, 0, 0]
-                        c[axis], c[(axis + 1) % 3], c[(axis + 2) % 3] = side * n, a + da, b + db
-                        return vid(tuple(c))
-                    v00, v10, v11, v01 = p(0, 0), p(1, 0), p(1, 1), p(0, 1)
-                    tris += [(v00, v10, v11), (v00, v11, v01)] if side else [(v00, v11, v10), (v00, v01, v11)]
-    V = np.array(verts)
-    c = np.clip(V, -(1 - r), 1 - r)
-    V = c + r * (V - c) / np.linalg.norm(V - c, axis=1)[:, None]
-    return V, np.array(tris, dtype=np.int32)
 
 
 @pytest.fixture(scope="module")
 def cube():
-    return rounded_cube()
+    return shapes.rounded_cube()
 
 
 def test_rounded_cube_ridges(cube):
