@@ -78,13 +78,17 @@ void bind_denoise(pb::module_& m) {
       pb::arg("iterations"), pb::arg("mask") = pb::none(), pb::arg("progress") = pb::none(),
       pb::arg("reestimate_normals") = true, pb::arg("max_patch") = 0, pb::arg("max_window") = 0);
 
+  const auto similarity_options = [](double eta1, double eta3, bool shape_only) {
+    SimilarityOptions o;
+    o.eta1 = eta1;
+    o.eta3 = eta3;
+    o.shape_only = shape_only;
+    return o;
+  };
   m.def(
       "similarity_mesh",
-      [](InV V, InF F, int vertex, double eta1, double eta3, bool shape_only) {
-        SimilarityOptions o;
-        o.eta1 = eta1;
-        o.eta3 = eta3;
-        o.shape_only = shape_only;
+      [similarity_options](InV V, InF F, int vertex, double eta1, double eta3, bool shape_only) {
+        const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
         pb::gil_scoped_release nogil;
         return similarity(V, F, vertex, o);
       },
@@ -93,11 +97,8 @@ void bind_denoise(pb::module_& m) {
 
   m.def(
       "similarity_points",
-      [](InV V, InV N, int vertex, double eta1, double eta3, bool shape_only) {
-        SimilarityOptions o;
-        o.eta1 = eta1;
-        o.eta3 = eta3;
-        o.shape_only = shape_only;
+      [similarity_options](InV V, InV N, int vertex, double eta1, double eta3, bool shape_only) {
+        const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
         pb::gil_scoped_release nogil;
         return similarity_points(V, N, vertex, o);
       },
