@@ -289,6 +289,124 @@ def skeletal(demo):
     demo.note(f"skeletal: {len(V)}-vertex capsule bent 90 and twisted 180 (left: ours, right: Armature modifier LBS)")
 
 
+def _crest_copies(demo, names):
+    """Copies of the demo model (own mesh data) for side-by-side renders; the model is hidden."""
+    main = demo.obj
+    copies = []
+    for name in names:
+        obj = main.copy()
+        obj.data = main.data.copy()
+        obj.name = obj.data.name = f"{main.name} {name}"
+        for coll in main.users_collection:
+            coll.objects.link(obj)
+        copies.append(obj)
+    return copies
+
+
+def _select_only(obj):
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+
+
+def _render_pair(demo, pair, filename):
+    """The two objects side by side along the camera's right axis (the view widened to fit)."""
+    main = demo.obj
+    scene = bpy.context.scene
+    cam = scene.camera
+    right = cam.matrix_world.to_3x3().col[0].normalized()
+    width = max(main.dimensions)
+    lens = cam.data.lens
+    main.hide_render = True
+    pair[0].location = main.location - right * (0.55 * width)
+    pair[1].location = main.location + right * (0.55 * width)
+    cam.data.lens = lens * 0.5
+    scene.render.filepath = str(demo.outdir / filename)
+    with demo.timed(f"render {filename}"):
+        bpy.ops.render.render(write_still=True)
+    cam.data.lens = lens
+    main.hide_render = False
+    for o in pair:
+        o.hide_render = True
+
+
+def _near_crest_fraction(obj, points, radius):
+    """Fraction of the object's vertices within `radius` of a crest-line point."""
+    co = np.empty(3 * len(obj.data.vertices), dtype=np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    P = co.reshape(-1, 3).astype(np.float64)
+    near = np.zeros(len(P), bool)
+    for i in range(0, len(P), 2048):
+        d2 = ((P[i:i + 2048, None, :] - points[None, :, :]) ** 2).sum(2)
+        near[i:i + 2048] = d2.min(1) <= radius * radius
+    return float(near.mean())
+
+
+@step
+def decimate(demo):
+    """Feature-sensitive decimation (thesis 4.8, fig. 4.19): the model decimated by 90% with plain
+    quadrics (eta = 0, left) and weighted by the distance to crest lines (eta = 6, right), as
+    wireframes on grey."""
+    plain, weighted = _crest_copies(demo, ("QEM", "Feature QEM"))
+    n = sum(len(p.vertices) - 2 for p in demo.obj.data.polygons)
+    grey = bpy.data.materials.get("DG Grey") or bpy.data.materials.new("DG Grey")
+    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
+    grey.use_nodes = True
+    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.75, 0.75, 0.72, 1.0)
+    dark = bpy.data.materials.get("DG Wire") or bpy.data.materials.new("DG Wire")
+    dark.diffuse_color = (0.05, 0.05, 0.08, 1.0)
+    dark.use_nodes = True
+    dark.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.05, 0.05, 0.08, 1.0)
+    from dgmesh.blender import bridge
+    arrays = bridge.read_object(demo.obj)
+    diag = float(np.linalg.norm(arrays.V.max(0) - arrays.V.min(0)))
+    lines = dgmesh.crest_lines(arrays.V, arrays.F, rings=1, threshold=10.0)
+    fractions = []
+    for obj, eta in ((plain, 0.0), (weighted, 6.0)):
+        _select_only(obj)
+        with demo.timed(f"decimate_features eta {eta:g}"):
+            result = bpy.ops.dgmesh.decimate_features(ratio=0.1, feature_weight=eta, rings=1, threshold=10.0)
+        assert result == {'FINISHED'}, result
+        obj.data.materials.clear()
+        obj.data.materials.append(grey)
+        obj.data.materials.append(dark)
+        wire = obj.modifiers.new("DG Wire", 'WIREFRAME')
+        wire.thickness = 0.0008 * diag
+        wire.use_replace = False
+        wire.material_offset = 1
+        fractions.append(_near_crest_fraction(obj, lines.points, 0.01 * diag))
+    _render_pair(demo, (plain, weighted), "decimate_eta0_eta6.png")
+    demo.note(f"decimate 90%: {n} -> {len(plain.data.polygons)} / {len(weighted.data.polygons)} triangles "
+              f"(eta 0 / 6, {len(lines)} crest lines T >= 10); vertices within 1% of the diagonal from a "
+              f"crest line: {100 * fractions[0]:.0f}% / {100 * fractions[1]:.0f}%")
+    _select_only(demo.obj)
+
+
+@step
+def segment(demo):
+    """Feature-guided segmentation (thesis 4.9, fig. 4.26): 25 segments by VSA (eta = 0, left) and
+    guided by crest lines (eta = 2, right), a colour per segment, borders marked as seams."""
+    plain, guided = _crest_copies(demo, ("VSA", "Feature VSA"))
+    borders = []
+    for obj, eta in ((plain, 0.0), (guided, 2.0)):
+        _select_only(obj)
+        with demo.timed(f"segment eta {eta:g}"):
+            result = bpy.ops.dgmesh.segment(segments=25, feature_weight=eta, rings=1, threshold=10.0,
+                                            mark_seams=True)
+        assert result == {'FINISHED'}, result
+        labels = np.empty(len(obj.data.polygons), dtype=np.int32)
+        obj.data.attributes["dg_segment"].data.foreach_get("value", labels)
+        seams = np.empty(len(obj.data.edges), dtype=bool)
+        obj.data.edges.foreach_get("use_seam", seams)
+        borders.append((int(labels.max()) + 1, int(seams.sum())))
+        obj.data.materials.clear()
+        _show_color_attribute(obj, "dg_segment_color")
+    _render_pair(demo, (plain, guided), "segment_eta0_eta2.png")
+    demo.note(f"segment: {borders[0][0]} / {borders[1][0]} segments (eta 0 / 2), "
+              f"{borders[0][1]} / {borders[1][1]} seam edges on their borders")
+    _select_only(demo.obj)
+
+
 @step
 def save(demo):
     path = demo.outdir / "demo.blend"

@@ -130,18 +130,24 @@ def _check_rings(rings):
     return rings
 
 
-def curvature_derivatives(V, F, *, rings=1, smooth=True, use_normals=True, progress=None):
+def curvature_derivatives(V, F, *, rings=1, smooth=True, use_normals=True, fit_tangent_plane=True,
+                          transport_to_vertex=True, progress=None):
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
     A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
     the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
     normals of its ``rings``-ring, without neighbours whose normal makes an obtuse angle with the
-    vertex normal. Returns a dict of per-vertex arrays: ``k_max``, ``k_min`` (positive on a sphere
-    with outward faces), unit directions ``t_max``, ``t_min`` (n, 3), extremality coefficients
-    ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8; their sign follows the direction), ``normals``.
+    vertex normal. Two refinements over eq. 4.7 as printed (both on by default; off reproduces the
+    thesis's fit): ``fit_tangent_plane`` adds linear terms and treats the Max normal of p' as one
+    more normal equation rather than as exact, and ``transport_to_vertex`` evaluates the fitted
+    surface at the foot of the original vertex p instead of at p'. Returns a dict of per-vertex
+    arrays: ``k_max``, ``k_min`` (positive on a sphere with outward faces), unit directions
+    ``t_max``, ``t_min`` (n, 3), extremality coefficients ``e_max`` = dk_max/dt_max and ``e_min``
+    (eq. 4.8-4.9; their sign follows the direction), ``normals`` of the fitted surface.
     """
     return _native.curvature_derivatives(as_vertices(V), as_faces(F), _check_rings(rings), bool(smooth),
-                                         bool(use_normals), progress)
+                                         bool(use_normals), bool(fit_tangent_plane), bool(transport_to_vertex),
+                                         progress)
 
 
 def crest_lines(V, F, *, rings=1, threshold=0.0, ridges=True, valleys=True, smooth=True, join_gaps=True,
@@ -184,16 +190,24 @@ def feature_function(distance, eta, eps=0.1):
     return (d / dmax + eps) ** eta
 
 
-def _feature_field(V, F, feature_weight, lines, rings, threshold):
-    if feature_weight == 0.0:
-        return None, lines
+def _crest_arrays(V, lines):
+    """(segments, segment_face, point_edge) of given crest lines for the native feature-guided
+    calls, which validate the mesh once and build F(d) on it (no second validation)."""
     if lines is None:
-        lines = crest_lines(V, F, rings=rings, threshold=threshold)
-    elif not isinstance(lines, CrestLines):
+        return None
+    if not isinstance(lines, CrestLines):
         raise MeshError("crest_lines must be a CrestLines result of dgmesh.crest_lines")
-    elif len(lines.point_edge) and int(lines.point_edge.max()) >= len(V):
+    if len(lines.point_edge) and int(lines.point_edge.max()) >= len(V):
         raise MeshError("crest_lines were computed on another mesh")
-    return feature_function(crest_face_distance(V, F, lines), feature_weight), lines
+    return (np.ascontiguousarray(lines.segments, np.int32), np.ascontiguousarray(lines.segment_face, np.int32),
+            np.ascontiguousarray(lines.point_edge, np.int32))
+
+
+def _check_feature_weight(feature_weight):
+    feature_weight = float(feature_weight)
+    if feature_weight < 0 or not np.isfinite(feature_weight):
+        raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
+    return feature_weight
 
 
 def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0,
@@ -220,19 +234,17 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
     target_faces = int(target_faces)
     if target_faces < 0:
         raise MeshError(f"target_faces must be non-negative, got {target_faces}")
-    feature_weight = float(feature_weight)
-    if feature_weight < 0 or not np.isfinite(feature_weight):
-        raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
-    Fd, _ = _feature_field(V, F, feature_weight, crest_lines, rings, threshold) if feature_weight else (None, None)
-    weights = None if Fd is None else np.ascontiguousarray(1.0 / Fd)
+    feature_weight = _check_feature_weight(feature_weight)
+    crest = _crest_arrays(V, crest_lines) if feature_weight else None
     if locked is not None:
         locked = np.asarray(locked, dtype=bool).ravel()
         if locked.shape != (len(V),):
             raise MeshError(f"locked must have one value per vertex ({len(V)}), got {locked.shape[0]}")
         locked = locked.astype(np.int32)
-    V2, F2, vmap, fmap, src = _native.decimate(V, F, target_faces, weights, bool(preserve_boundary),
+    V2, F2, vmap, fmap, src = _native.decimate(V, F, target_faces, None, bool(preserve_boundary),
                                                float(min_quality), float(max_normal_angle), float("inf"), progress,
-                                               locked, not bool(greedy))
+                                               locked, not bool(greedy), feature_weight, _check_rings(rings),
+                                               float(threshold), crest)
     out = (V2, F2) + ((vmap,) if return_map else ()) + ((fmap, src) if return_face_map else ())
     return out
 
@@ -251,11 +263,10 @@ def segment(V, F, *, segments, feature_weight=0.0, crest_lines=None, rings=1, th
     segments = int(segments)
     if segments < 1:
         raise MeshError(f"segments must be at least 1, got {segments}")
-    feature_weight = float(feature_weight)
-    if feature_weight < 0 or not np.isfinite(feature_weight):
-        raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
-    Fd, _ = _feature_field(V, F, feature_weight, crest_lines, rings, threshold) if feature_weight else (None, None)
-    out = _native.segment(V, F, segments, None if Fd is None else np.ascontiguousarray(Fd), int(iterations), progress)
+    feature_weight = _check_feature_weight(feature_weight)
+    crest = _crest_arrays(V, crest_lines) if feature_weight else None
+    out = _native.segment(V, F, segments, None, int(iterations), progress, feature_weight, _check_rings(rings),
+                          float(threshold), crest)
     labels = np.asarray(out["labels"], dtype=np.int32)
     return (labels, dict(out)) if return_info else labels
 

@@ -212,3 +212,179 @@ def test_segment_writes_labels_colours_and_seams(cube):
     assert set(labels.tolist()) == set(range(6))
     assert mesh.color_attributes.active_color.name == "dg_segment_color"
     assert sum(e.use_seam for e in mesh.edges) > 0
+
+
+def _merge(A, B):
+    """The polygon of polygons A and B (vertex lists, same orientation) joined across their one
+    shared edge."""
+    shared = set(A) & set(B)
+    n = len(A)
+    i = next(i for i in range(n) if A[i] in shared and A[(i + 1) % n] in shared)
+    a = [A[(i + 1 + k) % n] for k in range(n)]
+    j = B.index(A[i])
+    b = [B[(j + k) % len(B)] for k in range(len(B))]
+    return a + b[1:-1]
+
+
+def ngon_cube(name="NgonCube", n=16, flip=False):
+    """Rounded cube of hexagons: pairs of grid quads joined by dissolving the edge between them.
+    The flat sides get collinear corners and every joined line valence-2 vertices, where Blender's
+    loop triangulation cuts zero-area or doubled ears."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    V, quads = shapes.rounded_cube(n, quads=True)
+    polys = []
+    for side in range(6):
+        for a in range(n):
+            for b in range(0, n, 2):
+                q = [list(quads[(side * n + a) * n + bb]) for bb in (b, b + 1)]
+                p = _merge(*q)
+                polys.append(p[::-1] if flip else p)
+    return make_object(name, V, polys)
+
+
+def _covers_all_twelve_edges(mesh, marked):
+    co = np.array([v.co[:] for v in mesh.vertices])
+    ev = np.array([e.vertices[:] for e in mesh.edges])[marked]
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        for si in (-1, 1):
+            for sj in (-1, 1):
+                on = ((si * co[ev, i] > 0.6) & (sj * co[ev, j] > 0.6)).all(1)
+                spans = np.sort(co[ev[on], k], axis=1)
+                spans = spans[np.argsort(spans[:, 0])]
+                reach = -0.55
+                for lo, hi in spans:
+                    if lo <= reach + 1e-6:
+                        reach = max(reach, hi)
+                assert reach >= 0.55, f"cube edge along axis {k} at ({si}, {sj}) covered only to {reach:.3f}"
+
+
+def test_crest_lines_on_ngons_follow_all_twelve_edges(capfd):
+    obj = ngon_cube()
+    mesh = obj.data
+    assert max(len(p.vertices) for p in mesh.polygons) == 6
+    res = bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=8.0, create_curves=True)
+    assert res == {'FINISHED'}
+    ridge = edge_attr(mesh, "dg_ridge")
+    assert not edge_attr(mesh, "dg_valley").any()
+    # Only the mesh's own edges can be marked; the marks run unbroken along every rounded edge,
+    # also where a line crosses a hexagon through its triangulation diagonals.
+    _covers_all_twelve_edges(mesh, ridge)
+    co = np.array([v.co[:] for v in mesh.vertices])
+    ev = np.array([e.vertices[:] for e in mesh.edges])
+    assert ((np.abs(co[ev[ridge]]) > 0.6).sum(axis=2) >= 2).all()
+    # The report gives the line count and the total length of the exact polylines.
+    curve = bpy.data.objects["NgonCube Crest Lines"]
+    total = 0.0
+    for spline in curve.data.splines:
+        pts = np.array([p.co[:3] for p in spline.points])
+        total += np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()
+    out = capfd.readouterr().out
+    import re
+    m = re.search(r"Crest lines on 1 object: (\d+) lines \((\d+) ridges, 0 valleys\), total length ([0-9.]+)", out)
+    assert m, out
+    assert int(m.group(1)) == len(curve.data.splines) > 0
+    assert abs(float(m.group(3)) - total) < 1e-3 * total + 0.01
+    assert total > 12 * 1.1
+
+
+def test_curve_object_ridges_blue_valleys_red():
+    obj = ngon_cube("Inverted", flip=True)  # inside-out: the rounded edges are valleys
+    assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=8.0, create_curves=True) == {'FINISHED'}
+    assert edge_attr(obj.data, "dg_valley").sum() > 0 and not edge_attr(obj.data, "dg_ridge").any()
+    curve = bpy.data.objects["Inverted Crest Lines"]
+    ridge_mat, valley_mat = curve.data.materials[0], curve.data.materials[1]
+    r, g, b, _ = ridge_mat.diffuse_color
+    assert b > 2 * max(r, g)
+    r, g, b, _ = valley_mat.diffuse_color
+    assert r > 2 * max(g, b)
+    assert len(curve.data.splines) > 0 and all(s.material_index == 1 for s in curve.data.splines)
+    assert curve.matrix_world == obj.matrix_world
+
+
+def test_segment_on_ngons_seams_are_the_borders_and_undo():
+    obj = ngon_cube()
+    mesh = obj.data
+    before = helpers.mesh_snapshot(mesh)
+    bpy.ops.ed.undo_push(message="before")
+    assert bpy.ops.dgmesh.segment('EXEC_DEFAULT', True, segments=6, feature_weight=2.0, threshold=8.0,
+                                  mark_seams=True) == {'FINISHED'}
+    labels = np.zeros(len(mesh.polygons), np.int32)
+    mesh.attributes["dg_segment"].data.foreach_get("value", labels)
+    assert set(labels.tolist()) == set(range(6))
+    # The seams are exactly the edges between polygons of different segments.
+    border = np.zeros(len(mesh.edges), bool)
+    edge_labels = {}
+    for p in mesh.polygons:
+        for e in p.edge_keys:
+            edge_labels.setdefault(e, set()).add(int(labels[p.index]))
+    key = {e.key: e.index for e in mesh.edges}
+    for e, ls in edge_labels.items():
+        border[key[e]] = len(ls) > 1
+    seams = np.array([e.use_seam for e in mesh.edges])
+    assert border.any() and np.array_equal(seams, border)
+    # Every segment is one connected set of polygons (across shared edges).
+    parent = list(range(len(mesh.polygons)))
+
+    def find(x):
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+    by_edge = {}
+    for p in mesh.polygons:
+        for e in p.edge_keys:
+            q = by_edge.setdefault(e, p.index)
+            if q != p.index and labels[q] == labels[p.index]:
+                parent[find(q)] = find(p.index)
+    roots = {find(i) for i in range(len(mesh.polygons))}
+    assert len(roots) == 6
+    bpy.ops.ed.undo()
+    assert helpers.mesh_snapshot(bpy.data.objects["NgonCube"].data) == before
+
+
+def test_decimate_on_ngons_and_undo():
+    obj = ngon_cube()
+    n_tri = sum(len(p.vertices) - 2 for p in obj.data.polygons)
+    before = helpers.mesh_snapshot(obj.data)
+    bpy.ops.ed.undo_push(message="before")
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', True, ratio=0.2, feature_weight=6.0,
+                                            threshold=8.0) == {'FINISHED'}
+    mesh = obj.data
+    assert len(mesh.polygons) <= 0.2 * n_tri + 1
+    import dgmesh
+    from dgmesh.blender import bridge
+    arrays = bridge.read_object(obj)
+    dgmesh.validate(arrays.V, arrays.F, allow_loose_vertices=False)
+    # The 12 rounded edges keep more of the density than the flat sides (eta = 6).
+    co = np.array([v.co[:] for v in mesh.vertices])
+    near_edges = (np.abs(co) > 0.7).sum(1) >= 2
+    assert near_edges.mean() > 0.5
+    bpy.ops.ed.undo()
+    assert helpers.mesh_snapshot(bpy.data.objects["NgonCube"].data) == before
+
+
+def test_repair_ngon_triangles_gives_valid_consistent_triangles():
+    import dgmesh
+    from dgmesh.blender import bridge
+    obj = ngon_cube()
+    raw = bridge.read_object(obj, edges=True)
+    with pytest.raises(dgmesh.MeshError):  # Blender's own triangulation: zero-area / doubled ears
+        dgmesh.validate(raw.V, raw.F)
+    fixed = bridge.repair_ngon_triangles(raw)
+    dgmesh.validate(fixed.V, fixed.F, allow_loose_vertices=False)
+    loop_vertex = np.array([l.vertex_index for l in obj.data.loops])
+    assert np.array_equal(loop_vertex[fixed.tri_loops], fixed.F)  # corners keep their loops
+    assert np.array_equal(fixed.tri_poly, raw.tri_poly)
+    # Each polygon is still covered by its triangles: same total vector area per polygon.
+    def vector_area(a):
+        V, F = a.V, a.F
+        cr = 0.5 * np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+        out = np.zeros((len(obj.data.polygons), 3))
+        np.add.at(out, a.tri_poly, cr)
+        return out
+    assert np.allclose(vector_area(fixed), vector_area(raw), atol=1e-9)
+    # Every loop of every polygon is used by a triangle (nothing dropped).
+    assert len(np.unique(fixed.tri_loops)) == len(obj.data.loops)
+    # A clean mesh is returned as is.
+    assert bridge.repair_ngon_triangles(fixed) is fixed

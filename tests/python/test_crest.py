@@ -171,3 +171,30 @@ def test_progress_reports_and_cancels(cube, which):
     assert seen and all(0.0 <= f <= 1.0 for f in seen) and seen[-1] == 1.0
     with pytest.raises(dgmesh.Cancelled):
         calls(lambda f: False)
+
+
+def test_feature_guided_calls_detect_or_take_lines_alike(cube):
+    """Detecting the lines inside decimate/segment (one validation of the mesh) gives the same
+    result as handing over dgmesh.crest_lines' result."""
+    V, F = cube
+    lines = dgmesh.crest_lines(V, F, rings=1, threshold=8.0)
+    a = dgmesh.decimate(V, F, target_faces=len(F) // 8, feature_weight=6.0, threshold=8.0)
+    b = dgmesh.decimate(V, F, target_faces=len(F) // 8, feature_weight=6.0, crest_lines=lines)
+    c = dgmesh.decimate(V, F, target_faces=len(F) // 8)
+    assert np.array_equal(a[1], b[1]) and np.allclose(a[0], b[0])
+    assert not (len(a[1]) == len(c[1]) and np.array_equal(a[1], c[1]))  # the weights change the result
+    la = dgmesh.segment(V, F, segments=6, feature_weight=2.0, threshold=8.0)
+    lb = dgmesh.segment(V, F, segments=6, feature_weight=2.0, crest_lines=lines)
+    assert np.array_equal(la, lb)
+
+
+def test_feature_progress_covers_fit_and_decimation(cube):
+    V, F = cube
+    seen = []
+    dgmesh.decimate(V, F, target_faces=len(F) // 10, feature_weight=6.0, threshold=8.0,
+                    progress=lambda f: seen.append(f) or True)
+    assert seen == sorted(seen) and seen[0] == 0.0 and seen[-1] == 1.0
+    assert any(0.0 < f <= 0.3 for f in seen)  # the fit's share
+    with pytest.raises(dgmesh.MeshError, match="another mesh"):
+        other = dgmesh.crest_lines(*_native.icosphere(4, 1.0))
+        dgmesh.segment(*_native.icosphere(1, 1.0), segments=3, feature_weight=2.0, crest_lines=other)

@@ -66,6 +66,86 @@ def read_mesh(mesh, edges=False):
     return MeshArrays(V, F.reshape(m, 3), tri_loops.reshape(m, 3), tri_poly, E)
 
 
+def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
+    """Re-triangulates n-gons whose loop triangulation the native library would reject.
+
+    Blender's ear clipping may cut an "ear" of three collinear corners (an n-gon with a vertex in
+    the middle of a straight side, e.g. after dissolving edges): a zero-area triangle. Two n-gons
+    sharing two consecutive sides (a valence-2 vertex between them) may both cut the ear at that
+    vertex: the same triangle twice, back to back. Each such ear (a, b, c), b the corner whose two
+    sides are polygon sides, shares its diagonal with another triangle (a, c, d) of its polygon;
+    flipping that diagonal gives (b, c, d) and (b, d, a). Rounds repeat for runs of such corners.
+    Triangles, their loops and polygons stay consistent; the mesh is not touched. Returns new
+    :class:`MeshArrays` (the same object when nothing needed repair); what cannot be repaired is
+    left for validation to report.
+    """
+    V, F, L, P = arrays.V, arrays.F.copy(), arrays.tri_loops.copy(), arrays.tri_poly
+    if len(F) == 0:
+        return arrays
+    diag2 = float(((V.max(0) - V.min(0)) ** 2).sum())
+    tol = rel_area * max(diag2, np.finfo(float).tiny)
+    nv = np.int64(len(V))
+    real = None
+    if arrays.edges is not None and len(arrays.edges):
+        E = np.sort(arrays.edges.astype(np.int64), axis=1)
+        real = set((E[:, 0] * nv + E[:, 1]).tolist())
+
+    def area(f):  # twice the area, of (k, 3) index rows
+        return np.linalg.norm(np.cross(V[f[:, 1]] - V[f[:, 0]], V[f[:, 2]] - V[f[:, 0]]), axis=1)
+
+    def is_real(x, y):
+        return real is not None and min(x, y) * nv + max(x, y) in real
+
+    count = np.bincount(P, minlength=int(P.max()) + 1)
+    changed = False
+    for _ in range(max_rounds):
+        bad = area(F) <= 2 * tol
+        key = np.sort(F.astype(np.int64), axis=1) @ np.array([nv * nv, nv, 1], dtype=np.int64)
+        _, first = np.unique(key, return_index=True)
+        dup = np.ones(len(F), bool)
+        dup[first] = False  # every copy after the first
+        bad = np.flatnonzero((bad | dup) & (count[P] > 1))  # triangles of n-gons only
+        if bad.size == 0:
+            break
+        members = {}
+        for t in np.flatnonzero(np.isin(P, np.unique(P[bad]))).tolist():
+            members.setdefault(int(P[t]), []).append(t)
+        progress = False
+        for t in bad.tolist():
+            f = F[t].tolist()
+            # b: the ear corner (its two sides are polygon sides, the third side a diagonal);
+            # without edges, the corner opposite the longest side (the middle of collinear ones).
+            ears = [k for k in range(3) if is_real(f[k], f[(k + 1) % 3]) and is_real(f[k], f[(k + 2) % 3])
+                    and not is_real(f[(k + 1) % 3], f[(k + 2) % 3])]
+            if len(ears) == 1:
+                k = ears[0]
+            else:
+                k = int(np.argmax([np.linalg.norm(V[f[(k + 2) % 3]] - V[f[(k + 1) % 3]]) for k in range(3)]))
+            b, c, a = f[k], f[(k + 1) % 3], f[(k + 2) % 3]
+            lb, lc, la = int(L[t, k]), int(L[t, (k + 1) % 3]), int(L[t, (k + 2) % 3])
+            for u in members[int(P[t])]:
+                if u == t:
+                    continue
+                g = F[u].tolist()
+                # The neighbour holds the directed edge a -> c.
+                j = next((j for j in range(3) if g[j] == a and g[(j + 1) % 3] == c), None)
+                if j is None:
+                    continue
+                d, ld = g[(j + 2) % 3], int(L[u, (j + 2) % 3])
+                new = np.array([[b, c, d], [b, d, a]])
+                if (area(new) <= 2 * tol).any():
+                    break
+                F[t], F[u] = new
+                L[t], L[u] = (lb, lc, ld), (lb, ld, la)
+                changed = progress = True
+                break
+        if not progress:
+            break
+    if not changed:
+        return arrays
+    return MeshArrays(arrays.V, F, L, P, arrays.edges)
+
+
 def read_object(obj, evaluated=False, depsgraph=None, edges=False):
     """Read a mesh object's data (positions in object space).
 

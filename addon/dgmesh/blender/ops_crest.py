@@ -6,6 +6,9 @@ ignored). Everything is computed before anything is written: an object that fail
 report naming it and is left untouched, the others are written. Started from the UI they run the
 native work in a worker thread (jobs.NativeJobOperator): the status bar shows the progress and Esc
 cancels with nothing written. The redo panel, scripts and ``--background`` use execute().
+Quads and n-gons are read through Blender's loop triangles; n-gons whose triangulation has
+zero-area or doubled ears (straight runs of corners, valence-2 vertices left by dissolving edges)
+are re-triangulated (bridge.repair_ngon_triangles) instead of being rejected.
 
 dgmesh.decimate_features rewrites the mesh datablock in place (its name, materials and users stay;
 in Edit mode it leaves and re-enters Edit mode around the write, and undo restores the old mesh).
@@ -129,7 +132,9 @@ class _PerObjectJob(NativeJobOperator):
 
 
 def _read(obj):
-    arrays = bridge.read_object(obj, edges=True)
+    # N-gons with straight runs of corners (dissolved edges) may triangulate into zero-area
+    # triangles: re-triangulate those instead of rejecting the mesh.
+    arrays = bridge.repair_ngon_triangles(bridge.read_object(obj, edges=True))
     data = {"arrays": arrays, "counts": (len(obj.data.vertices), len(obj.data.polygons))}
     return data
 

@@ -15,6 +15,16 @@ struct DerivativeOptions {
   int rings = 1;           // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
   bool smooth = true;      // fit on M' (p' = mean of the centroids of the faces around p)
   bool use_normals = true; // adjacent-normal equations in the fit (thesis table 4.1 "normal")
+  // With use_normals: the tangent plane is fitted too. Eq. 4.7 gets the linear terms a0 x + a1 y and
+  // the Max normal of p' enters as one more normal equation instead of being imposed exactly, so
+  // its O(h^2) error does not bias the curvatures; the derivatives then come from the exact
+  // formulas of the graph (non-zero gradient). false: eq. 4.7 as printed (zero gradient at p').
+  // Vertices with fewer than five usable neighbours always use eq. 4.7 as printed.
+  bool fit_tangent_plane = true;
+  // With smooth: evaluate the fitted surface at the foot of the original vertex p (its offset from
+  // p' projected on the tangent plane) rather than at p', so the fields belong to p (thesis 4.5
+  // "assigned to the original vertices"). Matters on irregular meshes, where p' drifts sideways.
+  bool transport_to_vertex = true;
 };
 
 // Per original vertex. Curvature signs follow the face orientation: positive on a sphere with
@@ -22,8 +32,7 @@ struct DerivativeOptions {
 // (its sign flips with t, the product e t is well defined). Loose vertices get zeros.
 struct CurvatureDerivatives {
   VecXd k_max, k_min, e_max, e_min;
-  MatX3d t_max, t_min, normals;
-  // Derivatives of the fitted cubic at p' in the frame (t_max, t_min, normal) are not kept.
+  MatX3d t_max, t_min, normals;  // normals: of the fitted surface (orthogonal to t_max, t_min)
 };
 
 // Throws MeshError on invalid options. The mesh must come from make_mesh (validated).
