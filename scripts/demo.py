@@ -289,6 +289,52 @@ def skeletal(demo):
     demo.note(f"skeletal: {len(V)}-vertex capsule bent 90 and twisted 180 (left: ours, right: Armature modifier LBS)")
 
 
+@step
+def multires(demo):
+    """Displaced subdivision (thesis 6.4): the model's decimated control mesh as a wireframe next to
+    the model coloured by the displacement magnitude from the control mesh's Loop limit surface."""
+    main = demo.obj
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == main)
+    bpy.context.view_layer.objects.active = main
+    faces = max(500, min(5000, len(main.data.polygons) // 20))
+    with demo.timed("multires_preview"):
+        result = bpy.ops.dgmesh.multires_preview('EXEC_DEFAULT', control_faces=faces)
+    assert result == {'FINISHED'}, result
+    ctrl = next(o for o in bpy.data.objects if o.get("dgmesh_multires_control_of") == main.name)
+    mag = np.empty(len(main.data.vertices), dtype=np.float32)
+    main.data.attributes["dg_multires_magnitude"].data.foreach_get("value", mag)
+    co = np.empty(3 * len(main.data.vertices), dtype=np.float32)
+    main.data.vertices.foreach_get("co", co)
+    P = co.reshape(-1, 3)
+    diag = float(np.linalg.norm(P.max(0) - P.min(0)))
+    # The control mesh as tubes (a Wireframe modifier renders; the wire display type does not),
+    # side by side with the model along the camera's right axis, the view widened to fit both.
+    wire = ctrl.modifiers.new("DG Wire", 'WIREFRAME')
+    wire.thickness = 0.002 * diag
+    wire.use_replace = True
+    dark = bpy.data.materials.get("DG Wire") or bpy.data.materials.new("DG Wire")
+    dark.diffuse_color = (0.05, 0.05, 0.08, 1.0)
+    dark.use_nodes = True
+    dark.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.05, 0.05, 0.08, 1.0)
+    ctrl.data.materials.clear()
+    ctrl.data.materials.append(dark)
+    scene = bpy.context.scene
+    cam = scene.camera
+    right = cam.matrix_world.to_3x3().col[0].normalized()
+    width = max(main.dimensions)
+    saved = (main.location.copy(), cam.data.lens)
+    main.location = saved[0] - right * (0.55 * width)
+    ctrl.location = saved[0] + right * (0.55 * width)
+    cam.data.lens = saved[1] * 0.5
+    demo.render("multires_control_displacement.png", "dg_multires_color")
+    main.location, cam.data.lens = saved
+    ctrl.hide_render = True
+    demo.note(f"multires: {len(P)} vertices on a {len(ctrl.data.polygons)}-face control mesh, "
+              f"|displacement| RMS {float(np.sqrt((mag.astype(np.float64) ** 2).mean())) / diag:.1e} "
+              f"max {float(mag.max()) / diag:.1e} of the diagonal")
+
+
 def _crest_copies(demo, names):
     """Copies of the demo model (own mesh data) for side-by-side renders; the model is hidden."""
     main = demo.obj

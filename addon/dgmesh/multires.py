@@ -14,8 +14,9 @@ exactly. The dense mesh keeps its own topology (only its vertex positions are bo
 vertex groups and other data stay valid.
 
 Deforming the control mesh (a few thousand triangles) and calling :meth:`Multires.reconstruct`
-moves the dense mesh: two parallel sparse products through precomputed stencils. A rigid motion of
-the control mesh moves the dense mesh rigidly.
+moves the dense mesh: one parallel sparse product over the control vertices through precomputed
+stencils (limit position and tangents), then the frame and the displacement. A rigid motion of the
+control mesh moves the dense mesh rigidly.
 
 Beyond the thesis's simplified DSS, :meth:`Multires.build` fits the control vertices by least
 squares so that the limit surface passes close to the dense mesh (the optimisation step of
@@ -131,14 +132,16 @@ class Multires:
     def reconstruct(self, control_vertices, out=None):
         """Dense vertex positions for new control vertex positions ((n_control, 3)).
 
-        With ``out`` (a C-contiguous float64 (n_dense, 3) array) the result is written there and
-        ``out`` is returned, which avoids allocating for every frame of an interactive edit."""
+        With ``out`` (a C-contiguous float64 or float32 (n_dense, 3) array) the result is written
+        there and ``out`` is returned, which avoids allocating for every frame of an interactive
+        edit; float32 suits Blender's ``foreach_set`` directly (computed in double, then rounded).
+        The GIL is released while the native code runs."""
         X = as_vertices(control_vertices, "control_vertices")
         if out is None:
             return self._m.reconstruct(X)
-        if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.flags.c_contiguous
+        if not (isinstance(out, np.ndarray) and out.dtype in (np.float64, np.float32) and out.flags.c_contiguous
                 and out.shape == (self.n_dense, 3) and out.flags.writeable):
-            raise MeshError(f"out must be a writable C-contiguous float64 array of shape ({self.n_dense}, 3)")
+            raise MeshError(f"out must be a writable C-contiguous float64 or float32 array of shape ({self.n_dense}, 3)")
         self._m.reconstruct(X, out)
         return out
 

@@ -139,15 +139,18 @@ class SkeletalRig:
         ``projection`` towards each vertex's rest distance to the union of medial balls, 0 = off) or
         "basic" (thesis 6.3: homotopy with ``homotopy_steps`` steps, ``fold_iterations`` steps of
         eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6).
-        ``out``: a C-contiguous float64 (n, 3) array to write into (returned), for repeated poses.
+        ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
+        repeated poses: no allocation of the dense result, GIL released. float32 (computed in
+        double, rounded on output) goes straight to Blender, e.g.
+        ``mesh.shape_keys.key_blocks["dg_skeletal"].data.foreach_set("co", out.ravel())``.
         """
         self._check_method(method)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
-            if (not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.shape != (self.n_vertices, 3)
-                    or not out.flags.c_contiguous or not out.flags.writeable):
-                raise MeshError("deform: out must be a writeable C-contiguous float64 array of shape (%d, 3)"
-                                % self.n_vertices)
+            if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
+                    or out.shape != (self.n_vertices, 3) or not out.flags.c_contiguous or not out.flags.writeable):
+                raise MeshError("deform: out must be a writeable C-contiguous float64 or float32 array of shape "
+                                "(%d, 3)" % self.n_vertices)
         return self._rig.deform(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
                                 int(fold_iterations), float(projection), out)
 

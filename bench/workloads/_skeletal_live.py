@@ -1,7 +1,12 @@
-"""Blender side of the skeletal speed benchmark: bind a Loop-subdivided capsule with the operator,
-then time scene.frame_set over keyframed poses (the live update through the shape key).
+"""Blender side of the skeletal live-update benchmark: bind a Loop-subdivided capsule with the
+operator, then time scene.frame_set over keyframed poses (the live update through the offset
+attribute and its geometry-nodes modifier), split into its parts, against Blender's own Armature
+modifier on the same mesh and frames.
 
-    blender --background --factory-startup --python bench/workloads/_skeletal_live.py -- LEVELS
+    blender --background --factory-startup --python bench/workloads/_skeletal_live.py -- LEVELS [FRAMES]
+
+Writes JSON to $DGMESH_BENCH_OUT. Wall-clock medians in ms; *_cpu_ms are CPU seconds of the whole
+Blender process (all threads) per frame, which a loaded machine inflates less than wall time.
 """
 import json
 import math
@@ -14,52 +19,223 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
-import dgmesh
-from dgmesh.skeletal import capsule
-from bench.common import loop_subdivide
+import dgmesh  # noqa: E402
+from dgmesh.skeletal import capsule  # noqa: E402
+from bench.common import loop_subdivide  # noqa: E402
+
+argv = sys.argv[sys.argv.index("--") + 1:]
+LEVELS = int(argv[0])
+NFRAMES = int(argv[1]) if len(argv) > 1 else 20
 dgmesh.register()
+from dgmesh.blender import ops_skeletal  # noqa: E402
+
 bpy.ops.wm.read_homefile(use_empty=True)
 V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-V, F = loop_subdivide(V0, F0, int(sys.argv[sys.argv.index("--") + 1]))  # noqa: E501
+V, F = loop_subdivide(V0, F0, LEVELS)
 me = bpy.data.meshes.new("C")
-me.vertices.add(len(V)); me.vertices.foreach_set("co", V.astype(np.float32).ravel())
-me.loops.add(3 * len(F)); me.loops.foreach_set("vertex_index", F.astype(np.int32).ravel())
-me.polygons.add(len(F)); me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
-me.polygons.foreach_set("loop_total", np.full(len(F), 3, dtype=np.int32)); me.update()
-obj = bpy.data.objects.new("C", me); bpy.context.scene.collection.objects.link(obj)
-ad = bpy.data.armatures.new("Rig"); arm = bpy.data.objects.new("Rig", ad); bpy.context.scene.collection.objects.link(arm)
+me.vertices.add(len(V))
+me.vertices.foreach_set("co", V.astype(np.float32).ravel())
+me.loops.add(3 * len(F))
+me.loops.foreach_set("vertex_index", F.astype(np.int32).ravel())
+me.polygons.add(len(F))
+me.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
+me.polygons.foreach_set("loop_total", np.full(len(F), 3, dtype=np.int32))
+me.update(calc_edges=True)
+obj = bpy.data.objects.new("C", me)
+bpy.context.scene.collection.objects.link(obj)
+ad = bpy.data.armatures.new("Rig")
+arm = bpy.data.objects.new("Rig", ad)
+bpy.context.scene.collection.objects.link(arm)
 bpy.context.view_layer.objects.active = arm
 bpy.ops.object.mode_set(mode='EDIT')
-b1 = ad.edit_bones.new("Upper"); b1.head, b1.tail = (-3.5, 0, 0), (0, 0, 0)
-b2 = ad.edit_bones.new("Lower"); b2.head, b2.tail = (0, 0, 0), (3.5, 0, 0); b2.parent = b1; b2.use_connect = True
+b1 = ad.edit_bones.new("Upper")
+b1.head, b1.tail = (-3.5, 0, 0), (0, 0, 0)
+b2 = ad.edit_bones.new("Lower")
+b2.head, b2.tail = (0, 0, 0), (3.5, 0, 0)
+b2.parent, b2.use_connect = b1, True
 bpy.ops.object.mode_set(mode='OBJECT')
-for o in bpy.context.view_layer.objects: o.select_set(o in (obj, arm))
+# Vertex groups (a linear ramp over the joint) so that Blender's Armature modifier, the reference
+# below, deforms the same mesh with the same weights.
+t = np.clip(V[:, 0] + 0.5, 0, 1)
+for name, w in (("Upper", 1 - t), ("Lower", t)):
+    g = obj.vertex_groups.new(name=name)
+    g.add(np.nonzero(w == 1)[0].tolist(), 1.0, 'REPLACE')
+    for i in np.nonzero((w > 0) & (w < 1))[0].tolist():
+        g.add([i], float(w[i]), 'REPLACE')
+mod = obj.modifiers.new("Armature", 'ARMATURE')
+mod.object = arm
+for o in bpy.context.view_layer.objects:
+    o.select_set(o in (obj, arm))
 bpy.context.view_layer.objects.active = obj
-t0 = time.perf_counter(); r = bpy.ops.dgmesh.skeletal_bind('EXEC_DEFAULT', control_faces=5000); tb = time.perf_counter() - t0
+t0 = time.perf_counter()
+r = bpy.ops.dgmesh.skeletal_bind('EXEC_DEFAULT', control_faces=5000)
+tb = time.perf_counter() - t0
 pb = arm.pose.bones["Lower"]
 pb.rotation_mode = 'XYZ'
-for fr, a in ((1, 0.0), (40, math.pi / 2)):
+for fr, a in ((1, 0.0), (NFRAMES + 20, math.pi / 2)):
     pb.rotation_euler = (0, 0, a)
     pb.keyframe_insert("rotation_euler", frame=fr)
-from dgmesh.blender import ops_skeletal  # noqa: E402
-deform_t = []
-_orig = ops_skeletal._deformed
-
-
-def _timed(o, pose):
-    t0 = time.perf_counter()
-    res = _orig(o, pose)
-    deform_t.append(time.perf_counter() - t0)
-    return res
-
-
-ops_skeletal._deformed = _timed
 sc = bpy.context.scene
-ts = []
-for fr in range(2, 22):
+sc.frame_set(1)
+
+# Instrument the handler's parts (module globals, looked up at call time).
+parts = {"pose": [], "deform": [], "update": []}
+parts_cpu = {k: [] for k in parts}
+
+
+def _wrap(name, fn):
+    def timed(*a, **k):
+        c0, t0 = time.process_time(), time.perf_counter()
+        res = fn(*a, **k)
+        parts[name].append(time.perf_counter() - t0)
+        parts_cpu[name].append(time.process_time() - c0)
+        return res
+    return timed
+
+
+orig = {n: getattr(ops_skeletal, n) for n in ("_pose_matrices", "_deformed", "update_object")}
+ops_skeletal._pose_matrices = _wrap("pose", orig["_pose_matrices"])
+ops_skeletal._deformed = _wrap("deform", orig["_deformed"])
+ops_skeletal.update_object = _wrap("update", orig["update_object"])
+
+
+def play(first=2):
+    """frame_set over NFRAMES consecutive keyframed frames: (wall ms per frame, CPU ms per frame)."""
+    wall = []
+    c0 = time.process_time()
+    for fr in range(first, first + NFRAMES):
+        t0 = time.perf_counter()
+        sc.frame_set(fr)
+        wall.append(time.perf_counter() - t0)
+    cpu = (time.process_time() - c0) / NFRAMES
+    sc.frame_set(1)
+    return 1e3 * float(np.median(wall)), 1e3 * cpu
+
+
+for k in parts:
+    parts[k].clear()
+    parts_cpu[k].clear()
+frame_ms, frame_cpu_ms = play()
+n_updates = len(parts["update"])
+med = {k: 1e3 * float(np.median(v)) for k, v in parts.items()}
+med_cpu = {k: 1e3 * float(np.median(v)) for k, v in parts_cpu.items()}
+n_deform = len(parts["deform"]) - 1  # the last one is frame 1 after play()
+for k, fn in orig.items():
+    setattr(ops_skeletal, k, fn)
+# Blender's own per-frame work on the bound mesh, without our handler: ~0 unless something still ties
+# the mesh to the pose (a disabled Armature modifier with its object set did: one more evaluation).
+ops_skeletal._remove_handlers()
+idle_ms, idle_cpu_ms = play()
+ops_skeletal._add_handlers()
+
+# The write alone: the attribute (this add-on) vs a shape key (the earlier version's target).
+n = len(V)
+off = np.zeros(3 * n, dtype=np.float32)
+att = obj.data.attributes["dg_skeletal_offset"]
+w_attr = []
+for _ in range(7):
     t0 = time.perf_counter()
-    sc.frame_set(fr)
-    ts.append(time.perf_counter() - t0)
+    att.data.foreach_set("vector", off)
+    w_attr.append(time.perf_counter() - t0)
+
+# Blender's evaluation of the mesh after a write (our modifier on top of the mesh), the part of
+# frame_set outside our handler.
+ev = []
+c0 = time.process_time()
+for _ in range(7):
+    att.data.foreach_set("vector", off)
+    obj.data.update()
+    t0 = time.perf_counter()
+    bpy.context.view_layer.update()
+    ev.append(time.perf_counter() - t0)
+ev_cpu = (time.process_time() - c0) / 7
+
+# Interleaved A/B of the evaluation after a write: this add-on's attribute + node modifier against a
+# shape key on a copy of the mesh (the earlier version's target), wall and CPU per write + update.
+obj2 = bpy.data.objects.new("K", me.copy())
+bpy.context.scene.collection.objects.link(obj2)
+obj2.shape_key_add(name="Basis")
+kb2 = obj2.shape_key_add(name="K")
+kb2.value = 1.0
+co2 = np.empty(3 * n, dtype=np.float32)
+me.vertices.foreach_get("co", co2)
+co2 *= 1.01
+ab = {"attribute": ([], []), "shape_key": ([], [])}
+for i in range(8):
+    for key in ab:
+        c0, t0 = time.process_time(), time.perf_counter()
+        if key == "attribute":
+            att.data.foreach_set("vector", off)
+            obj.data.update()
+        else:
+            kb2.data.foreach_set("co", co2)
+            obj2.data.update()
+        bpy.context.view_layer.update()
+        ab[key][0].append(time.perf_counter() - t0)
+        ab[key][1].append(time.process_time() - c0)
+    off[:] = 0.001 * (i + 1)
+bpy.data.objects.remove(obj2)
+
+
+def eval_after_write(k=7):
+    w, c0 = [], time.process_time()
+    for i in range(k):
+        off[:] = 0.001 * i
+        att.data.foreach_set("vector", off)
+        obj.data.update()
+        t0 = time.perf_counter()
+        bpy.context.view_layer.update()
+        w.append(time.perf_counter() - t0)
+    return 1e3 * float(np.median(w)), 1e3 * (time.process_time() - c0) / k
+
+
+# Shading options that change Blender's evaluation (the same for any deformer): smooth shading, and
+# Auto Smooth (custom split normals; 3.x/4.0 only, gone in 4.1).
+me.polygons.foreach_set("use_smooth", np.ones(len(F), dtype=bool))
+smooth = eval_after_write()
+autosmooth = None
+if hasattr(me, "use_auto_smooth"):
+    me.use_auto_smooth = True
+    autosmooth = eval_after_write()
+    me.use_auto_smooth = False
+me.polygons.foreach_set("use_smooth", np.zeros(len(F), dtype=bool))
+
+# Reference: unbind (the Armature modifier comes back) and play the same frames with Blender's own
+# linear blend skinning and Preserve Volume.
+bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT')
+ref = {}
+for key, pv in (("lbs", False), ("dqs", True)):
+    mod.use_deform_preserve_volume = pv
+    ref[key] = play()
+obj.shape_key_add(name="Basis")
+kb = obj.shape_key_add(name="K")
+co = np.empty(3 * n, dtype=np.float32)
+obj.data.vertices.foreach_get("co", co)
+w_key = []
+for _ in range(5):
+    t0 = time.perf_counter()
+    kb.data.foreach_set("co", co)
+    w_key.append(time.perf_counter() - t0)
+
+out = {
+    "V": n, "F": len(F), "blender": bpy.app.version_string, "bind_s": tb, "bind_result": sorted(r),
+    "n_frames": NFRAMES, "n_deform": n_deform, "n_updates": n_updates,
+    "frame_ms": frame_ms, "frame_cpu_ms": frame_cpu_ms, "fps": 1e3 / frame_ms,
+    "no_handler_frame_ms": idle_ms, "no_handler_frame_cpu_ms": idle_cpu_ms,
+    "pose_read_ms": med["pose"], "deform_ms": med["deform"], "handler_ms": med["update"],
+    "write_ms": med["update"] - med["deform"] - med["pose"],
+    "deform_cpu_ms": med_cpu["deform"], "handler_cpu_ms": med_cpu["update"],
+    "ab_attribute_ms": 1e3 * float(np.median(ab["attribute"][0])),
+    "ab_attribute_cpu_ms": 1e3 * float(np.median(ab["attribute"][1])),
+    "ab_shape_key_ms": 1e3 * float(np.median(ab["shape_key"][0])),
+    "ab_shape_key_cpu_ms": 1e3 * float(np.median(ab["shape_key"][1])),
+    "attribute_write_ms": 1e3 * float(np.median(w_attr)), "shape_key_write_ms": 1e3 * float(np.median(w_key)),
+    "eval_ms": 1e3 * float(np.median(ev)), "eval_cpu_ms": 1e3 * ev_cpu,
+    "eval_smooth_ms": smooth[0], "eval_smooth_cpu_ms": smooth[1],
+    "eval_autosmooth_ms": autosmooth[0] if autosmooth else None,
+    "eval_autosmooth_cpu_ms": autosmooth[1] if autosmooth else None,
+    "armature_lbs_frame_ms": ref["lbs"][0], "armature_lbs_frame_cpu_ms": ref["lbs"][1],
+    "armature_dqs_frame_ms": ref["dqs"][0], "armature_dqs_frame_cpu_ms": ref["dqs"][1],
+}
 with open(os.environ["DGMESH_BENCH_OUT"], "w") as fh:
-    json.dump({"V": len(V), "bind_s": tb, "bind_result": sorted(r), "frame_ms": 1e3 * float(np.median(ts)),
-               "deform_ms": 1e3 * float(np.median(deform_t)), "n_deform": len(deform_t), "n_frames": len(ts)}, fh)
+    json.dump(out, fh)

@@ -88,20 +88,26 @@ void bind_multires(pb::module_& m) {
                              })
       .def(
           "reconstruct",
-          [](const Multires& r, InV X, std::optional<Eigen::Ref<MatX3d>> out) -> pb::object {
-            if (out) {
+          [](const Multires& r, InV X, const pb::object& out) -> pb::object {
+            if (out.is_none()) {
+              MatX3d res(r.n_dense(), 3);
               {
                 pb::gil_scoped_release nogil;
-                r.reconstruct(X, *out);
+                r.reconstruct(X, Eigen::Ref<MatX3d>(res));
               }
-              return pb::none();
+              return pb::cast(std::move(res));
             }
-            MatX3d res(r.n_dense(), 3);
-            {
+            // A caller-owned C-contiguous (n, 3) float64 or float32 array, written in place.
+            if (pb::isinstance<pb::array>(out) && out.cast<pb::array>().dtype().is(pb::dtype::of<float>())) {
+              auto ref = out.cast<Eigen::Ref<MatX3f>>();
               pb::gil_scoped_release nogil;
-              r.reconstruct(X, res);
+              r.reconstruct(X, ref);
+            } else {
+              auto ref = out.cast<Eigen::Ref<MatX3d>>();
+              pb::gil_scoped_release nogil;
+              r.reconstruct(X, ref);
             }
-            return pb::cast(std::move(res));
+            return out;
           },
           pb::arg("control_V"), pb::arg("out") = pb::none())
       .def(

@@ -153,9 +153,14 @@ void bind_skeletal(pb::module_& m) {
               }
               return pb::cast(std::move(X));
             }
-            // A C-contiguous float64 (n, 3) array is written in place (no copy, no allocation).
-            auto ref = out.cast<Eigen::Ref<MatX3d>>();
-            {
+            // A C-contiguous float64 or float32 (n, 3) array is written in place (no copy, no
+            // allocation of the dense result).
+            if (pb::isinstance<pb::array>(out) && out.cast<pb::array>().dtype().is(pb::dtype::of<float>())) {
+              auto ref = out.cast<Eigen::Ref<MatX3f>>();
+              pb::gil_scoped_release nogil;
+              rig.deform(p, o, ref);
+            } else {
+              auto ref = out.cast<Eigen::Ref<MatX3d>>();
               pb::gil_scoped_release nogil;
               rig.deform(p, o, ref);
             }

@@ -44,6 +44,9 @@ namespace Far = OpenSubdiv::Far;
 namespace Sdc = OpenSubdiv::Sdc;
 
 constexpr int kMaxCvs = 20;
+// Dense loops smaller than this run serially: on a busy 2-core machine an OpenMP barrier (and
+// libgomp's spin-waiting) costs more than a few thousand vertices of work.
+constexpr int kParallelMin = 16384;
 // Patch points padded to 4 doubles per row: 32-byte rows that SSE2/AVX handle as whole packets.
 using MatX4d = Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>;
 using Vec4 = Eigen::Vector4d;
@@ -82,93 +85,111 @@ inline void make_frame(const Vec3& Ds, const Vec3& Dt, const Vec3& face_normal, 
   t2 = n.cross(t1);
 }
 
-inline Vec3 face_normal_of(const MatX3d& X, const MatX3i& F, int f, Vec3* edge) {
-  const Vec3 a = X.row(F(f, 0)), b = X.row(F(f, 1)), c = X.row(F(f, 2));
-  if (edge) *edge = b - a;
-  return (b - a).cross(c - a);
-}
-
 struct Loc {
   int f;
   double s, t;
 };
 
-// The two reconstruction kernels are compiled twice, for the baseline x86-64 and for AVX2 + FMA,
-// and the loader picks one for the running CPU (GCC function multi-versioning).
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define DGMESH_CLONES __attribute__((target_clones("default", "arch=haswell")))
-#else
-#define DGMESH_CLONES
-#endif
+// The dense stencils (see Multires::Impl) and what one evaluation reads and writes.
+struct DenseArgs {
+  const int* vsup;       // per dense vertex: its support list
+  const int* sup_off;    // support list s: control vertices sup_idx[sup_off[s] .. sup_off[s + 1])
+  const int* sup_idx;
+  const int64_t* w_off;  // per dense vertex: its weights w[w_off[i] ..], 3 per support entry after the first
+  const float* w;
+  const double* X4;      // control vertices, 4 doubles per row (the 4th unused)
+  const double* disp;    // (a, b, c) per dense vertex, or null: frames
+  double* out;           // positions (3 per vertex), or frames (12 per vertex: S, t1, t2, n) if disp is null
+  float* out_f;          // single-precision positions instead of out (disp given)
+};
 
-// Patch points P (4 doubles per row) of rows [r0, r1) from control points X4 (4 per row):
-// P_r = X_c0 + sum_k w_k (X_ck - X_c0), c0 the row's first entry. Relative to the first entry, the
-// single-precision weights reproduce translations exactly (they sum to 1 only to ~1e-7).
-DGMESH_CLONES
-void points_kernel(int r0, int r1, const int* off, const int* idx, const float* w, const double* X4, double* P) {
-  for (int r = r0; r < r1; ++r) {
-    const double* x0 = X4 + 4 * static_cast<size_t>(idx[off[r]]);
-    double a[4] = {0, 0, 0, 0}, b[4] = {0, 0, 0, 0};  // two chains for more parallelism
-    int k = off[r] + 1;
-    for (; k + 1 < off[r + 1]; k += 2) {
-      const double* x = X4 + 4 * static_cast<size_t>(idx[k]);
-      const double* y = X4 + 4 * static_cast<size_t>(idx[k + 1]);
-      const double wa = w[k], wb = w[k + 1];
-      for (int d = 0; d < 4; ++d) a[d] += wa * (x[d] - x0[d]), b[d] += wb * (y[d] - x0[d]);
-    }
-    if (k < off[r + 1]) {
-      const double* x = X4 + 4 * static_cast<size_t>(idx[k]);
-      for (int d = 0; d < 4; ++d) a[d] += w[k] * (x[d] - x0[d]);
-    }
-    double* q = P + 4 * static_cast<size_t>(r);
-    for (int d = 0; d < 4; ++d) q[d] = x0[d] + (a[d] + b[d]);
-  }
-}
+// Dense vertices [i0, i1): limit point S and derivatives Ds, Dt as one sparse product over the
+// control vertices (float weights for every support entry but the first, which takes 1 minus their
+// sum for the position and minus their sum for the derivatives, so that translations are
+// reproduced whatever the rounding of the stored weights), the frame (t1, t2, n) = (Ds/|Ds|,
+// n x t1, Ds x Dt/|Ds x Dt|), and x = S + a t1 + b t2 + c n (multires.h). Returns the first vertex
+// whose derivatives are degenerate (the caller redoes the rest of the range with a fallback
+// frame), or i1.
+using v4d = double __attribute__((vector_size(32)));
+// Four floats at any 4-byte boundary (the weights of one support entry and the next entry's first).
+using v4f_u = float __attribute__((vector_size(16), aligned(4), may_alias));
 
-// For slots [j0, j1): limit point S and derivatives from the patch points (relative to the
-// slot's first point, see Impl), the frame, and either the displaced position (disp given:
-// out row order[j] = S + a t1 + b t2 + c n) or the frame itself (out row j = S, t1, t2, n).
-// Returns the first slot whose derivatives are degenerate (the caller redoes those), or j1.
-DGMESH_CLONES
-int dense_kernel(int j0, int j1, const int* cv_begin, const int64_t* w_off, const int* patch_cvs, const float* w,
-                 const double* P, const double* disp, const int* order, double* out, unsigned char* degenerate) {
-  int first_bad = j1;
-  for (int j = j0; j < j1; ++j) {
-    const int* cv = patch_cvs + cv_begin[j];
-    const float* wi = w + w_off[j];
-    const int k = 1 + static_cast<int>((w_off[j + 1] - w_off[j]) / 3);
-    const double* p0 = P + 4 * static_cast<size_t>(cv[0]);
-    double S[4] = {0, 0, 0, 0}, A[4] = {0, 0, 0, 0}, B[4] = {0, 0, 0, 0};
-    for (int q = 1; q < k; ++q, wi += 3) {
-      const double* pq = P + 4 * static_cast<size_t>(cv[q]);
-      const double ws = wi[0], wa = wi[1], wb = wi[2];
-      for (int d = 0; d < 4; ++d) {
-        const double e = pq[d] - p0[d];
-        S[d] += ws * e, A[d] += wa * e, B[d] += wb * e;
-      }
+inline __attribute__((always_inline)) int dense_body(const DenseArgs& g, int i0, int i1) {
+  for (int i = i0; i < i1; ++i) {
+    const int s = g.vsup[i];
+    const int* cv = g.sup_idx + g.sup_off[s];
+    const int k = g.sup_off[s + 1] - g.sup_off[s];
+    const float* wi = g.w + g.w_off[i];
+    const double* x0 = g.X4 + 4 * static_cast<size_t>(cv[0]);
+    // Per coordinate, lanes (position, d/ds, d/dt): sum_q w_q x_q over the entries after the
+    // first, in two interleaved chains (latency), and the weight sums W for the first entry's
+    // share: S = x0 + sum_q wP_q (x_q - x0) = sum_q wP_q x_q + (1 - W_P) x0, exact for translations
+    // whatever the rounding of the stored weights (their sum W is taken as stored).
+    v4d ax = {0, 0, 0, 0}, ay = ax, az = ax, aw = ax, bx = ax, by = ax, bz = ax, bw = ax;
+    int q = 1;
+    for (; q + 1 < k; q += 2, wi += 6) {
+      const double* x = g.X4 + 4 * static_cast<size_t>(cv[q]);
+      const double* y = g.X4 + 4 * static_cast<size_t>(cv[q + 1]);
+      const v4d wa = __builtin_convertvector(*reinterpret_cast<const v4f_u*>(wi), v4d);
+      const v4d wb = __builtin_convertvector(*reinterpret_cast<const v4f_u*>(wi + 3), v4d);
+      ax += x[0] * wa, ay += x[1] * wa, az += x[2] * wa, aw += wa;
+      bx += y[0] * wb, by += y[1] * wb, bz += y[2] * wb, bw += wb;
     }
-    for (int d = 0; d < 3; ++d) S[d] += p0[d];
+    if (q < k) {
+      const double* x = g.X4 + 4 * static_cast<size_t>(cv[q]);
+      const v4d wa = __builtin_convertvector(*reinterpret_cast<const v4f_u*>(wi), v4d);
+      ax += x[0] * wa, ay += x[1] * wa, az += x[2] * wa, aw += wa;
+    }
+    ax += bx, ay += by, az += bz, aw += bw;
+    const v4d c0 = {1 - aw[0], -aw[1], -aw[2], 0};  // the first entry's weights
+    ax += x0[0] * c0, ay += x0[1] * c0, az += x0[2] * c0;
+    double S[3] = {ax[0], ay[0], az[0]}, A[3] = {ax[1], ay[1], az[1]};
+    const double B[3] = {ax[2], ay[2], az[2]};
     double n[3] = {A[1] * B[2] - A[2] * B[1], A[2] * B[0] - A[0] * B[2], A[0] * B[1] - A[1] * B[0]};
     const double ln2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
     const double la2 = A[0] * A[0] + A[1] * A[1] + A[2] * A[2], lb2 = B[0] * B[0] + B[1] * B[1] + B[2] * B[2];
-    if (!(ln2 > 1e-20 * la2 * lb2 && ln2 > 0)) {
-      degenerate[j] = 1;
-      if (first_bad == j1) first_bad = j;
-      continue;
-    }
+    if (!(ln2 > 1e-20 * la2 * lb2 && ln2 > 0)) return i;
     const double in = 1 / std::sqrt(ln2), ia = 1 / std::sqrt(la2);
     for (int d = 0; d < 3; ++d) n[d] *= in, A[d] *= ia;  // A becomes t1
     const double t2[3] = {n[1] * A[2] - n[2] * A[1], n[2] * A[0] - n[0] * A[2], n[0] * A[1] - n[1] * A[0]};
-    if (disp) {
-      const double a = disp[3 * j], b = disp[3 * j + 1], c = disp[3 * j + 2];
-      double* o = out + 3 * static_cast<size_t>(order[j]);
-      for (int d = 0; d < 3; ++d) o[d] = S[d] + a * A[d] + b * t2[d] + c * n[d];
+    if (g.disp) {
+      const double a = g.disp[3 * static_cast<size_t>(i)], b = g.disp[3 * static_cast<size_t>(i) + 1],
+                   c = g.disp[3 * static_cast<size_t>(i) + 2];
+      if (g.out_f) {
+        float* o = g.out_f + 3 * static_cast<size_t>(i);
+        for (int d = 0; d < 3; ++d) o[d] = static_cast<float>(S[d] + a * A[d] + b * t2[d] + c * n[d]);
+      } else {
+        double* o = g.out + 3 * static_cast<size_t>(i);
+        for (int d = 0; d < 3; ++d) o[d] = S[d] + a * A[d] + b * t2[d] + c * n[d];
+      }
     } else {
-      double* o = out + 12 * static_cast<size_t>(j);
+      double* o = g.out + 12 * static_cast<size_t>(i);
       for (int d = 0; d < 3; ++d) o[d] = S[d], o[3 + d] = A[d], o[6 + d] = t2[d], o[9 + d] = n[d];
     }
   }
-  return first_bad;
+  return i1;
+}
+
+// The kernel compiled for the baseline x86-64 and for AVX2 + FMA (4 doubles per instruction),
+// picked once by CPU features. (GCC's target_clones("arch=haswell") dispatches on the CPU model,
+// not its features, and falls back to the scalar baseline on newer CPUs.)
+#if defined(__GNUC__) && defined(__x86_64__)
+__attribute__((target("avx2,fma"))) int dense_kernel_avx2(const DenseArgs& g, int i0, int i1) {
+  return dense_body(g, i0, i1);
+}
+#endif
+int dense_kernel_base(const DenseArgs& g, int i0, int i1) { return dense_body(g, i0, i1); }
+using DenseKernel = int (*)(const DenseArgs&, int, int);
+DenseKernel pick_dense_kernel() {
+#if defined(__GNUC__) && defined(__x86_64__)
+  __builtin_cpu_init();
+  if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return dense_kernel_avx2;
+#endif
+  return dense_kernel_base;
+}
+int dense_kernel(const DenseArgs& g, int i0, int i1) {
+  static const DenseKernel k = pick_dense_kernel();
+  return k(g, i0, i1);
 }
 
 inline void clamp_st(double& s, double& t) {
@@ -194,12 +215,10 @@ struct LimitSurface {
   std::vector<int> ptex;  // ptex face of each control face
   // Every patch point (control vertex, refined vertex of some level or end-cap local point) that a
   // patch uses, as a combination of control vertices (CSR row per point). Points are numbered by
-  // first use in patch order and patch_cvs refers to this numbering, so that the points of nearby
-  // patches sit together in memory (reconstruction gathers them; see Impl::order).
+  // first use in patch order and patch_cvs refers to this numbering.
   int n_points = 0;
   std::vector<int> st_off, st_idx;
   std::vector<double> st_w;
-  std::vector<float> st_wf;  // single-precision copy for points() (memory traffic)
   std::vector<int> patch_cvs;  // the patch table's flat patch-point index table
   // OpenSubdiv 3.5 multiplies the second derivatives of rotated triangular sub-patches by the sign
   // that only the first derivatives need; init() detects it (by finite differences) and we undo it.
@@ -216,24 +235,6 @@ struct LimitSurface {
       Vec3 acc = Vec3::Zero();
       for (int k = st_off[r]; k < st_off[r + 1]; ++k) acc += st_w[k] * X.row(st_idx[k]).transpose();
       P.row(r) << acc.transpose(), 0.0;
-    }
-  }
-
-  // The patch points that reconstruction uses (single-precision stencil weights, see points_kernel).
-  void points(const MatX3d& X, MatX4d& P) const {
-    MatX4d X4(X.rows(), 4);
-    X4.leftCols<3>() = X;
-    X4.col(3).setZero();
-    P.resize(n_points, 4);
-#pragma omp parallel
-    {
-      int nt = 1, t = 0;
-#ifdef _OPENMP
-      nt = omp_get_num_threads(), t = omp_get_thread_num();
-#endif
-      const int r0 = static_cast<int>(static_cast<int64_t>(n_points) * t / nt);
-      const int r1 = static_cast<int>(static_cast<int64_t>(n_points) * (t + 1) / nt);
-      points_kernel(r0, r1, st_off.data(), st_idx.data(), st_wf.data(), X4.data(), P.data());
     }
   }
 
@@ -488,7 +489,7 @@ struct LimitSurface {
 
   size_t memory_bytes() const {
     return (st_off.size() + st_idx.size() + patch_cvs.size() + ptex.size()) * sizeof(int) +
-           st_w.size() * sizeof(double) + st_wf.size() * sizeof(float);
+           st_w.size() * sizeof(double);
   }
 };
 
@@ -570,7 +571,6 @@ void LimitSurface::init(const MatX3i& F_, int n_vertices, int level) {
     }
     st_off[r + 1] = static_cast<int>(st_idx.size());
   }
-  st_wf.assign(st_w.begin(), st_w.end());
   for (int a = 0; a < patches->GetNumPatchArrays(); ++a)
     if (patches->GetPatchArrayDescriptor(a).GetNumControlVertices() > kMaxCvs)
       throw Error("unexpected OpenSubdiv patch type");
@@ -607,96 +607,122 @@ struct Multires::Impl {
   VecXi face;
   MatX2d st;
   MatX3d disp;
-  // The stencils are stored per slot, slots sorted by patch so that consecutive vertices reuse the
-  // same patch points from cache; slot j holds dense vertex order[j]. Slot j's patch points are
-  // surf.patch_cvs[cv_begin[j] ...] and, for each point after the first, the weights (position,
-  // d/ds, d/dt) as floats in w[w_off[j] ...]. Evaluation is relative to the first point,
-  // S = P0 + sum_j w_j (P_j - P0), exact for translations whatever the rounding of the weights
-  // (position weights sum to 1, derivative weights to 0).
-  std::vector<int> order;
-  std::vector<int> cv_begin;
-  std::vector<int64_t> w_off;
+  // Dense stencils: reconstruction is ONE sparse product over the control vertices. The patch
+  // basis of each base point (position and first derivatives) is composed at bind time with the
+  // stencils of the patch points, so that no patch point is evaluated per pose (at level 2 a 5K-face
+  // control mesh has more patch points than a 170K-vertex dense mesh has vertices) and every gather
+  // hits the control vertices, which stay in cache. The dense vertices of one patch share the
+  // patch's support list (control vertices, ascending); the weights of every entry after the first,
+  // (wP, wS, wT) as floats, are per vertex in dense order, read as one stream.
+  std::vector<int> sup_off, sup_idx;
+  std::vector<int> vsup;        // per dense vertex: support list
+  std::vector<int64_t> w_off;   // per dense vertex (+1): offset into w
   std::vector<float> w;
-  std::vector<double> disp_slot;  // (a, b, c) per slot
 
-  void eval_f(const double* P, int j, Vec3& S, Vec3& Ds, Vec3& Dt) const {
-    const int* cv = surf.patch_cvs.data() + cv_begin[j];
-    const float* wi = w.data() + w_off[j];
-    const int k = 1 + static_cast<int>((w_off[j + 1] - w_off[j]) / 3);
-    const CMap4 p0(P + 4 * static_cast<size_t>(cv[0]));
-    Vec4 s = Vec4::Zero(), a = Vec4::Zero(), b = Vec4::Zero();
-    for (int q = 1; q < k; ++q, wi += 3) {
-      const Vec4 d = CMap4(P + 4 * static_cast<size_t>(cv[q])) - p0;
-      s += double(wi[0]) * d;
-      a += double(wi[1]) * d;
-      b += double(wi[2]) * d;
-    }
-    S = (p0 + s).head<3>();
-    Ds = a.head<3>();
-    Dt = b.head<3>();
+  DenseArgs args(const double* X4, const double* disp_ptr, double* out, float* out_f) const {
+    return DenseArgs{vsup.data(), sup_off.data(), sup_idx.data(), w_off.data(), w.data(), X4, disp_ptr, out, out_f};
   }
-  // Limit point and frame (t1, t2, n) of slot j.
-  void frame_at(const MatX3d& X, const double* P, int j, Vec3& S, Vec3& t1, Vec3& t2, Vec3& n) const {
+  // Limit point and derivatives of dense vertex i in double precision from the float weights
+  // (the kernel's arithmetic).
+  void eval_f(const double* X4, int i, Vec3& S, Vec3& Ds, Vec3& Dt) const {
+    const int s = vsup[i];
+    const int* cv = sup_idx.data() + sup_off[s];
+    const int k = sup_off[s + 1] - sup_off[s];
+    const float* wi = w.data() + w_off[i];
+    Vec3 sum = Vec3::Zero();  // weight sums (position, d/ds, d/dt) of the entries after the first
+    S.setZero(), Ds.setZero(), Dt.setZero();
+    for (int q = 1; q < k; ++q, wi += 3) {
+      const CMap4 x(X4 + 4 * static_cast<size_t>(cv[q]));
+      S += double(wi[0]) * x.head<3>();
+      Ds += double(wi[1]) * x.head<3>();
+      Dt += double(wi[2]) * x.head<3>();
+      sum += Vec3(wi[0], wi[1], wi[2]);
+    }
+    const CMap4 x0(X4 + 4 * static_cast<size_t>(cv[0]));
+    S += (1 - sum[0]) * x0.head<3>();
+    Ds -= sum[1] * x0.head<3>();
+    Dt -= sum[2] * x0.head<3>();
+  }
+  // Limit point and frame (t1, t2, n) of dense vertex i, with the control face's plane as the
+  // fallback where the derivatives are degenerate (only on degenerate control geometry).
+  void frame_at(const double* X4, int i, Vec3& S, Vec3& t1, Vec3& t2, Vec3& n) const {
     Vec3 Ds, Dt;
-    eval_f(P, j, S, Ds, Dt);
+    eval_f(X4, i, S, Ds, Dt);
     n = Ds.cross(Dt);
     const double ln2 = n.squaredNorm(), ls2 = Ds.squaredNorm(), lt2 = Dt.squaredNorm();
     if (ln2 > 1e-20 * ls2 * lt2 && ln2 > 0) {
       n *= 1 / std::sqrt(ln2);
       t1 = Ds * (1 / std::sqrt(ls2));
       t2 = n.cross(t1);
-    } else {  // degenerate derivatives (degenerate control geometry): the control face's plane
-      Vec3 edge;
-      const Vec3 fnrm = face_normal_of(X, surf.F, face[order[j]], &edge);
+    } else {
+      const int f = face[i];
+      const CMap4 a(X4 + 4 * static_cast<size_t>(surf.F(f, 0))), b(X4 + 4 * static_cast<size_t>(surf.F(f, 1))),
+          c(X4 + 4 * static_cast<size_t>(surf.F(f, 2)));
+      const Vec3 edge = (b - a).head<3>();
+      const Vec3 fnrm = edge.cross((c - a).head<3>());
       make_frame(Ds, Dt, fnrm, edge, t1, t2, n);
     }
   }
-  // Runs dense_kernel over all slots in parallel; slots with degenerate derivatives are redone with
-  // frame_at (fallback frame). disp == nullptr: frames (12 doubles per slot) into out.
-  void run_dense(const MatX3d& X, const MatX4d& P, const double* disp_ptr, double* out) const {
+  // Evaluates every dense vertex: positions into out (double) or out_f (float) when disp_ptr is
+  // given, else frames (12 doubles per vertex) into out. One static block of vertices per thread
+  // (the work per vertex is uniform); a block that meets a degenerate frame finishes on frame_at.
+  void run_dense(const double* X4, const double* disp_ptr, double* out, float* out_f = nullptr) const {
     const int nd = n();
-    std::vector<unsigned char> degenerate(nd, 0);
-    std::atomic<bool> any{false};
+    const DenseArgs g = args(X4, disp_ptr, out, out_f);
+    auto block = [&](int i0, int i1) {
+      for (int i = dense_kernel(g, i0, i1); i < i1; i = dense_kernel(g, i + 1, i1)) {
+        Vec3 S, t1, t2, nn;
+        frame_at(X4, i, S, t1, t2, nn);
+        if (!disp_ptr) {
+          double* o = out + 12 * static_cast<size_t>(i);
+          for (int d = 0; d < 3; ++d) o[d] = S[d], o[3 + d] = t1[d], o[6 + d] = t2[d], o[9 + d] = nn[d];
+          continue;
+        }
+        const Vec3 x = S + disp_ptr[3 * static_cast<size_t>(i)] * t1 + disp_ptr[3 * static_cast<size_t>(i) + 1] * t2 +
+                       disp_ptr[3 * static_cast<size_t>(i) + 2] * nn;
+        for (int d = 0; d < 3; ++d) {
+          if (out_f)
+            out_f[3 * static_cast<size_t>(i) + d] = static_cast<float>(x[d]);
+          else
+            out[3 * static_cast<size_t>(i) + d] = x[d];
+        }
+      }
+    };
+    if (nd < kParallelMin) {
+      block(0, nd);
+      return;
+    }
 #pragma omp parallel
     {
       int nt = 1, t = 0;
 #ifdef _OPENMP
       nt = omp_get_num_threads(), t = omp_get_thread_num();
 #endif
-      const int j0 = static_cast<int>(static_cast<int64_t>(nd) * t / nt);
-      const int j1 = static_cast<int>(static_cast<int64_t>(nd) * (t + 1) / nt);
-      if (dense_kernel(j0, j1, cv_begin.data(), w_off.data(), surf.patch_cvs.data(), w.data(), P.data(), disp_ptr,
-                       order.data(), out, degenerate.data()) != j1)
-        any = true;
-    }
-    if (!any) return;
-    for (int j = 0; j < nd; ++j) {
-      if (!degenerate[j]) continue;
-      Vec3 S, t1, t2, nn;
-      frame_at(X, P.data(), j, S, t1, t2, nn);
-      if (disp_ptr) {
-        const Vec3 x = S + disp_ptr[3 * j] * t1 + disp_ptr[3 * j + 1] * t2 + disp_ptr[3 * j + 2] * nn;
-        for (int d = 0; d < 3; ++d) out[3 * static_cast<size_t>(order[j]) + d] = x[d];
-      } else {
-        for (int d = 0; d < 3; ++d) {
-          double* o = out + 12 * static_cast<size_t>(j);
-          o[d] = S[d], o[3 + d] = t1[d], o[6 + d] = t2[d], o[9 + d] = nn[d];
-        }
-      }
+      block(static_cast<int>(static_cast<int64_t>(nd) * t / nt), static_cast<int>(static_cast<int64_t>(nd) * (t + 1) / nt));
     }
   }
 
-  void validate_control(const MatX3d& X) const {
+  // The control vertices as 4 doubles per row (one aligned packet per gather), validated.
+  void load_control(const Eigen::Ref<const MatX3d>& X, std::vector<double>& X4) const {
     if (X.rows() != surf.n_control)
       throw MeshError("control vertices: expected " + std::to_string(surf.n_control) + " rows, got " +
                       std::to_string(X.rows()));
-    if (!X.allFinite()) throw MeshError("control vertices contain NaN or infinite coordinates");
+    X4.resize(4 * static_cast<size_t>(X.rows()));
+    for (Eigen::Index r = 0; r < X.rows(); ++r) {
+      const double x = X(r, 0), y = X(r, 1), z = X(r, 2);
+      if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z))
+        throw MeshError("control vertices contain NaN or infinite coordinates");
+      double* o = X4.data() + 4 * r;
+      o[0] = x, o[1] = y, o[2] = z, o[3] = 0;
+    }
   }
 };
 
 void Multires::Impl::compute_weights() {
   const int nd = n();
-  std::vector<int> begin(nd, 0), count(nd, 0);
+  const int nc = surf.n_control;
+  // 1. The patch of every base point (its first entry in the patch-point table names it).
+  std::vector<int> begin(nd, 0);
   std::atomic<bool> missing{false};
 #pragma omp parallel for schedule(static)
   for (int i = 0; i < nd; ++i) {
@@ -707,36 +733,67 @@ void Multires::Impl::compute_weights() {
     }
     const Far::ConstIndexArray cvs = surf.patches->GetPatchVertices(*h);
     begin[i] = static_cast<int>(&cvs[0] - &surf.patches->GetPatchControlVerticesTable()[0]);
-    count[i] = cvs.size();
   }
   if (missing) throw Error("a base point lies on no limit patch (hole face?)");
-  order.resize(nd);
-  for (int i = 0; i < nd; ++i) order[i] = i;
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return begin[a] < begin[b]; });
-  cv_begin.resize(nd);
-  w_off.assign(nd + 1, 0);
-  for (int j = 0; j < nd; ++j) {
-    cv_begin[j] = begin[order[j]];
-    w_off[j + 1] = w_off[j] + 3 * static_cast<int64_t>(count[order[j]] - 1);
+  // 2. One support list per patch in use: the control vertices its patch points depend on.
+  std::vector<int> list_of(surf.patch_cvs.size() + 1, -1);
+  std::vector<int> first_vertex;  // a dense vertex of each list (to get the patch's size)
+  vsup.resize(nd);
+  for (int i = 0; i < nd; ++i) {
+    int& l = list_of[begin[i]];
+    if (l < 0) l = static_cast<int>(first_vertex.size()), first_vertex.push_back(i);
+    vsup[i] = l;
   }
-  w.assign(w_off[nd], 0.0f);
-#pragma omp parallel for schedule(static)
-  for (int j = 0; j < nd; ++j) {
-    const int i = order[j];
-    double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs];
-    const int* cvs = nullptr;
-    const int k = surf.basis(face[i], st(i, 0), st(i, 1), cvs, wP, wS, wT);
-    float* out = w.data() + w_off[j];
-    for (int q = 1; q < k; ++q, out += 3) {
-      out[0] = static_cast<float>(wP[q]);
-      out[1] = static_cast<float>(wS[q]);
-      out[2] = static_cast<float>(wT[q]);
+  const int nl = static_cast<int>(first_vertex.size());
+  sup_off.assign(nl + 1, 0);
+  sup_idx.clear();
+  {
+    std::vector<char> mark(nc, 0);
+    std::vector<int> list;
+    const int* table = surf.patch_cvs.data();
+    for (int l = 0; l < nl; ++l) {
+      const int i = first_vertex[l];
+      const auto* h = surf.handle(face[i], st(i, 0), st(i, 1));
+      const int* cvs = table + begin[i];
+      const int k = surf.patches->GetPatchVertices(*h).size();
+      list.clear();
+      for (int q = 0; q < k; ++q)
+        for (int e = surf.st_off[cvs[q]]; e < surf.st_off[cvs[q] + 1]; ++e)
+          if (!mark[surf.st_idx[e]]) mark[surf.st_idx[e]] = 1, list.push_back(surf.st_idx[e]);
+      std::sort(list.begin(), list.end());
+      for (int v : list) mark[v] = 0, sup_idx.push_back(v);
+      sup_off[l + 1] = static_cast<int>(sup_idx.size());
     }
   }
-  disp_slot.assign(3 * static_cast<size_t>(nd), 0.0);
-  if (disp.rows() == nd)
-    for (int j = 0; j < nd; ++j)
-      for (int d = 0; d < 3; ++d) disp_slot[3 * j + d] = disp(order[j], d);
+  w_off.assign(nd + 1, 0);
+  for (int i = 0; i < nd; ++i) w_off[i + 1] = w_off[i] + 3 * static_cast<int64_t>(sup_off[vsup[i] + 1] - sup_off[vsup[i]] - 1);
+  w.assign(w_off[nd] + 4, 0.0f);  // padded: the kernel loads 4 floats per entry of 3
+  // 3. Per vertex: the patch basis (double) composed with the patch-point stencils, then stored
+  // in single precision for every entry after the list's first (see dense_kernel).
+#pragma omp parallel
+  {
+    std::vector<int> local(nc, -1);
+    std::vector<double> acc;
+#pragma omp for schedule(static)
+    for (int i = 0; i < nd; ++i) {
+      double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs];
+      const int* cvs = nullptr;
+      const int k = surf.basis(face[i], st(i, 0), st(i, 1), cvs, wP, wS, wT);
+      const int l = vsup[i], b = sup_off[l], m = sup_off[l + 1] - b;
+      for (int q = 0; q < m; ++q) local[sup_idx[b + q]] = q;
+      acc.assign(3 * static_cast<size_t>(m), 0.0);
+      for (int q = 0; q < k; ++q)
+        for (int e = surf.st_off[cvs[q]]; e < surf.st_off[cvs[q] + 1]; ++e) {
+          double* a = acc.data() + 3 * local[surf.st_idx[e]];
+          const double sw = surf.st_w[e];
+          a[0] += wP[q] * sw, a[1] += wS[q] * sw, a[2] += wT[q] * sw;
+        }
+      float* out = w.data() + w_off[i];
+      for (int q = 1; q < m; ++q)
+        for (int d = 0; d < 3; ++d) *out++ = static_cast<float>(acc[3 * q + d]);
+      for (int q = 0; q < m; ++q) local[sup_idx[b + q]] = -1;
+    }
+  }
 }
 
 namespace {
@@ -864,23 +921,21 @@ MatX3d fit_control(const Multires::Impl& m, const MatX3d& X0, const MatX3d& V, d
   return X;
 }
 
-// Displacement coefficients (a, b, c) of V in the frames of the base points.
+// Displacement coefficients (a, b, c) of V in the frames of the base points (the frames of the
+// reconstruction kernel itself, so that the rest pose reconstructs to rounding).
 void compute_displacements(Multires::Impl& m, const MatX3d& V) {
-  MatX4d P;
-  m.surf.points(m.control_V, P);
+  std::vector<double> X4;
+  m.load_control(m.control_V, X4);
   const int nd = m.n();
   std::vector<double> frames(12 * static_cast<size_t>(nd));
-  m.run_dense(m.control_V, P, nullptr, frames.data());
+  m.run_dense(X4.data(), nullptr, frames.data());
   m.disp.resize(nd, 3);
-  m.disp_slot.resize(3 * static_cast<size_t>(nd));
 #pragma omp parallel for schedule(static)
-  for (int j = 0; j < nd; ++j) {
-    const int i = m.order[j];
-    const Eigen::Map<const Vec3> S(&frames[12 * static_cast<size_t>(j)]), t1(&frames[12 * static_cast<size_t>(j) + 3]),
-        t2(&frames[12 * static_cast<size_t>(j) + 6]), n(&frames[12 * static_cast<size_t>(j) + 9]);
+  for (int i = 0; i < nd; ++i) {
+    const double* f = &frames[12 * static_cast<size_t>(i)];
+    const Eigen::Map<const Vec3> S(f), t1(f + 3), t2(f + 6), n(f + 9);
     const Vec3 d = V.row(i).transpose() - S;
     m.disp.row(i) << d.dot(t1), d.dot(t2), d.dot(n);
-    for (int q = 0; q < 3; ++q) m.disp_slot[3 * static_cast<size_t>(j) + q] = m.disp(i, q);
   }
 }
 
@@ -1037,56 +1092,79 @@ const MultiresTimings& Multires::timings() const { return impl_->timings; }
 
 size_t Multires::memory_bytes() const {
   const Impl& m = *impl_;
-  return m.surf.memory_bytes() + (m.cv_begin.size() + m.order.size()) * sizeof(int) +
-         m.w_off.size() * sizeof(int64_t) + m.w.size() * sizeof(float) + m.disp_slot.size() * sizeof(double) +
+  return m.surf.memory_bytes() + (m.sup_off.size() + m.sup_idx.size() + m.vsup.size()) * sizeof(int) +
+         m.w_off.size() * sizeof(int64_t) + m.w.size() * sizeof(float) +
          static_cast<size_t>(m.n()) * (sizeof(int) + 5 * sizeof(double));
 }
 
-void Multires::reconstruct(const Eigen::Ref<const MatX3d>& Xr, Eigen::Ref<MatX3d> out) const {
+namespace {
+// Per-thread copy of the control vertices (4 doubles per row): no allocation per pose.
+std::vector<double>& control_scratch() {
+  thread_local std::vector<double> X4;
+  return X4;
+}
+}  // namespace
+
+void Multires::reconstruct(const Eigen::Ref<const MatX3d>& X, Eigen::Ref<MatX3d> out) const {
   const Impl& m = *impl_;
   const int nd = m.n();
   if (out.rows() != nd) throw MeshError("reconstruct: the output needs " + std::to_string(nd) + " rows");
-  const MatX3d X = Xr;  // the control mesh is small
-  m.validate_control(X);
-  MatX4d P;
-  m.surf.points(X, P);
+  std::vector<double>& X4 = control_scratch();
+  m.load_control(X, X4);
   // x_i = S + a t1 + b t2 + c n in the deformed frame.
   if (out.outerStride() == 3) {
-    m.run_dense(X, P, m.disp_slot.data(), out.data());
+    m.run_dense(X4.data(), m.disp.data(), out.data());
   } else {
     MatX3d tmp(nd, 3);
-    m.run_dense(X, P, m.disp_slot.data(), tmp.data());
+    m.run_dense(X4.data(), m.disp.data(), tmp.data());
+    out = tmp;
+  }
+}
+
+void Multires::reconstruct(const Eigen::Ref<const MatX3d>& X, Eigen::Ref<MatX3f> out) const {
+  const Impl& m = *impl_;
+  const int nd = m.n();
+  if (out.rows() != nd) throw MeshError("reconstruct: the output needs " + std::to_string(nd) + " rows");
+  std::vector<double>& X4 = control_scratch();
+  m.load_control(X, X4);
+  if (out.outerStride() == 3) {
+    m.run_dense(X4.data(), m.disp.data(), nullptr, out.data());
+  } else {
+    MatX3f tmp(nd, 3);
+    m.run_dense(X4.data(), m.disp.data(), nullptr, tmp.data());
     out = tmp;
   }
 }
 
 MatX3d Multires::reconstruct(const MatX3d& X) const {
   MatX3d out(n_dense(), 3);
-  reconstruct(X, out);
+  reconstruct(X, Eigen::Ref<MatX3d>(out));
   return out;
 }
 
 void Multires::limit_points(const MatX3d& X, MatX3d& points, MatX3d* normals) const {
   const Impl& m = *impl_;
-  m.validate_control(X);
-  MatX4d P;
-  m.surf.points(X, P);
+  std::vector<double> X4;
+  m.load_control(X, X4);
   const int nd = m.n();
   std::vector<double> frames(12 * static_cast<size_t>(nd));
-  m.run_dense(X, P, nullptr, frames.data());
+  m.run_dense(X4.data(), nullptr, frames.data());
   points.resize(nd, 3);
   if (normals) normals->resize(nd, 3);
-  for (int j = 0; j < nd; ++j) {
-    const double* f = &frames[12 * static_cast<size_t>(j)];
-    points.row(m.order[j]) << f[0], f[1], f[2];
-    if (normals) normals->row(m.order[j]) << f[9], f[10], f[11];
+  for (int i = 0; i < nd; ++i) {
+    const double* f = &frames[12 * static_cast<size_t>(i)];
+    points.row(i) << f[0], f[1], f[2];
+    if (normals) normals->row(i) << f[9], f[10], f[11];
   }
 }
 
 void Multires::evaluate(const MatX3d& X, const VecXi& face, const MatX2d& st, MatX3d& P, MatX3d* Ds,
                         MatX3d* Dt) const {
   const Impl& m = *impl_;
-  m.validate_control(X);
+  {
+    std::vector<double> X4;
+    m.load_control(X, X4);  // validates
+  }
   const Eigen::Index n = face.size();
   if (st.rows() != n) throw MeshError("evaluate: face and st must have the same number of rows");
   for (Eigen::Index i = 0; i < n; ++i) {

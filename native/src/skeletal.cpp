@@ -1,6 +1,7 @@
 // Skeleton-driven deformation (thesis chapter 6). See skeletal.h.
 #include "dgmesh/skeletal.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
@@ -13,6 +14,8 @@
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
+
+#include <nanoflann.hpp>
 
 namespace dgmesh {
 
@@ -54,6 +57,38 @@ Mat3 nearest_rotation(const Mat3& C) {
   const Mat3 V = svd.matrixV();
   if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
   return U * V.transpose();
+}
+
+// The same polar factor from a nearby rotation G (the triangle's blended bone rotation, usually a
+// few degrees off): Newton's method for max tr(R^T A) over rotations R = G exp([w]). With
+// B = R^T A, S = sym(B): tr(R^T A) grows as w.g - w^T H w / 2, g = 2 axial(skew(B)),
+// H = tr(S) I - S, so w = H^-1 g; H is positive definite near the maximum, where S is the polar
+// factor's symmetric part. Quadratic convergence: 2-3 steps of about 100 flops instead of the
+// scaled Newton iteration's 6-10 3x3 inverses. Returns false (caller falls back) if H is not
+// positive definite or the steps do not become negligible.
+bool polar_near(const Mat3& A, const Mat3& G, Mat3& R) {
+  R = G;
+  const double scale = A.squaredNorm();
+  if (!(scale > 1e-300) || !A.allFinite()) return false;
+  for (int it = 0; it < 6; ++it) {
+    const Mat3 B = R.transpose() * A;
+    const Vec3 g(B(2, 1) - B(1, 2), B(0, 2) - B(2, 0), B(1, 0) - B(0, 1));
+    const Mat3 S = 0.5 * (B + B.transpose());
+    const Mat3 H = S.trace() * Mat3::Identity() - S;
+    Eigen::LLT<Mat3> llt(H);
+    if (llt.info() != Eigen::Success || !(H.diagonal().minCoeff() > 1e-12 * std::sqrt(scale))) return false;
+    const Vec3 w = llt.solve(g);
+    const double t2 = w.squaredNorm();
+    if (!std::isfinite(t2) || t2 > 1.0) return false;  // far from the guess: not Newton's region
+    Mat3 K;
+    K << 0, -w.z(), w.y(), w.z(), 0, -w.x(), -w.y(), w.x(), 0;
+    const double t = std::sqrt(t2);
+    // Rodrigues; the series where t is tiny (its error, t^3/6, is below rounding there).
+    const double a = t > 1e-6 ? std::sin(t) / t : 1 - t2 / 6, b = t > 1e-6 ? (1 - std::cos(t)) / t2 : 0.5 - t2 / 24;
+    R = R * (Mat3::Identity() + a * K + b * (K * K));
+    if (t2 < 1e-26) return true;
+  }
+  return false;
 }
 
 // Rotation taking unit a to unit b by the shortest arc (identity when they coincide).
@@ -307,6 +342,45 @@ double union_distance(const KdTree& tree, const MatX3d& centers, const VecXd& ra
   return best;
 }
 
+// The deformed ball centres of the fairing (a subset, see Impl::reps) in a kd-tree rebuilt per
+// pose (nanoflann, small leaves, fixed-size queries into stack arrays: no allocation per query).
+// Exact k nearest: an approximate search (nanoflann's eps) barely prunes on a tube, whose collapsed
+// skeleton puts hundreds of centres at almost the same distance from a surface point, and would
+// change the candidate balls.
+class CentreIndex {
+ public:
+  void build(const MatX3d& Sd, const std::vector<int>& reps) {
+    C_.resize(static_cast<Eigen::Index>(reps.size()), 3);
+    for (size_t r = 0; r < reps.size(); ++r) C_.row(static_cast<Eigen::Index>(r)) = Sd.row(reps[r]);
+    tree_ = std::make_unique<Tree>(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(8));
+    tree_->buildIndex();
+  }
+  // Those of the k nearest centres that lie closer than sqrt(bound2) (index into reps, squared
+  // distance); returns their count. The bound prunes the search from the start.
+  int knn(const Vec3& q, int k, int* idx, double* d2, double bound2) const {
+    const size_t cap = static_cast<size_t>(std::min<Eigen::Index>(k, C_.rows()));
+    if (cap == 0) return 0;
+    nanoflann::KNNResultSet<double, int> rs(cap);
+    rs.init(idx, d2);
+    d2[cap - 1] = bound2;  // the result set's worst distance until it fills: nothing farther enters
+    tree_->findNeighbors(rs, q.data(), nanoflann::SearchParams(32, 0.0f, false));
+    return static_cast<int>(rs.size());
+  }
+
+ private:
+  struct Cloud {
+    const MatX3d* p;
+    size_t kdtree_get_point_count() const { return static_cast<size_t>(p->rows()); }
+    double kdtree_get_pt(size_t i, size_t d) const { return (*p)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)); }
+    template <class BBox>
+    bool kdtree_get_bbox(BBox&) const { return false; }
+  };
+  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
+  MatX3d C_;
+  Cloud cloud_{&C_};
+  std::unique_ptr<Tree> tree_;
+};
+
 // Local version of eq. 6.13 for the fairing: the balls of the vertex's rest minimiser p (exact at
 // bind time) and of its skeletal 1-ring, plus the k nearest deformed centres (balls of other parts
 // the pose brought close). A fixed-size query instead of the radius query over r_max, which on a
@@ -314,9 +388,8 @@ double union_distance(const KdTree& tree, const MatX3d& centers, const VecXd& ra
 // value is exact at rest and under rigid motions (fixed points of the fairing).
 constexpr int kUnionNeighbours = 4;
 // `tree` holds the centres `reps` (a subset of the skeletal vertices, see Impl::reps).
-double union_distance_local(const KdTree& tree, const std::vector<int>& reps, const MatX3d& centers,
-                            const VecXd& radii, const Topology& topo, const Vec3& x, int p, int& arg,
-                            std::vector<int>& idx, std::vector<double>& d2) {
+double union_distance_local(const CentreIndex& tree, const std::vector<int>& reps, const MatX3d& centers,
+                            const VecXd& radii, double r_max, const Topology& topo, const Vec3& x, int p, int& arg) {
   double best = (x - row3(centers, p)).norm() - radii[p];
   arg = p;
   auto ring = [&](int c) {
@@ -329,7 +402,13 @@ double union_distance_local(const KdTree& tree, const std::vector<int>& reps, co
   ring(p);
   // (Re-using the first step's minimisers in later steps instead of this query saves a third of
   // the deform's instructions but loses the balls a bend's inner crease runs into: min ratio 0.82.)
-  const int k = tree.knn(x, kUnionNeighbours, idx, d2);
+  // Of the k nearest centres only those within best + r_max can lower the minimum (|x - s_j| - r_j
+  // >= |x - s_j| - r_max): the same result as an unbounded query, whose search the bound may prune.
+  const double bound = best + r_max;
+  if (!(bound > 0)) return best;
+  int idx[kUnionNeighbours];
+  double d2[kUnionNeighbours];
+  const int k = tree.knn(x, kUnionNeighbours, idx, d2, bound * bound);
   for (int t = 0; t < k; ++t) {
     const int j = reps[idx[t]];
     const double f = std::sqrt(d2[t]) - radii[j];
@@ -477,7 +556,10 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
     Mat3 M = Mat3::Zero();
     for (int k = 0; k < 3; ++k)
       M += Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(lin.row(F(f, k)).data());
-    R[f] = nearest_rotation(C + (mu / 3) * M);
+    const Mat3 A = C + (mu / 3) * M;
+    // The first corner's frame rotation (exactly orthonormal) seeds Newton's method.
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> G(lin.row(F(f, 0)).data());
+    if (!polar_near(A, G, R[f])) R[f] = nearest_rotation(A);
   }
   return R;
 }
@@ -513,29 +595,22 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 
 void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt) const {
   const int n = static_cast<int>(X.rows());
-  MatX3d C(reps.size(), 3);
-  for (size_t r = 0; r < reps.size(); ++r) C.row(r) = Sd.row(reps[r]);
-  const KdTree tree(C);
+  CentreIndex tree;
+  tree.build(Sd, reps);
   MatX3d G(n, 3);
   for (int step = 0; step <= opt.fairing_steps; ++step) {
     const bool last = step == opt.fairing_steps;
     if (last && !(opt.projection > 0)) break;
     // F(u) = f grad f at the mesh vertices, 0 at the skeleton (eq. 6.14); f is measured against
     // its rest value so that the rest pose and rigid motions are fixed points.
-#pragma omp parallel if (n >= kParallelMin / 4)
-    {
-      std::vector<int> idx;
-      std::vector<double> d2;
-#pragma omp for schedule(static)
-      for (int i = 0; i < n; ++i) {
-        int p;
-        const Vec3 x = row3(X, i);
-        const double f =
-            union_distance_local(tree, reps, Sd, radii, control.topo, x, rest_arg[i], p, idx, d2) - f_rest[i];
-        const Vec3 d = x - row3(Sd, p);
-        const double len = d.norm();
-        G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
-      }
+#pragma omp parallel for schedule(static) if (n >= kParallelMin / 4)
+    for (int i = 0; i < n; ++i) {
+      int p;
+      const Vec3 x = row3(X, i);
+      const double f = union_distance_local(tree, reps, Sd, radii, r_max, control.topo, x, rest_arg[i], p) - f_rest[i];
+      const Vec3 d = x - row3(Sd, p);
+      const double len = d.norm();
+      G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
     }
     if (last) {
       X -= opt.projection * G;  // explicit step (see SkeletalDeformOptions::projection)
@@ -779,6 +854,18 @@ void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOpti
     impl_->multires->reconstruct(Xc, out);
   else
     out = Xc;
+}
+
+void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                         Eigen::Ref<MatX3f> out) const {
+  if (out.rows() != n_vertices())
+    throw MeshError("skeletal deform: the output needs " + std::to_string(n_vertices()) + " rows, got " +
+                    std::to_string(out.rows()));
+  const MatX3d Xc = deform_control(pose, opt);
+  if (impl_->multires)
+    impl_->multires->reconstruct(Xc, out);
+  else
+    out = Xc.cast<float>();
 }
 
 int SkeletalRig::n_vertices() const {

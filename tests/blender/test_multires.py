@@ -72,3 +72,129 @@ def test_undo_restores_the_mesh():
     obj = bpy.data.objects["QuadSphere"]
     assert mesh_snapshot(obj.data) == before
     assert "QuadSphere_control" not in bpy.data.objects
+
+
+def test_cancel_leaves_mesh_unchanged(capsys):
+    from dgmesh.blender import ops_multires
+
+    open_fixture("shapes")
+    select("Torus")
+    obj = bpy.data.objects["Torus"]
+    before = mesh_snapshot(obj.data)
+    n_objects = len(bpy.data.objects)
+    ops_multires.cancel_event.set()  # what Esc does in the modal run
+    assert _run(control_faces=200) == {'CANCELLED'}
+    assert "Multires Preview: cancelled, nothing was changed" in capsys.readouterr().out
+    assert not ops_multires.cancel_event.is_set()
+    assert mesh_snapshot(obj.data) == before
+    assert len(bpy.data.objects) == n_objects and "Torus_control" not in bpy.data.objects
+    assert _run(control_faces=200) == {'FINISHED'}
+
+
+def test_esc_midway_stops_the_worker_thread(dg):
+    """The operator's native work in the worker thread (jobs.Job, as invoke runs it): an Esc that
+    arrives midway (the cancel flag, set here once a third of the build is done) stops the build
+    with Cancelled; nothing is returned for finish() to write."""
+    from dgmesh.blender import ops_multires
+    from dgmesh.blender.jobs import Job
+
+    class EscMidway(Job):
+        def progress(self, fraction):
+            if fraction > 0.3:
+                self.cancelled = True  # modal() sets this on Esc
+            return super().progress(fraction)
+
+    V, F = dg.shapes.icosphere(5)
+    job = EscMidway(ops_multires.make_work(V, F, control_faces=500)).start()
+    assert job.wait(60)
+    assert isinstance(job.error, dg.Cancelled) and job.result is None
+    assert 0.3 < job.fraction < 1.0
+    # Without Esc the same work completes.
+    job = Job(ops_multires.make_work(V, F, control_faces=500)).start()
+    assert job.wait(60) and job.error is None and job.result[0].n_dense == len(V)
+
+
+MODAL_SCRIPT = r'''
+import sys, threading, time
+sys.path.insert(0, sys.argv[sys.argv.index("--") + 1])
+import bpy
+import run as runner
+runner.enable_addon()
+state = {"phase": 0}
+out = {}
+
+def setup(subdivisions):
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions)
+    return bpy.context.active_object
+
+def invoke(**props):
+    win = bpy.context.window_manager.windows[0]
+    area = next(a for a in win.screen.areas if a.type == 'VIEW_3D')
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    with bpy.context.temp_override(window=win, area=area, region=region):
+        return bpy.ops.dgmesh.multires_preview('INVOKE_DEFAULT', **props)
+
+def done(obj):
+    return "dg_multires_magnitude" in obj.data.attributes
+
+def step():
+    ph = state["phase"]
+    if ph == 0:
+        setup(6)
+        out["first"] = sorted(invoke(control_faces=1000))
+        state["t0"], state["phase"] = time.time(), 1
+    elif ph == 1:
+        obj = bpy.data.objects["Icosphere"]
+        if done(obj) or time.time() - state["t0"] > 60:
+            out["finished"] = done(obj) and "Icosphere_control" in bpy.data.objects
+            state["phase"] = 2
+    elif ph == 2:
+        setup(8)  # 163842 vertices: a build of seconds, cancelled midway
+        state["threads"] = threading.active_count()
+        out["second"] = sorted(invoke(control_faces=5000))
+        state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
+        return 0.0
+    elif ph == 3:
+        win = bpy.context.window_manager.windows[0]
+        if threading.active_count() > state["threads"] and state["esc"] < 10:
+            win.event_simulate(type='ESC', value='PRESS')
+            win.event_simulate(type='ESC', value='RELEASE')
+            state["esc"] += 1
+        elif threading.active_count() <= state["threads"]:
+            out["worker_seconds"] = round(time.time() - state["t0"], 2)
+            state["phase"] = 4
+        elif time.time() - state["t0"] > 120:
+            state["phase"] = 4
+        return 0.3
+    else:
+        obj = bpy.data.objects["Icosphere"]
+        out["unchanged_after_esc"] = not done(obj) and "Icosphere_control" not in bpy.data.objects
+        print("MODAL_RESULT", out, flush=True)
+        bpy.ops.wm.quit_blender()
+        return None
+    return 0.2
+
+bpy.app.timers.register(step, first_interval=1.0)
+'''
+
+
+@pytest.mark.skipif(not __import__("shutil").which("xvfb-run"), reason="needs xvfb-run for a windowed Blender")
+def test_interactive_run_is_modal_and_esc_cancels(tmp_path):
+    """With a window (Xvfb), invoke builds in a worker thread and finishes on its own; a simulated
+    Esc during a long build cancels it and writes nothing (no attributes, no control object)."""
+    import subprocess
+    from pathlib import Path
+
+    script = tmp_path / "modal.py"
+    script.write_text(MODAL_SCRIPT)
+    tests_dir = Path(__file__).resolve().parent
+    proc = subprocess.run(["xvfb-run", "-a", bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
+                           "--python", str(script), "--", str(tests_dir)],
+                          capture_output=True, text=True, timeout=300)
+    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("MODAL_RESULT")), None)
+    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
+    out = eval(line[len("MODAL_RESULT"):])
+    assert out["first"] == ['RUNNING_MODAL'] and out["finished"]
+    assert out["second"] == ['RUNNING_MODAL'] and out["unchanged_after_esc"]

@@ -1,5 +1,5 @@
-"""Blender side of the skeletal deformation: bind, live update by frame_set, save/reload, unbind,
-bake to a Mesh Cache, error cases."""
+"""Blender side of the skeletal deformation: bind, live update by frame_set (one deform per pose
+change, basis untouched), save/reload, unbind, bake to a Mesh Cache, error cases."""
 
 import math
 
@@ -16,10 +16,10 @@ def _mesh_co(mesh):
     return a.reshape(-1, 3)
 
 
-def _key_co(obj, name="dg_skeletal"):
-    kb = obj.data.shape_keys.key_blocks[name]
-    a = np.empty(len(kb.data) * 3, dtype=np.float32)
-    kb.data.foreach_get("co", a)
+def _offset(obj):
+    att = obj.data.attributes["dg_skeletal_offset"]
+    a = np.empty(len(att.data) * 3, dtype=np.float32)
+    att.data.foreach_get("vector", a)
     return a.reshape(-1, 3)
 
 
@@ -90,13 +90,19 @@ def test_bind_live_update_unbind():
     assert _bind() == {'FINISHED'}
     assert "dg_skeletal" in obj.keys()
     assert obj.modifiers["Armature"].show_viewport is False
-    assert np.abs(_key_co(obj) - V).max() < 1e-5  # rest pose
+    # Its armature is cleared too: a disabled modifier still ties the mesh to the pose (an extra
+    # evaluation of the whole mesh per frame).
+    assert obj.modifiers["Armature"].object is None
+    # The live modifier comes first (before the user's modifiers, like a shape key would).
+    assert [m.name for m in obj.modifiers] == ["dg_skeletal", "Armature"]
+    assert obj.data.shape_keys is None
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-5  # rest pose
     sk = bpy.data.objects[obj.name + "_skeleton"]
     assert "dg_radius_color" in sk.data.attributes
     _pose_lower(arm, 0.0, frame=1)
     _pose_lower(arm, math.pi / 2, frame=10)
     bpy.context.scene.frame_set(10)
-    X = _key_co(obj)
+    X = _evaluated_co(obj)
     # The far end follows the bent bone: x -> y.
     tip = np.argmax(V[:, 0])
     assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05
@@ -107,13 +113,17 @@ def test_bind_live_update_unbind():
     d = np.minimum(d_lower, np.linalg.norm(X - b1, axis=1))
     cyl = (np.abs(V[:, 0]) < 3.0)
     assert d[cyl].min() > 0.5 * 0.7  # 2 fairing steps with these blended groups (LBS: ~0.5)
-    ev = _evaluated_co(obj)
-    assert np.abs(ev - X).max() < 1e-4  # the shape key is what renders
+    # The basis is never written: the deformation is the offset attribute on top of it.
+    assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+    assert np.abs(_mesh_co(obj.data) + _offset(obj) - X).max() < 1e-5
     bpy.context.scene.frame_set(1)
-    assert np.abs(_key_co(obj) - V).max() < 1e-4
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-4
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
     assert obj.data.shape_keys is None
-    assert obj.modifiers["Armature"].show_viewport is True
+    assert [m.name for m in obj.modifiers] == ["Armature"]
+    assert "dg_skeletal_offset" not in obj.data.attributes
+    assert "dg_skeletal" not in bpy.data.node_groups
+    assert obj.modifiers["Armature"].show_viewport is True and obj.modifiers["Armature"].object == arm
     assert "dg_skeletal" not in obj.keys()
     assert obj.name + "_skeleton" not in bpy.data.objects
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
@@ -127,13 +137,13 @@ def test_save_reload_bound(tmp_path):
     path = str(tmp_path / "bound.blend")
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.context.scene.frame_set(10)
-    before = _key_co(obj).copy()
+    before = _evaluated_co(obj).copy()
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Capsule"]
-    assert "dg_skeletal" in obj.keys()
+    assert "dg_skeletal" in obj.keys() and obj.modifiers[0].name == "dg_skeletal"
     bpy.context.scene.frame_set(1)
     bpy.context.scene.frame_set(10)
-    assert np.abs(_key_co(obj) - before).max() < 1e-5
+    assert np.abs(_evaluated_co(obj) - before).max() < 1e-5
     # Twist keeps thickness: radial distance from the x axis.
     r = np.hypot(before[:, 1], before[:, 2])
     cyl = np.abs(V[:, 0]) < 3.0
@@ -148,7 +158,7 @@ def test_bake_then_unbind_plays_cache(tmp_path):
     path = str(tmp_path / "anim.pc2")
     assert bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT', filepath=path, frame_start=1, frame_end=5) == {'FINISHED'}
     bpy.context.scene.frame_set(5)
-    baked = _key_co(obj).copy()
+    baked = _evaluated_co(obj).copy()
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
     assert "dg_skeletal_cache" in obj.modifiers
     obj.modifiers["Armature"].show_viewport = False  # compare the cache alone
@@ -156,6 +166,118 @@ def test_bake_then_unbind_plays_cache(tmp_path):
     bpy.context.scene.frame_set(5)
     assert np.abs(_evaluated_co(obj) - baked).max() < 1e-4
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+
+
+def test_one_deform_per_pose_change():
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, 0.0, frame=1)
+    _pose_lower(arm, math.pi / 2, frame=11)
+    sc = bpy.context.scene
+    sc.frame_set(1)
+    calls = []
+    orig = ops_skeletal._deformed
+
+    def counting(o, pose):
+        calls.append(sc.frame_current)
+        return orig(o, pose)
+
+    ops_skeletal._deformed = counting
+    try:
+        for fr in (2, 3, 7):
+            sc.frame_set(fr)
+            # The write re-evaluates the mesh within frame_set: what renders is this frame's pose.
+            X = _evaluated_co(obj)
+            assert np.abs(X - (_mesh_co(obj.data) + _offset(obj))).max() < 1e-6
+        assert calls == [2, 3, 7]
+        sc.frame_set(7)  # same pose: no deform
+        bpy.context.view_layer.update()
+        assert calls == [2, 3, 7]
+        # Posing outside the timeline (as in Pose mode): one deform through depsgraph_update_post.
+        arm.animation_data_clear()
+        arm.pose.bones["Lower"].rotation_euler = (0.0, 0.0, 0.3)
+        bpy.context.view_layer.update()
+        assert calls == [2, 3, 7, 7]
+        bpy.context.view_layer.update()
+        assert calls == [2, 3, 7, 7]
+    finally:
+        ops_skeletal._deformed = orig
+    # Positions of this pose; the far end turned by 0.3 rad about z.
+    X = _evaluated_co(obj)
+    tip = np.argmax(V[:, 0])
+    assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - 0.3) < 0.02
+    assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+
+
+def test_modifier_first_and_shape_keys_add():
+    """The live modifier goes before the user's modifiers, and a user's shape key still adds its
+    delta on top of the skeletal deformation (like the relative key it replaces)."""
+    obj, arm, V = _scene()
+    obj.modifiers.new("Sub", 'SUBSURF').levels = 0
+    obj.shape_key_add(name="Basis")
+    kb = obj.shape_key_add(name="Bump")
+    tip = int(np.argmax(V[:, 0]))
+    kb.data[tip].co = tuple(V[tip] + (0.0, 0.0, 0.25))
+    kb.value = 1.0
+    assert _bind() == {'FINISHED'}
+    assert obj.modifiers[0].name == "dg_skeletal"
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.scene.frame_set(1)
+    X = _evaluated_co(obj)
+    assert np.abs(X[tip] - (V[tip] + _offset(obj)[tip] + (0, 0, 0.25))).max() < 1e-4
+    assert abs(X[tip, 1] - 3.5) < 0.05
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert [k.name for k in obj.data.shape_keys.key_blocks] == ["Basis", "Bump"]
+    assert [m.name for m in obj.modifiers] == ["Armature", "Sub"]
+
+
+def test_duplicate_of_bound_object_updates():
+    """A duplicated bound object shares the bind id but has its own data: both follow the pose."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    dup = obj.copy()
+    dup.data = obj.data.copy()
+    bpy.context.scene.collection.objects.link(dup)
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.scene.frame_set(1)
+    tip = np.argmax(V[:, 0])
+    for o in (obj, dup):
+        X = _evaluated_co(o)
+        assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05, o.name
+    bpy.context.view_layer.objects.active = dup
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert obj.name + "_skeleton" in bpy.data.objects and "dg_skeletal" in bpy.data.node_groups
+    _pose_lower(arm, math.pi / 4)
+    bpy.context.scene.frame_set(1)
+    X = _evaluated_co(obj)  # the original still updates from the shared bind data
+    assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 4) < 0.02
+
+
+def test_legacy_shape_key_binding():
+    """Objects bound by the earlier version (shape key dg_skeletal, no "target") still update and
+    unbind cleanly."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    info = obj["dg_skeletal"].to_dict()
+    # Turn it into an earlier-version binding: shape key instead of attribute + modifier.
+    obj.modifiers.remove(obj.modifiers["dg_skeletal"])
+    obj.data.attributes.remove(obj.data.attributes["dg_skeletal_offset"])
+    bpy.data.node_groups.remove(bpy.data.node_groups["dg_skeletal"])
+    obj.shape_key_add(name="Basis", from_mix=False)
+    obj.shape_key_add(name="dg_skeletal", from_mix=False).value = 1.0
+    for k in ("target", "modifier", "node_group"):
+        del info[k]
+    info["created_basis"] = 1
+    obj["dg_skeletal"] = info
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.scene.frame_set(1)
+    X = _evaluated_co(obj)
+    tip = np.argmax(V[:, 0])
+    assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05
+    assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert obj.data.shape_keys is None and [m.name for m in obj.modifiers] == ["Armature"]
 
 
 def test_errors():

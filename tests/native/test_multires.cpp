@@ -161,6 +161,33 @@ TEST(Multires, RestExactAndRigidOnBumpySphere) {
   EXPECT_LT(mr.displacement().leftCols(2).cwiseAbs().maxCoeff(), 1e-6 * diag);
 }
 
+TEST(Multires, OutputBuffersAndDegenerateControlGeometry) {
+  // The dense evaluation writes into caller buffers: double (contiguous or strided) and float (the
+  // double result rounded once) agree with the allocating form.
+  const TriMesh c = icosphere(1);
+  const TriMesh d = icosphere(4, 1.03);
+  const Multires mr = Multires::bind(c.V, c.F, d.V, 2);
+  MatX3d X = c.V;
+  X.col(0) *= 1.4;
+  X.col(2) += 0.2 * X.col(1);
+  const MatX3d ref = mr.reconstruct(X);
+  MatX3d outd(d.V.rows(), 3);
+  mr.reconstruct(X, Eigen::Ref<MatX3d>(outd));
+  EXPECT_EQ(max_dist(outd, ref), 0.0);
+  MatX3f outf(d.V.rows(), 3);
+  mr.reconstruct(X, Eigen::Ref<MatX3f>(outf));
+  EXPECT_EQ((outf - ref.cast<float>()).cwiseAbs().maxCoeff(), 0.0f);
+  Eigen::Matrix<double, Eigen::Dynamic, 5, Eigen::RowMajor> wide(d.V.rows(), 5);
+  Eigen::Ref<MatX3d, 0, Eigen::OuterStride<>> strided(wide.leftCols<3>());
+  mr.reconstruct(X, strided);
+  EXPECT_EQ(max_dist(wide.leftCols<3>(), ref), 0.0);
+  // Collapsing every control vertex to one point leaves no tangent plane anywhere: the fallback
+  // frame still gives finite positions (the displacements about that point).
+  const MatX3d P = MatX3d::Zero(c.V.rows(), 3);
+  const MatX3d Y = mr.reconstruct(P);
+  EXPECT_TRUE(Y.allFinite());
+}
+
 TEST(Multires, LimitMatrixMatchesLimitPoints) {
   const TriMesh c = icosphere(1);
   const TriMesh d = icosphere(3, 1.02);

@@ -85,8 +85,15 @@ def test_reconstruct_into_preallocated_array():
     out = np.zeros_like(V)
     assert mr.reconstruct(cV, out=out) is out
     np.testing.assert_allclose(out, V, atol=1e-12)
-    with pytest.raises(dgmesh.MeshError):
-        mr.reconstruct(cV, out=np.zeros((len(V), 3), dtype=np.float32))
+    # float32 (Blender's buffers): the double result rounded once.
+    out32 = np.zeros((len(V), 3), dtype=np.float32)
+    X = cV * 1.1 + 0.3
+    assert mr.reconstruct(X, out=out32) is out32
+    np.testing.assert_array_equal(out32, mr.reconstruct(X).astype(np.float32))
+    for bad in (np.zeros((len(V), 3), dtype=np.float16), np.zeros((len(V), 3), dtype=np.int32),
+                np.zeros((len(V) + 1, 3)), np.zeros((3, len(V))).T):
+        with pytest.raises(dgmesh.MeshError):
+            mr.reconstruct(cV, out=bad)
 
 
 def test_limit_matrix_reproduces_limit_points():

@@ -117,10 +117,14 @@ def test_deform_into_buffer(rig, mesh):
     res = rig.deform(pose, out=out)
     assert res is out
     assert np.array_equal(out, rig.deform(pose))
-    with pytest.raises(dgmesh.MeshError):
-        rig.deform(pose, out=np.zeros((rig.n_vertices, 3), dtype=np.float32))
-    with pytest.raises(dgmesh.MeshError):
-        rig.deform(pose, out=np.zeros((rig.n_vertices + 1, 3)))
+    # float32 (Blender's buffers): the double result rounded once.
+    out32 = np.zeros((rig.n_vertices, 3), dtype=np.float32)
+    assert rig.deform(pose, out=out32) is out32
+    np.testing.assert_array_equal(out32, out.astype(np.float32))
+    for bad in (np.zeros((rig.n_vertices, 3), dtype=np.float16), np.zeros((rig.n_vertices + 1, 3)),
+                np.zeros((3, rig.n_vertices)).T):
+        with pytest.raises(dgmesh.MeshError):
+            rig.deform(pose, out=bad)
 
 
 def test_basic_method_runs(rig):
@@ -162,8 +166,14 @@ def test_dense_mesh_through_multires():
     rig = dgmesh.SkeletalRig.bind(V, F, rest, None, control_faces=len(F) // 8)
     assert rig.has_multires and rig.n_vertices == len(V) and rig.n_control < len(V)
     assert np.abs(rig.deform(rest) - V).max() < 1e-6
-    X = rig.deform(np.array([rest[0], rot((0, 0, 1), np.pi / 2) @ rest[1]]))
+    pose = np.array([rest[0], rot((0, 0, 1), np.pi / 2) @ rest[1]])
+    X = rig.deform(pose)
     assert np.isfinite(X).all()
+    # The buffer paths (dense reconstruction written in place) equal the regular one.
+    out = np.full((len(V), 3), np.nan)
+    assert rig.deform(pose, out=out) is out and np.array_equal(out, X)
+    out32 = np.zeros((len(V), 3), dtype=np.float32)
+    assert rig.deform(pose, out=out32) is out32 and np.array_equal(out32, X.astype(np.float32))
     back = dgmesh.SkeletalRig.from_arrays(rig.to_arrays())
     assert np.abs(back.deform(rest) - V).max() < 1e-6
 

@@ -7,8 +7,13 @@ as attributes: ``dg_multires_displacement`` (FLOAT, signed distance along the li
 scalar), ``dg_multires_magnitude`` (FLOAT, |x - S|) and the colour attribute
 ``dg_multires_color`` (the magnitude, viridis). Vertex positions, topology, UVs, groups and every
 other attribute of the dense mesh are left as they are. On an error nothing is changed.
+
+Started from the UI, the build runs in a worker thread (jobs.NativeJobOperator: progress in the
+status bar, Esc cancels and nothing is written); from scripts and in ``--background`` execute()
+runs it in a row, and setting :data:`cancel_event` cancels it the same way.
 """
 
+import threading
 import time
 
 import bpy
@@ -18,30 +23,36 @@ from bpy.props import FloatProperty, IntProperty
 from .. import colors
 from . import bridge
 from .common import poll_fail as _poll_fail
+from .jobs import NativeJobOperator
 from .prefs import api
 
 ATTR_DISP = "dg_multires_displacement"
 ATTR_MAG = "dg_multires_magnitude"
 ATTR_COLOR = "dg_multires_color"
 CONTROL_KEY = "dgmesh_multires_control_of"  # custom property on the control object
+# A cancel request for scripts (Esc does the same in an interactive run): the progress callback then
+# returns False, the native build raises Cancelled and nothing is written. Cleared when a run ends.
+cancel_event = threading.Event()
 
 
-class _Progress:
-    """Native progress callback driving the window manager's progress indicator (if any)."""
+def make_work(V, F, control_faces=5000, level=2, min_quality=0.2, fit_iterations=1):
+    """The native part of the preview as ``work(progress) -> (Multires, rest positions, seconds)``:
+    numpy and dgmesh only (it runs in a worker thread when interactive). ``progress`` is
+    fraction -> bool; False (or :data:`cancel_event`) cancels with dgmesh.Cancelled."""
+    dg = api()
 
-    def __init__(self, context):
-        self.wm = context.window_manager if context.window is not None else None
-        if self.wm:
-            self.wm.progress_begin(0, 100)
+    def work(progress):
+        t0 = time.perf_counter()
+        try:
+            mr = dg.Multires.build(V, F, control_faces=control_faces, level=level, min_quality=min_quality,
+                                   fit_iterations=fit_iterations,
+                                   progress=lambda f: bool(progress(f)) and not cancel_event.is_set())
+            rest = mr.reconstruct(mr.control_vertices)
+        finally:
+            cancel_event.clear()
+        return mr, rest, time.perf_counter() - t0
 
-    def __call__(self, fraction):
-        if self.wm:
-            self.wm.progress_update(int(100 * fraction))
-        return True
-
-    def end(self):
-        if self.wm:
-            self.wm.progress_end()
+    return work
 
 
 def _control_object(context, obj, V, F):
@@ -68,13 +79,13 @@ def _control_object(context, obj, V, F):
     return ctrl
 
 
-class DGMESH_OT_multires_preview(bpy.types.Operator):
+class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
     bl_idname = "dgmesh.multires_preview"
     bl_label = "Multires Preview"
     bl_description = (
         "Build the displaced-subdivision representation of the active mesh: show its coarse "
         "control mesh as a wireframe object and the displacement from the control mesh's Loop "
-        "limit surface as a colour attribute (the mesh itself is not moved)"
+        "limit surface as a colour attribute (the mesh itself is not moved). Esc cancels long runs"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
@@ -104,34 +115,41 @@ class DGMESH_OT_multires_preview(bpy.types.Operator):
             return _poll_fail(cls, "The active object must be a mesh")
         return True
 
-    def execute(self, context):
-        dg = api()
+    def prepare(self, context):
+        """Reads the active mesh (main thread); returns the native work, or None after an error."""
         obj = context.active_object
         if obj.data.library is not None:
             self.report({'ERROR'}, f"Multires preview failed on '{obj.name}': mesh data is linked from a library")
-            return {'CANCELLED'}
-        progress = _Progress(context)
-        t0 = time.perf_counter()
+            cancel_event.clear()
+            return None
+        self._name = obj.name
         try:
-            arrays = bridge.read_object(obj)
-            mr = dg.Multires.build(arrays.V, arrays.F, control_faces=self.control_faces, level=self.level,
-                                   min_quality=self.min_quality, fit_iterations=self.fit_iterations,
-                                   progress=progress)
-            rest = mr.reconstruct(mr.control_vertices)
-        except dg.Cancelled:
-            self.report({'WARNING'}, "Multires preview cancelled; nothing was changed")
+            self._arrays = bridge.read_object(obj)
+        except Exception as exc:  # reported like a native error; nothing was changed
+            cancel_event.clear()
+            self._failed(exc)
+            return None
+        return make_work(self._arrays.V, self._arrays.F, control_faces=self.control_faces, level=self.level,
+                         min_quality=self.min_quality, fit_iterations=self.fit_iterations)
+
+    def _failed(self, exc):
+        dg = api()
+        if isinstance(exc, dg.MeshError) and not isinstance(exc, dg.Cancelled):
+            self.report({'ERROR'}, f"Multires preview failed on '{self._name}': {exc}")
             return {'CANCELLED'}
-        except dg.MeshError as exc:
-            self.report({'ERROR'}, f"Multires preview failed on '{obj.name}': {exc}")
-            return {'CANCELLED'}
-        except Exception as exc:  # anything else from the native side: report, don't crash
-            self.report({'ERROR'}, f"Multires preview failed on '{obj.name}': internal error: "
+        if not isinstance(exc, dg.Cancelled):
+            self.report({'ERROR'}, f"Multires preview failed on '{self._name}': internal error: "
                                    f"{type(exc).__name__}: {exc}")
             return {'CANCELLED'}
-        finally:
-            progress.end()
-        seconds = time.perf_counter() - t0
+        return super()._failed(exc)
 
+    def finish(self, context, result):
+        """Writes the attributes and the control object (main thread) and reports."""
+        mr, rest, seconds = result
+        obj = bpy.data.objects.get(self._name)
+        if obj is None or obj.type != 'MESH' or len(obj.data.vertices) != mr.n_dense:
+            self.report({'ERROR'}, f"Multires preview: '{self._name}' changed while the build ran; nothing was written")
+            return {'CANCELLED'}
         disp = mr.normal_displacement
         mag = mr.displacement_magnitude
         mesh = obj.data
@@ -141,7 +159,7 @@ class DGMESH_OT_multires_preview(bpy.types.Operator):
                                  'FLOAT_COLOR', make_active=True)
         ctrl = _control_object(context, obj, mr.control_vertices, mr.control_faces)
 
-        V = arrays.V
+        V = self._arrays.V
         diag = float(np.linalg.norm(V.max(0) - V.min(0))) or 1.0
         rest_err = float(np.abs(rest - V).max()) / diag
         space = context.space_data

@@ -11,9 +11,11 @@
 // that remains because the base point is a (numerically) closest point, so that the rest pose
 // reconstructs exactly. The dense mesh keeps its own topology: only vertex positions are bound.
 //
-// Deforming the control mesh moves every dense vertex through precomputed stencils: the patch
-// points are a sparse product of the control vertices, the limit position and derivatives of every
-// dense vertex a sparse combination of at most 20 patch points (both products run in parallel).
+// Deforming the control mesh moves every dense vertex through precomputed stencils: the limit
+// position and first derivatives of every dense vertex are ONE sparse product over the control
+// vertices (the patch basis composed with OpenSubdiv's patch-point stencils at bind time, ~13
+// control vertices per dense vertex, single-precision weights relative to the first one), followed
+// by the frame and the displacement, in one parallel pass that writes straight into the output.
 // Limit stencils are affine combinations and the frame rotates with the derivatives, so a rigid
 // motion of the control mesh moves the dense mesh rigidly.
 #pragma once
@@ -27,6 +29,7 @@
 namespace dgmesh {
 
 using MatX2d = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
+using MatX3f = Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 struct MultiresOptions {
   int control_faces = 5000;  // target face count of the decimated control mesh
@@ -84,10 +87,12 @@ class Multires {
   const MatX2d& base_st() const;
   const MatX3d& displacement() const;  // (a, b, c) per dense vertex
 
-  // Dense positions for the given control vertex positions (n_control x 3). The second form writes
-  // into a caller-owned (n_dense x 3) array (no allocation but the patch points).
+  // Dense positions for the given control vertex positions (n_control x 3). The other forms write
+  // into a caller-owned (n_dense x 3) array, double or single precision (no allocation per call
+  // when the array is contiguous; the computation is in double either way).
   MatX3d reconstruct(const MatX3d& control_V) const;
   void reconstruct(const Eigen::Ref<const MatX3d>& control_V, Eigen::Ref<MatX3d> out) const;
+  void reconstruct(const Eigen::Ref<const MatX3d>& control_V, Eigen::Ref<MatX3f> out) const;
   // The base points S(f_i, s_i, t_i) of the dense vertices (no displacement) and the limit normals.
   void limit_points(const MatX3d& control_V, MatX3d& points, MatX3d* normals = nullptr) const;
   // Limit positions and first derivatives (w.r.t. s and t) at any locations (face, s, t) of the

@@ -125,8 +125,10 @@ class SkeletalRig {
 
   // Deformed dense positions for the given pose matrices (B of them, same space as the rest ones).
   MatX3d deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt = {}) const;
-  // The same into a caller-owned (n_vertices x 3) array (the live update reuses one buffer).
+  // The same into a caller-owned (n_vertices x 3) array (the live update reuses one buffer), in
+  // double or single precision (computed in double; single precision suits Blender's foreach_set).
   void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3d> out) const;
+  void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3f> out) const;
   // The same on the control mesh only, also returning the deformed skeletal vertices.
   MatX3d deform_control(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt,
                         MatX3d* skeleton_pose = nullptr) const;

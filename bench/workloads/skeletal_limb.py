@@ -1,0 +1,297 @@
+"""Skeletal deformation in Blender: the limb quality benchmark against Blender's Armature modifier
+with automatic weights, and the live-update speed inside Blender.
+
+    /usr/bin/python3 bench/run.py skeletal_limb skeletal_live
+
+skeletal_limb: a capsule (r 0.5, length 6) on a two-bone chain and the camel's front leg (Debian's
+CGAL data) on a three-bone chain, weighted by Blender's Parent with Automatic Weights (the same
+weights for every method), bent 90 degrees and twisted 180 degrees; Blender's Armature modifier
+with linear blend skinning and with Preserve Volume (dual quaternions) against ours.
+skeletal_live: bench/workloads/_skeletal_live.py (frame_set over keyframed frames with the bound
+178K-vertex capsule, split into its parts, against Blender's own Armature modifier).
+"""
+
+import json
+import pathlib
+import tempfile
+import time
+
+import numpy as np
+
+import dgmesh
+from bench.common import IMAGES, cgal_mesh, run_blender, table
+from dgmesh.skeletal import capsule
+
+HERE = pathlib.Path(__file__).resolve().parent
+LIMB_SCRIPT = HERE / "_skeletal_limb.py"
+LIVE_SCRIPT = HERE / "_skeletal_live.py"
+RENDER_SCRIPT = HERE / "_crest_render.py"
+
+
+def _seg_dist(P, a, b):
+    ab = b - a
+    t = np.clip((P - a) @ ab / (ab @ ab), 0, 1)
+    return np.linalg.norm(a + t[:, None] * ab - P, axis=1)
+
+
+def bone_distance(X, rest, pose, heads, tails):
+    """Distance of each point to the nearest posed bone segment (the stick-figure skeleton)."""
+    d = []
+    for j in range(len(rest)):
+        A = pose[j] @ np.linalg.inv(rest[j])
+        d.append(_seg_dist(X, A[:3, :3] @ heads[j] + A[:3, 3], A[:3, :3] @ tails[j] + A[:3, 3]))
+    return np.min(d, 0)
+
+
+def volume(V, F):
+    a, b, c = V[F[:, 0]], V[F[:, 1]], V[F[:, 2]]
+    return np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
+
+
+def _render(name, panels, **meta):
+    arrays = {}
+    for i, (V, F, C) in enumerate(panels):
+        arrays[f"V{i}"], arrays[f"F{i}"], arrays[f"C{i}"] = V, F.astype(np.int32), C.astype(np.float32)
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        inp = pathlib.Path(tmp) / "in.npz"
+        np.savez(inp, meta=json.dumps(dict(meta, panels=len(panels))), **arrays)
+        run_blender(RENDER_SCRIPT, [inp, IMAGES / name])
+
+
+def _submesh(F, keep_face):
+    Fk = F[keep_face]
+    used = np.unique(Fk)
+    remap = np.full(F.max() + 1, -1)
+    remap[used] = np.arange(len(used))
+    return used, remap[Fk]
+
+
+def limb_case(model, V, F, heads, tails, poses, quick, render=None):
+    """Blender's modifier (LBS, DQS) with automatic weights against ours on one mesh and chain.
+    poses: {name: (bone, axis (3,), angle)}; render: dict(faces mask, meta) or None."""
+    moving = {p[0] for p in poses.values()}
+    with tempfile.TemporaryDirectory() as tmp:
+        inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
+        np.savez(inp, V=V, F=F, heads=heads, tails=tails,
+                 poses=np.array([[b, *ax, ang] for b, ax, ang in poses.values()], dtype=float))
+        info = run_blender(LIMB_SCRIPT, [inp, outp])
+        res = dict(np.load(outp))
+    rest, W = res["rest"], res["W"]
+    t0 = time.perf_counter()
+    rig = dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=len(F) + 1)
+    t_bind = time.perf_counter() - t0
+    rig_mr = None
+    if len(F) > 5000 and not quick:
+        rig_mr = dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=5000)
+    f_rest = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
+    b0 = bone_distance(V, rest, rest, heads, tails)
+    affected = (W[:, sorted(moving)].sum(1) > 0.01) & (b0 > 1e-9)
+    vol0 = volume(V, F)
+    rows, data, images = [], {}, []
+    scale = 0.2 * float(np.median(rig.radii))
+    for p, pname in enumerate(poses):
+        pose = res[f"pose{p}"]
+        _, Sd = rig.deform_control(pose)
+        results = {"Blender Armature, linear blend": res[f"lbs{p}"],
+                   "Blender Armature, Preserve Volume (DQS)": res[f"dqs{p}"],
+                   "ours (2 fairing steps + projection)": rig.deform(pose)}
+        if rig_mr is not None:
+            results["ours via multires (5000-face control)"] = rig_mr.deform(pose)
+        panels = []
+        for mname, X in results.items():
+            f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)
+            r = bone_distance(X, rest, pose, heads, tails)[affected] / b0[affected]
+            row = [model, pname, mname, float((f ** 2).sum()), float(((f - f_rest) ** 2).sum()), float(r.min()),
+                   float(np.percentile(r, 1)), float(r.mean()), float(volume(X, F) / vol0)]
+            rows.append(row)
+            data[f"{model}|{pname}|{mname}"] = dict(zip(["sum_f2", "sum_df2", "min_ratio", "p1_ratio", "mean_ratio",
+                                                         "volume_ratio"], row[3:]))
+            if render is not None and "multires" not in mname:
+                # Grey, red where the thickness changed: |f - f_rest| up to a fifth of the median
+                # medial radius.
+                used, Fs = _submesh(F, render["faces"])
+                fv = np.abs(f - f_rest)[used]
+                t = np.clip(fv[Fs].mean(1) / scale, 0, 1)[:, None]
+                C = (1 - t) * np.array([0.7, 0.7, 0.68]) + t * np.array([0.9, 0.05, 0.05])
+                panels.append((X[used], Fs, C))
+        if render is not None and not quick:
+            name = "skeletal_limb_%s_%s.png" % (model.replace(" ", "_"), pname.replace(" ", "_"))
+            _render(name, panels, **render["meta"])
+            images.append(name)
+    meta = {"V": len(V), "F": len(F), "control_V": rig.n_control, "bind_s": t_bind,
+            "n_affected": int(affected.sum()), "n_unweighted": int(res["n_unweighted"]),
+            "blender": info.get("blender", "?")}
+    return rows, data, images, meta
+
+
+CAMEL_BONES = (  # the front leg at x > 0: shoulder (inside the body), upper leg, lower leg
+    np.array([[0.06, 0.16, 0.06], [0.06, -0.01, 0.05], [0.026, -0.225, 0.021]]),
+    np.array([[0.06, -0.01, 0.05], [0.026, -0.225, 0.021], [0.055, -0.45, 0.052]]),
+)
+
+
+def limb_quality(quick):
+    rows, data, images, metas = [], {}, [], {}
+    Vc, Fc = capsule(0.5, 6.0, 48 if quick else 64, 8 if quick else 10, 64 if quick else 128)
+    heads = np.array([[-3.5, 0, 0], [0, 0, 0.0]])
+    tails = np.array([[0, 0, 0], [3.5, 0, 0.0]])
+    cap_poses = {"bend 90": (1, (0, 0, 1), np.pi / 2), "twist 180": (1, (1, 0, 0), np.pi)}
+    r, d, i, m = limb_case("capsule", Vc, Fc, heads, tails, cap_poses, quick,
+                           render={"faces": np.ones(len(Fc), bool),
+                                   "meta": dict(up="Z", size=(900, 300), samples=16, view=(0.3, -1.0, 0.6))})
+    rows, images = rows + r, images + i
+    data.update(d)
+    metas["capsule"] = m
+    if not quick:
+        V, F = cgal_mesh("camel")  # y up, head towards +z, 9770 vertices
+        heads, tails = CAMEL_BONES
+        axis = tails[2] - heads[2]
+        poses = {"bend 90": (2, (1, 0, 0), np.pi / 2),  # lower leg folds backwards (knee)
+                 "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
+        C = V[F].mean(1)
+        box = (C[:, 0] > -0.01) & (C[:, 1] < 0.09) & (C[:, 2] > -0.14) & (C[:, 2] < 0.24)
+        r, d, i, m = limb_case("camel leg", V, F, heads, tails, poses, quick,
+                               render={"faces": box, "meta": dict(up="Y", spin=-90.0, size=(900, 420), samples=16,
+                                                                  view=(0.0, -1.0, 0.15))})
+        rows, images = rows + r, images + i
+        data.update(d)
+        metas["camel leg"] = m
+    data["meta"] = metas
+    mc = metas["capsule"]
+    md = ["### Limb quality against Blender's Armature modifier (automatic weights)", "",
+          "Blender %s. Each mesh is parented to its bone chain with Blender's Parent with Automatic Weights "
+          "(bone heat); those vertex groups drive Blender's Armature modifier with linear blend skinning (LBS) "
+          "and with Preserve Volume (dual quaternions, DQS) and ours (`SkeletalRig.bind` on the whole mesh, "
+          "2 fairing steps + projection, and for the camel also through the multiresolution layer with a "
+          "5000-face control mesh). Capsule: r 0.5, length 6, %d vertices, bones (-3.5,0,0)-(0,0,0)-(3.5,0,0), "
+          "the second bone turned 90 degrees about z (bend) or 180 about its axis x (twist)."
+          % (mc["blender"], mc["V"]), ""]
+    if "camel leg" in metas:
+        mm = metas["camel leg"]
+        md += ["Camel (CGAL data `camel.off`, %d vertices, closed): the front leg at x > 0 on a three-bone chain "
+               "shoulder (0.06,0.16,0.06) - hip (0.06,-0.01,0.05) - knee (0.026,-0.225,0.021) - fetlock "
+               "(0.055,-0.45,0.052); the lower-leg bone turned 90 degrees about x (the lower leg folds backwards "
+               "at the knee, away from the other front leg, which touches this one near the knee) or 180 "
+               "degrees about its own axis. Chosen over the hand (1197 vertices: a finger is a few triangles "
+               "across, too coarse for a skeletal mesh of its own) and the armadillo (its waist is the "
+               "skeletal_blender case); %d vertices carry weight of the moving bone; %d vertices had no "
+               "automatic weight and went to the shoulder bone, which never moves (so Blender's result is "
+               "unchanged)." % (mm["V"], mm["n_affected"], mm["n_unweighted"]), ""]
+    md += ["Thickness error: sum over all vertices of f^2, f the signed distance to the union of medial balls "
+           "(eq. 6.13) around our SSD-deformed skeletal mesh (thesis fig. 6.29), and sum (f - f_rest)^2, its change "
+           "from the rest pose (the rest mesh itself is not exactly on the union, so sum f^2 has a floor). Ratios: "
+           "each vertex's distance to the nearest posed bone segment after / before, over the vertices with "
+           "weight > 0.01 on the moving bone (minimum, 1st percentile, mean). Volume: enclosed volume after / before "
+           "(the whole mesh).", "",
+           table(["mesh", "pose", "method", "sum f^2", "sum (f-f_rest)^2", "min ratio", "1st percentile ratio",
+                  "mean ratio", "volume"], rows), ""]
+    # The twist: DQS against ours, in numbers from the table above.
+    def g(model, pose, method, key):
+        return data.get(f"{model}|{pose}|{method}", {}).get(key, float("nan"))
+    dq, ours = "Blender Armature, Preserve Volume (DQS)", "ours (2 fairing steps + projection)"
+    md += ["Why the issue's target \"thickness error at most a fifth of dual quaternions'\" cannot be met on a "
+           "pure twist: a twist about the bone's own axis turns every vertex about that one axis, and dual "
+           "quaternion blending of rotations about a common axis through a common point is again a rotation "
+           "about that axis (only the angle is blended), i.e. a rigid motion of each vertex that keeps its "
+           "distance to the axis. On the straight capsule the distance to the skeleton is then kept exactly: "
+           "DQS's twist error is the rest floor, sum (f - f_rest)^2 = %.2g with min ratio %.4f, against %.2g / "
+           "%.4f for ours, which stitches per-triangle frames and cannot beat an exact answer (a fifth of %.2g "
+           "is below float rounding). Where the medial axis is not the bone axis (the camel's leg), DQS's twist "
+           "is still rigid per vertex but turns the leg about the bone rather than about its own skeleton: "
+           "sum (f - f_rest)^2 %.3g (DQS) vs %.3g (ours). The bend is where the methods differ: blending "
+           "rotations about different axes (LBS averages matrices, DQS normalises a blended quaternion) "
+           "collapses or bulges the joint, while ours rebuilds the surface at its medial distance: capsule bend "
+           "sum (f - f_rest)^2 %.3g (LBS), %.3g (DQS), %.3g (ours)."
+           % (g("capsule", "twist 180", dq, "sum_df2"), g("capsule", "twist 180", dq, "min_ratio"),
+              g("capsule", "twist 180", ours, "sum_df2"), g("capsule", "twist 180", ours, "min_ratio"),
+              g("capsule", "twist 180", dq, "sum_df2"),
+              g("camel leg", "twist 180", dq, "sum_df2"), g("camel leg", "twist 180", ours, "sum_df2"),
+              g("capsule", "bend 90", "Blender Armature, linear blend", "sum_df2"),
+              g("capsule", "bend 90", dq, "sum_df2"), g("capsule", "bend 90", ours, "sum_df2")), ""]
+    trows = []
+    for model in metas:
+        for pose in ("bend 90", "twist 180"):
+            o, q = data[f"{model}|{pose}|{ours}"], data[f"{model}|{pose}|{dq}"]
+            a, b = o["sum_df2"] / max(q["sum_df2"], 1e-300), o["sum_f2"] / q["sum_f2"]
+            trows.append([model, pose, a, b, "yes" if min(a, b) <= 0.2 else "no", o["min_ratio"],
+                          "yes" if o["min_ratio"] >= 0.9 else "no"])
+    md += ["Against the issue's targets (ours / DQS thickness error at most 0.2, ours' minimum ratio at least 0.9):",
+           "", table(["mesh", "pose", "ours / DQS, sum (f-f_rest)^2", "ours / DQS, sum f^2", "error target met",
+                      "ours min ratio", "ratio target met"], trows), ""]
+    if "camel leg" in metas:
+        md += ["On the camel, sum f^2 is dominated by the rest floor (a scanned leg is not exactly the union of "
+               "its medial balls), so its ratio is near 1 for every method; the change from rest is the "
+               "informative column. The camel's minimum ratios (ours and Blender's) come from a few vertices at "
+               "the knee (for ours at its back, where the leg has its callus): the ratio measures the distance to "
+               "the stick bone, which there is off the leg's medial axis, while ours keeps each vertex's distance "
+               "to the deformed skeletal mesh (f); hence also the gap between the minimum and the 1st percentile. "
+               "Through the multiresolution layer the camel does worse: a 5000-face control mesh of the whole "
+               "camel leaves the thin leg only a few triangles across.", ""]
+    for name in images:
+        md += [f"![{name}](../images/{name})", "",
+               "Left to right: Blender linear blend, Blender Preserve Volume, ours; red = thickness change "
+               "|f - f_rest| (a fifth of the median medial radius = full red).", ""]
+    md.append("`/usr/bin/python3 bench/run.py skeletal_limb`")
+    return {"markdown": "\n".join(md), "data": data}
+
+
+def live(quick):
+    levels = 1 if quick else 2
+    d = run_blender(LIVE_SCRIPT, [levels, 10 if quick else 20])
+    rows = [
+        ["frame_set, bound (ours)", d["frame_ms"], d["frame_cpu_ms"], 1e3 / d["frame_ms"]],
+        ["frame_set, bound, our handler removed (Blender's own work per frame)", d["no_handler_frame_ms"],
+         d["no_handler_frame_cpu_ms"], ""],
+        ["frame_set, Blender Armature modifier, linear blend", d["armature_lbs_frame_ms"],
+         d["armature_lbs_frame_cpu_ms"], 1e3 / d["armature_lbs_frame_ms"]],
+        ["frame_set, Blender Armature modifier, Preserve Volume", d["armature_dqs_frame_ms"],
+         d["armature_dqs_frame_cpu_ms"], 1e3 / d["armature_dqs_frame_ms"]],
+    ]
+    parts = [
+        ["reading the bone matrices", d["pose_read_ms"], ""],
+        ["native deform (SkeletalRig.deform into a reused buffer, float32 offsets)", d["deform_ms"],
+         d["deform_cpu_ms"]],
+        ["write: attribute foreach_set (float32) + mesh.update()", d["write_ms"], ""],
+        ["whole handler (one per frame)", d["handler_ms"], d["handler_cpu_ms"]],
+        ["Blender's evaluation of the mesh after the write (view_layer.update)", d["eval_ms"], d["eval_cpu_ms"]],
+        ["the same evaluation, smooth shading", d["eval_smooth_ms"], d["eval_smooth_cpu_ms"]],
+    ]
+    if d.get("eval_autosmooth_ms") is not None:
+        parts.append(["the same evaluation, smooth shading + Auto Smooth", d["eval_autosmooth_ms"],
+                      d["eval_autosmooth_cpu_ms"]])
+    parts += [
+        ["A/B, interleaved: attribute write + evaluation (this add-on)", d["ab_attribute_ms"],
+         d["ab_attribute_cpu_ms"]],
+        ["A/B, interleaved: shape-key write + evaluation (the earlier target)", d["ab_shape_key_ms"],
+         d["ab_shape_key_cpu_ms"]],
+        ["foreach_set alone: shape key data (float32)", d["shape_key_write_ms"], ""],
+        ["foreach_set alone: the attribute (float32)", d["attribute_write_ms"], ""],
+    ]
+    md = ["### Live update in Blender (bound mesh, timeline playback)", "",
+          "Blender %s in --background: a Loop-subdivided capsule (%d vertices, %d triangles) bound with "
+          "`dgmesh.skeletal_bind` (5000-face control mesh, bind %.1f s), the lower bone keyframed from 0 to 90 "
+          "degrees; `scene.frame_set` over %d consecutive frames (each a new pose), median wall time per frame "
+          "and CPU time of the Blender process (all threads) per frame. %d native deforms for %d frames (one per "
+          "pose change). The same mesh, vertex groups and frames with Blender's own Armature modifier (after "
+          "unbind) is the floor any deformer pays for re-evaluating a mesh of this size. No viewport drawing in "
+          "--background: interactive playback adds Blender's GPU upload, the same for every deformer. Wall times "
+          "on a machine shared with other jobs are inflated (compare the CPU column and the ratios)."
+          % (d["blender"], d["V"], d["F"], d["bind_s"], d["n_frames"], d["n_deform"], d["n_frames"]), "",
+          table(["per frame", "wall ms", "CPU ms", "frames per second (wall)"], rows), "",
+          table(["part of our live update", "wall ms (median)", "CPU ms (median)"], parts), "",
+          "Target: the whole live update <= 60 ms at ~170K vertices. A frame is our handler (essentially the "
+          "native deform) plus Blender's evaluation of the changed mesh, which any deformer pays (compare "
+          "Blender's own Armature modifier frame). The live target is a float-vector point attribute added by a "
+          "geometry-nodes Set Position modifier rather than a shape key: Blender 3.4 has no raw-array path for "
+          "ShapeKey.data (the foreach_set rows); Blender's re-evaluation costs about the same either way (the "
+          "interleaved A/B rows, within the noise of a shared machine). While bound, the mesh's own Armature "
+          "modifier is disabled and its armature cleared: a disabled modifier that still names the armature "
+          "keeps the mesh dependent on the pose, and Blender re-evaluated the whole mesh once more per frame "
+          "before our write (~30 ms CPU per frame at this size; the 'handler removed' row is now ~0). Auto "
+          "Smooth (custom split normals) multiplies Blender's evaluation cost for any deformer.", "",
+          "`/usr/bin/python3 bench/run.py skeletal_live`"]
+    return {"markdown": "\n".join(md), "data": d}
+
+
+WORKLOADS = {"skeletal_limb": limb_quality, "skeletal_live": live}
