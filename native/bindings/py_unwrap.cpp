@@ -102,7 +102,7 @@ void bind_unwrap(pb::module_& m) {
       },
       pb::arg("V"), pb::arg("F"), pb::arg("boundary") = "square", pb::arg("weights") = "floater",
       pb::arg("eta") = 1.0, pb::arg("iterations") = -1, pb::arg("max_iterations") = 100,
-      pb::arg("min_improvement") = 1e-3, pb::arg("solver") = "auto", pb::arg("tolerance") = 1e-8,
+      pb::arg("min_improvement") = 1e-3, pb::arg("solver") = "auto", pb::arg("tolerance") = 1e-6,
       pb::arg("zero_area_eps") = 1e-10, pb::arg("stretch_cap") = 1e3,
       pb::arg("slide_boundary") = false, pb::arg("progress") = pb::none());
 

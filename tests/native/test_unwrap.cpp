@@ -261,6 +261,36 @@ TEST(Unwrap, SolversAgree) {
   }
 }
 
+// A chart large enough for a multigrid hierarchy (the coarsest level is solved directly below
+// 4000 unknowns): the block BiCGSTAB on u and v together reaches the direct solution, and at the
+// default tolerance (the thesis's 1e-6) the metrics (to 0.1%) and the chosen step are those of the
+// direct solve.
+TEST(Unwrap, MultigridHierarchyMatchesDirectSolve) {
+  const TriMesh s = icosphere(5);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > -0.3 && c.x() < 0.8; });
+  ASSERT_GT(h.V.rows(), 5000);
+  UnwrapOptions o;
+  o.solver = UvSolver::Umfpack;
+  const UnwrapResult ref = unwrap(h.V, h.F, o);
+  o.solver = UvSolver::Multigrid;
+  o.tolerance = 1e-11;
+  const UnwrapResult tight = unwrap(h.V, h.F, o);
+  EXPECT_EQ(tight.solver, "bicgstab+amg");
+  EXPECT_LT((tight.uv - ref.uv).cwiseAbs().maxCoeff(), 1e-7);
+  o.tolerance = UnwrapOptions().tolerance;
+  const UnwrapResult def = unwrap(h.V, h.F, o);
+  ASSERT_EQ(def.steps.size(), ref.steps.size());
+  EXPECT_EQ(def.chosen, ref.chosen);
+  for (size_t k = 0; k < ref.steps.size(); ++k) {
+    // Solver error feeds into the next step's weights; 0.1% is the resolution of Uopt's stop test.
+    EXPECT_NEAR(def.steps[k].metrics.stretch_l2, ref.steps[k].metrics.stretch_l2, 1e-3 * ref.steps[k].metrics.stretch_l2) << k;
+    EXPECT_EQ(def.steps[k].metrics.flipped, 0);
+    EXPECT_EQ(def.steps[k].metrics.zero_area, ref.steps[k].metrics.zero_area);
+    EXPECT_GT(def.steps[k].solver_iterations, 0);
+    EXPECT_LT(def.steps[k].solver_iterations, 30);  // a working preconditioner: 5-15 measured
+  }
+}
+
 TEST(Unwrap, WeightsAndEta) {
   const TriMesh s = icosphere(4);
   const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.2; });

@@ -328,12 +328,18 @@ def _write_uvs(obj, it, normalise):
     layer = mesh.uv_layers.active
     uv = _layer_uv(layer)
     uvc = it["uv_class"].copy()
+    # Blender stores UVs as float32 and the packer transforms them in float32: charts written at
+    # their 3D scale (coordinates of tens of units) lose slivers to rounding (two zero-area
+    # triangles on CGAL's mannequin-devil). Write every chart into [0, 1]^2: on its own without
+    # packing, with one common scale (the charts' size ratio) for the packer.
+    common = 1.0
+    if not normalise and len(uvc):
+        common = max(max(float((uvc[c].max(0) - uvc[c].min(0)).max()) for c, _, _, _ in it["charts"]), 1e-300)
     for classes, _, _, _ in it["charts"]:
-        if normalise:
-            p = uvc[classes]
-            lo, hi = p.min(0), p.max(0)
-            s = max(float((hi - lo).max()), 1e-300)
-            uvc[classes] = (p - lo) / s + 0.5 * (1 - (hi - lo) / s)
+        p = uvc[classes]
+        lo, hi = p.min(0), p.max(0)
+        s = max(float((hi - lo).max()), 1e-300) if normalise else common
+        uvc[classes] = (p - lo) / s + 0.5 * (1 - (hi - lo) / s)
     uv[it["loops"]] = uvc[it["corner_class"]]
     layer.data.foreach_set("uv", uv.astype(np.float32).ravel())
     mesh.update()

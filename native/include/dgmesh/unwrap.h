@@ -32,7 +32,7 @@ enum class UvWeights {
 };
 
 enum class UvSolver {
-  Auto,      // the fastest measured (bench/RESULTS.md): UMFPACK up to 50K unknowns, else Multigrid
+  Auto,      // the fastest measured (bench/RESULTS.md): UMFPACK up to 8K unknowns, else Multigrid
   Umfpack,   // SuiteSparse UMFPACK LU, symbolic analysis reused across steps
   SparseLU,  // Eigen SparseLU, symbolic analysis reused across steps
   BiCGSTAB,  // Eigen BiCGSTAB + ILUT, warm-started from the previous map
@@ -72,7 +72,9 @@ struct UnwrapOptions {
   int max_iterations = 100;   // cap for Uopt
   double min_improvement = 1e-3;  // Uopt also stops after a step improving eq. 5.5 by less than this (relative)
   UvSolver solver = UvSolver::Auto;
-  double tolerance = 1e-8;    // relative residual of the iterative solvers (the thesis used 1e-6)
+  // Relative residual of the iterative solvers, as the thesis (5.3). A step whose inexact map has
+  // flipped triangles is re-solved 1e4 times tighter (the exact map has none on a convex polygon).
+  double tolerance = 1e-6;
   double zero_area_eps = 1e-10;
   // Triangle stretches above this are clipped in eq. 5.1 so that a near-degenerate scan triangle
   // (a 3D sliver) cannot dominate the stretch of its vertices.
@@ -86,7 +88,7 @@ struct UnwrapOptions {
 struct UnwrapStep {
   UvMetrics metrics;
   double seconds = 0;        // wall time of this step (solve + metrics)
-  int solver_iterations = 0; // BiCGSTAB iterations (0 for direct solvers)
+  int solver_iterations = 0; // BiCGSTAB iterations (u and v together for the multigrid; 0 for direct solvers)
 };
 
 struct UnwrapResult {
