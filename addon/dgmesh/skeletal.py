@@ -131,17 +131,25 @@ class SkeletalRig:
         return cls(rig)
 
     def deform(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5, homotopy_steps=3,
-               fold_iterations=10, projection=1.0, out=None):
+               fold_iterations=10, projection=1.0, out=None, dual_quaternion=False):
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
         shape-preserving self-intersection fairing eq. 6.15, then one explicit step of weight
         ``projection`` towards each vertex's rest distance to the union of medial balls, 0 = off) or
         "basic" (thesis 6.3: homotopy with ``homotopy_steps`` steps, ``fold_iterations`` steps of
-        eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6).
+        eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6). Through the multiresolution layer the dense
+        vertices get the same explicit ``projection`` step against the control mesh's medial balls
+        (variational method with fairing on): the layer's limit surface thins where a pose shears
+        the coarse control triangles.
+        ``dual_quaternion``: pose the skeletal mesh by dual quaternion blending of the bone motions
+        (rigid per skeletal vertex) instead of the linear blend of eq. 6.2, which pulls skeletal
+        vertices that lie off a bone's axis towards it under a twist; better for twists of limbs
+        whose medial surface is a sheet, worse in a bend's inner crease (see bench/RESULTS.md).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
-        double, rounded on output) goes straight to Blender, e.g.
+        double, rounded on output; through the multiresolution layer the dense thickness step
+        reads the rounded values back, within 1e-6 of the float64 result) goes straight to Blender, e.g.
         ``mesh.shape_keys.key_blocks["dg_skeletal"].data.foreach_set("co", out.ravel())``.
         """
         self._check_method(method)
@@ -152,18 +160,18 @@ class SkeletalRig:
                 raise MeshError("deform: out must be a writeable C-contiguous float64 or float32 array of shape "
                                 "(%d, 3)" % self.n_vertices)
         return self._rig.deform(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                int(fold_iterations), float(projection), out)
+                                int(fold_iterations), float(projection), out, bool(dual_quaternion))
 
     def deform_control(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5,
-                       homotopy_steps=3, fold_iterations=10, projection=1.0):
+                       homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=False):
         """(control mesh positions, deformed skeletal vertices) for a pose."""
         self._check_method(method)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         return self._rig.deform_control(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                        int(fold_iterations), float(projection))
+                                        int(fold_iterations), float(projection), bool(dual_quaternion))
 
     def skeleton_pose(self, bones_pose):
-        """Skeletal vertices deformed by SSD (eq. 6.2)."""
+        """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""
         return self._rig.skeleton_pose(_mats(bones_pose, "bones_pose", self.n_bones))
 
     @staticmethod

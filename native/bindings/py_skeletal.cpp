@@ -39,9 +39,11 @@ SkeletalMethod method_from(const std::string& s) {
 }
 
 SkeletalDeformOptions deform_options(const std::string& method, int fairing_steps, double fairing_step,
-                                     int homotopy_steps, int fold_iterations, double projection = 1.0) {
+                                     int homotopy_steps, int fold_iterations, double projection = 1.0,
+                                     bool dual_quaternion = false) {
   SkeletalDeformOptions o;
   o.projection = projection;
+  o.dual_quaternion = dual_quaternion;
   o.method = method_from(method);
   o.fairing_steps = fairing_steps;
   o.fairing_step = fairing_step;
@@ -142,9 +144,9 @@ void bind_skeletal(pb::module_& m) {
       .def(
           "deform",
           [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs, int fi,
-             double proj, pb::object out) -> pb::object {
+             double proj, pb::object out, bool dq) -> pb::object {
             const auto p = to_mats(pose, "bones_pose");
-            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj);
+            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq);
             if (out.is_none()) {
               MatX3d X;
               {
@@ -168,12 +170,12 @@ void bind_skeletal(pb::module_& m) {
           },
           pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-          pb::arg("out") = pb::none())
+          pb::arg("out") = pb::none(), pb::arg("dual_quaternion") = false)
       .def("deform_control",
            [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs,
-              int fi, double proj) {
+              int fi, double proj, bool dq) {
              const auto p = to_mats(pose, "bones_pose");
-             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj);
+             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq);
              MatX3d X, Sd;
              {
                pb::gil_scoped_release nogil;
@@ -182,7 +184,8 @@ void bind_skeletal(pb::module_& m) {
              return pb::make_tuple(std::move(X), std::move(Sd));
            },
            pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
-           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0)
+           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
+           pb::arg("dual_quaternion") = false)
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");

@@ -275,7 +275,7 @@ Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, cons
 }
 
 MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const std::vector<Mat4>& rest,
-                                const std::vector<Mat4>& pose, MatX9d* linear) {
+                                const std::vector<Mat4>& pose, MatX9d* linear, bool dual_quaternion) {
   const int n = static_cast<int>(P.rows()), B = static_cast<int>(rest.size());
   if (static_cast<int>(pose.size()) != B || W.cols() != B || W.rows() != n)
     throw MeshError("SSD: expected " + std::to_string(B) + " pose matrices and an n x B weight matrix");
@@ -288,18 +288,58 @@ MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const
   }
   // Bone rotations as quaternions, for the blended frames (see below).
   std::vector<Eigen::Quaterniond> q(B);
-  if (linear)
+  // Dual quaternions need rigid bone motions; a scaled or sheared pose keeps the linear blend
+  // (the tolerance admits the float32 rounding of the matrices Blender hands over).
+  bool dq = dual_quaternion;
+  for (int j = 0; dq && j < B; ++j) {
+    const Mat3 L = A[j].leftCols<3>();
+    if ((L.transpose() * L - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-4 || !(L.determinant() > 0)) dq = false;
+  }
+  if (linear || dq)
     for (int j = 0; j < B; ++j) q[j] = Eigen::Quaterniond(nearest_rotation(A[j].leftCols<3>())).normalized();
+  // Dual parts d_j = t_j q_j / 2 (t_j the translation as a pure quaternion).
+  std::vector<Eigen::Vector4d> qd(dq ? B : 0);
+  for (int j = 0; dq && j < B; ++j) {
+    const Eigen::Quaterniond t(0, A[j](0, 3), A[j](1, 3), A[j](2, 3));
+    qd[j] = 0.5 * (t * q[j]).coeffs();
+  }
   MatX3d out(n, 3);
   if (linear) linear->resize(n, 9);
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
   for (int i = 0; i < n; ++i) {
-    Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
-    for (int j = 0; j < B; ++j) {
-      const double w = W(i, j);
-      if (w != 0) M += w * A[j];
+    if (dq) {
+      // Dual quaternion blending (Kavan et al. 2007): rigid per point, so the skeletal mesh does
+      // not collapse towards a bone's axis under a twist the way the linear blend does (a point at
+      // distance delta from the axis of a 180-degree twist keeps |w0 - w1| delta under eq. 6.2).
+      int ref = 0;
+      for (int j = 1; j < B; ++j)
+        if (W(i, j) > W(i, ref)) ref = j;
+      Eigen::Vector4d r = Eigen::Vector4d::Zero(), dd = Eigen::Vector4d::Zero();
+      for (int j = 0; j < B; ++j) {
+        const double w = W(i, j);
+        if (w == 0) continue;
+        const double sgn = q[j].coeffs().dot(q[ref].coeffs()) < 0 ? -1.0 : 1.0;
+        r += sgn * w * q[j].coeffs();
+        dd += sgn * w * qd[j];
+      }
+      const double len = r.norm();
+      if (len > 1e-12) {
+        const Eigen::Quaterniond qr(r / len), qdn(dd / len);
+        // translation t = 2 (d - (d.r) r) r^*, the part of d orthogonal to r (normalisation).
+        const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(qr.coeffs()) * qr.coeffs());
+        const Vec3 t = 2.0 * (qdo * qr.conjugate()).vec();
+        out.row(i) = (qr.toRotationMatrix() * row3(P, i) + t).transpose();
+      } else {
+        out.row(i) = P.row(i);
+      }
+    } else {
+      Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
+      for (int j = 0; j < B; ++j) {
+        const double w = W(i, j);
+        if (w != 0) M += w * A[j];
+      }
+      out.row(i) = (M.leftCols<3>() * row3(P, i) + M.col(3)).transpose();
     }
-    out.row(i) = (M.leftCols<3>() * row3(P, i) + M.col(3)).transpose();
     if (linear) {
       // The rotation of the point's local frame: the bone rotations blended as quaternions
       // (normalised, hemisphere-aligned). A linear blend of rotation matrices loses rank under
@@ -457,6 +497,12 @@ struct SkeletalRig::Impl {
   Eigen::MatrixXd W; // n_control x B
   std::vector<Mat4> rest;
   std::optional<Multires> multires;
+  // Through the multiresolution layer: eq. 6.13 at rest for every dense vertex against the control
+  // mesh's medial balls, and its minimising ball (see project_dense).
+  VecXd dense_f_rest;
+  std::vector<int> dense_arg;
+  // Dense vertices whose limit surface moves rigidly with one bone (project_dense skips them).
+  std::vector<char> dense_rigid;
   MatX3d cot;        // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
   double mu = 0;     // frame regularisation weight (absolute)
@@ -471,8 +517,14 @@ struct SkeletalRig::Impl {
     return X;
   }
   std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const;
-  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
-  MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt) const;
+  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
+                        std::vector<int>* args = nullptr) const;
+  template <class Out>
+  void project_dense(const MatX3d& Sd, const std::vector<int>& control_args, double w, Out& out) const;
+  MatX3d control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX3d* Sd_out,
+                      std::vector<int>* args) const;
+  MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
+                     std::vector<int>* args = nullptr) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
 };
 
@@ -520,6 +572,35 @@ void SkeletalRig::Impl::setup() {
     for (int k = 0; k < 3; ++k) e2 += (row3(S, F(f, k)) - row3(S, F(f, (k + 1) % 3))).squaredNorm(), ++ne;
   mu = frame_regularization * std::max(e2 / std::max(ne, 1), 1e-20);
   f_rest = union_of_balls_distance(X, S, radii, &rest_arg);
+  if (multires) {
+    // The dense rest positions as the layer reconstructs them (equal to the bound mesh up to
+    // rounding), so that the rest pose is a fixed point of project_dense.
+    const MatX3d Xd = multires->reconstruct(X);
+    dense_f_rest = union_of_balls_distance(Xd, S, radii, &dense_arg);
+    // A dense vertex's limit point and frame depend on the control vertices of its base face and
+    // their 1-rings (Loop stencils); where all of them follow one bone alone, SSD and the
+    // reconstruction move the neighbourhood rigidly and eq. 6.13 keeps its rest value (up to the
+    // global solve's small spread), so the dense step is skipped there (most of a body whose limb
+    // alone moves).
+    std::vector<int> solo(n, -1);
+    for (int i = 0; i < n; ++i) {
+      Eigen::Index j;
+      if (W.row(i).maxCoeff(&j) >= 1 - 1e-9) solo[i] = static_cast<int>(j);
+    }
+    std::vector<int> ring_solo(n, -1);
+    for (int i = 0; i < n; ++i) {
+      int b = solo[i];
+      for (int k = control.topo.vv_offset[i]; b >= 0 && k < control.topo.vv_offset[i + 1]; ++k)
+        if (solo[control.topo.vv_index[k]] != b) b = -1;
+      ring_solo[i] = b;
+    }
+    const VecXi& face = multires->base_face();
+    dense_rigid.assign(Xd.rows(), 0);
+    for (Eigen::Index i = 0; i < Xd.rows(); ++i) {
+      const int b = ring_solo[F(face[i], 0)];
+      dense_rigid[i] = b >= 0 && ring_solo[F(face[i], 1)] == b && ring_solo[F(face[i], 2)] == b;
+    }
+  }
   {
     std::vector<double> rs(radii.data(), radii.data() + n);
     const double eps = 1e-3 * std::max(median(rs), 1e-12);
@@ -564,7 +645,8 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
   return R;
 }
 
-MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt) const {
+MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
+                                      std::vector<int>* args) const {
   const int n = static_cast<int>(S.rows());
   const std::vector<Mat3> R = triangle_rotations(Sd, lin);
   // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
@@ -589,15 +671,67 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
     b.row(i) = acc.transpose();
   }
   MatX3d X = solve(b);
-  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt);
+  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, args);
   return X;
 }
 
-void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt) const {
+// The dense mesh through the multiresolution layer (thesis 6.4 / end of 6.5) is the Loop limit
+// surface of the deformed control mesh plus the displacements, and a limit surface is not
+// thickness-preserving: where a bend or twist shears the coarse control triangles (a 180-degree
+// twist turns a ring of the control mesh by up to ~0.6 rad against the next), the limit surface
+// cuts the chords of the sheared, helical control polygon and the tube thins (capsule: the dense
+// distance to the skeleton drops to 0.92 of its rest value while the control vertices keep 0.994).
+// So the explicit step of the flow eq. 6.14 that ends the control mesh's fairing
+// (SkeletalDeformOptions::projection) is applied to the dense vertices as well: each moves by w
+// times its offset from its rest signed distance to the union of the control mesh's deformed medial
+// balls (eq. 6.13), along the direction from the minimising ball's centre. Candidate balls: the
+// vertex's rest minimiser and its skeletal 1-ring, plus the balls that minimised eq. 6.13 for the
+// three control vertices of the vertex's base face in the control mesh's last fairing step (which
+// searched the kd-tree: balls of other parts a pose brought close). With the rest minimiser's ring
+// alone a vertex in a bend's inner crease is pushed out of its own ball into the other limb's
+// (capsule bend: min ratio 0.81 instead of 0.85); a kd-tree query per dense vertex costs ~0.8 us.
+// At rest and under rigid motions f equals f_rest: a fixed point.
+template <class Out>
+void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& control_args, double w,
+                                      Out& out) const {
+  const int n = static_cast<int>(out.rows());
+  const Topology& topo = control.topo;
+  const VecXi& face = multires->base_face();
+  const MatX3i& F = control.F;
+  const bool have_args = static_cast<int>(control_args.size()) == static_cast<int>(control.V.rows());
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+  for (int i = 0; i < n; ++i) {
+    if (dense_rigid[i]) continue;
+    const Vec3 x = out.row(i).transpose().template cast<double>();
+    int arg = dense_arg[i];
+    double best = (x - row3(Sd, arg)).norm() - radii[arg];
+    auto consider = [&](int j) {
+      const double f = (x - row3(Sd, j)).norm() - radii[j];
+      if (f < best) best = f, arg = j;
+    };
+    const int p = arg;
+    for (int k = topo.vv_offset[p]; k < topo.vv_offset[p + 1]; ++k) consider(topo.vv_index[k]);
+    if (have_args)
+      for (int k = 0; k < 3; ++k) {
+        const int a = control_args[F(face[i], k)];
+        if (a >= 0) consider(a);
+      }
+    const double f = best - dense_f_rest[i];
+    if (f == 0) continue;
+    const Vec3 d = x - row3(Sd, arg);
+    const double len = d.norm();
+    if (!(len > 1e-300)) continue;
+    out.row(i) = (x - (w * f / len) * d).transpose().template cast<typename Out::Scalar>();
+  }
+}
+
+void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
+                                         std::vector<int>* args) const {
   const int n = static_cast<int>(X.rows());
   CentreIndex tree;
   tree.build(Sd, reps);
   MatX3d G(n, 3);
+  if (args) args->assign(n, -1);
   for (int step = 0; step <= opt.fairing_steps; ++step) {
     const bool last = step == opt.fairing_steps;
     if (last && !(opt.projection > 0)) break;
@@ -608,6 +742,7 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
       int p;
       const Vec3 x = row3(X, i);
       const double f = union_distance_local(tree, reps, Sd, radii, r_max, control.topo, x, rest_arg[i], p) - f_rest[i];
+      if (last && args) (*args)[i] = p;
       const Vec3 d = x - row3(Sd, p);
       const double len = d.norm();
       G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
@@ -821,27 +956,45 @@ SkeletalRigData SkeletalRig::data() const {
 }
 
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
-  return skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose);
+  return skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
 }
 
-MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                   MatX3d* skeleton_out) const {
-  if (static_cast<int>(pose.size()) != n_bones())
-    throw MeshError("skeletal deform: expected " + std::to_string(n_bones()) + " pose matrices, got " +
+MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                       MatX3d* skeleton_out, std::vector<int>* args) const {
+  if (pose.size() != rest.size())
+    throw MeshError("skeletal deform: expected " + std::to_string(rest.size()) + " pose matrices, got " +
                     std::to_string(pose.size()));
   for (const Mat4& m : pose)
     if (!m.allFinite()) throw MeshError("skeletal deform: pose matrices must be finite");
   if (opt.fairing_steps < 0 || opt.homotopy_steps < 1 || opt.fold_iterations < 0)
     throw MeshError("skeletal deform: fairing_steps and fold_iterations must be >= 0, homotopy_steps >= 1");
   MatX9d lin;
-  const MatX3d Sd = skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, &lin);
+  const MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   if (skeleton_out) *skeleton_out = Sd;
-  return opt.method == SkeletalMethod::Variational ? impl_->variational(Sd, lin, opt) : impl_->basic(Sd, opt);
+  return opt.method == SkeletalMethod::Variational ? variational(Sd, lin, opt, args) : basic(Sd, opt);
 }
 
+MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                   MatX3d* skeleton_out) const {
+  return impl_->control_pose(pose, opt, skeleton_out, nullptr);
+}
+
+namespace {
+// Whether the dense vertices get the explicit thickness step (see Impl::project_dense): with the
+// variational method and its fairing on, as for the control mesh.
+bool dense_projection(const SkeletalDeformOptions& opt) {
+  return opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0 && opt.projection > 0;
+}
+}  // namespace
+
 MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt) const {
-  const MatX3d Xc = deform_control(pose, opt);
-  return impl_->multires ? impl_->multires->reconstruct(Xc) : Xc;
+  MatX3d Sd;
+  std::vector<int> args;
+  const MatX3d Xc = impl_->control_pose(pose, opt, &Sd, &args);
+  if (!impl_->multires) return Xc;
+  MatX3d X = impl_->multires->reconstruct(Xc);
+  if (dense_projection(opt)) impl_->project_dense(Sd, args, opt.projection, X);
+  return X;
 }
 
 void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
@@ -849,10 +1002,13 @@ void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOpti
   if (out.rows() != n_vertices())
     throw MeshError("skeletal deform: the output needs " + std::to_string(n_vertices()) + " rows, got " +
                     std::to_string(out.rows()));
-  const MatX3d Xc = deform_control(pose, opt);
-  if (impl_->multires)
+  MatX3d Sd;
+  std::vector<int> args;
+  const MatX3d Xc = impl_->control_pose(pose, opt, &Sd, &args);
+  if (impl_->multires) {
     impl_->multires->reconstruct(Xc, out);
-  else
+    if (dense_projection(opt)) impl_->project_dense(Sd, args, opt.projection, out);
+  } else
     out = Xc;
 }
 
@@ -861,10 +1017,13 @@ void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOpti
   if (out.rows() != n_vertices())
     throw MeshError("skeletal deform: the output needs " + std::to_string(n_vertices()) + " rows, got " +
                     std::to_string(out.rows()));
-  const MatX3d Xc = deform_control(pose, opt);
-  if (impl_->multires)
+  MatX3d Sd;
+  std::vector<int> args;
+  const MatX3d Xc = impl_->control_pose(pose, opt, &Sd, &args);
+  if (impl_->multires) {
     impl_->multires->reconstruct(Xc, out);
-  else
+    if (dense_projection(opt)) impl_->project_dense(Sd, args, opt.projection, out);
+  } else
     out = Xc.cast<float>();
 }
 

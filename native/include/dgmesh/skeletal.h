@@ -55,9 +55,12 @@ Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, cons
 
 // Skeletal subspace deformation (eq. 6.2): z -> sum_j w_j (pose_j rest_j^-1) z. W is n x B with
 // rows summing to 1. If `linear` is given it receives, row-major (n x 9), the rotation of each
-// point's frame: the bone rotations blended as normalised quaternions.
+// point's frame: the bone rotations blended as normalised quaternions. With `dual_quaternion`
+// (and rigid bone motions; otherwise the linear blend is used) the points are moved by the blended
+// dual quaternion instead (thesis 6.2 leaves the space deformation of the skeletal mesh open).
 MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const std::vector<Mat4>& rest,
-                                const std::vector<Mat4>& pose, Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>* linear = nullptr);
+                                const std::vector<Mat4>& pose, Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>* linear = nullptr,
+                                bool dual_quaternion = false);
 
 // Signed distance to the union of balls (s_j, r_j) (eq. 6.13) for each point, through a kd-tree;
 // exact (every ball that can matter is visited). `nearest` (optional) receives the minimising ball.
@@ -93,7 +96,16 @@ struct SkeletalDeformOptions {
   // of the flow eq. 6.14 without the L0^-1 smoothing, which moves each vertex by w times its offset
   // from its rest distance to the union of balls (w = 1: onto it). The semi-implicit steps spread a
   // local thickness loss (a sharp twist) over the whole shape and converge slowly there; 0 = off.
+  // Through the multiresolution layer the dense vertices get the same step against the control
+  // mesh's medial balls (the layer's limit surface thins where a pose shears the control mesh).
   double projection = 1.0;
+  // Skeletal mesh editing (6.2) by dual quaternion blending of the bone motions instead of the
+  // linear blend of eq. 6.2: the linear blend pulls skeletal vertices that lie off a bone's axis
+  // (a limb whose medial surface is a sheet, not a curve) towards it under a twist, by |w0 - w1|
+  // at 180 degrees, and the mesh rebuilt around that skeleton thins with it. Off by default: in a
+  // bend the linear blend's skeleton cuts the joint's corner, which leaves the inner crease's
+  // balls less overlap (camel knee, 90-degree bend: min ratio 0.65 linear, 0.53 dual quaternion).
+  bool dual_quaternion = false;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
 };
@@ -126,7 +138,8 @@ class SkeletalRig {
   // Deformed dense positions for the given pose matrices (B of them, same space as the rest ones).
   MatX3d deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt = {}) const;
   // The same into a caller-owned (n_vertices x 3) array (the live update reuses one buffer), in
-  // double or single precision (computed in double; single precision suits Blender's foreach_set).
+  // double or single precision (computed in double; single precision suits Blender's foreach_set;
+  // through the multiresolution layer the dense thickness step reads the float32 values back).
   void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3d> out) const;
   void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3f> out) const;
   // The same on the control mesh only, also returning the deformed skeletal vertices.
@@ -142,7 +155,7 @@ class SkeletalRig {
   const MatX3d& skeleton_vertices() const;
   const VecXd& radii() const;
   const Eigen::MatrixXd& weights() const;  // per control vertex
-  // Skeletal vertices deformed by SSD (eq. 6.2) for a pose.
+  // Skeletal vertices deformed by SSD (eq. 6.2) for a pose, as deform() does by default.
   MatX3d skeleton_pose(const std::vector<Mat4>& bones_pose) const;
 
   struct Impl;
