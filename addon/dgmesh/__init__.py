@@ -39,6 +39,7 @@ from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
 from .multires import Multires  # noqa: E402
+from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # noqa: E402
 
 
 def register():

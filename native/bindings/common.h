@@ -35,5 +35,6 @@ void bind_unwrap(pb::module_& m);
 void bind_denoise(pb::module_& m);
 void bind_skeletal(pb::module_& m);
 void bind_multires(pb::module_& m);
+void bind_remesh(pb::module_& m);
 
 }  // namespace dgmesh::py

@@ -34,4 +34,5 @@ PYBIND11_MODULE(_native, m) {
   dgmesh::py::bind_denoise(m);
   dgmesh::py::bind_skeletal(m);
   dgmesh::py::bind_multires(m);
+  dgmesh::py::bind_remesh(m);
 }

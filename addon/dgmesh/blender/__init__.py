@@ -14,6 +14,7 @@ from . import (
     ops_denoise,
     ops_fair,
     ops_multires,
+    ops_remesh,
     ops_skeletal,
     ops_unwrap,
     prefs,
@@ -21,7 +22,7 @@ from . import (
 )
 
 # Registration order: preferences, operators (one module per capability), then the UI.
-_MODULES = (prefs, ops_curvature, ops_denoise, ops_fair, ops_crest, ops_unwrap, ops_multires, ops_skeletal, ui)
+_MODULES = (prefs, ops_curvature, ops_denoise, ops_fair, ops_crest, ops_unwrap, ops_multires, ops_skeletal, ops_remesh, ui)
 
 
 def _classes():

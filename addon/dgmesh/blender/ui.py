@@ -19,6 +19,8 @@ OPERATORS = [
     # UVs
     ("dgmesh.unwrap", "Low-Stretch Unwrap", 'UV'),
     ("dgmesh.stretch_map", "UV Stretch Map", 'UV_DATA'),
+    # Remeshing
+    ("dgmesh.remesh", "Remesh (Double Param.)", 'MOD_REMESH'),
     # Deformation
     ("dgmesh.multires_preview", "Multires Preview", 'MOD_MULTIRES'),
     ("dgmesh.skeletal_bind", "Skeletal Bind", 'ARMATURE_DATA'),

@@ -1,0 +1,220 @@
+"""Operator dgmesh.remesh: remeshing by double parameterization (thesis 5.4).
+
+Object mode: every selected mesh object must be one disk (one piece, one boundary loop, no
+handles); all its faces are replaced by the new triangulation. Edit mode: the selected faces of
+each edited object must form one disk chart; they are replaced by the new triangulation, stitched to
+the rest of the mesh along the chart's boundary, whose vertices (and edges) are kept as they are, so
+the result is as watertight as the input. Non-disk input is an error and nothing is written (all or
+nothing over the objects). The new faces take the material and smooth flag of the chart's first face
+and, in Edit mode, are left selected. Long runs show progress and Esc cancels
+(jobs.NativeJobOperator); the mesh is written only when the computation has finished.
+"""
+
+import bmesh
+import bpy
+import numpy as np
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
+
+from . import bridge
+from .common import plural, poll_mesh_targets, target_objects
+from .jobs import NativeJobOperator
+from .prefs import api
+
+
+def _min_angle_deg(V, F):
+    if len(F) == 0:
+        return 0.0
+    out = 180.0
+    for k in range(3):
+        a, b, c = V[F[:, k]], V[F[:, (k + 1) % 3]], V[F[:, (k + 2) % 3]]
+        u, v = b - a, c - a
+        cos = (u * v).sum(1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
+        out = min(out, float(np.degrees(np.arccos(np.clip(cos, -1, 1))).min()))
+    return out
+
+
+class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
+    bl_idname = "dgmesh.remesh"
+    bl_label = "Remesh (Double Parameterization)"
+    bl_description = (
+        "Replace a disk-shaped mesh (Object mode) or the selected disk-shaped region (Edit mode) by a "
+        "new, near-uniform or curvature-adapted triangulation with about the requested vertex count; "
+        "the region's boundary vertices are kept so it stays stitched to the rest"
+    )
+    bl_options = {'REGISTER', 'UNDO'}
+
+    target_vertices: IntProperty(name="Vertices", default=2000, min=8, max=5_000_000,
+                                 description="Vertices of the new triangulation, boundary included")
+    adaptivity: FloatProperty(name="Adaptivity", default=0.0, min=0.0, max=1.0,
+                              description="0: uniform density; 1: density proportional to curvature")
+    resolution: IntProperty(name="Resolution", default=512, min=16, max=4096,
+                            description="Control map size in pixels (at most one vertex per pixel)")
+    mode: EnumProperty(
+        name="Mode",
+        items=(
+            ('DOUBLE', "Double (U0 + Uopt)", "Sample on the low-stretch map, triangulate on the near-conformal one (thesis 5.4)"),
+            ('SINGLE_U0', "Single (U0)", "Sample and triangulate on the near-conformal map (Alliez et al.)"),
+            ('SINGLE_UOPT', "Single (Uopt)", "Sample and triangulate on the low-stretch map"),
+        ),
+        default='DOUBLE',
+    )
+    relax: IntProperty(
+        name="Relaxation Steps", default=4, min=0, max=100,
+        description="Density-weighted Lloyd steps after the error diffusion (evens out the vertex spacing; "
+                    "0 = the thesis's plain error diffusion)")
+    flips: BoolProperty(
+        name="3D Delaunay Flips", default=True,
+        description="After the Delaunay triangulation in the parameter plane, flip edges towards a Delaunay "
+                    "triangulation of the surface (better angles; beyond the thesis)")
+    resample_boundary: BoolProperty(
+        name="Resample Boundary", default=False,
+        description="Object mode only: place new boundary vertices at the target spacing "
+                    "(Edit mode always keeps the region's boundary so it stays stitched)")
+
+    @classmethod
+    def poll(cls, context):
+        return poll_mesh_targets(cls, context)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        for name in ("target_vertices", "adaptivity", "resolution", "mode", "relax", "flips"):
+            layout.prop(self, name)
+        row = layout.row()
+        row.enabled = context.mode != 'EDIT_MESH'
+        row.prop(self, "resample_boundary")
+
+    # --- main thread: read --------------------------------------------------------------------
+    def prepare(self, context):
+        edit = context.mode == 'EDIT_MESH'
+        items = []
+        for obj in target_objects(context):
+            if obj.data.library is not None:
+                self.report({'ERROR'}, f"Remesh failed on '{obj.name}': mesh data is linked from a library")
+                return None
+            arrays = bridge.read_object(obj)  # syncs the edit-mesh in Edit mode
+            mesh = obj.data
+            npoly = len(mesh.polygons)
+            mask = np.ones(npoly, bool)
+            if edit:
+                mesh.polygons.foreach_get("select", mask)
+            if not mask.any():
+                continue
+            tri_mask = mask[arrays.tri_poly]
+            Fsel = arrays.F[tri_mask]
+            ids, Fc = np.unique(Fsel, return_inverse=True)
+            # Inner vertices of the region must not be shared with faces outside it.
+            start = np.empty(npoly, np.int32)
+            total = np.empty(npoly, np.int32)
+            mesh.polygons.foreach_get("loop_start", start)
+            mesh.polygons.foreach_get("loop_total", total)
+            lv = np.empty(len(mesh.loops), np.int32)
+            mesh.loops.foreach_get("vertex_index", lv)
+            outside = np.zeros(len(mesh.vertices), bool)
+            outside[lv[~np.repeat(mask, total)]] = True
+            items.append(dict(name=obj.name, counts=(len(mesh.vertices), len(mesh.loops), npoly),
+                              polys=np.nonzero(mask)[0], ids=ids, outside=outside,
+                              V=np.ascontiguousarray(arrays.V[ids]), F=Fc.reshape(-1, 3).astype(np.int32)))
+        if not items:
+            self.report({'WARNING'}, "No faces to remesh (select faces in Edit mode)")
+            return None
+        keep = edit or not self.resample_boundary
+        opts = dict(target_vertices=self.target_vertices, adaptivity=self.adaptivity,
+                    resolution=self.resolution, mode=self.mode.lower(),
+                    boundary="keep" if keep else "resample", flip_3d=self.flips,
+                    lloyd_iterations=self.relax)
+        dg = api()
+        total_faces = float(sum(len(it["F"]) for it in items))
+
+        def work(progress):
+            done = 0.0
+            for it in items:
+                def sub(f, done=done, n=len(it["F"])):
+                    return progress((done + f * n) / total_faces)
+                try:
+                    it["result"] = dg.remesh_full(it["V"], it["F"], progress=sub, **opts)
+                except dg.MeshError as exc:
+                    what = "the selected faces" if edit else "the mesh"
+                    raise dg.MeshError(f"'{it['name']}' ({what}, {len(it['F'])} triangles): {exc}") from None
+                done += len(it["F"])
+            return items
+
+        return work
+
+    # --- main thread: write and report ----------------------------------------------------------
+    def finish(self, context, items):
+        # Check everything before writing anything.
+        for it in items:
+            obj = bpy.data.objects.get(it["name"])
+            mesh = obj.data if obj is not None else None
+            if mesh is None or (len(mesh.vertices), len(mesh.loops), len(mesh.polygons)) != it["counts"]:
+                self.report({'ERROR'}, f"Remesh failed on '{it['name']}': the mesh changed while it was computed")
+                return {'CANCELLED'}
+            r = it["result"]
+            inner = np.ones(len(it["ids"]), bool)
+            if len(r.boundary_source):
+                inner[r.boundary_source] = False
+            if it["outside"][it["ids"][inner]].any():
+                self.report({'ERROR'}, f"Remesh failed on '{it['name']}': inner vertices of the selection are "
+                                       "shared with unselected faces (non-manifold); nothing was changed")
+                return {'CANCELLED'}
+            it["inner"] = inner
+        edit = context.mode == 'EDIT_MESH'
+        lines = []
+        with bridge.object_mode(context):
+            for it in items:
+                mesh = bpy.data.objects[it["name"]].data
+                _replace_region(mesh, it, select_new=edit)
+                r = it["result"]
+                lines.append(f"'{it['name']}': {len(it['ids'])} -> {len(r.V)} vertices, "
+                             f"{len(it['F'])} -> {len(r.F)} triangles, min angle {_min_angle_deg(r.V, r.F):.1f} deg")
+        for w in sorted({w for it in items for w in it["result"].warnings})[:3]:
+            self.report({'WARNING'}, w)
+        self.report({'INFO'}, f"Remeshed {plural(len(items), 'region')} ({self.mode.lower()}, target "
+                              f"{self.target_vertices}): " + "; ".join(lines))
+        return {'FINISHED'}
+
+
+def _replace_region(mesh, it, select_new):
+    """Deletes the region's faces and inner vertices and adds the new triangulation, reusing the
+    region's boundary vertices (kept) so the stitch is exact. Works on a BMesh copy written back
+    only at the end."""
+    r = it["result"]
+    ids = it["ids"]
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(mesh)
+        bm.verts.ensure_lookup_table()
+        bm.faces.ensure_lookup_table()
+        faces = [bm.faces[p] for p in it["polys"]]
+        example = faces[0]
+        material, smooth = example.material_index, example.smooth
+        region_edges = {e for f in faces for e in f.edges}
+        kept = [bm.verts[int(ids[s])] for s in r.boundary_source]
+        inner = [bm.verts[int(v)] for v in ids[it["inner"]]]
+        bmesh.ops.delete(bm, geom=faces, context='FACES_ONLY')
+        bmesh.ops.delete(bm, geom=inner, context='VERTS')
+        if select_new:
+            for coll in (bm.verts, bm.edges, bm.faces):
+                for e in coll:
+                    e.select_set(False)
+        nb = len(kept)
+        new = [bm.verts.new(co) for co in r.V[nb:].tolist()]
+        vmap = kept + new
+        for a, b, c in r.F.tolist():
+            f = bm.faces.new((vmap[a], vmap[b], vmap[c]))
+            f.material_index = material
+            f.smooth = smooth
+            if select_new:
+                f.select_set(True)
+        # Old chords of the region (edges between two boundary vertices) that no face uses now.
+        stale = [e for e in region_edges if e.is_valid and not e.link_faces]
+        if stale:
+            bmesh.ops.delete(bm, geom=stale, context='EDGES')
+        bm.to_mesh(mesh)
+    finally:
+        bm.free()
+    mesh.update()
+
+
+classes = (DGMESH_OT_remesh,)

@@ -1,0 +1,104 @@
+// Remeshing of a disk chart by double parameterization (thesis 5.4), the thesis's version of the
+// interactive geometry remeshing of Alliez, Meyer and Desbrun [AMD02] without OpenGL:
+//   1. parameterize the chart twice: U0 (Floater, close to conformal) and Uopt (stretch
+//      equalization, close to area-preserving), both by unwrap() on the same convex boundary;
+//   2. rasterize the area ratio (3D area / UV area), a curvature map and the control map (density)
+//      over the sampling map in software, at resolution x resolution pixels;
+//   3. sample by error diffusion (serpentine Floyd-Steinberg) of the control map, so that the
+//      expected count is the target minus the boundary samples; the boundary is kept (or resampled
+//      by 3D arc length at the target spacing);
+//   3b. (beyond the thesis's list) relax the samples by a few density-weighted
+//      Lloyd steps over the control map's pixels, boundary samples fixed;
+//   4. map the samples to the triangulation map through the shared triangulation (same face, same
+//      barycentric coordinates), Delaunay-triangulate them there (Qhull) and lift to 3D.
+// Modes (thesis fig. 5.6-5.9): Double samples on Uopt and triangulates on U0; SingleU0 and
+// SingleUopt sample and triangulate on one map.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "dgmesh/progress.h"
+#include "dgmesh/types.h"
+#include "dgmesh/unwrap.h"
+
+namespace dgmesh {
+
+enum class RemeshMode {
+  Double,      // sample on Uopt, Delaunay on U0 (thesis 5.4)
+  SingleU0,    // sample and triangulate on U0 (Alliez et al. with a near-conformal map)
+  SingleUopt,  // sample and triangulate on Uopt
+};
+
+// Metric of the Voronoi cells of the Lloyd relaxation (RemeshOptions::lloyd_iterations).
+enum class RemeshRelaxMetric {
+  Surface,  // nearest sample in 3D: cells on the surface, whatever the sampling map's distortion
+  Map,      // nearest sample in the sampling map (isotropic there, anisotropic on the surface)
+};
+
+enum class RemeshBoundary {
+  Keep,      // the chart's boundary vertices, exactly and in order (stitchable to the rest)
+  Resample,  // new boundary vertices along the boundary polyline, spaced by the local target spacing
+};
+
+struct RemeshOptions {
+  int target_vertices = 5000;        // total output vertices, boundary included
+  double adaptivity = 0.0;           // 0: uniform density; 1: density proportional to curvature
+  int resolution = 256;              // raster size of the control map (resolution^2 pixels), 16..4096
+  RemeshMode mode = RemeshMode::Double;
+  RemeshBoundary boundary = RemeshBoundary::Keep;
+  UvBoundary domain = UvBoundary::Circle;  // parameter domain of U0 and Uopt (convex: no flips)
+  // Interior samples closer (in 3D) to the boundary polyline than this fraction of the local
+  // target spacing are dropped, so the first row of triangles is not made of slivers.
+  double boundary_clearance = 0.5;
+  double curvature_clip = 8.0;       // curvature density is clipped at this multiple of its mean
+  int max_uopt_iterations = 100;
+  // The low-stretch map: eq. 5.6's exponent and the number of equalization steps (-1: Uopt, stop
+  // when eq. 5.5 stops decreasing; 1: U1, which the thesis finds less anisotropic).
+  double eta = 1.0;
+  int uopt_steps = -1;
+  // Beyond the thesis: after the Delaunay triangulation in the parameter map, flip edges towards a
+  // Delaunay triangulation of the 3D mesh (opposite angles summing to more than pi), keeping the
+  // embedding in the map. Off reproduces the thesis's scheme exactly.
+  bool flip_3d = false;
+  // Density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the centroidal Voronoi
+  // sampling of a parameter map in Alliez et al. 2003, "Isotropic surface remeshing"): each interior sample moves to the control-map mass centroid, in the
+  // sampling map, of its Voronoi cell over the map's pixels; boundary samples are fixed generators.
+  // 0 reproduces the thesis's plain error diffusion.
+  int lloyd_iterations = 4;
+  RemeshRelaxMetric relax_metric = RemeshRelaxMetric::Surface;
+  // After relaxation, interior samples closer (in 3D) than this fraction of the local target
+  // spacing to the boundary or to another kept sample are dropped (0: off).
+  double min_separation = 0.35;
+};
+
+struct RemeshResult {
+  MatX3d V;                  // output vertices: the n_boundary boundary vertices first, in loop order
+  MatX3i F;                  // triangles, oriented like the input
+  int n_boundary = 0;
+  VecXi boundary_source;     // Keep: input vertex of each boundary vertex; Resample: empty
+  MatX2d uv;                 // output vertices in the triangulation map
+  int n_interior_target = 0; // expected interior samples (target minus boundary)
+  int n_rejected = 0;        // interior samples dropped by the boundary clearance (last pass)
+  int passes = 0;            // error-diffusion passes (the density is rescaled to hit the count)
+  int uopt_iterations = 0;   // equalization steps of Uopt (0 for SingleU0)
+  int n_flips = 0;           // 3D Delaunay edge flips (flip_3d)
+  int lloyd_iterations = 0;  // Lloyd steps made (fewer than asked when no sample moved)
+  int n_separated = 0;       // interior samples dropped by min_separation
+  // Wall time of the stages; relax = Lloyd steps + minimum separation.
+  double seconds_parameterize = 0, seconds_sample = 0, seconds_relax = 0, seconds_triangulate = 0;
+  std::vector<std::string> warnings;
+};
+
+// Throws MeshError when the input is not a single chart of disk topology (closed, annulus or
+// holes, several pieces, handles), for options out of range, or when target_vertices does not
+// exceed the boundary; CancelledError when the progress callback returns false.
+RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& options = {},
+                    const ProgressFn& progress = {});
+
+// Distance from each point to the triangle mesh (V, F): exact point-triangle distances to the
+// candidates whose centroids are the `candidates` nearest to the point (kd-tree), so the result can
+// only over-estimate the true distance when a far-centred large triangle is the closest one.
+// Used for Hausdorff distances by tests and benchmarks.
+VecXd point_mesh_distance(const MatX3d& P, const MatX3d& V, const MatX3i& F, int candidates = 16);
+
+}  // namespace dgmesh

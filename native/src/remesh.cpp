@@ -1,0 +1,950 @@
+// Remeshing by double parameterization (thesis 5.4, after Alliez et al. [AMD02]). See remesh.h.
+#include "dgmesh/remesh.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dgmesh/delaunay.h"
+#include "dgmesh/errors.h"
+#include "dgmesh/geometry.h"
+#include "dgmesh/mesh.h"
+#include "dgmesh/spatial_index.h"
+#include "dgmesh/validate.h"
+
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
+namespace dgmesh {
+
+namespace {
+
+int max_threads() {
+#ifdef _OPENMP
+  return omp_get_max_threads();
+#else
+  return 1;
+#endif
+}
+
+int thread_id() {
+#ifdef _OPENMP
+  return omp_get_thread_num();
+#else
+  return 0;
+#endif
+}
+
+using Vec2 = Eigen::Vector2d;
+using Clock = std::chrono::steady_clock;
+constexpr double kSqrt3 = 1.7320508075688772;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kFlipCos = 0.94;  // cos 20 degrees
+constexpr int kParallelMin = 1 << 14;  // smaller loops stay serial (libgomp spin-waits, fair.cpp)
+constexpr int kBand = 16;              // raster rows per band (one band per task, no write races)
+
+inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
+inline double seconds_since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+inline Vec2 uv_row(const MatX2d& U, int i) { return U.row(i).transpose(); }
+
+// Target edge length of a near-equilateral mesh with `density` vertices per unit area: each vertex
+// owns sqrt(3)/2 h^2 of area.
+inline double spacing(double density) { return std::sqrt(2.0 / (kSqrt3 * std::max(density, 1e-300))); }
+
+// Deterministic sub-pixel offset in [-0.5, 0.5): breaks the co-circularity of pixel-centred samples
+// so the Delaunay triangulation is unique (Qhull's Qt could otherwise emit flat triangles).
+inline double jitter(uint32_t x) {
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return (x & 0xffffff) / double(1 << 24) - 0.5;
+}
+
+// Closest-point distance from p to triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5).
+double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return ap.norm();
+  const Vec3 bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return bp.norm();
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  const Vec3 cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return cp.norm();
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
+  const double denom = 1.0 / (va + vb + vc);
+  return (p - (a + ab * (vb * denom) + ac * (vc * denom))).norm();
+}
+
+double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double l2 = ab.squaredNorm();
+  const double t = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * ab)).norm();
+}
+
+// Point-in-polygon for a (weakly) convex counter-clockwise polygon in O(log n): binary search of
+// the wedge around an inner point, then one edge test. `margin` is a distance.
+class ConvexPolygon {
+ public:
+  explicit ConvexPolygon(std::vector<Vec2> pts) : p_(std::move(pts)) {
+    c_ = Vec2::Zero();
+    for (const Vec2& q : p_) c_ += q;
+    c_ /= double(p_.size());
+    const int n = int(p_.size());
+    int start = 0;
+    ang_.resize(n);
+    for (int k = 0; k < n; ++k) {
+      ang_[k] = std::atan2(p_[k].y() - c_.y(), p_[k].x() - c_.x());
+      if (ang_[k] < ang_[start]) start = k;
+    }
+    std::rotate(p_.begin(), p_.begin() + start, p_.end());
+    std::rotate(ang_.begin(), ang_.begin() + start, ang_.end());
+  }
+  // Signed distance-like test: true when q is inside by more than margin from the wedge's edge.
+  bool inside(const Vec2& q, double margin) const {
+    const int n = int(p_.size());
+    const double a = std::atan2(q.y() - c_.y(), q.x() - c_.x());
+    // Edge k -> k+1 covers angles [ang_k, ang_{k+1}); the last edge wraps around.
+    int k = int(std::upper_bound(ang_.begin(), ang_.end(), a) - ang_.begin()) - 1;
+    if (k < 0) k = n - 1;
+    const Vec2& p0 = p_[k];
+    const Vec2& p1 = p_[(k + 1) % n];
+    const Vec2 e = p1 - p0;
+    const double len = e.norm();
+    if (len <= 0) return false;
+    return cross2(e, q - p0) / len > margin;
+  }
+
+ private:
+  std::vector<Vec2> p_;
+  std::vector<double> ang_;
+  Vec2 c_;
+};
+
+// Distance from a 3D point to the chart's boundary polyline: a kd-tree over points placed densely
+// along the loop, then exact distances to the segment of the nearest point and its neighbours.
+class BoundaryDistance {
+ public:
+  BoundaryDistance(const MatX3d& V, const std::vector<int>& loop, double step) : V_(V), loop_(loop) {
+    const int nb = int(loop.size());
+    double total = 0;
+    for (int k = 0; k < nb; ++k) total += (row3(V, loop[(k + 1) % nb]) - row3(V, loop[k])).norm();
+    step = std::max(step, total / 400000.0);  // bounded memory on long, dense boundaries
+    std::vector<Vec3> pts;
+    for (int k = 0; k < nb; ++k) {
+      const Vec3 a = row3(V, loop[k]), b = row3(V, loop[(k + 1) % nb]);
+      const int m = std::max(1, int(std::ceil((b - a).norm() / step)));
+      for (int s = 0; s < m; ++s) {
+        pts.push_back(a + (b - a) * (double(s) / m));
+        seg_.push_back(k);
+      }
+    }
+    MatX3d P(int(pts.size()), 3);
+    for (int i = 0; i < P.rows(); ++i) P.row(i) = pts[i].transpose();
+    tree_ = std::make_unique<KdTree>(P);
+  }
+  double operator()(const Vec3& q) const {
+    const int i = tree_->nearest(q);
+    const int nb = int(loop_.size());
+    const int k = seg_[i];
+    double d = std::numeric_limits<double>::infinity();
+    for (int o = -1; o <= 1; ++o) {
+      const int s = ((k + o) % nb + nb) % nb;
+      d = std::min(d, point_segment_distance(q, row3(V_, loop_[s]), row3(V_, loop_[(s + 1) % nb])));
+    }
+    return d;
+  }
+
+ private:
+  const MatX3d& V_;
+  const std::vector<int>& loop_;
+  std::vector<int> seg_;
+  std::unique_ptr<KdTree> tree_;
+};
+
+// Rejects non-disk input with a message that says what is wrong and what to do.
+Topology check_disk(const MatX3d& V, const MatX3i& F) {
+  Topology t = validate(V, F, kSurface | kNoLooseVertices);
+  const std::string hint = " Remeshing needs one disk-shaped chart: select a disk-shaped region of faces or cut the mesh open.";
+  if (t.n_components != 1)
+    throw MeshError("remesh: the mesh has " + std::to_string(t.n_components) + " separate pieces." + hint);
+  if (t.boundary_loops.empty()) throw MeshError("remesh: the mesh is closed (it has no boundary)." + hint);
+  if (t.boundary_loops.size() > 1)
+    throw MeshError("remesh: the mesh has " + std::to_string(t.boundary_loops.size()) +
+                    " boundary loops (an annulus or a region with holes)." + hint);
+  const long chi = long(t.n_vertices) - long(t.n_edges()) + long(t.n_faces);
+  if (chi != 1)
+    throw MeshError("remesh: the mesh has one boundary loop but handles (Euler characteristic " + std::to_string(chi) +
+                    ", a disk has 1)." + hint);
+  return t;
+}
+
+ProgressFn sub_progress(const ProgressFn& p, double a, double b) {
+  if (!p) return {};
+  return [p, a, b](double f) { return p(a + (b - a) * f); };
+}
+
+struct Sample {
+  int face;
+  double w0, w1, w2;
+};
+
+// Beyond the thesis: edge flips towards a Delaunay triangulation of the lifted 3D mesh (flip an
+// interior edge when its two opposite 3D angles sum to more than pi, the Delaunay criterion that
+// maximises the minimum angle), allowed only when both new triangles keep their orientation in the
+// triangulation map, so the mesh stays an embedding of the chart. Boundary edges never flip.
+// Returns the number of flips.
+int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient_sign) {
+  const int nf = int(F.rows());
+  std::vector<int> opp(3 * nf, -1);
+  {
+    std::vector<std::pair<uint64_t, int>> he(3 * nf);
+    for (int f = 0; f < nf; ++f)
+      for (int k = 0; k < 3; ++k)
+        he[3 * f + k] = {(uint64_t(uint32_t(F(f, k))) << 32) | uint32_t(F(f, (k + 1) % 3)), 3 * f + k};
+    std::sort(he.begin(), he.end());
+    for (int h = 0; h < 3 * nf; ++h) {
+      const int f = h / 3, k = h % 3;
+      const uint64_t rev = (uint64_t(uint32_t(F(f, (k + 1) % 3))) << 32) | uint32_t(F(f, k));
+      auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(rev, -1));
+      if (it != he.end() && it->first == rev) opp[h] = it->second;
+    }
+  }
+  auto angle = [&](int apex, int p, int q) {
+    const Vec3 u = row3(X, p) - row3(X, apex), v = row3(X, q) - row3(X, apex);
+    return std::atan2(u.cross(v).norm(), u.dot(v));
+  };
+  auto orient = [&](int a, int b, int c) {
+    return orient_sign * cross2(uv_row(U, b) - uv_row(U, a), uv_row(U, c) - uv_row(U, a));
+  };
+  std::vector<int> stack(3 * nf);
+  for (int h = 0; h < 3 * nf; ++h) stack[h] = h;
+  const long max_flips = 20L * nf;
+  int flips = 0;
+  while (!stack.empty() && flips < max_flips) {
+    const int h = stack.back();
+    stack.pop_back();
+    const int o = opp[h];
+    if (o < 0) continue;
+    const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
+    const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3), d = F(g, (l + 2) % 3);
+    if (angle(c, a, b) + angle(d, b, a) <= kPi + 1e-10) continue;
+    if (orient(a, d, c) <= 0 || orient(d, b, c) <= 0) continue;
+    // Only across near-flat edges (dihedral below ~20 degrees), so flips never cut across a crease
+    // or a thin feature and the surface stays where the samples put it.
+    {
+      const Vec3 n1 = (row3(X, b) - row3(X, a)).cross(row3(X, c) - row3(X, a));
+      const Vec3 n2 = (row3(X, a) - row3(X, b)).cross(row3(X, d) - row3(X, b));
+      const double nn = n1.norm() * n2.norm();
+      if (!(nn > 0) || n1.dot(n2) < kFlipCos * nn) continue;
+    }
+    // Outer half-edges: b->c, c->a in f; a->d, d->b in g.
+    const int h_bc = 3 * f + (k + 1) % 3, h_ca = 3 * f + (k + 2) % 3;
+    const int h_ad = 3 * g + (l + 1) % 3, h_db = 3 * g + (l + 2) % 3;
+    const int o_bc = opp[h_bc], o_ca = opp[h_ca], o_ad = opp[h_ad], o_db = opp[h_db];
+    // New f = (a, d, c), new g = (d, b, c): half-edges f0 a->d, f1 d->c, f2 c->a; g0 d->b, g1 b->c, g2 c->d.
+    F.row(f) << a, d, c;
+    F.row(g) << d, b, c;
+    auto link = [&](int x, int y) {
+      opp[x] = y;
+      if (y >= 0) opp[y] = x;
+    };
+    link(3 * f + 0, o_ad);
+    link(3 * f + 1, 3 * g + 2);
+    link(3 * f + 2, o_ca);
+    link(3 * g + 0, o_db);
+    link(3 * g + 1, o_bc);
+    ++flips;
+    for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
+  }
+  return flips;
+}
+
+}  // namespace
+
+RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
+  if (o.target_vertices < 4) throw MeshError("remesh: target_vertices must be at least 4, got " + std::to_string(o.target_vertices));
+  if (!(o.adaptivity >= 0 && o.adaptivity <= 1))
+    throw MeshError("remesh: adaptivity must be in [0, 1], got " + std::to_string(o.adaptivity));
+  if (o.resolution < 16 || o.resolution > 4096)
+    throw MeshError("remesh: resolution must be in 16..4096, got " + std::to_string(o.resolution));
+  if (o.domain == UvBoundary::Free)
+    throw MeshError("remesh: the parameter domain must be convex (square or circle), not free");
+  if (!(o.eta > 0 && o.eta <= 1)) throw MeshError("remesh: eta must be in (0, 1]");
+  if (o.lloyd_iterations < 0 || o.lloyd_iterations > 100)
+    throw MeshError("remesh: lloyd_iterations must be in 0..100, got " + std::to_string(o.lloyd_iterations));
+  if (!(o.min_separation >= 0 && o.min_separation < 1))
+    throw MeshError("remesh: min_separation must be in [0, 1), got " + std::to_string(o.min_separation));
+  if (!(o.boundary_clearance >= 0 && o.boundary_clearance < 2))
+    throw MeshError("remesh: boundary_clearance must be in [0, 2)");
+  Progress report(progress);
+  report(0);
+  const Topology topo = check_disk(V, F);
+  const std::vector<int>& loop = topo.boundary_loops[0];
+  const int nv = topo.n_vertices, nf = topo.n_faces, nbl = int(loop.size());
+  RemeshResult res;
+  const auto t_param = Clock::now();
+
+  // 1. The two maps (thesis 5.2): U0 with Floater's weights on the convex domain, Uopt by stretch
+  // equalization (eq. 5.1, 5.3, 5.4) from it.
+  UnwrapOptions uo;
+  uo.boundary = o.domain;
+  uo.weights = UvWeights::Floater;
+  uo.max_iterations = o.max_uopt_iterations;
+  MatX2d U0, Uopt;
+  const bool need_u0 = o.mode != RemeshMode::SingleUopt;
+  const bool need_uopt = o.mode != RemeshMode::SingleU0;
+  if (need_u0) {
+    uo.iterations = 0;
+    UnwrapResult r = unwrap(V, F, uo, sub_progress(progress, 0.0, need_uopt ? 0.1 : 0.4));
+    U0 = std::move(r.uv);
+    for (auto& w : r.warnings) res.warnings.push_back("U0: " + w);
+  }
+  if (need_uopt) {
+    uo.iterations = o.uopt_steps < 0 ? -1 : o.uopt_steps;
+    uo.eta = o.eta;
+    UnwrapResult r = unwrap(V, F, uo, sub_progress(progress, need_u0 ? 0.1 : 0.0, 0.4));
+    Uopt = std::move(r.uv);
+    res.uopt_iterations = r.chosen;
+    for (auto& w : r.warnings) res.warnings.push_back("Uopt: " + w);
+  }
+  const MatX2d& Us = o.mode == RemeshMode::SingleU0 ? U0 : Uopt;  // sampling map
+  const MatX2d& Ut = o.mode == RemeshMode::SingleUopt ? Uopt : U0; // triangulation map
+  res.seconds_parameterize = seconds_since(t_param);
+  report(0.4);
+  const auto t_sample = Clock::now();
+
+  // 2. Density per vertex: rho = (1 - a) + a * min(kappa / mean kappa, clip), kappa = sqrt(k1^2 + k2^2)
+  // = sqrt(4H^2 - 2K); its integral over the surface normalises the control map.
+  VecXd rho = VecXd::Ones(nv);
+  if (o.adaptivity > 0) {
+    const Curvature c = curvature(V, F, topo);
+    VecXd kappa(nv);
+    double num = 0, den = 0;
+    for (int v = 0; v < nv; ++v) {
+      kappa[v] = std::sqrt(std::max(4 * c.mean[v] * c.mean[v] - 2 * c.gaussian[v], 0.0));
+      if (std::isfinite(kappa[v])) {
+        num += kappa[v] * c.area[v];
+        den += c.area[v];
+      } else {
+        kappa[v] = 0;
+      }
+    }
+    const double mean = den > 0 ? num / den : 0;
+    if (mean > 0)
+      for (int v = 0; v < nv; ++v) rho[v] = (1 - o.adaptivity) + o.adaptivity * std::min(kappa[v] / mean, o.curvature_clip);
+  }
+  const VecXd area3 = face_areas(V, F);
+  double rho_integral = 0;  // int rho dA over the surface
+  for (int f = 0; f < nf; ++f) rho_integral += area3[f] * (rho[F(f, 0)] + rho[F(f, 1)] + rho[F(f, 2)]) / 3.0;
+  double surface_area = area3.sum();
+  if (!(rho_integral > 0) || !(surface_area > 0)) throw MeshError("remesh: the mesh has zero area");
+
+  // Boundary samples.
+  const int N = o.target_vertices;
+  std::vector<Vec3> bnd_x;
+  std::vector<Vec2> bnd_u;
+  std::vector<Vec2> bnd_s;  // the same boundary samples in the sampling map (Lloyd generators)
+  if (o.boundary == RemeshBoundary::Keep) {
+    res.boundary_source.resize(nbl);
+    for (int k = 0; k < nbl; ++k) {
+      bnd_x.push_back(row3(V, loop[k]));
+      bnd_u.push_back(uv_row(Ut, loop[k]));
+      bnd_s.push_back(uv_row(Us, loop[k]));
+      res.boundary_source[k] = loop[k];
+    }
+  } else {
+    // Spacing follows the density with all N vertices: count measure = int ds / h(s).
+    std::vector<double> cum(nbl + 1, 0.0);
+    for (int k = 0; k < nbl; ++k) {
+      const int a = loop[k], b = loop[(k + 1) % nbl];
+      const double len = (row3(V, b) - row3(V, a)).norm();
+      const double ha = spacing(N * rho[a] / rho_integral), hb = spacing(N * rho[b] / rho_integral);
+      cum[k + 1] = cum[k] + len * 0.5 * (1 / ha + 1 / hb);
+    }
+    // Anchors that must be samples: the square's corners (else the polygon would cut them off).
+    std::vector<int> anchors;
+    if (o.domain == UvBoundary::Square)
+      for (int k = 0; k < nbl; ++k) {
+        const Vec2 u = uv_row(Ut, loop[k]);
+        const bool cx = std::abs(u.x()) < 1e-9 || std::abs(u.x() - 1) < 1e-9;
+        const bool cy = std::abs(u.y()) < 1e-9 || std::abs(u.y() - 1) < 1e-9;
+        if (cx && cy) anchors.push_back(k);
+      }
+    if (anchors.empty()) anchors.push_back(0);
+    const double total = cum[nbl];
+    auto place = [&](double c) {
+      c = std::fmod(c, total);
+      if (c < 0) c += total;
+      int k = int(std::upper_bound(cum.begin(), cum.end(), c) - cum.begin()) - 1;
+      k = std::clamp(k, 0, nbl - 1);
+      const double t = cum[k + 1] > cum[k] ? std::clamp((c - cum[k]) / (cum[k + 1] - cum[k]), 0.0, 1.0) : 0.0;
+      const int a = loop[k], b = loop[(k + 1) % nbl];
+      bnd_x.push_back((1 - t) * row3(V, a) + t * row3(V, b));
+      bnd_u.push_back((1 - t) * uv_row(Ut, a) + t * uv_row(Ut, b));
+      bnd_s.push_back((1 - t) * uv_row(Us, a) + t * uv_row(Us, b));
+    };
+    const int na = int(anchors.size());
+    const int min_per_piece = na == 1 ? 3 : 1;
+    for (int m = 0; m < na; ++m) {
+      const double c0 = cum[anchors[m]];
+      const double c1 = m + 1 < na ? cum[anchors[m + 1]] : total + cum[anchors[0]];
+      const int n_piece = std::max(min_per_piece, int(std::lround(c1 - c0)));
+      for (int q = 0; q < n_piece; ++q) {
+        if (q == 0) {  // the anchor itself, exactly
+          bnd_x.push_back(row3(V, loop[anchors[m]]));
+          bnd_u.push_back(uv_row(Ut, loop[anchors[m]]));
+          bnd_s.push_back(uv_row(Us, loop[anchors[m]]));
+        } else {
+          place(c0 + (c1 - c0) * q / n_piece);
+        }
+      }
+    }
+  }
+  const int nb = int(bnd_x.size());
+  const int n_int = N - nb;
+  if (n_int < 1)
+    throw MeshError("remesh: target_vertices (" + std::to_string(N) + ") must exceed the number of boundary vertices (" +
+                    std::to_string(nb) + ")" +
+                    (o.boundary == RemeshBoundary::Keep ? ", which are kept; raise the target or resample the boundary" : ""));
+  res.n_interior_target = n_int;
+  res.n_boundary = nb;
+
+  // Orientation of the chart in the triangulation map (the Delaunay triangles come out CCW).
+  double signed_area = 0;
+  for (int f = 0; f < nf; ++f)
+    signed_area += cross2(uv_row(Ut, F(f, 1)) - uv_row(Ut, F(f, 0)), uv_row(Ut, F(f, 2)) - uv_row(Ut, F(f, 0)));
+  const bool flip = signed_area < 0;
+  // The boundary polygon, counter-clockwise, for the inside test.
+  std::vector<Vec2> poly = bnd_u;
+  {
+    double a2 = 0;
+    for (int k = 0; k < nb; ++k) a2 += cross2(poly[k], poly[(k + 1) % nb]);
+    if (a2 < 0) std::reverse(poly.begin(), poly.end());
+  }
+  const ConvexPolygon polygon(poly);
+
+  // 3. Rasterize the control map over the sampling map: pixel value = (3D area / UV area) of the
+  // covering face times the interpolated density, i.e. the density per unit of UV area [AMD02].
+  const int R = o.resolution;
+  const long npix = long(R) * R;
+  if (n_int > npix / 4)
+    res.warnings.push_back("resolution " + std::to_string(R) + " is low for " + std::to_string(n_int) +
+                           " interior samples (at most one per pixel): raise the resolution");
+  std::vector<int> pix_face(npix, -1);
+  std::vector<double> pix_val(npix, 0.0);
+  // Surface point of each pixel centre, for the Lloyd relaxation in the surface metric (floats:
+  // 12 bytes a pixel, distances only need to rank generators).
+  const bool relax = o.lloyd_iterations > 0;
+  const bool relax_surface = relax && o.relax_metric == RemeshRelaxMetric::Surface;
+  std::vector<float> pix_x(relax_surface ? 3 * npix : 0);
+  VecXd ratio(nf);
+  {
+    const int nbands = (R + kBand - 1) / kBand;
+    std::vector<int> band_off(nbands + 1, 0);
+    std::vector<int> row0(nf), row1(nf);
+    for (int f = 0; f < nf; ++f) {
+      const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
+      const double uva = 0.5 * std::abs(cross2(b - a, c - a));
+      ratio[f] = uva > 0 ? area3[f] / uva : 0.0;
+      const double ymin = std::min({a.y(), b.y(), c.y()}), ymax = std::max({a.y(), b.y(), c.y()});
+      row0[f] = std::max(0, int(std::ceil(ymin * R - 0.5 - 1e-9)));
+      row1[f] = std::min(R - 1, int(std::floor(ymax * R - 0.5 + 1e-9)));
+      if (uva <= 0 || row0[f] > row1[f]) continue;
+      for (int bnd = row0[f] / kBand; bnd <= row1[f] / kBand; ++bnd) ++band_off[bnd + 1];
+    }
+    for (int b = 0; b < nbands; ++b) band_off[b + 1] += band_off[b];
+    std::vector<int> band_faces(band_off[nbands]);
+    {
+      std::vector<int> fill(band_off.begin(), band_off.end() - 1);
+      for (int f = 0; f < nf; ++f) {
+        if (ratio[f] <= 0 || row0[f] > row1[f]) continue;
+        for (int bnd = row0[f] / kBand; bnd <= row1[f] / kBand; ++bnd) band_faces[fill[bnd]++] = f;
+      }
+    }
+#pragma omp parallel for schedule(dynamic, 1) if (npix > kParallelMin * 4)
+    for (int bnd = 0; bnd < nbands; ++bnd) {
+      const int j_lo = bnd * kBand, j_hi = std::min(R - 1, j_lo + kBand - 1);
+      for (int q = band_off[bnd]; q < band_off[bnd + 1]; ++q) {
+        const int f = band_faces[q];
+        const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
+        const double det = cross2(b - a, c - a);
+        const double xmin = std::min({a.x(), b.x(), c.x()}), xmax = std::max({a.x(), b.x(), c.x()});
+        const int i0 = std::max(0, int(std::ceil(xmin * R - 0.5 - 1e-9)));
+        const int i1 = std::min(R - 1, int(std::floor(xmax * R - 0.5 + 1e-9)));
+        const double tol = -1e-9;
+        for (int j = std::max(j_lo, row0[f]); j <= std::min(j_hi, row1[f]); ++j) {
+          const double y = (j + 0.5) / R;
+          for (int i = i0; i <= i1; ++i) {
+            const Vec2 p((i + 0.5) / R, y);
+            const double w0 = cross2(b - p, c - p) / det, w1 = cross2(c - p, a - p) / det, w2 = 1 - w0 - w1;
+            if (w0 < tol || w1 < tol || w2 < tol) continue;
+            const long idx = long(j) * R + i;
+            pix_face[idx] = f;
+            pix_val[idx] = ratio[f] * (w0 * rho[F(f, 0)] + w1 * rho[F(f, 1)] + w2 * rho[F(f, 2)]);
+            if (relax_surface) {
+              const Vec3 x = w0 * row3(V, F(f, 0)) + w1 * row3(V, F(f, 1)) + w2 * row3(V, F(f, 2));
+              for (int c = 0; c < 3; ++c) pix_x[3 * idx + c] = float(x[c]);
+            }
+          }
+        }
+      }
+    }
+  }
+  double pix_sum = 0;
+  for (long i = 0; i < npix; ++i) pix_sum += pix_val[i];
+  if (!(pix_sum > 0)) throw MeshError("remesh: the chart covers no pixel of the control map; raise the resolution");
+  report(0.55);
+
+  // 4. Error diffusion (serpentine Floyd-Steinberg), then the samples: the same face and barycentric
+  // coordinates give the point in the triangulation map and in 3D. Interior samples too close to
+  // the boundary are dropped, and the density is rescaled until the count hits the target.
+  const bool clearance = o.boundary_clearance > 0;
+  std::unique_ptr<BoundaryDistance> bdist;
+  // Faces certainly farther from the boundary than the clearance at any of their points: their
+  // samples need no query (a lower bound: centroid distance minus the centroid-vertex radius).
+  std::vector<char> face_far(nf, 1);
+  if (clearance) {
+    bdist = std::make_unique<BoundaryDistance>(
+        V, loop, 0.5 * o.boundary_clearance * spacing(n_int * rho.maxCoeff() / rho_integral));
+#pragma omp parallel for schedule(static) if (nf > kParallelMin)
+    for (int f = 0; f < nf; ++f) {
+      const Vec3 a = row3(V, F(f, 0)), b = row3(V, F(f, 1)), c = row3(V, F(f, 2));
+      const Vec3 g = (a + b + c) / 3.0;
+      const double rad = std::max({(a - g).norm(), (b - g).norm(), (c - g).norm()});
+      const double rmin = std::min({rho[F(f, 0)], rho[F(f, 1)], rho[F(f, 2)]});
+      face_far[f] = (*bdist)(g) - rad > o.boundary_clearance * spacing(n_int * rmin / rho_integral);
+    }
+  }
+  const double margin = 1e-9;
+  double scale = n_int / pix_sum;
+  std::vector<long> picked;
+  std::vector<Sample> samples;
+  std::vector<char> keep;
+  // A pixel's sample is always the same point, so its verdict is reused by later passes.
+  std::vector<signed char> pix_keep(npix, -1);
+  std::vector<double> err0(R + 2), err1(R + 2);
+  for (int pass = 0; pass < 6; ++pass) {
+    picked.clear();
+    std::fill(err0.begin(), err0.end(), 0.0);
+    for (int j = 0; j < R; ++j) {
+      std::fill(err1.begin(), err1.end(), 0.0);
+      const bool fwd = (j % 2) == 0;
+      const int dir = fwd ? 1 : -1;
+      for (int s = 0; s < R; ++s) {
+        const int i = fwd ? s : R - 1 - s;
+        const long idx = long(j) * R + i;
+        if (pix_face[idx] < 0) continue;
+        const double v = scale * pix_val[idx] + err0[i + 1];
+        double e = v;
+        if (v >= 0.5) {
+          picked.push_back(idx);
+          e = v - 1.0;
+        }
+        // Floyd-Steinberg weights 7, 3, 5, 1 (/16), over the neighbours inside the chart only so
+        // that no density leaks out at the chart's border.
+        const int in = i + dir, ib = i - dir;
+        const bool ok_n = in >= 0 && in < R && pix_face[idx + dir] >= 0;
+        const bool last = j + 1 >= R;
+        const long below = idx + R;
+        const bool ok_b = !last && pix_face[below] >= 0;
+        const bool ok_bb = !last && ib >= 0 && ib < R && pix_face[below - dir] >= 0;
+        const bool ok_bn = !last && in >= 0 && in < R && pix_face[below + dir] >= 0;
+        const double wsum = 7.0 * ok_n + 3.0 * ok_bb + 5.0 * ok_b + 1.0 * ok_bn;
+        if (wsum <= 0) continue;
+        const double q = e / wsum;
+        if (ok_n) err0[in + 1] += 7 * q;
+        if (ok_bb) err1[ib + 1] += 3 * q;
+        if (ok_b) err1[i + 1] += 5 * q;
+        if (ok_bn) err1[in + 1] += 1 * q;
+      }
+      std::swap(err0, err1);
+    }
+    const int ns = int(picked.size());
+    samples.assign(ns, Sample{});
+    keep.assign(ns, 0);
+#pragma omp parallel for schedule(static) if (ns > kParallelMin)
+    for (int s = 0; s < ns; ++s) {
+      const long idx = picked[s];
+      const int i = int(idx % R), j = int(idx / R);
+      const uint32_t h = uint32_t(idx) * 2654435761U;
+      const Vec2 p((i + 0.5 + 0.1 * jitter(h)) / R, (j + 0.5 + 0.1 * jitter(h ^ 0x9e3779b9U)) / R);
+      const int f = pix_face[idx];
+      const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
+      const double det = cross2(b - a, c - a);
+      double w0 = std::max(0.0, cross2(b - p, c - p) / det), w1 = std::max(0.0, cross2(c - p, a - p) / det);
+      double w2 = std::max(0.0, 1 - w0 - w1);
+      const double ws = w0 + w1 + w2;
+      w0 /= ws, w1 /= ws, w2 /= ws;
+      samples[s] = Sample{f, w0, w1, w2};
+      if (pix_keep[idx] >= 0) {
+        keep[s] = pix_keep[idx];
+        continue;
+      }
+      const Vec2 u = w0 * uv_row(Ut, F(f, 0)) + w1 * uv_row(Ut, F(f, 1)) + w2 * uv_row(Ut, F(f, 2));
+      if (!polygon.inside(u, margin)) {
+        pix_keep[idx] = 0;
+        continue;
+      }
+      if (face_far[f]) {
+        keep[s] = pix_keep[idx] = 1;
+        continue;
+      }
+      const Vec3 x = w0 * row3(V, F(f, 0)) + w1 * row3(V, F(f, 1)) + w2 * row3(V, F(f, 2));
+      const double r = w0 * rho[F(f, 0)] + w1 * rho[F(f, 1)] + w2 * rho[F(f, 2)];
+      const double hloc = spacing(n_int * r / rho_integral);
+      keep[s] = (*bdist)(x) >= o.boundary_clearance * hloc;
+      pix_keep[idx] = keep[s];
+    }
+    int accepted = 0;
+    for (int s = 0; s < ns; ++s) accepted += keep[s];
+    res.passes = pass + 1;
+    res.n_rejected = ns - accepted;
+    report(std::min(0.55 + 0.04 * (pass + 1), 0.79));
+    const int tol = std::max(1, int(0.002 * n_int));
+    if (std::abs(accepted - n_int) <= tol || accepted == 0) break;
+    scale *= double(n_int) / accepted;
+  }
+  res.seconds_sample = seconds_since(t_sample);
+
+  // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
+  // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
+  // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
+  // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
+  // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
+  // Voronoi cell over the pixels of the sampling map. The cells are measured in the surface metric
+  // (nearest generator in 3D) or in the sampling map's own metric; boundary samples are fixed
+  // generators. The same step for all three modes, at the control map's resolution.
+  if (relax) {
+    const auto t_relax = Clock::now();
+    std::vector<int> ids;  // interior samples taking part
+    for (size_t q = 0; q < samples.size(); ++q)
+      if (keep[q]) ids.push_back(int(q));
+    const int ni = int(ids.size());
+    const int ng = nb + ni;
+    MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
+    auto sample_s = [&](const Sample& q) {
+      return Vec2(q.w0 * uv_row(Us, F(q.face, 0)) + q.w1 * uv_row(Us, F(q.face, 1)) + q.w2 * uv_row(Us, F(q.face, 2)));
+    };
+    auto sample_x = [&](const Sample& q) {
+      return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
+    };
+    auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
+      if (relax_surface) G.row(g) = x.transpose();
+      else G.row(g) << su.x(), su.y(), 0.0;
+    };
+    for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
+    const int nthreads = npix > kParallelMin * 4 ? std::max(1, max_threads()) : 1;
+    std::vector<double> acc(size_t(nthreads) * 3 * ng);
+    // Point location in the sampling map: walk from a start face across the edge opposite the most
+    // negative barycentric coordinate. Returns false if the walk leaves the chart.
+    auto locate = [&](const Vec2& p, int f, Sample& out) {
+      for (int step = 0; step < 256; ++step) {
+        const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
+        const double det = cross2(b - a, c - a);
+        if (det == 0) return false;
+        const double w[3] = {cross2(b - p, c - p) / det, cross2(c - p, a - p) / det, 0};
+        const double w2 = 1 - w[0] - w[1];
+        const double ww[3] = {w[0], w[1], w2};
+        int kmin = 0;
+        for (int k = 1; k < 3; ++k)
+          if (ww[k] < ww[kmin]) kmin = k;
+        if (ww[kmin] >= -1e-12) {
+          out = Sample{f, std::max(0.0, ww[0]), std::max(0.0, ww[1]), std::max(0.0, ww[2])};
+          const double sum = out.w0 + out.w1 + out.w2;
+          out.w0 /= sum, out.w1 /= sum, out.w2 /= sum;
+          return true;
+        }
+        const int e = topo.face_edges(f, (kmin + 1) % 3);  // the edge opposite corner kmin
+        const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
+        if (g < 0) return false;
+        f = g;
+      }
+      return false;
+    };
+    // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
+    // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
+    // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
+    // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
+    // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
+    std::vector<int> label(npix, -1);
+    constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
+    std::vector<int> nbr(size_t(ng) * kMaxNbr), nbr_n(ng);
+    auto pix_point = [&](long idx) {
+      if (relax_surface) return Vec3(pix_x[3 * idx], pix_x[3 * idx + 1], pix_x[3 * idx + 2]);
+      return Vec3((idx % R + 0.5) / R, (idx / R + 0.5) / R, 0.0);
+    };
+    auto build_adjacency = [&]() {
+      std::fill(nbr_n.begin(), nbr_n.end(), 0);
+      auto add1 = [&](int a, int b) {
+        int* l = nbr.data() + size_t(a) * kMaxNbr;
+        for (int k = 0; k < nbr_n[a]; ++k)
+          if (l[k] == b) return;
+        if (nbr_n[a] < kMaxNbr) l[nbr_n[a]++] = b;
+      };
+      auto add = [&](int a, int b) {
+        if (a == b || a < 0 || b < 0) return;
+        add1(a, b);
+        add1(b, a);
+      };
+      for (int j = 0; j < R; ++j)
+        for (int i = 0; i < R; ++i) {
+          const long idx = long(j) * R + i;
+          const int l = label[idx];
+          if (l < 0) continue;
+          if (i + 1 < R) add(l, label[idx + 1]);
+          if (j + 1 < R) add(l, label[idx + R]);
+          if (i + 1 < R && j + 1 < R) add(l, label[idx + R + 1]);
+          if (i > 0 && j + 1 < R) add(l, label[idx + R - 1]);
+        }
+    };
+    for (int it = 0; it < o.lloyd_iterations; ++it) {
+      for (int q = 0; q < ni; ++q) {
+        const Sample& sm = samples[ids[q]];
+        set_gen(nb + q, sample_s(sm), sample_x(sm));
+      }
+      std::unique_ptr<KdTree> tree;
+      if (it == 0) tree = std::make_unique<KdTree>(G);
+      else build_adjacency();
+      std::fill(acc.begin(), acc.end(), 0.0);
+#pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
+      for (int j = 0; j < R; ++j) {
+        double* a = acc.data() + size_t(thread_id()) * 3 * ng;
+        const double y = (j + 0.5) / R;
+        for (int i = 0; i < R; ++i) {
+          const long idx = long(j) * R + i;
+          if (pix_face[idx] < 0) continue;
+          const double x = (i + 0.5) / R;
+          const Vec3 qp = pix_point(idx);
+          int g;
+          if (tree) {
+            g = tree->nearest(qp);
+          } else {
+            g = label[idx];
+            double best = (row3(G, g) - qp).squaredNorm();
+            for (bool improved = true; improved;) {
+              improved = false;
+              const int* l = nbr.data() + size_t(g) * kMaxNbr;
+              const int n = nbr_n[g];
+              for (int k = 0; k < n; ++k) {
+                const double d = (row3(G, l[k]) - qp).squaredNorm();
+                if (d < best) {
+                  best = d;
+                  g = l[k];
+                  improved = true;
+                  break;  // walk on from the closer generator
+                }
+              }
+            }
+          }
+          label[idx] = g;
+          const double m = pix_val[idx];
+          a[3 * g] += m;
+          a[3 * g + 1] += m * x;
+          a[3 * g + 2] += m * y;
+        }
+      }
+      for (int t = 1; t < nthreads; ++t)
+        for (size_t k = 0; k < size_t(3 * ng); ++k) acc[k] += acc[size_t(t) * 3 * ng + k];
+      int moved = 0;
+      for (int q = 0; q < ni; ++q) {
+        const int g = nb + q;
+        if (!(acc[3 * g] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
+        const Vec2 c(acc[3 * g + 1] / acc[3 * g], acc[3 * g + 2] / acc[3 * g]);
+        Sample& sm = samples[ids[q]];
+        const int pi = std::clamp(int(c.x() * R), 0, R - 1), pj = std::clamp(int(c.y() * R), 0, R - 1);
+        const int start = pix_face[long(pj) * R + pi] >= 0 ? pix_face[long(pj) * R + pi] : sm.face;
+        Sample next;
+        if (!locate(c, start, next)) continue;
+        const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
+                       next.w2 * uv_row(Ut, F(next.face, 2));
+        if (!polygon.inside(u, margin)) continue;  // must stay strictly inside for the Delaunay step
+        sm = next;
+        ++moved;
+      }
+      res.lloyd_iterations = it + 1;
+      report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
+      if (moved == 0) break;
+    }
+    res.seconds_relax = seconds_since(t_relax);
+  }
+
+  // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
+  // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
+  // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
+  if (o.min_separation > 0) {
+    const auto t_sep = Clock::now();
+    MatX3d G(nb + int(samples.size()), 3);
+    for (int k = 0; k < nb; ++k) G.row(k) = bnd_x[k].transpose();
+    for (size_t q = 0; q < samples.size(); ++q) {
+      const Sample& sm = samples[q];
+      G.row(nb + int(q)) = sm.w0 * V.row(F(sm.face, 0)) + sm.w1 * V.row(F(sm.face, 1)) + sm.w2 * V.row(F(sm.face, 2));
+    }
+    const KdTree tree(G);
+    const int ns = int(samples.size());
+    // Only a sample with some kept neighbour inside its radius can be dropped: find those in
+    // parallel, then decide them in order (the verdict depends on earlier drops).
+    std::vector<char> crowded(ns, 0);
+    std::vector<double> radius(ns, 0.0);
+#pragma omp parallel if (ns > kParallelMin)
+    {
+      std::vector<std::pair<int, double>> near;
+#pragma omp for schedule(static)
+      for (int q = 0; q < ns; ++q) {
+        if (!keep[q]) continue;
+        const Sample& sm = samples[q];
+        const double r = sm.w0 * rho[F(sm.face, 0)] + sm.w1 * rho[F(sm.face, 1)] + sm.w2 * rho[F(sm.face, 2)];
+        radius[q] = o.min_separation * spacing(n_int * r / rho_integral);
+        tree.radius(row3(G, nb + q), radius[q], near);
+        for (const auto& gd : near)
+          if (gd.first != nb + q && (gd.first < nb || keep[gd.first - nb])) {
+            crowded[q] = 1;
+            break;
+          }
+      }
+    }
+    std::vector<std::pair<int, double>> near;
+    for (int q = 0; q < ns; ++q) {
+      if (!crowded[q]) continue;
+      tree.radius(row3(G, nb + q), radius[q], near);
+      for (const auto& gd : near) {
+        const int g = gd.first, other = g - nb;
+        if (other == q) continue;
+        if (g < nb || (other < q && keep[other])) {
+          keep[q] = 0;
+          ++res.n_separated;
+          break;
+        }
+      }
+    }
+    if (res.n_separated > std::max(1, n_int / 100))
+      res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_int) +
+                             " interior samples were closer than " + std::to_string(o.min_separation) +
+                             " x the target spacing and were dropped: the sampling map is too coarse for this "
+                             "target somewhere; raise the resolution or sample on the low-stretch map (mode double)");
+    res.seconds_relax += seconds_since(t_sep);
+  }
+  const auto t_tri = Clock::now();
+
+  // 5. Delaunay in the triangulation map (Qhull), lift through the shared triangulation.
+  int n_keep = 0;
+  for (char k : keep) n_keep += k;
+  const int n_all = nb + n_keep;
+  MatX2d P(n_all, 2);
+  MatX3d X(n_all, 3);
+  for (int k = 0; k < nb; ++k) {
+    P.row(k) = bnd_u[k].transpose();
+    X.row(k) = bnd_x[k].transpose();
+  }
+  {
+    int w = nb;
+    for (size_t s = 0; s < samples.size(); ++s) {
+      if (!keep[s]) continue;
+      const Sample& q = samples[s];
+      const int f = q.face;
+      P.row(w) = q.w0 * Ut.row(F(f, 0)) + q.w1 * Ut.row(F(f, 1)) + q.w2 * Ut.row(F(f, 2));
+      X.row(w) = q.w0 * V.row(F(f, 0)) + q.w1 * V.row(F(f, 1)) + q.w2 * V.row(F(f, 2));
+      ++w;
+    }
+  }
+  report(0.8);
+  const MatX3i T = delaunay_2d(P);
+  report(0.92);
+  // Drop flat triangles (co-linear boundary points) and any outside the chart polygon.
+  const double area_eps = 1e-14;
+  std::vector<int> tri_keep;
+  tri_keep.reserve(T.rows());
+  for (int t = 0; t < T.rows(); ++t) {
+    const Vec2 a = uv_row(P, T(t, 0)), b = uv_row(P, T(t, 1)), c = uv_row(P, T(t, 2));
+    if (std::abs(cross2(b - a, c - a)) <= area_eps) continue;
+    // Every interior sample is strictly inside the convex boundary polygon, so the hull is the
+    // polygon and only a triangle of three boundary samples can lie outside it (on a straight side).
+    const bool all_boundary = T(t, 0) < nb && T(t, 1) < nb && T(t, 2) < nb;
+    if (all_boundary && !polygon.inside((a + b + c) / 3.0, 0.0)) continue;
+    tri_keep.push_back(t);
+  }
+  // Compact: boundary vertices keep their indices, unused interior samples go.
+  std::vector<int> id(n_all, -1);
+  for (int k = 0; k < nb; ++k) id[k] = k;
+  int nout = nb;
+  for (int t : tri_keep)
+    for (int k = 0; k < 3; ++k)
+      if (id[T(t, k)] < 0) id[T(t, k)] = nout++;
+  res.V.resize(nout, 3);
+  res.uv.resize(nout, 2);
+  for (int i = 0; i < n_all; ++i)
+    if (id[i] >= 0) {
+      res.V.row(id[i]) = X.row(i);
+      res.uv.row(id[i]) = P.row(i);
+    }
+  res.F.resize(int(tri_keep.size()), 3);
+  for (size_t q = 0; q < tri_keep.size(); ++q) {
+    const int t = tri_keep[q];
+    res.F(int(q), 0) = id[T(t, 0)];
+    res.F(int(q), 1) = id[T(t, flip ? 2 : 1)];
+    res.F(int(q), 2) = id[T(t, flip ? 1 : 2)];
+  }
+  if (o.flip_3d) res.n_flips = delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
+  // The result must be a disk whose boundary is exactly the boundary samples.
+  try {
+    const Topology out = build_topology(res.F, nout);
+    bool ok = out.n_components == 1 && out.boundary_loops.size() == 1 && int(out.boundary_loops[0].size()) == nb;
+    for (int v = 0; ok && v < nb; ++v) ok = out.on_boundary[v] && !out.is_loose(v);
+    if (!ok) throw MeshError("the triangulation's boundary is not the chart's boundary");
+  } catch (const MeshError& e) {
+    throw Error(std::string("remesh: internal error, the new triangulation is invalid (") + e.what() +
+                "); try another resolution or target");
+  }
+  res.seconds_triangulate = seconds_since(t_tri);
+  report(1);
+  return res;
+}
+
+VecXd point_mesh_distance(const MatX3d& P, const MatX3d& V, const MatX3i& F, int candidates) {
+  if (F.rows() == 0) throw MeshError("point_mesh_distance: the mesh has no faces");
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (F(f, k) < 0 || F(f, k) >= V.rows()) throw MeshError("point_mesh_distance: face index out of range");
+  MatX3d C(F.rows(), 3);
+  for (int f = 0; f < F.rows(); ++f) C.row(f) = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))) / 3.0;
+  const KdTree tree(C);
+  const int k = std::max(1, std::min<int>(candidates, int(F.rows())));
+  const int n = int(P.rows());
+  VecXd d(n);
+#pragma omp parallel if (n > kParallelMin)
+  {
+    std::vector<int> idx;
+    std::vector<double> sq;
+#pragma omp for schedule(static)
+    for (int i = 0; i < n; ++i) {
+      const Vec3 p = row3(P, i);
+      const int m = tree.knn(p, k, idx, sq);
+      double best = std::numeric_limits<double>::infinity();
+      for (int q = 0; q < m; ++q) {
+        const int f = idx[q];
+        best = std::min(best, point_triangle_distance(p, row3(V, F(f, 0)), row3(V, F(f, 1)), row3(V, F(f, 2))));
+      }
+      d[i] = best;
+    }
+  }
+  return d;
+}
+
+}  // namespace dgmesh

@@ -1,0 +1,218 @@
+"""dgmesh.remesh inside Blender (thesis 5.4): Object mode on a disk, Edit mode on a selected disk
+region of a closed mesh (stitched watertight), undo, and non-disk errors that change nothing."""
+
+import bmesh
+import bpy
+import numpy as np
+import pytest
+
+from helpers import mesh_snapshot, open_fixture, select
+from make_fixtures import bmesh_object
+
+
+def remesh(**props):
+    """Run the operator the way the UI does: with an undo push."""
+    return bpy.ops.dgmesh.remesh('EXEC_DEFAULT', True, **props)
+
+
+def fresh_scene():
+    open_fixture("shapes")
+
+
+def coords(mesh):
+    co = np.empty(3 * len(mesh.vertices), np.float32)
+    mesh.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
+
+
+def edge_face_counts(mesh):
+    """Faces per edge (plain Python over polygons, independent of the add-on)."""
+    count = {e.key: 0 for e in mesh.edges}
+    for p in mesh.polygons:
+        for k in p.edge_keys:
+            count[k] += 1
+    return np.array(list(count.values()))
+
+
+def euler(mesh):
+    return len(mesh.vertices) - len(mesh.edges) + len(mesh.polygons)
+
+
+def boundary_coords(mesh):
+    counts = {e.key: 0 for e in mesh.edges}
+    for p in mesh.polygons:
+        for k in p.edge_keys:
+            counts[k] += 1
+    vs = sorted({v for k, c in counts.items() if c == 1 for v in k})
+    co = coords(mesh)
+    return {tuple(co[v]) for v in vs}
+
+
+def select_faces(mesh, mask):
+    """Exactly the faces in mask selected, with their vertices and edges (so that Edit mode's
+    selection flushing keeps it)."""
+    mask = np.asarray(mask, bool)
+    vs = np.zeros(len(mesh.vertices), bool)
+    es = np.zeros(len(mesh.edges), bool)
+    key_index = {e.key: e.index for e in mesh.edges}
+    for p in mesh.polygons:
+        if mask[p.index]:
+            vs[list(p.vertices)] = True
+            es[[key_index[k] for k in p.edge_keys]] = True
+    mesh.vertices.foreach_set("select", vs)
+    mesh.edges.foreach_set("select", es)
+    mesh.polygons.foreach_set("select", mask)
+    mesh.update()
+
+
+def grid_object():
+    return bmesh_object("Grid", lambda bm: bmesh.ops.create_grid(bm, x_segments=24, y_segments=24, size=1.0))
+
+
+def sphere_object():
+    return bmesh_object("Sphere", lambda bm: bmesh.ops.create_icosphere(bm, subdivisions=4, radius=1.0))
+
+
+def test_object_mode_disk_is_replaced_with_boundary_kept_and_undo():
+    fresh_scene()
+    obj = grid_object()
+    select("Grid")
+    mesh = obj.data
+    before = mesh_snapshot(mesh)
+    bnd_before = boundary_coords(mesh)
+    bpy.ops.ed.undo_push(message="before")
+    assert remesh(target_vertices=400, resolution=256) == {'FINISHED'}
+    mesh = bpy.data.objects["Grid"].data
+    n = len(mesh.vertices)
+    assert abs(n - 400) <= 0.05 * 400, n
+    assert all(p.loop_total == 3 for p in mesh.polygons)
+    assert boundary_coords(mesh) == bnd_before  # the 96 boundary vertices, bit for bit
+    counts = edge_face_counts(mesh)
+    assert counts.min() >= 1 and counts.max() == 2
+    assert euler(mesh) == 1
+    assert np.abs(coords(mesh)[:, 2]).max() == 0.0  # still the plane
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    assert mesh_snapshot(bpy.data.objects["Grid"].data) == before
+
+
+def test_object_mode_resampled_boundary_hits_the_count():
+    fresh_scene()
+    grid_object()
+    select("Grid")
+    assert remesh(target_vertices=300, resample_boundary=True, mode='SINGLE_U0') == {'FINISHED'}
+    mesh = bpy.data.objects["Grid"].data
+    assert abs(len(mesh.vertices) - 300) <= 15
+    assert euler(mesh) == 1 and edge_face_counts(mesh).max() == 2
+
+
+def test_relaxation_steps_even_out_the_spacing():
+    """The redo panel's Relaxation Steps: 0 is the thesis's plain error diffusion; the default
+    Lloyd steps give more even edges on the same planar grid."""
+    cvs = {}
+    for relax in (0, 4):
+        fresh_scene()
+        grid_object()
+        select("Grid")
+        assert remesh(target_vertices=400, resolution=256, resample_boundary=True, relax=relax,
+                      flips=False) == {'FINISHED'}
+        mesh = bpy.data.objects["Grid"].data
+        assert euler(mesh) == 1 and edge_face_counts(mesh).max() == 2
+        co = coords(mesh).astype(float)
+        L = np.array([np.linalg.norm(co[e.vertices[0]] - co[e.vertices[1]]) for e in mesh.edges])
+        cvs[relax] = L.std() / L.mean()
+    assert cvs[4] < cvs[0] - 0.02, cvs
+
+
+def test_edit_mode_region_is_stitched_watertight_and_undo():
+    fresh_scene()
+    obj = sphere_object()
+    select("Sphere")
+    mesh = obj.data
+    co = coords(mesh)
+    centres = np.array([p.center[:] for p in mesh.polygons])
+    sel = centres[:, 2] > 0.3
+    select_faces(mesh, sel)
+    outside_verts = sorted({v for p in mesh.polygons if not p.select for v in p.vertices})
+    kept_before = {tuple(co[v]) for v in outside_verts}
+    n_sel_before = int(sel.sum())
+    bpy.context.tool_settings.mesh_select_mode = (False, False, True)  # faces: no flushing from vertices
+    bpy.ops.object.mode_set(mode='EDIT')
+    obj.update_from_editmode()
+    assert [p.select for p in obj.data.polygons] == sel.tolist()
+    bpy.ops.ed.undo_push(message="before")
+    assert remesh(target_vertices=300, adaptivity=0.3, mode='DOUBLE') == {'FINISHED'}
+    assert bpy.context.mode == 'EDIT_MESH'
+    obj.update_from_editmode()
+    mesh = obj.data
+    # Watertight: a closed 2-manifold of genus 0 again.
+    counts = edge_face_counts(mesh)
+    assert counts.min() == 2 and counts.max() == 2
+    assert euler(mesh) == 2
+    # Everything outside the region is unchanged; the new faces are the selection.
+    co = coords(mesh)
+    assert kept_before <= {tuple(c) for c in co}
+    new_sel = np.empty(len(mesh.polygons), bool)
+    mesh.polygons.foreach_get("select", new_sel)
+    assert new_sel.sum() != n_sel_before and new_sel.any()
+    new_verts = sorted({v for p in mesh.polygons if p.select for v in p.vertices})
+    assert abs(len(new_verts) - 300) <= 15
+    # New vertices lie on the sphere (up to the input's chordal error).
+    r = np.linalg.norm(co[new_verts], axis=1)
+    assert np.abs(r - 1).max() < 0.01
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    obj = bpy.data.objects["Sphere"]
+    obj.update_from_editmode()
+    assert len(obj.data.polygons) == len(sel)
+    assert int(np.count_nonzero([p.select for p in obj.data.polygons])) == n_sel_before
+
+
+def test_closed_mesh_in_object_mode_is_an_error_and_changes_nothing():
+    fresh_scene()
+    obj = sphere_object()
+    select("Sphere")
+    before = mesh_snapshot(obj.data)
+    with pytest.raises(RuntimeError) as info:
+        remesh(target_vertices=200)
+    msg = str(info.value)
+    assert "'Sphere'" in msg and "closed" in msg
+    assert mesh_snapshot(obj.data) == before
+
+
+def test_annulus_selection_is_an_error_and_changes_nothing():
+    fresh_scene()
+    obj = sphere_object()
+    select("Sphere")
+    mesh = obj.data
+    centres = np.array([p.center[:] for p in mesh.polygons])
+    select_faces(mesh, np.abs(centres[:, 2]) < 0.3)  # a belt: two boundary loops
+    bpy.ops.object.mode_set(mode='EDIT')
+    obj.update_from_editmode()
+    before = mesh_snapshot(obj.data)
+    with pytest.raises(RuntimeError) as info:
+        remesh(target_vertices=200)
+    assert "boundary loops" in str(info.value)
+    obj.update_from_editmode()
+    assert mesh_snapshot(obj.data) == before
+
+
+def test_edit_mode_quad_region_inside_a_grid_stays_stitched():
+    fresh_scene()
+    obj = grid_object()
+    select("Grid")
+    mesh = obj.data
+    centres = np.array([p.center[:] for p in mesh.polygons])
+    sel = (np.abs(centres[:, 0]) < 0.5) & (np.abs(centres[:, 1]) < 0.5)  # an interior block of quads
+    select_faces(mesh, sel)
+    outer_before = boundary_coords(mesh)
+    n_unselected = int((~sel).sum())
+    bpy.context.tool_settings.mesh_select_mode = (False, False, True)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert remesh(target_vertices=150, mode='SINGLE_UOPT', flips=False) == {'FINISHED'}
+    obj.update_from_editmode()
+    mesh = obj.data
+    counts = edge_face_counts(mesh)
+    assert counts.min() >= 1 and counts.max() == 2
+    assert euler(mesh) == 1  # still one disk: the new triangles share the block's boundary
+    assert boundary_coords(mesh) == outer_before
+    quads = sum(1 for p in mesh.polygons if p.loop_total == 4)
+    assert quads == n_unselected
