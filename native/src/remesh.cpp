@@ -311,20 +311,16 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   MatX2d U0, Uopt;
   const bool need_u0 = o.mode != RemeshMode::SingleUopt;
   const bool need_uopt = o.mode != RemeshMode::SingleU0;
-  if (need_u0) {
-    uo.iterations = 0;
-    UnwrapResult r = unwrap(V, F, uo, sub_progress(progress, 0.0, need_uopt ? 0.1 : 0.4));
-    U0 = std::move(r.uv);
-    for (auto& w : r.warnings) res.warnings.push_back("U0: " + w);
-  }
+  // One call gives both: Uopt starts from U0 (uv_initial), so U0 is not solved twice.
+  uo.iterations = !need_uopt ? 0 : o.uopt_steps < 0 ? -1 : o.uopt_steps;
+  if (need_uopt) uo.eta = o.eta;
+  UnwrapResult r = unwrap(V, F, uo, sub_progress(progress, 0.0, 0.4));
+  if (need_u0) U0 = std::move(r.uv_initial);
   if (need_uopt) {
-    uo.iterations = o.uopt_steps < 0 ? -1 : o.uopt_steps;
-    uo.eta = o.eta;
-    UnwrapResult r = unwrap(V, F, uo, sub_progress(progress, need_u0 ? 0.1 : 0.0, 0.4));
     Uopt = std::move(r.uv);
     res.uopt_iterations = r.chosen;
-    for (auto& w : r.warnings) res.warnings.push_back("Uopt: " + w);
   }
+  for (auto& w : r.warnings) res.warnings.push_back(w);
   const MatX2d& Us = o.mode == RemeshMode::SingleU0 ? U0 : Uopt;  // sampling map
   const MatX2d& Ut = o.mode == RemeshMode::SingleUopt ? Uopt : U0; // triangulation map
   res.seconds_parameterize = seconds_since(t_param);

@@ -1441,6 +1441,7 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     res.steps[0] = st;
   }
   progress(frac(0));
+  res.uv_initial = U.topRows(n);
 
   // ---- stretch equalization (eq. 5.1, 5.4-5.6) ----
   MatX2d best = U;

@@ -128,6 +128,12 @@ TEST(Unwrap, HemisphereReachesLowStretchWithoutFlips) {
     }
     // Uopt's stopping rule: every accepted step decreased eq. 5.5.
     for (int k = 1; k <= r.chosen; ++k) EXPECT_LT(r.steps[k].metrics.stretch_l2, r.steps[k - 1].metrics.stretch_l2);
+    // uv_initial is U0, the map a zero-step unwrap returns.
+    o.iterations = 0;
+    const UnwrapResult r0 = unwrap(h.V, h.F, o);
+    ASSERT_EQ(r.uv_initial.rows(), h.V.rows());
+    EXPECT_LT((r.uv_initial - r0.uv).cwiseAbs().maxCoeff(), 1e-9);
+    EXPECT_GT((r.uv - r0.uv).cwiseAbs().maxCoeff(), 1e-3);
   }
 }
 

@@ -93,6 +93,7 @@ struct UnwrapStep {
 
 struct UnwrapResult {
   MatX2d uv;                        // the chosen map, in [0,1]^2
+  MatX2d uv_initial;                // U0 (eq. 5.2-5.3), the start of the equalization
   std::vector<UnwrapStep> steps;    // steps[h] is U^h (U0 first); Uopt's last entry may be the rejected step
   int chosen = 0;                   // index into steps of the returned map
   UvBoundary boundary_used = UvBoundary::Square;
