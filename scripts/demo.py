@@ -521,6 +521,96 @@ def remesh(demo):
 
 
 @step
+def fair(demo):
+    """Hole restoration (thesis fig. 3.6-3.7) as a user does it, on a copy of the model: delete a
+    geodesic disk of 5% of the area facing the camera, fill the hole (F: one n-gon, then Poke Faces),
+    keep the fill selected, run dgmesh.fair with 3 subdivision levels; the filled and the faired copy rendered by mean
+    curvature."""
+    import bmesh
+    sys.path.insert(0, str(REPO))
+    from bench.workloads.fair import cut_hole
+
+    src = demo.obj
+    obj = src.copy()
+    obj.data = src.data.copy()
+    obj.name = obj.data.name = "Fair"
+    bpy.context.scene.collection.objects.link(obj)
+    src.hide_render = True
+    n = len(obj.data.vertices)
+    co = np.empty(3 * n, dtype=np.float32)
+    obj.data.vertices.foreach_get("co", co)
+    nor = np.empty(3 * n, dtype=np.float32)
+    obj.data.vertices.foreach_get("normal", nor)
+    V = co.reshape(-1, 3).astype(np.float64)
+    F = np.array([p.vertices[:] for p in obj.data.polygons if len(p.vertices) == 3], dtype=np.int32)
+    # Centre: among the vertices facing the camera most, the first whose disk is a clean hole.
+    M = np.array(obj.matrix_world)[:3, :3]
+    cam = bpy.context.scene.camera
+    view = (np.array(cam.location) - (V @ M.T))
+    view /= np.linalg.norm(view, axis=1, keepdims=True)
+    facing = ((nor.reshape(-1, 3) @ M.T) * view).sum(1)
+    got = None
+    for c in np.argsort(-facing)[:400:10]:
+        got = cut_hole(V, F, int(c), 0.05)
+        if got is None:
+            continue
+        # Skip rims with a chord (an outside edge joining two rim vertices): Fill would reuse it.
+        on_rim = np.zeros(n, bool)
+        on_rim[F[got[0]].ravel()] = True
+        on_rim &= ~got[1]
+        Fk = F[~got[0]]
+        E = np.sort(np.concatenate([Fk[:, [0, 1]], Fk[:, [1, 2]], Fk[:, [2, 0]]]), axis=1)
+        E = np.unique(E[on_rim[E].all(1)], axis=0)
+        if len(E) == on_rim.sum():  # only the rim loop's own edges
+            break
+        got = None
+    assert got is not None, "no disk-shaped hole found"
+    hole, inner = got
+    rim = np.unique(F[hole])
+    rim = rim[~inner[rim]]
+
+    for o in bpy.context.view_layer.objects:
+        o.select_set(False)
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    bm.verts.ensure_lookup_table()
+    rim_verts = {bm.verts[int(i)] for i in rim}
+    bmesh.ops.delete(bm, geom=[bm.verts[int(i)] for i in np.flatnonzero(inner)], context='VERTS')
+    for f in bm.faces:
+        f.select = False
+    for e in bm.edges:
+        e.select = False
+    for v in bm.verts:
+        v.select = False
+    for e in bm.edges:
+        if e.is_boundary and e.verts[0] in rim_verts and e.verts[1] in rim_verts:
+            e.select = True
+            e.verts[0].select = e.verts[1].select = True
+    bmesh.update_edit_mesh(obj.data)
+    assert bpy.ops.mesh.edge_face_add() == {'FINISHED'}  # F: one n-gon, selected
+    bpy.ops.mesh.normals_make_consistent(inside=False)
+    assert bpy.ops.mesh.poke() == {'FINISHED'}  # Poke Faces: a fan around a centre, still selected
+    bpy.ops.object.mode_set(mode='OBJECT')
+    filled = sum(p.select for p in obj.data.polygons)
+    demo.obj = obj
+    assert bpy.ops.dgmesh.curvature_map(kind='MEAN') == {'FINISHED'}
+    demo.render("fair_filled.png", "dg_curvature_color")
+    bpy.ops.object.mode_set(mode='EDIT')
+    with demo.timed(f"fair ({int(inner.sum())} vertices removed, {filled} fill triangles, 3 subdivisions)"):
+        result = bpy.ops.dgmesh.fair(subdivisions=3)
+    assert result == {'FINISHED'}, result
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert bpy.ops.dgmesh.curvature_map(kind='MEAN') == {'FINISHED'}
+    demo.render("fair_restored.png", "dg_curvature_color")
+    demo.note(f"fair: hole patch of {len(obj.data.vertices) - (n - int(inner.sum()))} new vertices")
+    obj.hide_render = True
+    src.hide_render = False
+    demo.obj = src
+
+
+@step
 def save(demo):
     path = demo.outdir / "demo.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path), compress=True)

@@ -32,6 +32,7 @@ class FairResult:
     energy: Willmore energy after each iteration; energy[0] is the input's (of the faired region
         and its first fixed ring in region mode).
     moved: (n',) bool, vertices that were free to move.
+    linear_start: the flow started from the linearised minimiser (counted as iteration 1).
     """
 
     vertices: np.ndarray
@@ -43,6 +44,7 @@ class FairResult:
     level_iterations: list = field(default_factory=list)
     converged: bool = False
     lam: float = 1.0
+    linear_start: bool = False
 
     @property
     def subdivided(self):
@@ -76,7 +78,7 @@ def _choice(value, allowed, what):
 
 def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", subdivisions=0,
          tolerance=1e-4, max_iterations=None, tangential=True, scheme="semi_implicit",
-         max_seconds=0.0, step_scale=1.0, progress=None):
+         max_seconds=0.0, step_scale=1.0, linear_start=True, progress=None):
     """Fair a triangle mesh (or a region of it) by a curvature flow.
 
     method: "willmore" (thesis eq. 3.5: speed -Lap(H) - 2H(H^2-K) along the normal, plus the
@@ -97,6 +99,11 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
     scheme: "semi_implicit" (default: a linearised implicit bi-Laplacian step, same fixed points,
         far larger steps) or "explicit" (the thesis's forward Euler with tau = A_min^2 / 150).
     max_seconds: wall-clock budget (0 = none). step_scale: multiplies the explicit time step.
+    linear_start: with fixed vertices (region mode, fixed boundary), "willmore" and
+        "laplacian_of_h" first jump to the minimiser of the linearised energy (U0^2 P = 0 with
+        the fixed rings as boundary data, the bilaplacian flow's steady state) when that lowers
+        the Willmore energy, then flow from there. A flat hole fill has a crease along its rim
+        that costs little discrete energy on a coarse mesh, and the flow alone stays near it.
     progress: callable(fraction) -> bool/None; returning False cancels (raises Cancelled).
 
     Returns a :class:`FairResult`.
@@ -121,11 +128,12 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
     if int(subdivisions) != subdivisions or not 0 <= subdivisions <= 6:
         raise MeshError(f"subdivisions must be an integer in [0, 6], got {subdivisions!r}")
     r = _native.fair(V, F, method, scheme, boundary, vm, fm, int(subdivisions), float(tolerance),
-                     int(max_iterations), float(max_seconds), bool(tangential), float(step_scale), progress)
+                     int(max_iterations), float(max_seconds), bool(tangential), float(step_scale), progress,
+                     bool(linear_start))
     return FairResult(
         vertices=r["vertices"], faces=r["faces"], face_origin=r["face_origin"], energy=r["energy"],
         moved=r["vertex_mask"], iterations=r["iterations"], level_iterations=list(r["level_iterations"]),
-        converged=r["converged"], lam=r["lambda"])
+        converged=r["converged"], lam=r["lambda"], linear_start=r["linear_start"])
 
 
 def regularize(V, F, *, iterations=100, mask=None, boundary="fixed", step_scale=1.0, project=True,

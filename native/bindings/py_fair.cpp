@@ -45,8 +45,9 @@ void bind_fair(pb::module_& m) {
       "fair",
       [](InV Vin, InF Fin, const std::string& method, const std::string& scheme, const std::string& boundary,
          Mask mask, Mask face_mask, int subdivisions, double tolerance, int max_iterations, double max_seconds,
-         bool tangential, double step_scale, const pb::object& progress) {
+         bool tangential, double step_scale, const pb::object& progress, bool linear_start) {
         FairOptions o;
+        o.linear_start = linear_start;
         o.method = method_from(method);
         o.scheme = scheme_from(scheme);
         o.boundary = boundary_from(boundary);
@@ -76,11 +77,13 @@ void bind_fair(pb::module_& m) {
         d["iterations"] = r.iterations;
         d["converged"] = r.converged;
         d["lambda"] = r.lambda;
+        d["linear_start"] = r.linear_start;
         return d;
       },
       pb::arg("V"), pb::arg("F"), pb::arg("method"), pb::arg("scheme"), pb::arg("boundary"), pb::arg("mask"),
       pb::arg("face_mask"), pb::arg("subdivisions"), pb::arg("tolerance"), pb::arg("max_iterations"),
-      pb::arg("max_seconds"), pb::arg("tangential"), pb::arg("step_scale"), pb::arg("progress"));
+      pb::arg("max_seconds"), pb::arg("tangential"), pb::arg("step_scale"), pb::arg("progress"),
+      pb::arg("linear_start") = true);
 
   m.def(
       "regularize",

@@ -12,7 +12,14 @@
 // compare the energy over windows of flow time t_w = r^4 / 52 (the relaxation time of the
 // slowest mode of a clamped disk of the region's area, see relaxation_time) and stop when the
 // relative change over a window drops below the tolerance. The semi-implicit scheme stops when
-// long accepted steps no longer change it.
+// long accepted steps no longer change it; when no step lowers the energy (F is the continuous
+// gradient, not the exact gradient of the discrete sum H^2 A) it stops too, and that stall counts
+// as converged only after the energy had also stopped changing over accepted steps.
+//
+// Region mode starts the curvature flows from the linearised minimiser (see linear_start): on
+// scanned holes the flat fill's rim crease costs little discrete energy at the mesh's resolution
+// (often less than the removed original's noisy surface), so a descent flow started there
+// stays near the flat fill; that was the "stall" on large holes, not a wrong step.
 #include "dgmesh/fair.h"
 
 #include <algorithm>
@@ -454,6 +461,7 @@ struct LevelReport {
   int iterations = 0;
   bool converged = false;
   double lambda = 1.0;
+  bool linear_start = false;
 };
 
 class Driver {
@@ -471,7 +479,14 @@ class Driver {
       if (w.movable[v] && !w.sliding[v]) movable_idx_[v] = nm_++;
     h_ = mean_edge_length(w.P, w.topo);
     if (opt_.method == FairMethod::Bilaplacian) return run_bilaplacian(w);
-    return run_curvature_flow(w);
+    // The linear start is tried on the first level with movable vertices (a fill without inner
+    // vertices only gets them by subdivision) and counts as that level's first iteration.
+    const bool try_lin = opt_.linear_start && !tried_linear_ && nm_ > 0 && opt_.max_iterations > 0;
+    tried_linear_ = tried_linear_ || try_lin;
+    const bool lin = try_lin && linear_start(w);
+    LevelReport r = run_curvature_flow(w, lin ? 1 : 0);
+    r.linear_start = lin;
+    return r;
   }
 
  private:
@@ -519,7 +534,66 @@ class Driver {
     return std::max(r2 * r2 / 52.0, std::pow(h_, 4) / 8.0);
   }
 
-  LevelReport run_curvature_flow(Work& w) {
+  // Region mode: start from the minimiser of the linearised energy with the fixed vertices as
+  // boundary data, i.e. the steady state of the thesis's bilaplacian flow: U0^2 P = 0 at the
+  // movable vertices (uniform bi-umbrella, section 3.2), one sparse solve. The two fixed rings
+  // enter through U0^2, so this start meets the surrounding surface with position and tangent
+  // continuity; the Willmore flow then continues from it. A flat fill has a crease along the
+  // rim whose discrete energy is small on a coarse mesh (about theta^2/4 per rim vertex), so a
+  // flow started there stays near it. The start is taken only when it lowers the discrete
+  // energy, so the recorded energy stays monotone. (Cotangent weights on the flat fill's own
+  // metric gave a nearly flat start on scanned holes; the uniform weights do not depend on it.)
+  bool linear_start(Work& w) {
+    const int n = w.topo.n_vertices;
+    if (nm_ == 0 || nm_ == n) return false;
+    std::vector<int> fixed_idx(n, -1);
+    int nf = 0;
+    for (int v = 0; v < n; ++v)
+      if (movable_idx_[v] < 0) fixed_idx[v] = nf++;
+    const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
+    const SpMat B = SpMat(W * W);
+    std::vector<Eigen::Triplet<double>> tm, tf;
+    for (int c = 0; c < B.outerSize(); ++c)
+      for (SpMat::InnerIterator it(B, c); it; ++it) {
+        const int r = movable_idx_[it.row()];
+        if (r < 0) continue;
+        if (movable_idx_[c] >= 0)
+          tm.emplace_back(r, movable_idx_[c], it.value());
+        else
+          tf.emplace_back(r, fixed_idx[c], it.value());
+      }
+    SpMat Bmm(nm_, nm_), Bmf(nm_, nf);
+    Bmm.setFromTriplets(tm.begin(), tm.end());
+    Bmf.setFromTriplets(tf.begin(), tf.end());
+    Eigen::MatrixXd Xf(nf, 3);
+    for (int v = 0; v < n; ++v)
+      if (fixed_idx[v] >= 0) Xf.row(fixed_idx[v]) = w.P.row(v);
+    Eigen::MatrixXd x;
+    try {
+      SparseSolver solver;
+      solver.factor(Bmm, SparseSolver::Kind::LU);  // U0^2 is not symmetric
+      x = solver.solve(-(Bmf * Xf));
+    } catch (const SolverError&) {
+      return false;  // e.g. a movable component without fixed neighbours: start from the input
+    }
+    if (!x.allFinite()) return false;
+    compute_geometry(w.P, w.F, w.topo, g_);
+    const double e0 = energy_of(w, g_);
+    const MatX3d P0 = w.P;
+    for (int v = 0; v < n; ++v)
+      if (movable_idx_[v] >= 0) w.P.row(v) = x.row(movable_idx_[v]);
+    compute_geometry(w.P, w.F, w.topo, g_);
+    const double e1 = energy_of(w, g_);
+    if (!(e1 < e0) || g_.farea.minCoeff() <= 1e-12) {
+      w.P = P0;
+      compute_geometry(w.P, w.F, w.topo, g_);
+      return false;
+    }
+    energy_.push_back(e1);
+    return true;
+  }
+
+  LevelReport run_curvature_flow(Work& w, int it0) {
     LevelReport rep;
     compute_geometry(w.P, w.F, w.topo, g_);
     double e = energy_of(w, g_);
@@ -539,7 +613,7 @@ class Driver {
     double factored_tau = -1;
     int since_factor = 0;
     MatX3d P_prev;
-    int it = 0;
+    int it = it0;
     while (!out_of_budget(it)) {
       report(it);
       rep.lambda = normal_speed(w, g_, opt_.method, speed_);
@@ -616,7 +690,9 @@ class Driver {
           if (s < 1e-2) {
             const size_t k = accepted_.size();
             const double e_ref = accepted_[k >= 4 ? k - 4 : 0];
-            rep.converged = std::abs(e_ref - e) <= 10 * opt_.tolerance * std::abs(e_ref);
+            // A stall before any accepted step is not convergence (F is not a descent
+            // direction of the discrete energy there).
+            rep.converged = k >= 4 && std::abs(e_ref - e) <= 10 * opt_.tolerance * std::abs(e_ref);
             break;
           }
           continue;
@@ -747,6 +823,7 @@ class Driver {
   std::vector<double>& energy_;
   int level_ = 0, levels_ = 0, nm_ = 0;
   std::vector<double> accepted_;
+  bool tried_linear_ = false;
   double h_ = 1, t_acc_ = 0, e_mark_ = 0;
   std::vector<int> movable_idx_;
   Geo g_;
@@ -996,6 +1073,7 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
     res.iterations += rep.iterations;
     res.converged = rep.converged;
     res.lambda = rep.lambda;
+    res.linear_start = res.linear_start || rep.linear_start;
     if (opt.max_seconds > 0 && clock.seconds() > opt.max_seconds && level < opt.subdivisions) {
       // Out of time: still refine (so the output has the requested resolution), without flow.
       continue;

@@ -158,3 +158,54 @@ def test_errors_leave_the_mesh_untouched():
         bpy.ops.dgmesh.fair('EXEC_DEFAULT', True)
     bpy.ops.object.mode_set(mode='OBJECT')
     assert mesh_snapshot(obj.data) == snap
+
+
+def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
+    """The operator's own prepare/work/_failed through the shared Job (what the modal run does):
+    setting job.cancelled (Esc) stops the native flow with Cancelled and nothing is written."""
+    import threading
+
+    import dgmesh
+    from dgmesh.blender import jobs, ops_fair
+
+    class Stub:  # the operator's methods on plain attributes (bpy operators cannot be instantiated)
+        bl_label = "Fair"
+        method, scheme, boundary = 'WILLMORE', 'EXPLICIT', 'FIXED'
+        subdivisions, tolerance, max_iterations, tangential, keep_border = 0, 0.0, 100000, True, True
+        linear_start = True
+        _collect = ops_fair._FairBase._collect
+        prepare = ops_fair._FairBase.prepare
+        _run = ops_fair.DGMESH_OT_fair._run
+        _failed = jobs.NativeJobOperator._failed
+
+        def __init__(self):
+            self.reports = []
+
+        def report(self, kind, msg):
+            self.reports.append((kind, msg))
+
+    obj = _fresh_sphere(segments=48, rings=24)
+    obj.scale = (2.0, 1.0, 1.0)
+    bpy.ops.object.transform_apply(scale=True)
+    select("Ball")
+    snap = mesh_snapshot(obj.data)
+    op = Stub()
+    work = op.prepare(bpy.context)
+    assert work is not None, op.reports
+    started = threading.Event()
+
+    def tracked(progress):
+        def p(f):
+            if f > 0:
+                started.set()
+            return progress(f)
+        return work(p)
+
+    job = jobs.Job(tracked).start()
+    assert started.wait(60)  # the flow is running (explicit, no tolerance: it would take minutes)
+    job.cancelled = True  # what Esc does in NativeJobOperator.modal
+    assert job.wait(60)
+    assert isinstance(job.error, dgmesh.Cancelled) and job.result is None
+    assert op._failed(job.error) == {'CANCELLED'}
+    assert op.reports[-1] == ({'WARNING'}, "Fair: cancelled, nothing was changed")
+    assert mesh_snapshot(obj.data) == snap

@@ -155,10 +155,16 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
     keep_border: BoolProperty(
         name="Keep Selection Border", default=True,
         description="Edit mode: vertices on the border of the selection stay fixed")
+    linear_start: BoolProperty(
+        name="Linear Start", default=True,
+        description="With fixed vertices, Willmore and Laplacian of H first jump to the bilaplacian "
+        "solution (when that lowers the bending energy) and flow from there; a flat fill alone "
+        "can keep a crease along the hole's rim")
 
     def draw(self, context):
         col = self.layout.column()
-        for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential"):
+        for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential",
+                  "linear_start"):
             col.prop(self, p)
         if context.mode == 'EDIT_MESH':
             col.prop(self, "keep_border")
@@ -168,7 +174,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             t.arrays.V, t.arrays.F, method=self.method.lower(), mask=t.mask, faces=t.faces,
             boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
-            progress=progress)
+            linear_start=self.linear_start, progress=progress)
 
     def finish(self, context, targets):
         written, failures = [], []

@@ -51,6 +51,10 @@ struct FairOptions {
   double max_seconds = 0;     // wall-clock budget for the whole run; 0 = none
   bool tangential = true;     // add the tangential drift eps T (eq. 3.8)
   double step_scale = 1.0;    // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
+  // Willmore / Laplacian-of-H with fixed vertices: start from the minimiser of the linearised
+  // energy (U0^2 P = 0, the bilaplacian flow's steady state, with the fixed rings as boundary
+  // data) when that lowers the energy; see fair.cpp.
+  bool linear_start = true;
 };
 
 struct FairResult {
@@ -63,6 +67,7 @@ struct FairResult {
   int iterations = 0;
   bool converged = false;  // the last level met the tolerance
   double lambda = 1.0;     // last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
+  bool linear_start = false;  // the flow started from the linearised minimiser (iteration 1)
 };
 
 FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress = {});
