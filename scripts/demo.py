@@ -146,10 +146,7 @@ def crest_lines(demo):
         em.inputs["Strength"].default_value = 1.5
         out = nodes.new("ShaderNodeOutputMaterial")
         mat.node_tree.links.new(em.outputs["Emission"], out.inputs["Surface"])
-    grey = bpy.data.materials.new("DG Grey")
-    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
-    grey.use_nodes = True
-    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.75, 0.75, 0.72, 1.0)
+    grey = _material("DG Grey", GREY)
     slots = demo.obj.material_slots
     previous = slots[0].material if len(slots) else None
     if len(slots):
@@ -272,8 +269,7 @@ def skeletal(demo):
     for o in bpy.data.objects:
         if o.name.endswith("_skeleton"):
             o.hide_render = True
-    grey = bpy.data.materials.get("DG Grey") or bpy.data.materials.new("DG Grey")
-    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
+    grey = _material("DG Grey", GREY)
     for o in objs:
         o.data.materials.clear()
         o.data.materials.append(grey)
@@ -294,9 +290,7 @@ def multires(demo):
     """Displaced subdivision (thesis 6.4): the model's decimated control mesh as a wireframe next to
     the model coloured by the displacement magnitude from the control mesh's Loop limit surface."""
     main = demo.obj
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == main)
-    bpy.context.view_layer.objects.active = main
+    _select_only(main)
     faces = max(500, min(5000, len(main.data.polygons) // 20))
     with demo.timed("multires_preview"):
         result = bpy.ops.dgmesh.multires_preview('EXEC_DEFAULT', control_faces=faces)
@@ -308,27 +302,12 @@ def multires(demo):
     main.data.vertices.foreach_get("co", co)
     P = co.reshape(-1, 3)
     diag = float(np.linalg.norm(P.max(0) - P.min(0)))
-    # The control mesh as tubes (a Wireframe modifier renders; the wire display type does not),
-    # side by side with the model along the camera's right axis, the view widened to fit both.
-    wire = ctrl.modifiers.new("DG Wire", 'WIREFRAME')
-    wire.thickness = 0.002 * diag
-    wire.use_replace = True
-    dark = bpy.data.materials.get("DG Wire") or bpy.data.materials.new("DG Wire")
-    dark.diffuse_color = (0.05, 0.05, 0.08, 1.0)
-    dark.use_nodes = True
-    dark.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.05, 0.05, 0.08, 1.0)
+    # The control mesh as tubes, next to the model.
     ctrl.data.materials.clear()
-    ctrl.data.materials.append(dark)
-    scene = bpy.context.scene
-    cam = scene.camera
-    right = cam.matrix_world.to_3x3().col[0].normalized()
-    width = max(main.dimensions)
-    saved = (main.location.copy(), cam.data.lens)
-    main.location = saved[0] - right * (0.55 * width)
-    ctrl.location = saved[0] + right * (0.55 * width)
-    cam.data.lens = saved[1] * 0.5
-    demo.render("multires_control_displacement.png", "dg_multires_color")
-    main.location, cam.data.lens = saved
+    ctrl.data.materials.append(_material("DG Wire", DARK))
+    _wireframe(ctrl, 0.002 * diag, replace=True)
+    with _side_by_side(demo, (main, ctrl)):
+        demo.render("multires_control_displacement.png", "dg_multires_color")
     ctrl.hide_render = True
     demo.note(f"multires: {len(P)} vertices on a {len(ctrl.data.polygons)}-face control mesh, "
               f"|displacement| RMS {float(np.sqrt((mag.astype(np.float64) ** 2).mean())) / diag:.1e} "
@@ -355,22 +334,53 @@ def _select_only(obj):
     bpy.context.view_layer.objects.active = obj
 
 
+GREY = (0.75, 0.75, 0.72, 1.0)
+DARK = (0.05, 0.05, 0.08, 1.0)
+
+
+def _material(name, rgba):
+    """A plain material of one colour (viewport and Principled BSDF), reused by name."""
+    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    mat.diffuse_color = rgba
+    mat.use_nodes = True
+    mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = rgba
+    return mat
+
+
+def _wireframe(obj, thickness, replace):
+    """Edges as tubes in the object's second material slot (the wire display type does not render)."""
+    wire = obj.modifiers.new("DG Wire", 'WIREFRAME')
+    wire.thickness = thickness
+    wire.use_replace = replace
+    wire.material_offset = 0 if replace else 1
+
+
+@contextmanager
+def _side_by_side(demo, pair):
+    """The two objects moved apart along the camera's right axis, the view widened to fit both."""
+    cam = bpy.context.scene.camera
+    offset = cam.matrix_world.to_3x3().col[0].normalized() * (0.55 * max(demo.obj.dimensions))
+    saved = [o.location.copy() for o in pair], cam.data.lens
+    pair[0].location = saved[0][0] - offset
+    pair[1].location = saved[0][1] + offset
+    cam.data.lens = saved[1] * 0.5
+    try:
+        yield
+    finally:
+        for o, loc in zip(pair, saved[0]):
+            o.location = loc
+        cam.data.lens = saved[1]
+
+
 def _render_pair(demo, pair, filename):
-    """The two objects side by side along the camera's right axis (the view widened to fit)."""
+    """Render the two objects side by side (the model hidden); both are hidden from renders after."""
     main = demo.obj
-    scene = bpy.context.scene
-    cam = scene.camera
-    right = cam.matrix_world.to_3x3().col[0].normalized()
-    width = max(main.dimensions)
-    lens = cam.data.lens
     main.hide_render = True
-    pair[0].location = main.location - right * (0.55 * width)
-    pair[1].location = main.location + right * (0.55 * width)
-    cam.data.lens = lens * 0.5
-    scene.render.filepath = str(demo.outdir / filename)
-    with demo.timed(f"render {filename}"):
-        bpy.ops.render.render(write_still=True)
-    cam.data.lens = lens
+    with _side_by_side(demo, pair):
+        scene = bpy.context.scene
+        scene.render.filepath = str(demo.outdir / filename)
+        with demo.timed(f"render {filename}"):
+            bpy.ops.render.render(write_still=True)
     main.hide_render = False
     for o in pair:
         o.hide_render = True
@@ -395,14 +405,7 @@ def decimate(demo):
     wireframes on grey."""
     plain, weighted = _crest_copies(demo, ("QEM", "Feature QEM"))
     n = sum(len(p.vertices) - 2 for p in demo.obj.data.polygons)
-    grey = bpy.data.materials.get("DG Grey") or bpy.data.materials.new("DG Grey")
-    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
-    grey.use_nodes = True
-    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.75, 0.75, 0.72, 1.0)
-    dark = bpy.data.materials.get("DG Wire") or bpy.data.materials.new("DG Wire")
-    dark.diffuse_color = (0.05, 0.05, 0.08, 1.0)
-    dark.use_nodes = True
-    dark.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.05, 0.05, 0.08, 1.0)
+    grey, dark = _material("DG Grey", GREY), _material("DG Wire", DARK)
     from dgmesh.blender import bridge
     arrays = bridge.read_object(demo.obj)
     diag = float(np.linalg.norm(arrays.V.max(0) - arrays.V.min(0)))
@@ -416,10 +419,7 @@ def decimate(demo):
         obj.data.materials.clear()
         obj.data.materials.append(grey)
         obj.data.materials.append(dark)
-        wire = obj.modifiers.new("DG Wire", 'WIREFRAME')
-        wire.thickness = 0.0008 * diag
-        wire.use_replace = False
-        wire.material_offset = 1
+        _wireframe(obj, 0.0008 * diag, replace=False)
         fractions.append(_near_crest_fraction(obj, lines.points, 0.01 * diag))
     _render_pair(demo, (plain, weighted), "decimate_eta0_eta6.png")
     demo.note(f"decimate 90%: {n} -> {len(plain.data.polygons)} / {len(weighted.data.polygons)} triangles "
@@ -472,51 +472,22 @@ def remesh(demo):
     new.data = src.data.copy()
     new.name = src.name + " remeshed"
     bpy.context.scene.collection.objects.link(new)
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == new)
-    bpy.context.view_layer.objects.active = new
+    _select_only(new)
     with demo.timed("remesh"):
         result = bpy.ops.dgmesh.remesh('EXEC_DEFAULT', target_vertices=3000, resolution=512, mode='DOUBLE',
                                        adaptivity=0.5)
     assert result == {'FINISHED'}, result
-    grey = bpy.data.materials.get("DG Remesh Surface") or bpy.data.materials.new("DG Remesh Surface")
-    grey.diffuse_color = (0.75, 0.75, 0.72, 1.0)
-    grey.use_nodes = True
-    grey.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.75, 0.75, 0.72, 1.0)
-    dark = bpy.data.materials.get("DG Remesh Wire") or bpy.data.materials.new("DG Remesh Wire")
-    dark.diffuse_color = (0.05, 0.05, 0.08, 1.0)
-    dark.use_nodes = True
-    dark.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (0.05, 0.05, 0.08, 1.0)
-    width = max(src.dimensions)
+    grey, dark = _material("DG Grey", GREY), _material("DG Wire", DARK)
     for o in (src, new):
         o.data.materials.clear()
         o.data.materials.append(grey)
         o.data.materials.append(dark)
         o.data.polygons.foreach_set("use_smooth", np.zeros(len(o.data.polygons), dtype=bool))
-        wire = o.modifiers.new("DG Wire", 'WIREFRAME')
-        wire.thickness = 0.0015 * width
-        wire.use_replace = False
-        wire.material_offset = 1
-    # Side by side along the camera's right axis, the view widened to fit both.
-    scene = bpy.context.scene
-    cam = scene.camera
-    right = cam.matrix_world.to_3x3().col[0].normalized()
-    saved = cam.data.lens
-    src.location = src.location - right * (0.55 * width)
-    new.location = new.location + right * (0.55 * width)
-    cam.data.lens = saved * 0.5
-    main.hide_render = True
-    scene.render.filepath = str(demo.outdir / "remesh_wireframe.png")
-    with demo.timed("render remesh_wireframe.png"):
-        bpy.ops.render.render(write_still=True)
-    main.hide_render = False
-    cam.data.lens = saved
+        _wireframe(o, 0.0015 * max(src.dimensions), replace=False)
+    _render_pair(demo, (src, new), "remesh_wireframe.png")
     for o in (src, new):
-        o.hide_render = True
         o.hide_viewport = True
-    bpy.context.view_layer.objects.active = main
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o == main)
+    _select_only(main)
     demo.note(f"remeshed lion-head {len(src.data.vertices)} -> {len(new.data.vertices)} vertices")
 
 
