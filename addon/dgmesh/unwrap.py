@@ -96,7 +96,7 @@ def unwrap(V, F, *, boundary="square", weights="floater", eta=1.0, iterations="o
         square's corners stay). The polygon keeps its shape, so no triangle can flip.
     max_iterations: cap on Uopt's steps. min_improvement: Uopt also stops after a step that
         lowers the L2 stretch by less than this fraction.
-    solver: "auto" (UMFPACK up to 8K vertices, multigrid above), "umfpack", "sparselu",
+    solver: "auto" (UMFPACK up to 1000 vertices, multigrid above), "umfpack", "sparselu",
         "bicgstab" (warm-started BiCGSTAB + ILUT) or "multigrid" (warm-started BiCGSTAB with a
         smoothed-aggregation multigrid preconditioner).
     progress: optional callable(fraction) -> bool; returning False raises :class:`Cancelled`.

@@ -32,6 +32,10 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 using Vec2 = Eigen::Vector2d;
 using Clock = std::chrono::steady_clock;
+// Loops over fewer rows (vertices; faces and ring entries are about 2x and 6x as many) run
+// serially: on a loaded machine OpenMP's fork/join and spin-waiting cost more than the work (see
+// kParallelMin in fair.cpp).
+constexpr int kParallelRows = 20000;
 
 inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 inline double seconds_since(Clock::time_point t0) {
@@ -120,7 +124,7 @@ FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_fac
   d.tri.resize(n_faces);
   d.area3.resize(n_faces);
   double s3 = 0, suv = 0, ssigned = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s3, suv, ssigned)
+#pragma omp parallel for schedule(static) reduction(+ : s3, suv, ssigned) if (n_faces > 2 * kParallelRows)
   for (int f = 0; f < n_faces; ++f) {
     const int i = F(f, 0), j = F(f, 1), k = F(f, 2);
     const Vec3 q1 = V.row(i), q2 = V.row(j), q3 = V.row(k);
@@ -156,7 +160,7 @@ UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n
   double l2 = 0, l2_area = 0, g2max = 0, angle = 0, area = 0;
   int flipped = 0, zero = 0;
 #pragma omp parallel for schedule(static) reduction(+ : l2, l2_area, angle, area, flipped, zero) \
-    reduction(max : g2max)
+    reduction(max : g2max) if (n_faces > 2 * kParallelRows)
   for (int f = 0; f < n_faces; ++f) {
     const TriStretch& t = d.tri[f];
     const bool degenerate = is_zero_area(t, d.sum_area_uv, eps);
@@ -186,14 +190,14 @@ UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n
 
   const int ne = static_cast<int>(edges.size());
   double s3 = 0, suv = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s3, suv)
+#pragma omp parallel for schedule(static) reduction(+ : s3, suv) if (ne > 3 * kParallelRows)
   for (int e = 0; e < ne; ++e) {
     s3 += (V.row(edges[e].first) - V.row(edges[e].second)).norm();
     suv += (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
   }
   double edge = 0;
   if (s3 > 0 && suv > 0) {
-#pragma omp parallel for schedule(static) reduction(+ : edge)
+#pragma omp parallel for schedule(static) reduction(+ : edge) if (ne > 3 * kParallelRows)
     for (int e = 0; e < ne; ++e) {
       const double l3 = (V.row(edges[e].first) - V.row(edges[e].second)).norm();
       const double luv = (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
@@ -219,7 +223,7 @@ void vertex_stretch_impl(const MatX3d& V, const MatX3i& F, const Topology& topo,
   const FaceData d = face_data(V, F, UV, static_cast<int>(F.rows()));
   const double norm = d.sum_area_uv > 0 ? d.sum_area_uv / d.sum_area3 : 1.0;
   sigma.resize(topo.n_vertices);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (topo.n_vertices > kParallelRows)
   for (int v = 0; v < topo.n_vertices; ++v) {
     double num = 0, den = 0;
     for (int i = topo.vf_offset[v]; i < topo.vf_offset[v + 1]; ++i) {
@@ -310,7 +314,7 @@ std::vector<double> base_weights(const MatX3d& V, const Topology& topo,
   int fallback = 0, negative = 0;
   int max_d = 0;
   for (int v = 0; v < topo.n_vertices; ++v) max_d = std::max(max_d, topo.valence(v));
-#pragma omp parallel reduction(+ : fallback, negative)
+#pragma omp parallel reduction(+ : fallback, negative) if (topo.n_vertices > kParallelRows)
   {
     RingScratch s;
     s.resize(static_cast<size_t>(max_d));
@@ -586,10 +590,10 @@ int reflex_count(const MatX2d& U, const std::vector<int>& loop) {
 // sparse sweep reads the matrix once for both columns (the solves are memory-bound).
 using Blk = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
 
-// Loops over fewer rows run serially: on a loaded machine OpenMP's fork/join and spin-waiting
-// cost more than the work (see kParallelMin in fair.cpp).
-constexpr int kParallelRows = 20000;
-constexpr int kCoarseRows = 4000;
+constexpr int kCoarseRows = 4000;       // coarsest multigrid level above kSmallChart unknowns
+constexpr int kSmallChart = 50000;
+constexpr int kDenseCoarseRows = 300;   // coarsest level (dense LU) up to kSmallChart unknowns
+constexpr int kDirectRows = 1000;       // UvSolver::Auto solves charts up to this size by UMFPACK
 
 // Y = A X (beta = 0) or Y += A X (beta = 1) for a row-major CSR matrix and two columns.
 void spmm(const SpMatR& A, const Blk& X, Blk& Y, bool add = false) {
@@ -681,6 +685,63 @@ Vec2 coldot(const Blk& a, const Blk& b) {
   return Vec2(s0, s1);
 }
 
+// Dense LU with partial pivoting of the coarsest multigrid level (at most kDenseCoarseRows rows),
+// unblocked and serial: Eigen's blocked LU forks OpenMP threads for its products even at this
+// size, which costs more than the factorisation on a loaded machine.
+class SmallLU {
+ public:
+  void factor(const SpMatR& A) {
+    n_ = static_cast<int>(A.rows());
+    lu_.assign(static_cast<size_t>(n_) * n_, 0.0);
+    perm_.resize(n_);
+    for (int i = 0; i < n_; ++i)
+      for (SpMatR::InnerIterator it(A, i); it; ++it) lu_[static_cast<size_t>(i) * n_ + it.col()] = it.value();
+    for (int k = 0; k < n_; ++k) {
+      int p = k;
+      for (int i = k + 1; i < n_; ++i)
+        if (std::abs(at(i, k)) > std::abs(at(p, k))) p = i;
+      perm_[k] = p;
+      if (p != k)
+        for (int j = 0; j < n_; ++j) std::swap(at(k, j), at(p, j));
+      const double d = at(k, k);
+      if (d == 0) throw SolverError("unwrap: multigrid coarse level is singular");
+      const double inv = 1.0 / d;
+      double* rk = &lu_[static_cast<size_t>(k) * n_];
+      for (int i = k + 1; i < n_; ++i) {
+        double* ri = &lu_[static_cast<size_t>(i) * n_];
+        const double l = ri[k] * inv;
+        ri[k] = l;
+        if (l != 0)
+          for (int j = k + 1; j < n_; ++j) ri[j] -= l * rk[j];
+      }
+    }
+  }
+  // X = A^-1 B for the two columns.
+  void solve(const Blk& B, Blk& X) const {
+    X = B;
+    for (int k = 0; k < n_; ++k)
+      if (perm_[k] != k) std::swap(X(k, 0), X(perm_[k], 0)), std::swap(X(k, 1), X(perm_[k], 1));
+    for (int i = 1; i < n_; ++i) {
+      const double* ri = &lu_[static_cast<size_t>(i) * n_];
+      double s0 = X(i, 0), s1 = X(i, 1);
+      for (int j = 0; j < i; ++j) s0 -= ri[j] * X(j, 0), s1 -= ri[j] * X(j, 1);
+      X(i, 0) = s0, X(i, 1) = s1;
+    }
+    for (int i = n_ - 1; i >= 0; --i) {
+      const double* ri = &lu_[static_cast<size_t>(i) * n_];
+      double s0 = X(i, 0), s1 = X(i, 1);
+      for (int j = i + 1; j < n_; ++j) s0 -= ri[j] * X(j, 0), s1 -= ri[j] * X(j, 1);
+      X(i, 0) = s0 / ri[i], X(i, 1) = s1 / ri[i];
+    }
+  }
+
+ private:
+  double& at(int i, int j) { return lu_[static_cast<size_t>(i) * n_ + j]; }
+  int n_ = 0;
+  std::vector<double> lu_;
+  std::vector<int> perm_;
+};
+
 // Smoothed-aggregation algebraic multigrid (Vanek, Mandel, Brezina 1996) as the preconditioner
 // of BiCGSTAB: the systems of eq. 5.3 are M-matrices on a planar mesh graph, where a V-cycle costs
 // a few sparse products and reduces the error by a constant factor, so a solve is O(n) instead of
@@ -693,10 +754,15 @@ class Amg {
   void setup(const SpMatR& A0) {
     levels_.resize(1);
     levels_[0].A = A0;
-    // Coarsen down to kCoarseRows unknowns, solved directly: a larger coarsest level costs a
-    // little more to factor but keeps the strongly anisotropic first equalization steps (weights
-    // divided by stretches up to stretch_cap) at ~20 iterations instead of ~40.
-    while (levels_.back().A.rows() > kCoarseRows && levels_.size() < 16) {
+    // Coarsen down to a level solved directly. On large charts a larger coarsest level (solved
+    // by a sparse LU) costs a little more to factor but keeps the strongly anisotropic first
+    // equalization steps (weights divided by stretches up to stretch_cap) at ~20 iterations
+    // instead of ~40. On small and medium charts the sparse LU of that level (~800 rows at 8K
+    // unknowns) cost more than the whole rest of a step, so they coarsen further, to a level
+    // small enough for a dense LU (measured on lion-head: 7 instead of 5.5 iterations per step,
+    // but about a quarter less CPU per step).
+    const int kc = A0.rows() > kSmallChart ? kCoarseRows : kDenseCoarseRows;
+    while (levels_.back().A.rows() > kc && levels_.size() < 16) {
       Level& L = levels_.back();
       const SpMatR& A = L.A;
       const int n = static_cast<int>(A.rows());
@@ -755,9 +821,14 @@ class Amg {
       levels_.emplace_back(std::move(next));
     }
     Level& C = levels_.back();
-    const SpMat Ac = C.A;
-    coarse_.compute(Ac);
-    if (coarse_.info() != Eigen::Success) throw SolverError("unwrap: multigrid coarse solve failed");
+    dense_ = C.A.rows() <= kDenseCoarseRows;
+    if (dense_) {
+      dlu_.factor(C.A);
+    } else {
+      const SpMat Ac = C.A;
+      coarse_.compute(Ac);
+      if (coarse_.info() != Eigen::Success) throw SolverError("unwrap: multigrid coarse solve failed");
+    }
     for (Level& L : levels_) {
       const int n = static_cast<int>(L.A.rows());
       L.x.resize(n, 2), L.b.resize(n, 2), L.r.resize(n, 2), L.xo.resize(n, 2);
@@ -856,6 +927,10 @@ class Amg {
   void cycle(size_t l) {
     Level& L = levels_[l];
     if (l + 1 == levels_.size()) {
+      if (dense_) {
+        dlu_.solve(L.b, L.x);
+        return;
+      }
       const Eigen::MatrixXd bc = L.b;
       const Eigen::MatrixXd xc = coarse_.solve(bc);
       L.x = xc;
@@ -873,6 +948,8 @@ class Amg {
 
   std::vector<Level> levels_;
   Eigen::SparseLU<SpMat, Eigen::COLAMDOrdering<int>> coarse_;
+  bool dense_ = false;
+  SmallLU dlu_;
 };
 
 // Right-preconditioned BiCGSTAB (van der Vorst 1992) on A X = B for both columns at once, each
@@ -943,11 +1020,15 @@ int bicgstab_amg(const SpMatR& A, Amg& M, const Blk& B, Blk& X, double tol, int 
 
 class ChartSolver {
  public:
-  // Auto: UMFPACK for small charts (a factorisation is cheapest there), multigrid above 8K
-  // unknowns, where the LU's fill and its BLAS-bound fronts grow faster than n: measured CPU
-  // seconds of a whole Uopt, multigrid vs UMFPACK: 0.20 vs 0.22 at 8K, 0.84 vs 1.54 at 52K.
+  // Auto: multigrid above kDirectRows unknowns. With a dense coarsest level on small and medium
+  // charts it is faster than UMFPACK (whose BLAS-bound fronts grow faster than n, and whose BLAS
+  // spawns threads): measured median wall seconds of a whole Uopt (free boundary, eta 0.5,
+  // sliding), multigrid vs UMFPACK: 0.044 vs 0.096 on head (1.5K vertices), 0.05 vs 0.10 on
+  // mushroom (2.3K); 0.84 vs 1.54 CPU at 52K. Below, a whole Uopt takes milliseconds either way
+  // and the exact solve keeps Floater's linear precision exact (a planar chart maps to itself to
+  // rounding, not to the iterative tolerance).
   ChartSolver(UvSolver kind, double tol, int n)
-      : kind_(kind != UvSolver::Auto ? kind : n > 8000 ? UvSolver::Multigrid : UvSolver::Umfpack), tol_(tol) {}
+      : kind_(kind != UvSolver::Auto ? kind : n > kDirectRows ? UvSolver::Multigrid : UvSolver::Umfpack), tol_(tol) {}
 
   const char* name() const {
     switch (kind_) {
@@ -959,10 +1040,10 @@ class ChartSolver {
     }
   }
 
-  // Solves A X = B; X holds the initial guess (the previous map) on entry.
-  int solve(const SpMat& A, const Eigen::MatrixXd& B, Eigen::MatrixXd& X) {
+  // Solves A X = B; X holds the initial guess (the previous map) on entry. Ar is A in row-major
+  // storage (the multigrid works on rows).
+  int solve(const SpMat& A, const SpMatR& Ar, const Eigen::MatrixXd& B, Eigen::MatrixXd& X) {
     if (kind_ == UvSolver::Multigrid) {
-      const SpMatR Ar = A;
       pmark("other");
       amg_.setup(Ar);
       pmark("amg_setup");
@@ -1023,7 +1104,9 @@ struct System {
   std::vector<int> free_v;    // row -> vertex
   std::vector<int> pos;       // per ring entry: index into A's values, -1 if the neighbour is fixed
   std::vector<int> diag_pos;  // per row
+  std::vector<int> pos_r, diag_pos_r;  // the same for Ar
   SpMat A;
+  SpMatR Ar;  // A in row-major storage, filled alongside (no conversion per step)
   Eigen::MatrixXd B;
 
   void build(const Topology& topo, const std::vector<char>& fixed) {
@@ -1049,15 +1132,24 @@ struct System {
       const int b = A.outerIndexPtr()[c], e = A.outerIndexPtr()[c + 1];
       return static_cast<int>(std::lower_bound(inner + b, inner + e, r) - inner);
     };
+    Ar = A;
+    auto find_r = [&](int r, int c) {
+      const int* inner = Ar.innerIndexPtr();
+      const int b = Ar.outerIndexPtr()[r], e = Ar.outerIndexPtr()[r + 1];
+      return static_cast<int>(std::lower_bound(inner + b, inner + e, c) - inner);
+    };
     pos.assign(topo.vv_index.size(), -1);
+    pos_r.assign(topo.vv_index.size(), -1);
     diag_pos.resize(m);
-#pragma omp parallel for schedule(static)
+    diag_pos_r.resize(m);
+#pragma omp parallel for schedule(static) if (m > kParallelRows)
     for (int r = 0; r < m; ++r) {
       const int v = free_v[r];
       diag_pos[r] = find(r, r);
+      diag_pos_r[r] = find_r(r, r);
       for (int k = topo.vv_offset[v]; k < topo.vv_offset[v + 1]; ++k) {
         const int c = row[topo.vv_index[k]];
-        if (c >= 0) pos[k] = find(r, c);
+        if (c >= 0) pos[k] = find(r, c), pos_r[k] = find_r(r, c);
       }
     }
     B.resize(m, 2);
@@ -1067,9 +1159,10 @@ struct System {
   // Returns the number of rows whose weights do not sum to a positive value (uniform used there).
   int fill(const Topology& topo, const std::vector<double>& w, const MatX2d& U) {
     double* val = A.valuePtr();
+    double* val_r = Ar.valuePtr();
     const int m = static_cast<int>(free_v.size());
     int bad = 0;
-#pragma omp parallel for schedule(static) reduction(+ : bad)
+#pragma omp parallel for schedule(static) reduction(+ : bad) if (m > kParallelRows)
     for (int r = 0; r < m; ++r) {
       const int v = free_v[r], o = topo.vv_offset[v], d = topo.valence(v);
       double sum = 0;
@@ -1077,11 +1170,11 @@ struct System {
       const bool uniform = !(sum > 0) || !std::isfinite(sum);
       if (uniform) ++bad, sum = d;
       double bx = 0, by = 0;
-      val[diag_pos[r]] = 1.0;
+      val[diag_pos[r]] = val_r[diag_pos_r[r]] = 1.0;
       for (int k = 0; k < d; ++k) {
         const double lam = (uniform ? 1.0 : w[o + k]) / sum;
         if (pos[o + k] >= 0) {
-          val[pos[o + k]] = -lam;
+          val[pos[o + k]] = val_r[pos_r[o + k]] = -lam;
         } else {
           const int j = topo.vv_index[o + k];
           bx += lam * U(j, 0), by += lam * U(j, 1);
@@ -1282,7 +1375,9 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
       return best;
     };
     const int p0 = farthest(loop[0]), p1 = farthest(p0);
+    pmark("setup");
     MatX2d L = lscm(mesh.V, mesh.F, topo, p0, p1);
+    pmark("lscm");
     // The conformal energy favours the faces' orientation; mirror if the image came out negative.
     double signed_area = 0;
     for (int f = 0; f < nf; ++f) {
@@ -1361,7 +1456,7 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
   for (int e = 0; e < topo.n_edges(); ++e) edges[e] = {topo.edges(e, 0), topo.edges(e, 1)};
   // The 3D angles of the angle distortion do not change between steps.
   std::vector<double> angles3(3 * static_cast<size_t>(nf));
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nf > 2 * kParallelRows)
   for (int f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k) {
       const int a = mesh.F(f, k), b = mesh.F(f, (k + 1) % 3), c = mesh.F(f, (k + 2) % 3);
@@ -1377,7 +1472,7 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     Eigen::MatrixXd X(m, 2);
     for (int r = 0; r < m; ++r) X.row(r) = Ucur.row(sys.free_v[r]);
     // A chart without interior vertices (e.g. a fan-triangulated n-gon) has nothing to solve.
-    const int it = m > 0 ? solver.solve(sys.A, sys.B, X) : 0;
+    const int it = m > 0 ? solver.solve(sys.A, sys.Ar, sys.B, X) : 0;
     for (int r = 0; r < m; ++r) Ucur.row(sys.free_v[r]) = X.row(r);
     place_ears(Ucur);
     return it;
@@ -1459,11 +1554,11 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     }
     // w^{h+1}_ij = w^h_ij / sigma_j^eta
     const int nw = static_cast<int>(w.size());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (nw > 6 * kParallelRows)
     for (int k = 0; k < nw; ++k) {
       if (w[k] == 0) continue;
       const double s = std::max(sigma[T->vv_index[k]], 1.0 / cap);
-      w[k] /= opt.eta == 1.0 ? s : std::pow(s, opt.eta);
+      w[k] /= opt.eta == 1.0 ? s : opt.eta == 0.5 ? std::sqrt(s) : std::pow(s, opt.eta);
     }
     // Keep the weights in range: rows are normalised anyway, so a global rescale changes nothing.
     double wmax = 0;

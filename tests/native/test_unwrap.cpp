@@ -267,8 +267,8 @@ TEST(Unwrap, SolversAgree) {
   }
 }
 
-// A chart large enough for a multigrid hierarchy (the coarsest level is solved directly below
-// 4000 unknowns): the block BiCGSTAB on u and v together reaches the direct solution, and at the
+// A chart large enough for a multigrid hierarchy of several levels (the coarsest solved by a dense
+// LU): the block BiCGSTAB on u and v together reaches the direct solution, and at the
 // default tolerance (the thesis's 1e-6) the metrics (to 0.1%) and the chosen step are those of the
 // direct solve.
 TEST(Unwrap, MultigridHierarchyMatchesDirectSolve) {
