@@ -21,31 +21,12 @@
 #include <string>
 
 #include "dgmesh/errors.h"
+#include "dgmesh/parallel.h"
 #include "dgmesh/spatial_index.h"
-
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace dgmesh {
 
 namespace {
-
-int max_threads() {
-#ifdef _OPENMP
-  return omp_get_max_threads();
-#else
-  return 1;
-#endif
-}
-
-int thread_id() {
-#ifdef _OPENMP
-  return omp_get_thread_num();
-#else
-  return 0;
-#endif
-}
 
 constexpr int kMaxPatch = 64;  // hard limit of DenoiseOptions::max_patch (stack-sized RBF systems)
 constexpr int kMaxSys = kMaxPatch + 3;
@@ -209,13 +190,13 @@ void build_neighbourhoods(const KdTree& tree, const std::vector<int>& act, int n
   nb.n2.assign(n_points, 0);
   nb.n3.assign(n_points, 0);
   nb.off.assign(n_points + 1, 0);
-  const int nt = max_threads();
+  const int nt = num_threads();
   std::vector<std::vector<int>> parts(nt);
   const MatX3d& Q = tree.points();
 #pragma omp parallel num_threads(nt)
   {
     std::vector<std::pair<int, double>> hits;
-    std::vector<int>& out = parts[thread_id()];
+    std::vector<int>& out = parts[thread_index()];
     out.clear();
     // static schedule: each thread takes one contiguous range, in thread order.
 #pragma omp for schedule(static)
@@ -663,7 +644,7 @@ DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const Den
   progress(0.0);
   DenoiseResult res;
   long long fallbacks = 0;
-  const int nt = max_threads();
+  const int nt = num_threads();
   const int max_samples = window_cap(o) * patch_cap(o);
   std::vector<Scratch> scratch;
   std::vector<std::vector<double>> wbuf(nt);
@@ -684,7 +665,7 @@ DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const Den
       for (int a = start; a < end; ++a) {
         const int x = st.act[a];
         if (!movable[x] || st.N.row(x).squaredNorm() == 0) continue;
-        const int t = thread_id();
+        const int t = thread_index();
         const double k = o.method == DenoiseMethod::Similarity
                              ? similarity_step(st, x, o, scratch[t], wbuf[t], fb[t])
                              : bilateral_step(st, x, o);

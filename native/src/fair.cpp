@@ -534,6 +534,33 @@ class Driver {
     return std::max(r2 * r2 / 52.0, std::pow(h_, 4) / 8.0);
   }
 
+  // B's movable rows split into movable columns (Bmm) and fixed columns (Bmf), and the fixed
+  // vertices' positions Xf in Bmf's column order: B P = 0 becomes Bmm x = -Bmf Xf.
+  void split_fixed(const SpMat& B, const MatX3d& P, SpMat& Bmm, SpMat& Bmf, MatX3d& Xf) const {
+    const int n = static_cast<int>(P.rows());
+    std::vector<int> fixed_idx(n, -1);
+    int nf = 0;
+    for (int v = 0; v < n; ++v)
+      if (movable_idx_[v] < 0) fixed_idx[v] = nf++;
+    std::vector<Eigen::Triplet<double>> tm, tf;
+    for (int c = 0; c < B.outerSize(); ++c)
+      for (SpMat::InnerIterator it(B, c); it; ++it) {
+        const int r = movable_idx_[it.row()];
+        if (r < 0) continue;
+        if (movable_idx_[c] >= 0)
+          tm.emplace_back(r, movable_idx_[c], it.value());
+        else
+          tf.emplace_back(r, fixed_idx[c], it.value());
+      }
+    Bmm.resize(nm_, nm_);
+    Bmm.setFromTriplets(tm.begin(), tm.end());
+    Bmf.resize(nm_, nf);
+    Bmf.setFromTriplets(tf.begin(), tf.end());
+    Xf.resize(nf, 3);
+    for (int v = 0; v < n; ++v)
+      if (fixed_idx[v] >= 0) Xf.row(fixed_idx[v]) = P.row(v);
+  }
+
   // Region mode: start from the minimiser of the linearised energy with the fixed vertices as
   // boundary data, i.e. the steady state of the thesis's bilaplacian flow: U0^2 P = 0 at the
   // movable vertices (uniform bi-umbrella, section 3.2), one sparse solve. The two fixed rings
@@ -546,28 +573,10 @@ class Driver {
   bool linear_start(Work& w) {
     const int n = w.topo.n_vertices;
     if (nm_ == 0 || nm_ == n) return false;
-    std::vector<int> fixed_idx(n, -1);
-    int nf = 0;
-    for (int v = 0; v < n; ++v)
-      if (movable_idx_[v] < 0) fixed_idx[v] = nf++;
     const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
-    const SpMat B = SpMat(W * W);
-    std::vector<Eigen::Triplet<double>> tm, tf;
-    for (int c = 0; c < B.outerSize(); ++c)
-      for (SpMat::InnerIterator it(B, c); it; ++it) {
-        const int r = movable_idx_[it.row()];
-        if (r < 0) continue;
-        if (movable_idx_[c] >= 0)
-          tm.emplace_back(r, movable_idx_[c], it.value());
-        else
-          tf.emplace_back(r, fixed_idx[c], it.value());
-      }
-    SpMat Bmm(nm_, nm_), Bmf(nm_, nf);
-    Bmm.setFromTriplets(tm.begin(), tm.end());
-    Bmf.setFromTriplets(tf.begin(), tf.end());
-    Eigen::MatrixXd Xf(nf, 3);
-    for (int v = 0; v < n; ++v)
-      if (fixed_idx[v] >= 0) Xf.row(fixed_idx[v]) = w.P.row(v);
+    SpMat Bmm, Bmf;
+    MatX3d Xf;
+    split_fixed(SpMat(W * W), w.P, Bmm, Bmf, Xf);
     Eigen::MatrixXd x;
     try {
       SparseSolver solver;
@@ -742,28 +751,7 @@ class Driver {
     SparseSolver solver;
     SpMat Bmm, Bmf;
     if (semi) {
-      // Split B into movable and fixed columns over the movable rows.
-      std::vector<Eigen::Triplet<double>> tm, tf;
-      std::vector<int> fixed_idx(n, -1);
-      int nf = 0;
-      for (int v = 0; v < n; ++v)
-        if (movable_idx_[v] < 0) fixed_idx[v] = nf++;
-      for (int c = 0; c < B.outerSize(); ++c)
-        for (SpMat::InnerIterator it(B, c); it; ++it) {
-          const int r = movable_idx_[it.row()];
-          if (r < 0) continue;
-          if (movable_idx_[c] >= 0)
-            tm.emplace_back(r, movable_idx_[c], it.value());
-          else
-            tf.emplace_back(r, fixed_idx[c], it.value());
-        }
-      Bmm.resize(nm_, nm_);
-      Bmm.setFromTriplets(tm.begin(), tm.end());
-      Bmf.resize(nm_, nf);
-      Bmf.setFromTriplets(tf.begin(), tf.end());
-      fixed_pos_.resize(nf, 3);
-      for (int v = 0; v < n; ++v)
-        if (fixed_idx[v] >= 0) fixed_pos_.row(fixed_idx[v]) = w.P.row(v);
+      split_fixed(B, w.P, Bmm, Bmf, fixed_pos_);
     }
     bool factored = false;
     int it = 0;

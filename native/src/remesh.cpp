@@ -14,32 +14,13 @@
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
+#include "dgmesh/parallel.h"
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
-
-#ifdef _OPENMP
-#include <omp.h>
-#endif
 
 namespace dgmesh {
 
 namespace {
-
-int max_threads() {
-#ifdef _OPENMP
-  return omp_get_max_threads();
-#else
-  return 1;
-#endif
-}
-
-int thread_id() {
-#ifdef _OPENMP
-  return omp_get_thread_num();
-#else
-  return 0;
-#endif
-}
 
 using Vec2 = Eigen::Vector2d;
 using Clock = std::chrono::steady_clock;
@@ -647,7 +628,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       else G.row(g) << su.x(), su.y(), 0.0;
     };
     for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
-    const int nthreads = npix > kParallelMin * 4 ? std::max(1, max_threads()) : 1;
+    const int nthreads = npix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
     std::vector<double> acc(size_t(nthreads) * 3 * ng);
     // Point location in the sampling map: walk from a start face across the edge opposite the most
     // negative barycentric coordinate. Returns false if the walk leaves the chart.
@@ -722,7 +703,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       std::fill(acc.begin(), acc.end(), 0.0);
 #pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
       for (int j = 0; j < R; ++j) {
-        double* a = acc.data() + size_t(thread_id()) * 3 * ng;
+        double* a = acc.data() + size_t(thread_index()) * 3 * ng;
         const double y = (j + 0.5) / R;
         for (int i = 0; i < R; ++i) {
           const long idx = long(j) * R + i;

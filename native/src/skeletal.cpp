@@ -15,7 +15,6 @@
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
 
-#include <nanoflann.hpp>
 
 namespace dgmesh {
 
@@ -382,53 +381,17 @@ double union_distance(const KdTree& tree, const MatX3d& centers, const VecXd& ra
   return best;
 }
 
-// The deformed ball centres of the fairing (a subset, see Impl::reps) in a kd-tree rebuilt per
-// pose (nanoflann, small leaves, fixed-size queries into stack arrays: no allocation per query).
-// Exact k nearest: an approximate search (nanoflann's eps) barely prunes on a tube, whose collapsed
-// skeleton puts hundreds of centres at almost the same distance from a surface point, and would
-// change the candidate balls.
-class CentreIndex {
- public:
-  void build(const MatX3d& Sd, const std::vector<int>& reps) {
-    C_.resize(static_cast<Eigen::Index>(reps.size()), 3);
-    for (size_t r = 0; r < reps.size(); ++r) C_.row(static_cast<Eigen::Index>(r)) = Sd.row(reps[r]);
-    tree_ = std::make_unique<Tree>(3, cloud_, nanoflann::KDTreeSingleIndexAdaptorParams(8));
-    tree_->buildIndex();
-  }
-  // Those of the k nearest centres that lie closer than sqrt(bound2) (index into reps, squared
-  // distance); returns their count. The bound prunes the search from the start.
-  int knn(const Vec3& q, int k, int* idx, double* d2, double bound2) const {
-    const size_t cap = static_cast<size_t>(std::min<Eigen::Index>(k, C_.rows()));
-    if (cap == 0) return 0;
-    nanoflann::KNNResultSet<double, int> rs(cap);
-    rs.init(idx, d2);
-    d2[cap - 1] = bound2;  // the result set's worst distance until it fills: nothing farther enters
-    tree_->findNeighbors(rs, q.data(), nanoflann::SearchParams(32, 0.0f, false));
-    return static_cast<int>(rs.size());
-  }
-
- private:
-  struct Cloud {
-    const MatX3d* p;
-    size_t kdtree_get_point_count() const { return static_cast<size_t>(p->rows()); }
-    double kdtree_get_pt(size_t i, size_t d) const { return (*p)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)); }
-    template <class BBox>
-    bool kdtree_get_bbox(BBox&) const { return false; }
-  };
-  using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
-  MatX3d C_;
-  Cloud cloud_{&C_};
-  std::unique_ptr<Tree> tree_;
-};
-
 // Local version of eq. 6.13 for the fairing: the balls of the vertex's rest minimiser p (exact at
 // bind time) and of its skeletal 1-ring, plus the k nearest deformed centres (balls of other parts
 // the pose brought close). A fixed-size query instead of the radius query over r_max, which on a
 // tube returns a large part of its (collapsed) skeleton. p is a global minimiser at rest, so the
 // value is exact at rest and under rigid motions (fixed points of the fairing).
 constexpr int kUnionNeighbours = 4;
-// `tree` holds the centres `reps` (a subset of the skeletal vertices, see Impl::reps).
-double union_distance_local(const CentreIndex& tree, const std::vector<int>& reps, const MatX3d& centers,
+// `tree` holds the deformed centres `reps` (a subset of the skeletal vertices, see Impl::reps),
+// rebuilt per pose with small leaves; its queries are exact k nearest: an approximate search barely
+// prunes on a tube, whose collapsed skeleton puts hundreds of centres at almost the same distance
+// from a surface point, and would change the candidate balls.
+double union_distance_local(const KdTree& tree, const std::vector<int>& reps, const MatX3d& centers,
                             const VecXd& radii, double r_max, const Topology& topo, const Vec3& x, int p, int& arg) {
   double best = (x - row3(centers, p)).norm() - radii[p];
   arg = p;
@@ -728,8 +691,9 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
 void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
                                          std::vector<int>* args) const {
   const int n = static_cast<int>(X.rows());
-  CentreIndex tree;
-  tree.build(Sd, reps);
+  MatX3d C(static_cast<Eigen::Index>(reps.size()), 3);
+  for (size_t r = 0; r < reps.size(); ++r) C.row(static_cast<Eigen::Index>(r)) = Sd.row(reps[r]);
+  const KdTree tree(C, 8);
   MatX3d G(n, 3);
   if (args) args->assign(n, -1);
   for (int step = 0; step <= opt.fairing_steps; ++step) {
@@ -987,44 +951,40 @@ bool dense_projection(const SkeletalDeformOptions& opt) {
 }
 }  // namespace
 
-MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt) const {
+namespace {
+// Control pose, then the dense mesh through the multiresolution layer (and its thickness step), into
+// `out` (float64 or float32 rows).
+template <class Impl, class Out>
+void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, Out& out) {
+  if (out.rows() != n)
+    throw MeshError("skeletal deform: the output needs " + std::to_string(n) + " rows, got " +
+                    std::to_string(out.rows()));
   MatX3d Sd;
   std::vector<int> args;
-  const MatX3d Xc = impl_->control_pose(pose, opt, &Sd, &args);
-  if (!impl_->multires) return Xc;
-  MatX3d X = impl_->multires->reconstruct(Xc);
-  if (dense_projection(opt)) impl_->project_dense(Sd, args, opt.projection, X);
+  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, &args);
+  if (impl.multires) {
+    impl.multires->reconstruct(Xc, out);
+    if (dense_projection(opt)) impl.project_dense(Sd, args, opt.projection, out);
+  } else {
+    out = Xc.template cast<typename Out::Scalar>();
+  }
+}
+}  // namespace
+
+MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt) const {
+  MatX3d X(n_vertices(), 3);
+  deform(pose, opt, Eigen::Ref<MatX3d>(X));
   return X;
 }
 
 void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                          Eigen::Ref<MatX3d> out) const {
-  if (out.rows() != n_vertices())
-    throw MeshError("skeletal deform: the output needs " + std::to_string(n_vertices()) + " rows, got " +
-                    std::to_string(out.rows()));
-  MatX3d Sd;
-  std::vector<int> args;
-  const MatX3d Xc = impl_->control_pose(pose, opt, &Sd, &args);
-  if (impl_->multires) {
-    impl_->multires->reconstruct(Xc, out);
-    if (dense_projection(opt)) impl_->project_dense(Sd, args, opt.projection, out);
-  } else
-    out = Xc;
+  deform_into(*impl_, n_vertices(), pose, opt, out);
 }
 
 void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                          Eigen::Ref<MatX3f> out) const {
-  if (out.rows() != n_vertices())
-    throw MeshError("skeletal deform: the output needs " + std::to_string(n_vertices()) + " rows, got " +
-                    std::to_string(out.rows()));
-  MatX3d Sd;
-  std::vector<int> args;
-  const MatX3d Xc = impl_->control_pose(pose, opt, &Sd, &args);
-  if (impl_->multires) {
-    impl_->multires->reconstruct(Xc, out);
-    if (dense_projection(opt)) impl_->project_dense(Sd, args, opt.projection, out);
-  } else
-    out = Xc.cast<float>();
+  deform_into(*impl_, n_vertices(), pose, opt, out);
 }
 
 int SkeletalRig::n_vertices() const {

@@ -19,12 +19,14 @@ using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<do
 struct KdTree::Impl {
   Cloud cloud;
   Tree tree;
-  explicit Impl(const MatX3d* p) : cloud{p}, tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(16)) {
+  Impl(const MatX3d* p, int leaf_size)
+      : cloud{p}, tree(3, cloud, nanoflann::KDTreeSingleIndexAdaptorParams(static_cast<size_t>(leaf_size))) {
     tree.buildIndex();
   }
 };
 
-KdTree::KdTree(const MatX3d& points) : points_(points), impl_(std::make_unique<Impl>(&points_)) {}
+KdTree::KdTree(const MatX3d& points, int leaf_size)
+    : points_(points), impl_(std::make_unique<Impl>(&points_, leaf_size)) {}
 KdTree::~KdTree() = default;
 // Moving an Eigen matrix keeps its heap buffer, but the adaptor points at the member: re-aim it.
 KdTree::KdTree(KdTree&& o) noexcept : points_(std::move(o.points_)), impl_(std::move(o.impl_)) {
@@ -55,6 +57,16 @@ int KdTree::knn(const Vec3& q, int k, std::vector<int>& idx, std::vector<double>
   idx.resize(found);
   sq_dist.resize(found);
   return static_cast<int>(found);
+}
+
+int KdTree::knn(const Vec3& q, int k, int* idx, double* sq_dist, double bound2) const {
+  const size_t cap = static_cast<size_t>(std::min<int>(k, size()));
+  if (cap == 0) return 0;
+  nanoflann::KNNResultSet<double, int> rs(cap);
+  rs.init(idx, sq_dist);
+  sq_dist[cap - 1] = bound2;  // the result set's worst distance until it fills: nothing farther enters
+  impl_->tree.findNeighbors(rs, q.data(), nanoflann::SearchParams(32, 0.0f, false));
+  return static_cast<int>(rs.size());
 }
 
 int KdTree::nearest(const Vec3& q, double* sq_dist) const {

@@ -4,4 +4,6 @@
 namespace dgmesh {
 void set_num_threads(int n);
 int num_threads();
+// This thread's index inside a parallel region (0 outside one): per-thread scratch slots.
+int thread_index();
 }  // namespace dgmesh
