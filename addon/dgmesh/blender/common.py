@@ -36,3 +36,16 @@ def poll_mesh_targets(cls, context, targets=target_objects):
     if not targets(context):
         return poll_fail(cls, "Select one or more mesh objects")
     return True
+
+
+def poll_active_mesh(cls, context, edit_mode=False):
+    """The poll of operators that act on the active mesh object, in Object mode (and mesh Edit
+    mode when ``edit_mode``)."""
+    modes = {'OBJECT', 'EDIT_MESH'} if edit_mode else {'OBJECT'}
+    if context.mode not in modes:
+        return poll_fail(cls, "Only available in Object mode and mesh Edit mode" if edit_mode
+                         else "Only available in Object mode")
+    obj = context.active_object
+    if obj is None or obj.type != 'MESH':
+        return poll_fail(cls, "The active object must be a mesh")
+    return True

@@ -23,7 +23,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_fail as _poll_fail, poll_mesh_targets, target_objects
+from .common import plural as _plural, poll_active_mesh, poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -298,12 +298,7 @@ class DGMESH_OT_similarity_map(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode not in {'OBJECT', 'EDIT_MESH'}:
-            return _poll_fail(cls, "Only available in Object mode and mesh Edit mode")
-        obj = context.active_object
-        if obj is None or obj.type != 'MESH':
-            return _poll_fail(cls, "The active object must be a mesh")
-        return True
+        return poll_active_mesh(cls, context, edit_mode=True)
 
     def execute(self, context):
         dg = api()

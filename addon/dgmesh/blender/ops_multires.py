@@ -22,7 +22,7 @@ from bpy.props import FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import poll_fail as _poll_fail
+from .common import poll_active_mesh
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -108,12 +108,7 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if context.mode != 'OBJECT':
-            return _poll_fail(cls, "Only available in Object mode")
-        obj = context.active_object
-        if obj is None or obj.type != 'MESH':
-            return _poll_fail(cls, "The active object must be a mesh")
-        return True
+        return poll_active_mesh(cls, context)
 
     def prepare(self, context):
         """Reads the active mesh (main thread); returns the native work, or None after an error."""

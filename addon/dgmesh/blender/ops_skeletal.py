@@ -39,7 +39,7 @@ from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
 from . import bridge
-from .common import poll_fail as _poll_fail
+from .common import poll_active_mesh, poll_fail as _poll_fail
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key of objects bound by earlier versions (legacy live target)
@@ -321,12 +321,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
     @classmethod
     def poll(cls, context):
-        if context.mode != 'OBJECT':
-            return _poll_fail(cls, "Switch to Object mode")
-        obj = context.active_object
-        if obj is None or obj.type != 'MESH':
-            return _poll_fail(cls, "The active object must be a mesh")
-        return True
+        return poll_active_mesh(cls, context)
 
     def execute(self, context):
         obj = context.active_object
@@ -460,7 +455,7 @@ the stored data; the Armature modifiers are restored"""
     @classmethod
     def poll(cls, context):
         if context.mode != 'OBJECT':
-            return _poll_fail(cls, "Switch to Object mode")
+            return _poll_fail(cls, "Only available in Object mode")
         return True
 
     def execute(self, context):
