@@ -14,36 +14,15 @@
 #include "dgmesh/remesh.h"
 #include "dgmesh/shapes.h"
 #include "dgmesh/validate.h"
+#include "test_meshes.h"
 
 using namespace dgmesh;
+using dgmesh::test::select_faces;
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 using Vec2d = Eigen::Vector2d;
-
-template <class Keep>
-TriMesh select_faces(const TriMesh& m, Keep keep) {
-  std::vector<int> faces;
-  for (int f = 0; f < m.F.rows(); ++f) {
-    const Vec3 c = (m.V.row(m.F(f, 0)) + m.V.row(m.F(f, 1)) + m.V.row(m.F(f, 2))) / 3.0;
-    if (keep(c)) faces.push_back(f);
-  }
-  std::vector<int> id(m.V.rows(), -1);
-  TriMesh out;
-  out.F.resize(static_cast<int>(faces.size()), 3);
-  int nv = 0;
-  for (size_t i = 0; i < faces.size(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      int& v = id[m.F(faces[i], k)];
-      if (v < 0) v = nv++;
-      out.F(static_cast<int>(i), k) = v;
-    }
-  out.V.resize(nv, 3);
-  for (int v = 0; v < m.V.rows(); ++v)
-    if (id[v] >= 0) out.V.row(id[v]) = m.V.row(v);
-  return out;
-}
 
 // A planar disk of radius 0.45 around (0.5, 0.5): Delaunay of 30 concentric rings of 6k points.
 TriMesh planar_disk() {
