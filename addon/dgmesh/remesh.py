@@ -41,7 +41,10 @@ class RemeshResult:
     n_flips: edge flips made by ``flip_3d``.
     lloyd_iterations: Lloyd relaxation steps made (see ``lloyd_iterations`` of :func:`remesh_full`).
     n_separated: interior samples dropped for lying closer than ``min_separation`` x the local
-        target spacing to another sample.
+        target spacing to another sample (last round).
+    sampling_rounds: diffusion + relaxation + separation rounds (repeated with a raised diffusion
+        goal while the separation drops more than 0.5% of the target).
+    smooth_moves: vertex moves made by ``smooth_iterations``.
     seconds: wall time of the stages (parameterize, sample, triangulate).
     warnings: human-readable notes (e.g. resolution too low for the target).
     """
@@ -58,14 +61,16 @@ class RemeshResult:
     n_flips: int = 0
     lloyd_iterations: int = 0
     n_separated: int = 0
+    sampling_rounds: int = 0
+    smooth_moves: int = 0
     seconds: dict = field(default_factory=dict)
     warnings: List[str] = field(default_factory=list)
 
 
 def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double",
-                boundary="keep", domain="circle", boundary_clearance=0.5, flip_3d=False,
+                boundary="keep", domain="circle", boundary_clearance=0.5, flip_3d=True,
                 eta=1.0, uopt_steps=-1, lloyd_iterations=4, relax_metric="surface",
-                min_separation=0.35, progress=None) -> RemeshResult:
+                min_separation=0.35, smooth_iterations=3, progress=None) -> RemeshResult:
     """:func:`remesh` with all options and diagnostics; see there for the common ones.
 
     lloyd_iterations: density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the
@@ -77,7 +82,15 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
     min_separation: after relaxing, interior samples closer in 3D than this fraction of the target
         spacing to another sample are dropped (0 disables); a warning says how many when it is more
         than 1% (the sampling map is too coarse there for the target).
-    boundary_clearance, flip_3d, eta, uopt_steps, domain: see RemeshOptions in remesh.h.
+    flip_3d: 3D Delaunay edge flips after the triangulation (across near-flat edges, or where the
+        flip unfolds a fold), keeping the embedding in the triangulation map. Default on.
+    smooth_iterations: sweeps of tangential smoothing of the new mesh's interior vertices in the
+        surface metric (towards the area-weighted mean of their triangles' centroids), moved inside
+        the triangulation map so they stay on the input surface and no map triangle flips; a move
+        may not create a 3D angle below 30 degrees and vertices on sharp features only move to lift
+        such an angle; each sweep is followed by the 3D flips when ``flip_3d``. Default 3; 0 (with
+        ``flip_3d=False, lloyd_iterations=0``) is the thesis's scheme as published.
+    boundary_clearance, eta, uopt_steps, domain: see RemeshOptions in remesh.h.
     """
     V = as_vertices(V)
     F = as_faces(F)
@@ -96,13 +109,14 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
                        boundary_clearance=float(boundary_clearance), flip_3d=bool(flip_3d),
                        eta=float(eta), uopt_steps=int(uopt_steps), lloyd_iterations=int(lloyd_iterations),
                        relax_metric=str(relax_metric), min_separation=float(min_separation),
-                       progress=progress)
+                       smooth_iterations=int(smooth_iterations), progress=progress)
     return RemeshResult(
         V=np.asarray(r["V"]), F=np.asarray(r["F"]), n_boundary=int(r["n_boundary"]),
         boundary_source=np.asarray(r["boundary_source"], dtype=np.int64), uv=np.asarray(r["uv"]),
         n_interior_target=int(r["n_interior_target"]), n_rejected=int(r["n_rejected"]),
         passes=int(r["passes"]), uopt_iterations=int(r["uopt_iterations"]), n_flips=int(r["n_flips"]),
         lloyd_iterations=int(r["lloyd_iterations"]), n_separated=int(r["n_separated"]),
+        sampling_rounds=int(r["sampling_rounds"]), smooth_moves=int(r["smooth_moves"]),
         seconds=dict(parameterize=r["seconds_parameterize"], sample=r["seconds_sample"],
                      relax=r["seconds_relax"], triangulate=r["seconds_triangulate"]),
         warnings=list(r["warnings"]))

@@ -12,7 +12,7 @@ void bind_remesh(pb::module_& m) {
       [](InV V, InF F, int target_vertices, double adaptivity, int resolution, const std::string& mode,
          const std::string& boundary, const std::string& domain, double boundary_clearance, double curvature_clip,
          bool flip_3d, double eta, int uopt_steps, int lloyd_iterations, const std::string& relax_metric,
-         double min_separation,
+         double min_separation, int smooth_iterations,
          const pb::object& progress) {
         RemeshOptions o;
         o.target_vertices = target_vertices;
@@ -35,6 +35,7 @@ void bind_remesh(pb::module_& m) {
         o.uopt_steps = uopt_steps;
         o.lloyd_iterations = lloyd_iterations;
         o.min_separation = min_separation;
+        o.smooth_iterations = smooth_iterations;
         if (relax_metric == "surface") o.relax_metric = RemeshRelaxMetric::Surface;
         else if (relax_metric == "map") o.relax_metric = RemeshRelaxMetric::Map;
         else throw MeshError("relax_metric must be 'surface' or 'map', got '" + relax_metric + "'");
@@ -56,6 +57,8 @@ void bind_remesh(pb::module_& m) {
         d["n_flips"] = r.n_flips;
         d["lloyd_iterations"] = r.lloyd_iterations;
         d["n_separated"] = r.n_separated;
+        d["sampling_rounds"] = r.sampling_rounds;
+        d["smooth_moves"] = r.smooth_moves;
         d["seconds_relax"] = r.seconds_relax;
         d["seconds_parameterize"] = r.seconds_parameterize;
         d["seconds_sample"] = r.seconds_sample;
@@ -66,9 +69,9 @@ void bind_remesh(pb::module_& m) {
       pb::arg("V"), pb::arg("F"), pb::arg("target_vertices"), pb::arg("adaptivity") = 0.0,
       pb::arg("resolution") = 256, pb::arg("mode") = "double", pb::arg("boundary") = "keep",
       pb::arg("domain") = "circle", pb::arg("boundary_clearance") = 0.5, pb::arg("curvature_clip") = 8.0,
-      pb::arg("flip_3d") = false, pb::arg("eta") = 1.0, pb::arg("uopt_steps") = -1,
+      pb::arg("flip_3d") = true, pb::arg("eta") = 1.0, pb::arg("uopt_steps") = -1,
       pb::arg("lloyd_iterations") = 4, pb::arg("relax_metric") = "surface",
-      pb::arg("min_separation") = 0.35, pb::arg("progress") = pb::none());
+      pb::arg("min_separation") = 0.35, pb::arg("smooth_iterations") = 3, pb::arg("progress") = pb::none());
 
   m.def(
       "point_mesh_distance",

@@ -27,6 +27,9 @@ using Clock = std::chrono::steady_clock;
 constexpr double kSqrt3 = 1.7320508075688772;
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kFlipCos = 0.94;  // cos 20 degrees
+constexpr double kSmoothMinAngle = kPi / 6;  // 30 degrees: smoothing may not create angles below this
+constexpr double kSmoothFeatureCos = 0.7;    // ~45 degrees between a triangle and its star's normal
+constexpr int kMaxStar = 64;                  // stars with more triangles are not smoothed
 constexpr int kParallelMin = 1 << 14;  // smaller loops stay serial (libgomp spin-waits, fair.cpp)
 constexpr int kBand = 16;              // raster rows per band (one band per task, no write races)
 
@@ -196,22 +199,40 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
   const int nf = int(F.rows());
   std::vector<int> opp(3 * nf, -1);
   {
-    std::vector<std::pair<uint64_t, int>> he(3 * nf);
+    // Half-edges by start vertex (counting sort), then the twin of a->b among those starting at b.
+    const int nv = int(X.rows());
+    std::vector<int> off(nv + 1, 0), he(3 * nf);
     for (int f = 0; f < nf; ++f)
-      for (int k = 0; k < 3; ++k)
-        he[3 * f + k] = {(uint64_t(uint32_t(F(f, k))) << 32) | uint32_t(F(f, (k + 1) % 3)), 3 * f + k};
-    std::sort(he.begin(), he.end());
+      for (int k = 0; k < 3; ++k) ++off[F(f, k) + 1];
+    for (int v = 0; v < nv; ++v) off[v + 1] += off[v];
+    {
+      std::vector<int> fill(off.begin(), off.end() - 1);
+      for (int f = 0; f < nf; ++f)
+        for (int k = 0; k < 3; ++k) he[fill[F(f, k)]++] = 3 * f + k;
+    }
+#pragma omp parallel for schedule(static) if (nf > kParallelMin)
     for (int h = 0; h < 3 * nf; ++h) {
       const int f = h / 3, k = h % 3;
-      const uint64_t rev = (uint64_t(uint32_t(F(f, (k + 1) % 3))) << 32) | uint32_t(F(f, k));
-      auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(rev, -1));
-      if (it != he.end() && it->first == rev) opp[h] = it->second;
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      for (int q = off[b]; q < off[b + 1]; ++q) {
+        const int g = he[q] / 3, l = he[q] % 3;
+        if (F(g, (l + 1) % 3) == a) {
+          opp[h] = he[q];
+          break;
+        }
+      }
     }
   }
-  auto angle = [&](int apex, int p, int q) {
-    const Vec3 u = row3(X, p) - row3(X, apex), v = row3(X, q) - row3(X, apex);
-    return std::atan2(u.cross(v).norm(), u.dot(v));
+  // The Delaunay test: the angles at c (in a, b, c) and at d (in b, a, d) sum to more than pi, i.e.
+  // sin(alpha + beta) = sin a cos b + cos a sin b < 0 (no atan2: this runs on every half-edge).
+  auto opposite_angles_exceed_pi = [&](int c, int a, int b, int d) {
+    const Vec3 u1 = row3(X, a) - row3(X, c), v1 = row3(X, b) - row3(X, c);
+    const Vec3 u2 = row3(X, b) - row3(X, d), v2 = row3(X, a) - row3(X, d);
+    const double s1 = u1.cross(v1).norm(), c1 = u1.dot(v1), s2 = u2.cross(v2).norm(), c2 = u2.dot(v2);
+    const double scale = std::sqrt(u1.squaredNorm() * v1.squaredNorm() * u2.squaredNorm() * v2.squaredNorm());
+    return s1 * c2 + c1 * s2 < -1e-10 * scale;
   };
+
   auto orient = [&](int a, int b, int c) {
     return orient_sign * cross2(uv_row(U, b) - uv_row(U, a), uv_row(U, c) - uv_row(U, a));
   };
@@ -226,15 +247,25 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
     if (o < 0) continue;
     const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
     const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3), d = F(g, (l + 2) % 3);
-    if (angle(c, a, b) + angle(d, b, a) <= kPi + 1e-10) continue;
+    if (!opposite_angles_exceed_pi(c, a, b, d)) continue;
     if (orient(a, d, c) <= 0 || orient(d, b, c) <= 0) continue;
-    // Only across near-flat edges (dihedral below ~20 degrees), so flips never cut across a crease
-    // or a thin feature and the surface stays where the samples put it.
+    // Only where the four points are nearly coplanar: the edge before or after the flip has a
+    // dihedral below ~20 degrees, so flips never cut across a crease or a thin feature and the
+    // surface stays where the samples put it. (The new edge is tested too because a near-degenerate
+    // obtuse triangle has an unreliable normal, so its old dihedral can look sharp on a flat piece.)
     {
-      const Vec3 n1 = (row3(X, b) - row3(X, a)).cross(row3(X, c) - row3(X, a));
-      const Vec3 n2 = (row3(X, a) - row3(X, b)).cross(row3(X, d) - row3(X, b));
-      const double nn = n1.norm() * n2.norm();
-      if (!(nn > 0) || n1.dot(n2) < kFlipCos * nn) continue;
+      auto dihedral_cos = [&](int p, int q, int r, int s) {  // triangles (p, q, r) and (q, p, s)
+        const Vec3 n1 = (row3(X, q) - row3(X, p)).cross(row3(X, r) - row3(X, p));
+        const Vec3 n2 = (row3(X, p) - row3(X, q)).cross(row3(X, s) - row3(X, q));
+        const double nn = n1.norm() * n2.norm();
+        return nn > 0 ? n1.dot(n2) / nn : -1.0;
+      };
+      const double c_old = dihedral_cos(a, b, c, d), c_new = dihedral_cos(d, c, a, b);
+      // A flip that unfolds a fold (the new pair within 60 degrees of coplanar and much flatter
+      // than the old one) is allowed too: such folds are the scan defects' needles and caps.
+      // So is one that makes a moderately bent pair (within ~37 degrees) no sharper.
+      const bool unfold = (c_new >= 0.5 && c_new - c_old >= 0.5) || (c_new >= 0.8 && c_new >= c_old);
+      if (c_old < kFlipCos && c_new < kFlipCos && !unfold) continue;
     }
     // Outer half-edges: b->c, c->a in f; a->d, d->b in g.
     const int h_bc = 3 * f + (k + 1) % 3, h_ca = 3 * f + (k + 2) % 3;
@@ -258,6 +289,154 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
   return flips;
 }
 
+// Point location in a parameter map U of the chart (V, F): walk from face f across the edge opposite
+// the most negative barycentric coordinate. Returns false if the walk leaves the chart.
+bool locate_in_map(const MatX2d& U, const MatX3i& F, const Topology& topo, const Vec2& p, int f, Sample& out) {
+  for (int step = 0; step < 256; ++step) {
+    const Vec2 a = uv_row(U, F(f, 0)), b = uv_row(U, F(f, 1)), c = uv_row(U, F(f, 2));
+    const double det = cross2(b - a, c - a);
+    if (det == 0) return false;
+    const double w0 = cross2(b - p, c - p) / det, w1 = cross2(c - p, a - p) / det;
+    const double ww[3] = {w0, w1, 1 - w0 - w1};
+    int kmin = 0;
+    for (int k = 1; k < 3; ++k)
+      if (ww[k] < ww[kmin]) kmin = k;
+    if (ww[kmin] >= -1e-12) {
+      out = Sample{f, std::max(0.0, ww[0]), std::max(0.0, ww[1]), std::max(0.0, ww[2])};
+      const double sum = out.w0 + out.w1 + out.w2;
+      out.w0 /= sum, out.w1 /= sum, out.w2 /= sum;
+      return true;
+    }
+    const int e = topo.face_edges(f, (kmin + 1) % 3);  // the edge opposite corner kmin
+    const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
+    if (g < 0) return false;
+    f = g;
+  }
+  return false;
+}
+
+// Beyond the thesis: one sweep of tangential smoothing of the new mesh's interior vertices in the
+// surface metric, moved inside the triangulation map so that they stay on the input surface and
+// the map stays an embedding. Each vertex goes towards the density-and-area-weighted mean of its
+// incident triangles' 3D centroids (the area-weighted relaxation of Botsch & Kobbelt 2004 "A
+// remeshing approach to multiresolution modeling", a discrete Lloyd step on the new mesh); the 3D
+// displacement d becomes a map displacement by the least-squares inverse of the Jacobian J of the
+// input face under the vertex (du = (J^T J)^-1 J^T d, the tangential part). A move is halved until
+// no incident triangle flips in the map, or skipped. Gauss-Seidel by colour: `groups` lists the
+// interior vertices colour by colour (group_off), no two neighbours in one colour, so a colour's
+// vertices move in parallel without touching each other's stars (the last group, vertices the
+// colouring could not place, runs serially). Deterministic. Returns the moves made.
+int smooth_in_map(const MatX3d& V, const MatX3i& F, const Topology& topo, const MatX2d& Ut, const VecXd& rho,
+                  const std::vector<int>& ring_off, const std::vector<int>& ring, const std::vector<int>& groups,
+                  const std::vector<int>& group_off, double orient_sign, const MatX3i& T, MatX3d& X, MatX2d& P,
+                  std::vector<Sample>& S, VecXd& rho_out) {
+  int moves = 0;
+  // Cosine of the smallest 3D angle of the triangles around vertex i with i placed at xi (the
+  // smallest angle of a triangle is opposite its shortest edge; law of cosines).
+  auto star_max_cos = [&](int i, const Vec3& xi) {
+    double m = -1;
+    for (int q = ring_off[i]; q < ring_off[i + 1]; ++q) {
+      const int t = ring[q];
+      Vec3 p[3];
+      for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? xi : row3(X, T(t, k));
+      double l[3] = {(p[1] - p[2]).squaredNorm(), (p[2] - p[0]).squaredNorm(), (p[0] - p[1]).squaredNorm()};
+      std::sort(l, l + 3);
+      const double den = 2 * std::sqrt(l[1] * l[2]);
+      m = std::max(m, den > 0 ? (l[1] + l[2] - l[0]) / den : 1.0);
+    }
+    return m;
+  };
+  const double cos_min = std::cos(kSmoothMinAngle);
+  const int ngroups = int(group_off.size()) - 1;
+  for (int c = 0; c < ngroups; ++c) {
+  const int g0 = group_off[c], g1 = group_off[c + 1];
+  const bool par = c + 1 < ngroups && g1 - g0 > kParallelMin / 4;  // heavy items: ~1 us each
+#pragma omp parallel for schedule(static) reduction(+ : moves) if (par)
+  for (int gi = g0; gi < g1; ++gi) {
+    const int i = groups[gi];
+    const int deg = ring_off[i + 1] - ring_off[i];
+    if (deg == 0 || deg > kMaxStar) continue;
+    Vec3 c = Vec3::Zero(), nsum = Vec3::Zero();
+    double wsum = 0, len2 = 0;
+    Vec3 nt[kMaxStar];
+    for (int q = ring_off[i], m = 0; q < ring_off[i + 1]; ++q, ++m) {
+      const int t = ring[q];
+      const Vec3 a = row3(X, T(t, 0)), b = row3(X, T(t, 1)), d = row3(X, T(t, 2));
+      nt[m] = (b - a).cross(d - a);
+      nsum += nt[m];
+      const double w = 0.5 * nt[m].norm() * (rho_out[T(t, 0)] + rho_out[T(t, 1)] + rho_out[T(t, 2)]);
+      c += w * (a + b + d) / 3.0;
+      wsum += w;
+      len2 += (b - a).squaredNorm() + (d - b).squaredNorm() + (a - d).squaredNorm();
+    }
+    if (!(wsum > 0)) continue;
+    const Vec3 disp = c / wsum - row3(X, i);
+    const double before = star_max_cos(i, row3(X, i));
+    // Converged here: a move below 2% of the mean edge length does not change the angles much.
+    if (before <= cos_min && disp.squaredNorm() < 4e-4 * len2 / (3 * deg)) continue;
+    // A vertex on a sharp feature (an incident triangle's normal more than ~45 degrees from the
+    // star's mean normal) only moves to lift a bad angle: sliding it would cut the feature.
+    bool sharp = false;
+    {
+      const Vec3 nm = nsum.normalized();
+      for (int m = 0; !sharp && m < deg; ++m) {
+        const double l = nt[m].norm();
+        sharp = l > 0 && nt[m].dot(nm) < kSmoothFeatureCos * l;
+      }
+    }
+    if (sharp && before <= cos_min) continue;
+    const Sample& s0 = S[i];
+    const int f = s0.face;
+    // Jacobian of the input face's affine map from Ut to 3D: J = [x1-x0, x2-x0] [u1-u0, u2-u0]^-1.
+    const Vec2 u0 = uv_row(Ut, F(f, 0)), e1 = uv_row(Ut, F(f, 1)) - u0, e2 = uv_row(Ut, F(f, 2)) - u0;
+    const Vec3 x0 = row3(V, F(f, 0)), g1 = row3(V, F(f, 1)) - x0, g2 = row3(V, F(f, 2)) - x0;
+    const double det = cross2(e1, e2);
+    if (det == 0) continue;
+    Eigen::Matrix2d Minv;
+    Minv << e2.y(), -e2.x(), -e1.y(), e1.x();
+    Minv /= det;
+    Eigen::Matrix<double, 3, 2> G;
+    G.col(0) = g1;
+    G.col(1) = g2;
+    const Eigen::Matrix<double, 3, 2> J = G * Minv;
+    const Eigen::Matrix2d JtJ = J.transpose() * J;
+    const double jd = JtJ.determinant();
+    if (!(jd > 1e-300)) continue;
+    Vec2 du = JtJ.inverse() * (J.transpose() * disp);
+    if (!du.allFinite()) continue;
+    const Vec2 ui = uv_row(P, i);
+    for (int attempt = 0; attempt < 4; ++attempt, du *= 0.5) {
+      const Vec2 un = ui + du;
+      bool ok = true;
+      for (int q = ring_off[i]; ok && q < ring_off[i + 1]; ++q) {
+        const int t = ring[q];
+        Vec2 p[3];
+        for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? un : uv_row(P, T(t, k));
+        ok = orient_sign * cross2(p[1] - p[0], p[2] - p[0]) > 1e-14;
+      }
+      if (!ok) continue;
+      Sample sn;
+      if (!locate_in_map(Ut, F, topo, un, f, sn)) continue;
+      {
+        // "Smart" smoothing (Freitag 1997): no move may push the star's smallest 3D angle down
+        // below kSmoothMinAngle, so smoothing never creates the bad triangles it is meant to remove.
+        const Vec3 xn = sn.w0 * row3(V, F(sn.face, 0)) + sn.w1 * row3(V, F(sn.face, 1)) + sn.w2 * row3(V, F(sn.face, 2));
+        const double after = star_max_cos(i, xn);  // cosines: larger is a smaller angle
+        if (after > before && after > cos_min) continue;
+        if (sharp && !(after < before)) continue;
+      }
+      S[i] = sn;
+      P.row(i) = un.transpose();
+      X.row(i) = sn.w0 * V.row(F(sn.face, 0)) + sn.w1 * V.row(F(sn.face, 1)) + sn.w2 * V.row(F(sn.face, 2));
+      rho_out[i] = sn.w0 * rho[F(sn.face, 0)] + sn.w1 * rho[F(sn.face, 1)] + sn.w2 * rho[F(sn.face, 2)];
+      ++moves;
+      break;
+    }
+  }
+  }  // colours
+  return moves;
+}
+
 }  // namespace
 
 RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
@@ -271,6 +450,8 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   if (!(o.eta > 0 && o.eta <= 1)) throw MeshError("remesh: eta must be in (0, 1]");
   if (o.lloyd_iterations < 0 || o.lloyd_iterations > 100)
     throw MeshError("remesh: lloyd_iterations must be in 0..100, got " + std::to_string(o.lloyd_iterations));
+  if (o.smooth_iterations < 0 || o.smooth_iterations > 100)
+    throw MeshError("remesh: smooth_iterations must be in 0..100, got " + std::to_string(o.smooth_iterations));
   if (!(o.min_separation >= 0 && o.min_separation < 1))
     throw MeshError("remesh: min_separation must be in [0, 1), got " + std::to_string(o.min_separation));
   if (!(o.boundary_clearance >= 0 && o.boundary_clearance < 2))
@@ -518,306 +699,323 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   // A pixel's sample is always the same point, so its verdict is reused by later passes.
   std::vector<signed char> pix_keep(npix, -1);
   std::vector<double> err0(R + 2), err1(R + 2);
-  for (int pass = 0; pass < 6; ++pass) {
-    picked.clear();
-    std::fill(err0.begin(), err0.end(), 0.0);
-    for (int j = 0; j < R; ++j) {
-      std::fill(err1.begin(), err1.end(), 0.0);
-      const bool fwd = (j % 2) == 0;
-      const int dir = fwd ? 1 : -1;
-      for (int s = 0; s < R; ++s) {
-        const int i = fwd ? s : R - 1 - s;
-        const long idx = long(j) * R + i;
-        if (pix_face[idx] < 0) continue;
-        const double v = scale * pix_val[idx] + err0[i + 1];
-        double e = v;
-        if (v >= 0.5) {
-          picked.push_back(idx);
-          e = v - 1.0;
-        }
-        // Floyd-Steinberg weights 7, 3, 5, 1 (/16), over the neighbours inside the chart only so
-        // that no density leaks out at the chart's border.
-        const int in = i + dir, ib = i - dir;
-        const bool ok_n = in >= 0 && in < R && pix_face[idx + dir] >= 0;
-        const bool last = j + 1 >= R;
-        const long below = idx + R;
-        const bool ok_b = !last && pix_face[below] >= 0;
-        const bool ok_bb = !last && ib >= 0 && ib < R && pix_face[below - dir] >= 0;
-        const bool ok_bn = !last && in >= 0 && in < R && pix_face[below + dir] >= 0;
-        const double wsum = 7.0 * ok_n + 3.0 * ok_bb + 5.0 * ok_b + 1.0 * ok_bn;
-        if (wsum <= 0) continue;
-        const double q = e / wsum;
-        if (ok_n) err0[in + 1] += 7 * q;
-        if (ok_bb) err1[ib + 1] += 3 * q;
-        if (ok_b) err1[i + 1] += 5 * q;
-        if (ok_bn) err1[in + 1] += 1 * q;
-      }
-      std::swap(err0, err1);
-    }
-    const int ns = int(picked.size());
-    samples.assign(ns, Sample{});
-    keep.assign(ns, 0);
-#pragma omp parallel for schedule(static) if (ns > kParallelMin)
-    for (int s = 0; s < ns; ++s) {
-      const long idx = picked[s];
-      const int i = int(idx % R), j = int(idx / R);
-      const uint32_t h = uint32_t(idx) * 2654435761U;
-      const Vec2 p((i + 0.5 + 0.1 * jitter(h)) / R, (j + 0.5 + 0.1 * jitter(h ^ 0x9e3779b9U)) / R);
-      const int f = pix_face[idx];
-      const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
-      const double det = cross2(b - a, c - a);
-      double w0 = std::max(0.0, cross2(b - p, c - p) / det), w1 = std::max(0.0, cross2(c - p, a - p) / det);
-      double w2 = std::max(0.0, 1 - w0 - w1);
-      const double ws = w0 + w1 + w2;
-      w0 /= ws, w1 /= ws, w2 /= ws;
-      samples[s] = Sample{f, w0, w1, w2};
-      if (pix_keep[idx] >= 0) {
-        keep[s] = pix_keep[idx];
-        continue;
-      }
-      const Vec2 u = w0 * uv_row(Ut, F(f, 0)) + w1 * uv_row(Ut, F(f, 1)) + w2 * uv_row(Ut, F(f, 2));
-      if (!polygon.inside(u, margin)) {
-        pix_keep[idx] = 0;
-        continue;
-      }
-      if (face_far[f]) {
-        keep[s] = pix_keep[idx] = 1;
-        continue;
-      }
-      const Vec3 x = w0 * row3(V, F(f, 0)) + w1 * row3(V, F(f, 1)) + w2 * row3(V, F(f, 2));
-      const double r = w0 * rho[F(f, 0)] + w1 * rho[F(f, 1)] + w2 * rho[F(f, 2)];
-      const double hloc = spacing(n_int * r / rho_integral);
-      keep[s] = (*bdist)(x) >= o.boundary_clearance * hloc;
-      pix_keep[idx] = keep[s];
-    }
-    int accepted = 0;
-    for (int s = 0; s < ns; ++s) accepted += keep[s];
-    res.passes = pass + 1;
-    res.n_rejected = ns - accepted;
-    report(std::min(0.55 + 0.04 * (pass + 1), 0.79));
-    const int tol = std::max(1, int(0.002 * n_int));
-    if (std::abs(accepted - n_int) <= tol || accepted == 0) break;
-    scale *= double(n_int) / accepted;
-  }
-  res.seconds_sample = seconds_since(t_sample);
-
-  // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
-  // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
-  // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
-  // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
-  // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
-  // Voronoi cell over the pixels of the sampling map. The cells are measured in the surface metric
-  // (nearest generator in 3D) or in the sampling map's own metric; boundary samples are fixed
-  // generators. The same step for all three modes, at the control map's resolution.
-  if (relax) {
-    const auto t_relax = Clock::now();
-    std::vector<int> ids;  // interior samples taking part
-    for (size_t q = 0; q < samples.size(); ++q)
-      if (keep[q]) ids.push_back(int(q));
-    const int ni = int(ids.size());
-    const int ng = nb + ni;
-    MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
-    auto sample_s = [&](const Sample& q) {
-      return Vec2(q.w0 * uv_row(Us, F(q.face, 0)) + q.w1 * uv_row(Us, F(q.face, 1)) + q.w2 * uv_row(Us, F(q.face, 2)));
-    };
-    auto sample_x = [&](const Sample& q) {
-      return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
-    };
-    auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
-      if (relax_surface) G.row(g) = x.transpose();
-      else G.row(g) << su.x(), su.y(), 0.0;
-    };
-    for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
-    const int nthreads = npix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
-    std::vector<double> acc(size_t(nthreads) * 3 * ng);
-    // Point location in the sampling map: walk from a start face across the edge opposite the most
-    // negative barycentric coordinate. Returns false if the walk leaves the chart.
-    auto locate = [&](const Vec2& p, int f, Sample& out) {
-      for (int step = 0; step < 256; ++step) {
-        const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
-        const double det = cross2(b - a, c - a);
-        if (det == 0) return false;
-        const double w[3] = {cross2(b - p, c - p) / det, cross2(c - p, a - p) / det, 0};
-        const double w2 = 1 - w[0] - w[1];
-        const double ww[3] = {w[0], w[1], w2};
-        int kmin = 0;
-        for (int k = 1; k < 3; ++k)
-          if (ww[k] < ww[kmin]) kmin = k;
-        if (ww[kmin] >= -1e-12) {
-          out = Sample{f, std::max(0.0, ww[0]), std::max(0.0, ww[1]), std::max(0.0, ww[2])};
-          const double sum = out.w0 + out.w1 + out.w2;
-          out.w0 /= sum, out.w1 /= sum, out.w2 /= sum;
-          return true;
-        }
-        const int e = topo.face_edges(f, (kmin + 1) % 3);  // the edge opposite corner kmin
-        const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
-        if (g < 0) return false;
-        f = g;
-      }
-      return false;
-    };
-    // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
-    // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
-    // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
-    // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
-    // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
-    std::vector<int> label(npix, -1);
-    constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
-    std::vector<int> nbr(size_t(ng) * kMaxNbr), nbr_n(ng);
-    auto pix_point = [&](long idx) {
-      if (relax_surface) return Vec3(pix_x[3 * idx], pix_x[3 * idx + 1], pix_x[3 * idx + 2]);
-      return Vec3((idx % R + 0.5) / R, (idx / R + 0.5) / R, 0.0);
-    };
-    auto build_adjacency = [&]() {
-      std::fill(nbr_n.begin(), nbr_n.end(), 0);
-      auto add1 = [&](int a, int b) {
-        int* l = nbr.data() + size_t(a) * kMaxNbr;
-        for (int k = 0; k < nbr_n[a]; ++k)
-          if (l[k] == b) return;
-        if (nbr_n[a] < kMaxNbr) l[nbr_n[a]++] = b;
-      };
-      auto add = [&](int a, int b) {
-        if (a == b || a < 0 || b < 0) return;
-        add1(a, b);
-        add1(b, a);
-      };
-      for (int j = 0; j < R; ++j)
-        for (int i = 0; i < R; ++i) {
-          const long idx = long(j) * R + i;
-          const int l = label[idx];
-          if (l < 0) continue;
-          if (i + 1 < R) add(l, label[idx + 1]);
-          if (j + 1 < R) add(l, label[idx + R]);
-          if (i + 1 < R && j + 1 < R) add(l, label[idx + R + 1]);
-          if (i > 0 && j + 1 < R) add(l, label[idx + R - 1]);
-        }
-    };
-    for (int it = 0; it < o.lloyd_iterations; ++it) {
-      for (int q = 0; q < ni; ++q) {
-        const Sample& sm = samples[ids[q]];
-        set_gen(nb + q, sample_s(sm), sample_x(sm));
-      }
-      std::unique_ptr<KdTree> tree;
-      if (it == 0) tree = std::make_unique<KdTree>(G);
-      else build_adjacency();
-      std::fill(acc.begin(), acc.end(), 0.0);
-#pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
+  // Rounds of diffusion + relaxation + minimum separation: where the sampling map is too coarse for
+  // the target (pixels larger than the spacing on the surface), relaxed samples crowd and the
+  // separation drops them, so the diffusion goal is raised by the shortfall and the rounds repeat
+  // until the kept count is within 0.5% of the target (every mode hits the count).
+  int n_goal = n_int;
+  res.passes = 0;
+  for (int round = 0;; ++round) {
+    res.n_separated = 0;
+    for (int pass = 0; pass < 6; ++pass) {
+      picked.clear();
+      std::fill(err0.begin(), err0.end(), 0.0);
       for (int j = 0; j < R; ++j) {
-        double* a = acc.data() + size_t(thread_index()) * 3 * ng;
-        const double y = (j + 0.5) / R;
-        for (int i = 0; i < R; ++i) {
+        std::fill(err1.begin(), err1.end(), 0.0);
+        const bool fwd = (j % 2) == 0;
+        const int dir = fwd ? 1 : -1;
+        for (int s = 0; s < R; ++s) {
+          const int i = fwd ? s : R - 1 - s;
           const long idx = long(j) * R + i;
           if (pix_face[idx] < 0) continue;
-          const double x = (i + 0.5) / R;
-          const Vec3 qp = pix_point(idx);
-          int g;
-          if (tree) {
-            g = tree->nearest(qp);
-          } else {
-            g = label[idx];
-            double best = (row3(G, g) - qp).squaredNorm();
-            for (bool improved = true; improved;) {
-              improved = false;
-              const int* l = nbr.data() + size_t(g) * kMaxNbr;
-              const int n = nbr_n[g];
-              for (int k = 0; k < n; ++k) {
-                const double d = (row3(G, l[k]) - qp).squaredNorm();
-                if (d < best) {
-                  best = d;
-                  g = l[k];
-                  improved = true;
-                  break;  // walk on from the closer generator
+          const double v = scale * pix_val[idx] + err0[i + 1];
+          double e = v;
+          if (v >= 0.5) {
+            picked.push_back(idx);
+            e = v - 1.0;
+          }
+          // Floyd-Steinberg weights 7, 3, 5, 1 (/16), over the neighbours inside the chart only so
+          // that no density leaks out at the chart's border.
+          const int in = i + dir, ib = i - dir;
+          const bool ok_n = in >= 0 && in < R && pix_face[idx + dir] >= 0;
+          const bool last = j + 1 >= R;
+          const long below = idx + R;
+          const bool ok_b = !last && pix_face[below] >= 0;
+          const bool ok_bb = !last && ib >= 0 && ib < R && pix_face[below - dir] >= 0;
+          const bool ok_bn = !last && in >= 0 && in < R && pix_face[below + dir] >= 0;
+          const double wsum = 7.0 * ok_n + 3.0 * ok_bb + 5.0 * ok_b + 1.0 * ok_bn;
+          if (wsum <= 0) continue;
+          const double q = e / wsum;
+          if (ok_n) err0[in + 1] += 7 * q;
+          if (ok_bb) err1[ib + 1] += 3 * q;
+          if (ok_b) err1[i + 1] += 5 * q;
+          if (ok_bn) err1[in + 1] += 1 * q;
+        }
+        std::swap(err0, err1);
+      }
+      const int ns = int(picked.size());
+      samples.assign(ns, Sample{});
+      keep.assign(ns, 0);
+  #pragma omp parallel for schedule(static) if (ns > kParallelMin)
+      for (int s = 0; s < ns; ++s) {
+        const long idx = picked[s];
+        const int i = int(idx % R), j = int(idx / R);
+        const uint32_t h = uint32_t(idx) * 2654435761U;
+        const Vec2 p((i + 0.5 + 0.1 * jitter(h)) / R, (j + 0.5 + 0.1 * jitter(h ^ 0x9e3779b9U)) / R);
+        const int f = pix_face[idx];
+        const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
+        const double det = cross2(b - a, c - a);
+        double w0 = std::max(0.0, cross2(b - p, c - p) / det), w1 = std::max(0.0, cross2(c - p, a - p) / det);
+        double w2 = std::max(0.0, 1 - w0 - w1);
+        const double ws = w0 + w1 + w2;
+        w0 /= ws, w1 /= ws, w2 /= ws;
+        samples[s] = Sample{f, w0, w1, w2};
+        if (pix_keep[idx] >= 0) {
+          keep[s] = pix_keep[idx];
+          continue;
+        }
+        const Vec2 u = w0 * uv_row(Ut, F(f, 0)) + w1 * uv_row(Ut, F(f, 1)) + w2 * uv_row(Ut, F(f, 2));
+        if (!polygon.inside(u, margin)) {
+          pix_keep[idx] = 0;
+          continue;
+        }
+        if (face_far[f]) {
+          keep[s] = pix_keep[idx] = 1;
+          continue;
+        }
+        const Vec3 x = w0 * row3(V, F(f, 0)) + w1 * row3(V, F(f, 1)) + w2 * row3(V, F(f, 2));
+        const double r = w0 * rho[F(f, 0)] + w1 * rho[F(f, 1)] + w2 * rho[F(f, 2)];
+        const double hloc = spacing(n_int * r / rho_integral);
+        keep[s] = (*bdist)(x) >= o.boundary_clearance * hloc;
+        pix_keep[idx] = keep[s];
+      }
+      int accepted = 0;
+      for (int s = 0; s < ns; ++s) accepted += keep[s];
+      ++res.passes;
+      res.n_rejected = ns - accepted;
+      report(std::min(0.55 + 0.04 * (pass + 1), 0.79));
+      const int tol = std::max(1, int(0.002 * n_goal));
+      if (std::abs(accepted - n_goal) <= tol || accepted == 0) break;
+      scale *= double(n_goal) / accepted;
+    }
+    res.seconds_sample = seconds_since(t_sample) - res.seconds_relax;
+
+    // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
+    // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
+    // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
+    // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
+    // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
+    // Voronoi cell over the pixels of the sampling map. The cells are measured in the surface metric
+    // (nearest generator in 3D) or in the sampling map's own metric; boundary samples are fixed
+    // generators. The same step for all three modes, at the control map's resolution.
+    if (relax) {
+      const auto t_relax = Clock::now();
+      std::vector<int> ids;  // interior samples taking part
+      for (size_t q = 0; q < samples.size(); ++q)
+        if (keep[q]) ids.push_back(int(q));
+      const int ni = int(ids.size());
+      const int ng = nb + ni;
+      MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
+      auto sample_s = [&](const Sample& q) {
+        return Vec2(q.w0 * uv_row(Us, F(q.face, 0)) + q.w1 * uv_row(Us, F(q.face, 1)) + q.w2 * uv_row(Us, F(q.face, 2)));
+      };
+      auto sample_x = [&](const Sample& q) {
+        return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
+      };
+      auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
+        if (relax_surface) G.row(g) = x.transpose();
+        else G.row(g) << su.x(), su.y(), 0.0;
+      };
+      for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
+      const int nthreads = npix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
+      std::vector<double> acc(size_t(nthreads) * 3 * ng);
+      // Point location in the sampling map: walk from a start face across the edge opposite the most
+      // negative barycentric coordinate. Returns false if the walk leaves the chart.
+      auto locate = [&](const Vec2& p, int f, Sample& out) {
+        for (int step = 0; step < 256; ++step) {
+          const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
+          const double det = cross2(b - a, c - a);
+          if (det == 0) return false;
+          const double w[3] = {cross2(b - p, c - p) / det, cross2(c - p, a - p) / det, 0};
+          const double w2 = 1 - w[0] - w[1];
+          const double ww[3] = {w[0], w[1], w2};
+          int kmin = 0;
+          for (int k = 1; k < 3; ++k)
+            if (ww[k] < ww[kmin]) kmin = k;
+          if (ww[kmin] >= -1e-12) {
+            out = Sample{f, std::max(0.0, ww[0]), std::max(0.0, ww[1]), std::max(0.0, ww[2])};
+            const double sum = out.w0 + out.w1 + out.w2;
+            out.w0 /= sum, out.w1 /= sum, out.w2 /= sum;
+            return true;
+          }
+          const int e = topo.face_edges(f, (kmin + 1) % 3);  // the edge opposite corner kmin
+          const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
+          if (g < 0) return false;
+          f = g;
+        }
+        return false;
+      };
+      // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
+      // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
+      // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
+      // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
+      // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
+      std::vector<int> label(npix, -1);
+      constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
+      std::vector<int> nbr(size_t(ng) * kMaxNbr), nbr_n(ng);
+      auto pix_point = [&](long idx) {
+        if (relax_surface) return Vec3(pix_x[3 * idx], pix_x[3 * idx + 1], pix_x[3 * idx + 2]);
+        return Vec3((idx % R + 0.5) / R, (idx / R + 0.5) / R, 0.0);
+      };
+      auto build_adjacency = [&]() {
+        std::fill(nbr_n.begin(), nbr_n.end(), 0);
+        auto add1 = [&](int a, int b) {
+          int* l = nbr.data() + size_t(a) * kMaxNbr;
+          for (int k = 0; k < nbr_n[a]; ++k)
+            if (l[k] == b) return;
+          if (nbr_n[a] < kMaxNbr) l[nbr_n[a]++] = b;
+        };
+        auto add = [&](int a, int b) {
+          if (a == b || a < 0 || b < 0) return;
+          add1(a, b);
+          add1(b, a);
+        };
+        for (int j = 0; j < R; ++j)
+          for (int i = 0; i < R; ++i) {
+            const long idx = long(j) * R + i;
+            const int l = label[idx];
+            if (l < 0) continue;
+            if (i + 1 < R) add(l, label[idx + 1]);
+            if (j + 1 < R) add(l, label[idx + R]);
+            if (i + 1 < R && j + 1 < R) add(l, label[idx + R + 1]);
+            if (i > 0 && j + 1 < R) add(l, label[idx + R - 1]);
+          }
+      };
+      for (int it = 0; it < o.lloyd_iterations; ++it) {
+        for (int q = 0; q < ni; ++q) {
+          const Sample& sm = samples[ids[q]];
+          set_gen(nb + q, sample_s(sm), sample_x(sm));
+        }
+        std::unique_ptr<KdTree> tree;
+        if (it == 0) tree = std::make_unique<KdTree>(G);
+        else build_adjacency();
+        std::fill(acc.begin(), acc.end(), 0.0);
+  #pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
+        for (int j = 0; j < R; ++j) {
+          double* a = acc.data() + size_t(thread_index()) * 3 * ng;
+          const double y = (j + 0.5) / R;
+          for (int i = 0; i < R; ++i) {
+            const long idx = long(j) * R + i;
+            if (pix_face[idx] < 0) continue;
+            const double x = (i + 0.5) / R;
+            const Vec3 qp = pix_point(idx);
+            int g;
+            if (tree) {
+              g = tree->nearest(qp);
+            } else {
+              g = label[idx];
+              double best = (row3(G, g) - qp).squaredNorm();
+              for (bool improved = true; improved;) {
+                improved = false;
+                const int* l = nbr.data() + size_t(g) * kMaxNbr;
+                const int n = nbr_n[g];
+                for (int k = 0; k < n; ++k) {
+                  const double d = (row3(G, l[k]) - qp).squaredNorm();
+                  if (d < best) {
+                    best = d;
+                    g = l[k];
+                    improved = true;
+                    break;  // walk on from the closer generator
+                  }
                 }
               }
             }
+            label[idx] = g;
+            const double m = pix_val[idx];
+            a[3 * g] += m;
+            a[3 * g + 1] += m * x;
+            a[3 * g + 2] += m * y;
           }
-          label[idx] = g;
-          const double m = pix_val[idx];
-          a[3 * g] += m;
-          a[3 * g + 1] += m * x;
-          a[3 * g + 2] += m * y;
+        }
+        for (int t = 1; t < nthreads; ++t)
+          for (size_t k = 0; k < size_t(3 * ng); ++k) acc[k] += acc[size_t(t) * 3 * ng + k];
+        int moved = 0;
+        for (int q = 0; q < ni; ++q) {
+          const int g = nb + q;
+          if (!(acc[3 * g] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
+          const Vec2 c(acc[3 * g + 1] / acc[3 * g], acc[3 * g + 2] / acc[3 * g]);
+          Sample& sm = samples[ids[q]];
+          const int pi = std::clamp(int(c.x() * R), 0, R - 1), pj = std::clamp(int(c.y() * R), 0, R - 1);
+          const int start = pix_face[long(pj) * R + pi] >= 0 ? pix_face[long(pj) * R + pi] : sm.face;
+          Sample next;
+          if (!locate(c, start, next)) continue;
+          const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
+                         next.w2 * uv_row(Ut, F(next.face, 2));
+          if (!polygon.inside(u, margin)) continue;  // must stay strictly inside for the Delaunay step
+          sm = next;
+          ++moved;
+        }
+        res.lloyd_iterations = it + 1;
+        report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
+        if (moved == 0) break;
+      }
+      res.seconds_relax += seconds_since(t_relax);
+    }
+
+    // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
+    // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
+    // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
+    if (o.min_separation > 0) {
+      const auto t_sep = Clock::now();
+      MatX3d G(nb + int(samples.size()), 3);
+      for (int k = 0; k < nb; ++k) G.row(k) = bnd_x[k].transpose();
+      for (size_t q = 0; q < samples.size(); ++q) {
+        const Sample& sm = samples[q];
+        G.row(nb + int(q)) = sm.w0 * V.row(F(sm.face, 0)) + sm.w1 * V.row(F(sm.face, 1)) + sm.w2 * V.row(F(sm.face, 2));
+      }
+      const KdTree tree(G);
+      const int ns = int(samples.size());
+      // Only a sample with some kept neighbour inside its radius can be dropped: find those in
+      // parallel, then decide them in order (the verdict depends on earlier drops).
+      std::vector<char> crowded(ns, 0);
+      std::vector<double> radius(ns, 0.0);
+  #pragma omp parallel if (ns > kParallelMin)
+      {
+        std::vector<std::pair<int, double>> near;
+  #pragma omp for schedule(static)
+        for (int q = 0; q < ns; ++q) {
+          if (!keep[q]) continue;
+          const Sample& sm = samples[q];
+          const double r = sm.w0 * rho[F(sm.face, 0)] + sm.w1 * rho[F(sm.face, 1)] + sm.w2 * rho[F(sm.face, 2)];
+          radius[q] = o.min_separation * spacing(n_int * r / rho_integral);
+          tree.radius(row3(G, nb + q), radius[q], near);
+          for (const auto& gd : near)
+            if (gd.first != nb + q && (gd.first < nb || keep[gd.first - nb])) {
+              crowded[q] = 1;
+              break;
+            }
         }
       }
-      for (int t = 1; t < nthreads; ++t)
-        for (size_t k = 0; k < size_t(3 * ng); ++k) acc[k] += acc[size_t(t) * 3 * ng + k];
-      int moved = 0;
-      for (int q = 0; q < ni; ++q) {
-        const int g = nb + q;
-        if (!(acc[3 * g] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
-        const Vec2 c(acc[3 * g + 1] / acc[3 * g], acc[3 * g + 2] / acc[3 * g]);
-        Sample& sm = samples[ids[q]];
-        const int pi = std::clamp(int(c.x() * R), 0, R - 1), pj = std::clamp(int(c.y() * R), 0, R - 1);
-        const int start = pix_face[long(pj) * R + pi] >= 0 ? pix_face[long(pj) * R + pi] : sm.face;
-        Sample next;
-        if (!locate(c, start, next)) continue;
-        const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
-                       next.w2 * uv_row(Ut, F(next.face, 2));
-        if (!polygon.inside(u, margin)) continue;  // must stay strictly inside for the Delaunay step
-        sm = next;
-        ++moved;
-      }
-      res.lloyd_iterations = it + 1;
-      report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
-      if (moved == 0) break;
-    }
-    res.seconds_relax = seconds_since(t_relax);
-  }
-
-  // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
-  // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
-  // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
-  if (o.min_separation > 0) {
-    const auto t_sep = Clock::now();
-    MatX3d G(nb + int(samples.size()), 3);
-    for (int k = 0; k < nb; ++k) G.row(k) = bnd_x[k].transpose();
-    for (size_t q = 0; q < samples.size(); ++q) {
-      const Sample& sm = samples[q];
-      G.row(nb + int(q)) = sm.w0 * V.row(F(sm.face, 0)) + sm.w1 * V.row(F(sm.face, 1)) + sm.w2 * V.row(F(sm.face, 2));
-    }
-    const KdTree tree(G);
-    const int ns = int(samples.size());
-    // Only a sample with some kept neighbour inside its radius can be dropped: find those in
-    // parallel, then decide them in order (the verdict depends on earlier drops).
-    std::vector<char> crowded(ns, 0);
-    std::vector<double> radius(ns, 0.0);
-#pragma omp parallel if (ns > kParallelMin)
-    {
       std::vector<std::pair<int, double>> near;
-#pragma omp for schedule(static)
       for (int q = 0; q < ns; ++q) {
-        if (!keep[q]) continue;
-        const Sample& sm = samples[q];
-        const double r = sm.w0 * rho[F(sm.face, 0)] + sm.w1 * rho[F(sm.face, 1)] + sm.w2 * rho[F(sm.face, 2)];
-        radius[q] = o.min_separation * spacing(n_int * r / rho_integral);
+        if (!crowded[q]) continue;
         tree.radius(row3(G, nb + q), radius[q], near);
-        for (const auto& gd : near)
-          if (gd.first != nb + q && (gd.first < nb || keep[gd.first - nb])) {
-            crowded[q] = 1;
+        for (const auto& gd : near) {
+          const int g = gd.first, other = g - nb;
+          if (other == q) continue;
+          if (g < nb || (other < q && keep[other])) {
+            keep[q] = 0;
+            ++res.n_separated;
             break;
           }
-      }
-    }
-    std::vector<std::pair<int, double>> near;
-    for (int q = 0; q < ns; ++q) {
-      if (!crowded[q]) continue;
-      tree.radius(row3(G, nb + q), radius[q], near);
-      for (const auto& gd : near) {
-        const int g = gd.first, other = g - nb;
-        if (other == q) continue;
-        if (g < nb || (other < q && keep[other])) {
-          keep[q] = 0;
-          ++res.n_separated;
-          break;
         }
       }
+      res.seconds_relax += seconds_since(t_sep);
     }
-    if (res.n_separated > std::max(1, n_int / 100))
-      res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_int) +
-                             " interior samples were closer than " + std::to_string(o.min_separation) +
-                             " x the target spacing and were dropped: the sampling map is too coarse for this "
-                             "target somewhere; raise the resolution or sample on the low-stretch map (mode double)");
-    res.seconds_relax += seconds_since(t_sep);
-  }
+    int kept = 0;
+    for (char k : keep) kept += k;
+    res.sampling_rounds = round + 1;
+    if (kept == 0 || std::abs(kept - n_int) <= std::max(1, int(0.005 * n_int)) || round == 3) break;
+    const double shortfall = double(n_int) / kept;
+    n_goal = std::max(1, int(std::lround(n_goal * shortfall)));
+    scale *= shortfall;
+  }  // rounds
+  if (res.n_separated > std::max(1, n_int / 100))
+    res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_goal) +
+                           " interior samples were closer than " + std::to_string(o.min_separation) +
+                           " x the target spacing and were dropped (the diffusion oversampled to keep the count): "
+                           "the sampling map is too coarse for this target somewhere; raise the resolution or "
+                           "sample on the low-stretch map (mode double)");
   const auto t_tri = Clock::now();
 
   // 5. Delaunay in the triangulation map (Qhull), lift through the shared triangulation.
@@ -826,6 +1024,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   const int n_all = nb + n_keep;
   MatX2d P(n_all, 2);
   MatX3d X(n_all, 3);
+  std::vector<Sample> PS(n_all, Sample{-1, 0, 0, 0});  // input face + barycentrics (interior only)
   for (int k = 0; k < nb; ++k) {
     P.row(k) = bnd_u[k].transpose();
     X.row(k) = bnd_x[k].transpose();
@@ -838,6 +1037,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       const int f = q.face;
       P.row(w) = q.w0 * Ut.row(F(f, 0)) + q.w1 * Ut.row(F(f, 1)) + q.w2 * Ut.row(F(f, 2));
       X.row(w) = q.w0 * V.row(F(f, 0)) + q.w1 * V.row(F(f, 1)) + q.w2 * V.row(F(f, 2));
+      PS[w] = q;
       ++w;
     }
   }
@@ -866,10 +1066,12 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       if (id[T(t, k)] < 0) id[T(t, k)] = nout++;
   res.V.resize(nout, 3);
   res.uv.resize(nout, 2);
+  std::vector<Sample> out_s(nout, Sample{-1, 0, 0, 0});
   for (int i = 0; i < n_all; ++i)
     if (id[i] >= 0) {
       res.V.row(id[i]) = X.row(i);
       res.uv.row(id[i]) = P.row(i);
+      out_s[id[i]] = PS[i];
     }
   res.F.resize(int(tri_keep.size()), 3);
   for (size_t q = 0; q < tri_keep.size(); ++q) {
@@ -879,6 +1081,59 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     res.F(int(q), 2) = id[T(t, flip ? 1 : 2)];
   }
   if (o.flip_3d) res.n_flips = delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
+  if (o.smooth_iterations > 0) {
+    VecXd rho_out = VecXd::Ones(nout);
+    if (o.adaptivity > 0)
+      for (int i = 0; i < nout; ++i) {
+        const Sample& q = out_s[i];
+        if (q.face >= 0) rho_out[i] = q.w0 * rho[F(q.face, 0)] + q.w1 * rho[F(q.face, 1)] + q.w2 * rho[F(q.face, 2)];
+      }
+    std::vector<int> ring_off(nout + 1), ring, colour(nout), groups, group_off;
+    for (int it = 0; it < o.smooth_iterations; ++it) {
+      // Vertex -> incident triangles (rebuilt after flips).
+      std::fill(ring_off.begin(), ring_off.end(), 0);
+      for (int t = 0; t < res.F.rows(); ++t)
+        for (int k = 0; k < 3; ++k) ++ring_off[res.F(t, k) + 1];
+      for (int i = 0; i < nout; ++i) ring_off[i + 1] += ring_off[i];
+      ring.assign(ring_off[nout], 0);
+      {
+        std::vector<int> fill(ring_off.begin(), ring_off.end() - 1);
+        for (int t = 0; t < res.F.rows(); ++t)
+          for (int k = 0; k < 3; ++k) ring[fill[res.F(t, k)]++] = t;
+      }
+      // Greedy colouring of the interior vertices (neighbours = vertices of the star's triangles);
+      // colour 64 collects the few the 64 colours cannot place (processed serially).
+      constexpr int kColours = 64;
+      std::fill(colour.begin(), colour.end(), -1);
+      std::vector<int> count(kColours + 2, 0);
+      for (int i = nb; i < nout; ++i) {
+        uint64_t used = 0;
+        for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
+          for (int k = 0; k < 3; ++k) {
+            const int cj = colour[res.F(ring[q], k)];
+            if (cj >= 0 && cj < kColours) used |= uint64_t(1) << cj;
+          }
+        int c = 0;
+        while (c < kColours && (used >> c & 1)) ++c;
+        colour[i] = c;
+        ++count[c + 1];
+      }
+      int ncol = 0;
+      for (int c = 0; c <= kColours; ++c)
+        if (count[c + 1] > 0) ncol = c + 1;
+      group_off.assign(ncol + 1, 0);
+      for (int c = 0; c < ncol; ++c) group_off[c + 1] = group_off[c] + count[c + 1];
+      if (ncol > 0 && ncol <= kColours) group_off.push_back(group_off.back());  // empty serial group
+      groups.assign(group_off.back(), 0);
+      {
+        std::vector<int> fill(group_off.begin(), group_off.end() - 1);
+        for (int i = nb; i < nout; ++i) groups[fill[colour[i]]++] = i;
+      }
+      res.smooth_moves += smooth_in_map(V, F, topo, Ut, rho, ring_off, ring, groups, group_off, flip ? -1.0 : 1.0,
+                                        res.F, res.V, res.uv, out_s, rho_out);
+      if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
+    }
+  }
   // The result must be a disk whose boundary is exactly the boundary samples.
   try {
     const Topology out = build_topology(res.F, nout);

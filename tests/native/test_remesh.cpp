@@ -125,6 +125,8 @@ TEST(Remesh, LloydRelaxationEvensOutThePlanarDisk) {
     o.target_vertices = 1200;
     o.boundary = RemeshBoundary::Resample;
     o.lloyd_iterations = it;
+    o.flip_3d = false;  // the relaxation alone (the post-processing is tested on its own)
+    o.smooth_iterations = 0;
     if (it == 0) o.min_separation = 0;
     const RemeshResult r = remesh(d.V, d.F, o);
     const Topology t = build_topology(r.F, int(r.V.rows()));
@@ -224,4 +226,66 @@ TEST(Remesh, PointMeshDistanceToPlane) {
   EXPECT_NEAR(d[0], 0.25, 1e-12);
   EXPECT_NEAR(d[1], 0.1, 1e-12);
   EXPECT_NEAR(d[2], 0.5, 1e-12);
+}
+
+// The post-processing (flip_3d + smooth_iterations, beyond the thesis) on a deep spherical cap,
+// where the circle map compresses the rim: the same samples, smoothed on the surface, inside the
+// triangulation map. Vertices stay on the sphere, the map stays an embedding (every map triangle
+// keeps its orientation), the boundary is untouched and the angles get better.
+TEST(Remesh, SmoothingStaysOnTheSurfaceKeepsTheEmbeddingAndImprovesAngles) {
+  const TriMesh cap = select_faces(icosphere(4), [](const Vec3& c) { return c.z() > -0.5; });
+  RemeshOptions o;
+  o.target_vertices = 1500;
+  o.boundary = RemeshBoundary::Resample;
+  o.smooth_iterations = 0;
+  const RemeshResult r0 = remesh(cap.V, cap.F, o);
+  o.smooth_iterations = 3;
+  const RemeshResult r = remesh(cap.V, cap.F, o);
+  EXPECT_GT(r.smooth_moves, 0);
+  EXPECT_EQ(r.V.rows(), r0.V.rows());  // smoothing moves vertices, never adds or drops them
+  EXPECT_NO_THROW(validate(r.V, r.F, kSurface | kNoLooseVertices));
+  for (int v = 0; v < r.n_boundary; ++v) EXPECT_EQ(r.V.row(v), r0.V.row(v));
+  for (int v = 0; v < r.V.rows(); ++v) EXPECT_NEAR(r.V.row(v).norm(), 1.0, 0.01);
+  int pos = 0, neg = 0;
+  for (int f = 0; f < r.F.rows(); ++f) {
+    const Vec2d a = r.uv.row(r.F(f, 0)).transpose(), b = r.uv.row(r.F(f, 1)).transpose(), c = r.uv.row(r.F(f, 2)).transpose();
+    const double s = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+    pos += s > 0;
+    neg += s < 0;
+  }
+  EXPECT_TRUE(pos == r.F.rows() || neg == r.F.rows()) << pos << " positive, " << neg << " negative map triangles";
+  auto below30 = [](const MatX3d& V, const MatX3i& F) {
+    int n = 0;
+    for (int f = 0; f < F.rows(); ++f) n += min_angle_deg(V, F.row(f)) < 30;
+    return double(n) / F.rows();
+  };
+  const Topology t0 = build_topology(r0.F, int(r0.V.rows())), t = build_topology(r.F, int(r.V.rows()));
+  const double a0 = min_angle_deg(r0.V, r0.F), a = min_angle_deg(r.V, r.F);
+  RecordProperty("min_angle", std::to_string(a0) + " -> " + std::to_string(a));
+  RecordProperty("edge_cv", std::to_string(edge_cv(r0.V, t0)) + " -> " + std::to_string(edge_cv(r.V, t)));
+  EXPECT_GE(a, std::min(a0, 30.0) - 1e-9);
+  EXPECT_LT(below30(r.V, r.F), 0.5 * below30(r0.V, r0.F) + 1e-12);
+  EXPECT_LT(edge_cv(r.V, t), edge_cv(r0.V, t0));
+}
+
+// Every mode hits the requested count, also where the sampling map's pixels are coarser than the
+// target spacing on the surface (U0 of a deep cap at a low resolution): the separation drops the
+// crowded samples and the diffusion is repeated with a raised goal.
+TEST(Remesh, EveryModeHitsTheCount) {
+  const TriMesh cap = select_faces(icosphere(4), [](const Vec3& c) { return c.z() > -0.8; });
+  for (RemeshMode mode : {RemeshMode::Double, RemeshMode::SingleU0, RemeshMode::SingleUopt}) {
+    RemeshOptions o;
+    o.target_vertices = 1500;
+    o.resolution = 64;
+    o.boundary = RemeshBoundary::Resample;
+    o.mode = mode;
+    const RemeshResult r = remesh(cap.V, cap.F, o);
+    RecordProperty("mode_" + std::to_string(int(mode)), std::to_string(r.V.rows()) + " vertices, " +
+                                                            std::to_string(r.sampling_rounds) + " rounds, " +
+                                                            std::to_string(r.n_separated) + " separated");
+    EXPECT_NEAR(r.V.rows(), 1500, 0.02 * 1500) << "mode " << int(mode) << ", rounds " << r.sampling_rounds;
+    if (mode == RemeshMode::SingleU0) {
+      EXPECT_GT(r.sampling_rounds, 1);
+    }
+  }
 }

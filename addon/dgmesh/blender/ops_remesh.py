@@ -66,6 +66,10 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         name="3D Delaunay Flips", default=True,
         description="After the Delaunay triangulation in the parameter plane, flip edges towards a Delaunay "
                     "triangulation of the surface (better angles; beyond the thesis)")
+    smooth: IntProperty(
+        name="Smoothing Sweeps", default=3, min=0, max=100,
+        description="Sweeps of tangential smoothing of the new vertices on the surface (never creating an "
+                    "angle below 30 degrees, sharp features kept), each followed by the flips; beyond the thesis")
     resample_boundary: BoolProperty(
         name="Resample Boundary", default=False,
         description="Object mode only: place new boundary vertices at the target spacing "
@@ -78,7 +82,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        for name in ("target_vertices", "adaptivity", "resolution", "mode", "relax", "flips"):
+        for name in ("target_vertices", "adaptivity", "resolution", "mode", "relax", "flips", "smooth"):
             layout.prop(self, name)
         row = layout.row()
         row.enabled = context.mode != 'EDIT_MESH'
@@ -122,7 +126,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         opts = dict(target_vertices=self.target_vertices, adaptivity=self.adaptivity,
                     resolution=self.resolution, mode=self.mode.lower(),
                     boundary="keep" if keep else "resample", flip_3d=self.flips,
-                    lloyd_iterations=self.relax)
+                    lloyd_iterations=self.relax, smooth_iterations=self.smooth)
         dg = api()
         total_faces = float(sum(len(it["F"]) for it in items))
 

@@ -10,7 +10,10 @@
 //   3b. (beyond the thesis's list) relax the samples by a few density-weighted
 //      Lloyd steps over the control map's pixels, boundary samples fixed;
 //   4. map the samples to the triangulation map through the shared triangulation (same face, same
-//      barycentric coordinates), Delaunay-triangulate them there (Qhull) and lift to 3D.
+//      barycentric coordinates), Delaunay-triangulate them there (Qhull) and lift to 3D;
+//   4b. (beyond the thesis) 3D Delaunay edge flips and a few sweeps of tangential smoothing of the
+//      new vertices in the surface metric, moved inside the triangulation map (flip_3d,
+//      smooth_iterations): the same post-processing whatever the mode.
 // Modes (thesis fig. 5.6-5.9): Double samples on Uopt and triangulates on U0; SingleU0 and
 // SingleUopt sample and triangulate on one map.
 #pragma once
@@ -58,13 +61,21 @@ struct RemeshOptions {
   int uopt_steps = -1;
   // Beyond the thesis: after the Delaunay triangulation in the parameter map, flip edges towards a
   // Delaunay triangulation of the 3D mesh (opposite angles summing to more than pi), keeping the
-  // embedding in the map. Off reproduces the thesis's scheme exactly.
-  bool flip_3d = false;
+  // embedding in the map, across near-flat edges or where the flip unfolds a fold. Off (with
+  // smooth_iterations 0 and lloyd_iterations 0) reproduces the thesis's scheme exactly.
+  bool flip_3d = true;
   // Density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the centroidal Voronoi
   // sampling of a parameter map in Alliez et al. 2003, "Isotropic surface remeshing"): each interior sample moves to the control-map mass centroid, in the
   // sampling map, of its Voronoi cell over the map's pixels; boundary samples are fixed generators.
   // 0 reproduces the thesis's plain error diffusion.
   int lloyd_iterations = 4;
+  // Beyond the thesis: sweeps of tangential smoothing of the new mesh's interior vertices after the
+  // triangulation (each vertex towards the area- and density-weighted mean of its triangles' 3D
+  // centroids, moved inside the triangulation map so it stays on the input surface and no map
+  // triangle flips; a move may not create a 3D angle below 30 degrees, and vertices on sharp
+  // features only move to lift such an angle), each followed by the 3D flips when flip_3d is on.
+  // 0: off. The same post-processing for all three modes (bench remesh_quality).
+  int smooth_iterations = 3;
   RemeshRelaxMetric relax_metric = RemeshRelaxMetric::Surface;
   // After relaxation, interior samples closer (in 3D) than this fraction of the local target
   // spacing to the boundary or to another kept sample are dropped (0: off).
@@ -79,12 +90,15 @@ struct RemeshResult {
   MatX2d uv;                 // output vertices in the triangulation map
   int n_interior_target = 0; // expected interior samples (target minus boundary)
   int n_rejected = 0;        // interior samples dropped by the boundary clearance (last pass)
-  int passes = 0;            // error-diffusion passes (the density is rescaled to hit the count)
+  int passes = 0;            // error-diffusion passes, all rounds (the density is rescaled to hit the count)
+  int sampling_rounds = 0;   // diffusion + relaxation + separation rounds (more when separation drops samples)
   int uopt_iterations = 0;   // equalization steps of Uopt (0 for SingleU0)
   int n_flips = 0;           // 3D Delaunay edge flips (flip_3d)
   int lloyd_iterations = 0;  // Lloyd steps made (fewer than asked when no sample moved)
-  int n_separated = 0;       // interior samples dropped by min_separation
-  // Wall time of the stages; relax = Lloyd steps + minimum separation.
+  int n_separated = 0;       // interior samples dropped by min_separation (last sampling round)
+  int smooth_moves = 0;      // vertex moves made by smooth_iterations (all sweeps)
+  // Wall time of the stages; relax = Lloyd steps + minimum separation (all rounds); triangulate =
+  // Delaunay + lift + flips + smoothing.
   double seconds_parameterize = 0, seconds_sample = 0, seconds_relax = 0, seconds_triangulate = 0;
   std::vector<std::string> warnings;
 };
