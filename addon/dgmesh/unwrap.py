@@ -40,7 +40,9 @@ class UnwrapResult:
     uv: (n, 2) float64 UV coordinates of the returned map, inside [0, 1]^2.
     metrics: one dict per step: ``metrics[0]`` is U0, ``metrics[h]`` is U^h (each also holds
         ``seconds`` and ``solver_iterations``). For Uopt the last entry may be the step that was
-        rejected because it did not decrease the stretch.
+        rejected because it did not decrease the stretch. U0 and the returned map carry every
+        metric; the other steps carry the stretch metrics, flips, zero-area and area distortion,
+        with ``edge`` and ``angle`` NaN (not computed, to save time).
     chosen: index into ``metrics`` of the returned map.
     boundary: the boundary actually used ("square", "circle" or "free"; see ``warnings`` for
         fallbacks).

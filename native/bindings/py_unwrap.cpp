@@ -63,7 +63,8 @@ void bind_unwrap(pb::module_& m) {
       "unwrap",
       [](InV V, InF F, const std::string& boundary, const std::string& weights, double eta, int iterations,
          int max_iterations, double min_improvement, const std::string& solver, double tolerance,
-         double zero_area_eps, double stretch_cap, bool slide_boundary, const pb::object& progress) {
+         double step_tolerance, double zero_area_eps, double stretch_cap, bool slide_boundary,
+         const pb::object& progress) {
         UnwrapOptions o;
         o.boundary = parse_boundary(boundary);
         o.weights = parse_weights(weights);
@@ -73,6 +74,7 @@ void bind_unwrap(pb::module_& m) {
         o.max_iterations = max_iterations;
         o.min_improvement = min_improvement;
         o.tolerance = tolerance;
+        o.step_tolerance = step_tolerance;
         o.zero_area_eps = zero_area_eps;
         o.stretch_cap = stretch_cap;
         o.slide_boundary = slide_boundary;
@@ -103,7 +105,7 @@ void bind_unwrap(pb::module_& m) {
       pb::arg("V"), pb::arg("F"), pb::arg("boundary") = "square", pb::arg("weights") = "floater",
       pb::arg("eta") = 1.0, pb::arg("iterations") = -1, pb::arg("max_iterations") = 100,
       pb::arg("min_improvement") = 1e-3, pb::arg("solver") = "auto", pb::arg("tolerance") = 1e-6,
-      pb::arg("zero_area_eps") = 1e-10, pb::arg("stretch_cap") = 1e3,
+      pb::arg("step_tolerance") = 1e-4, pb::arg("zero_area_eps") = 1e-10, pb::arg("stretch_cap") = 1e3,
       pb::arg("slide_boundary") = false, pb::arg("progress") = pb::none());
 
   m.def(

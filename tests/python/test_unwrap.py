@@ -175,3 +175,19 @@ def test_scanned_disks(cgal, name):
     # Every accepted step improved eq. 5.5 (the thesis's stopping rule).
     for k in range(1, r.chosen + 1):
         assert r.metrics[k]["stretch_l2_finite"] < r.metrics[k - 1]["stretch_l2_finite"]
+
+
+def test_step_metrics_and_final_metrics(cgal):
+    # U0 and the returned map carry every metric of thesis 5.3; the steps in between only the
+    # stretch ones (edge and angle NaN), and the final entry agrees with uv_metrics of the result.
+    V, F = dgmesh.read_mesh(cgal / "mushroom.off")
+    r = dgmesh.unwrap(V, F, boundary="free", eta=0.5, slide_boundary=True)
+    assert r.chosen >= 2
+    for k in (0, r.chosen):
+        assert np.isfinite(r.metrics[k]["edge"]) and np.isfinite(r.metrics[k]["angle"])
+    for k in range(1, r.chosen):
+        assert np.isnan(r.metrics[k]["angle"]) and np.isfinite(r.metrics[k]["stretch_l2"])
+    m = dgmesh.uv_metrics(V, F, r.uv)
+    for key in ("stretch_l2", "edge", "angle", "area"):
+        assert m[key] == pytest.approx(r.final[key], rel=1e-9)
+    assert m["flipped"] == r.final["flipped"] == 0

@@ -72,9 +72,13 @@ struct UnwrapOptions {
   int max_iterations = 100;   // cap for Uopt
   double min_improvement = 1e-3;  // Uopt also stops after a step improving eq. 5.5 by less than this (relative)
   UvSolver solver = UvSolver::Auto;
-  // Relative residual of the iterative solvers, as the thesis (5.3). A step whose inexact map has
-  // flipped triangles is re-solved 1e4 times tighter (the exact map has none on a convex polygon).
+  // Relative residual of the iterative solve of U0, as the thesis (5.3). A step whose inexact map
+  // has flipped triangles is re-solved 100 times tighter, twice at most (the exact map has none on
+  // a convex polygon).
   double tolerance = 1e-6;
+  // Relative residual of the iterative solves of the equalization steps (U0 and a step re-judged
+  // before Uopt stops use `tolerance`): each step only feeds the next step's weights.
+  double step_tolerance = 1e-4;
   double zero_area_eps = 1e-10;
   // Triangle stretches above this are clipped in eq. 5.1 so that a near-degenerate scan triangle
   // (a 3D sliver) cannot dominate the stretch of its vertices.
@@ -86,6 +90,8 @@ struct UnwrapOptions {
 };
 
 struct UnwrapStep {
+  // U0 and the returned map carry all metrics of thesis 5.3; the other steps carry the stretch
+  // metrics the stopping rule needs (edge and angle are NaN: they cost more than the rest).
   UvMetrics metrics;
   double seconds = 0;        // wall time of this step (solve + metrics)
   int solver_iterations = 0; // BiCGSTAB iterations (u and v together for the multigrid; 0 for direct solvers)
