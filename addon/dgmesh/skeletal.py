@@ -135,8 +135,9 @@ class SkeletalRig:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
-        shape-preserving self-intersection fairing eq. 6.15, then one explicit step of weight
-        ``projection`` towards each vertex's rest distance to the union of medial balls, 0 = off) or
+        shape-preserving self-intersection fairing eq. 6.15, then an explicit step of weight
+        ``projection`` towards each vertex's rest distance to the union of medial balls, repeated in
+        3 passes over the vertices it still moves, 0 = off) or
         "basic" (thesis 6.3: homotopy with ``homotopy_steps`` steps, ``fold_iterations`` steps of
         eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6). Through the multiresolution layer the dense
         vertices get the same explicit ``projection`` step against the control mesh's medial balls
@@ -145,7 +146,10 @@ class SkeletalRig:
         ``dual_quaternion``: pose the skeletal mesh by dual quaternion blending of the bone motions
         (rigid per skeletal vertex) instead of the linear blend of eq. 6.2, which pulls skeletal
         vertices that lie off a bone's axis towards it under a twist; better for twists of limbs
-        whose medial surface is a sheet, worse in a bend's inner crease (see bench/RESULTS.md).
+        whose medial surface is a sheet, about even in a bend (see bench/RESULTS.md). Either way the
+        posed skeletal vertices are then pushed back out to their rest distance from the posed bone
+        segments they have weight on (segments from the rest frames), which undoes most of the blend's
+        pull towards the bones in a joint's inner crease.
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step

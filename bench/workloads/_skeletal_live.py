@@ -1,7 +1,8 @@
 """Blender side of the skeletal live-update benchmark: bind a Loop-subdivided capsule with the
-operator, then time scene.frame_set over keyframed poses (the live update through the offset
-attribute and its geometry-nodes modifier), split into its parts, against Blender's own Armature
-modifier on the same mesh and frames.
+operator, then time scene.frame_set over keyframed poses (the live update through the hidden helper
+object read by the geometry-nodes modifier), split into its parts, against the previous live target
+(the offset attribute on the mesh itself, block-interleaved on the same object) and Blender's own
+Armature modifier on the same mesh and frames.
 
     blender --background --factory-startup --python bench/workloads/_skeletal_live.py -- LEVELS [FRAMES]
 
@@ -112,6 +113,38 @@ def play(first=2):
     return 1e3 * float(np.median(wall)), 1e3 * cpu
 
 
+# Whole frames, A/B in interleaved blocks on the same bound object: this version's helper object
+# against the previous version's target (the offset attribute on the mesh, Named Attribute node).
+# Switching swaps the modifier's node group, the attribute and the stored target; the first frame
+# after a switch (relations rebuilt, buffers) is not timed.
+info = obj[ops_skeletal.PROP]
+ng_helper = obj.modifiers["dg_skeletal"].node_group
+ng_attr = ops_skeletal._offset_node_group()
+ng_attr.use_fake_user = True
+
+
+def use_target(target):
+    if target == "ATTRIBUTE":
+        obj.data.attributes.new(ops_skeletal.ATTR, 'FLOAT_VECTOR', 'POINT')
+        obj.modifiers["dg_skeletal"].node_group = ng_attr
+    else:
+        obj.data.attributes.remove(obj.data.attributes[ops_skeletal.ATTR])
+        obj.modifiers["dg_skeletal"].node_group = ng_helper
+    info["target"] = target
+    ops_skeletal._buffers.clear()
+    ops_skeletal._last_pose.clear()
+    sc.frame_set(NFRAMES + 20)  # untimed: the switch's one-off costs
+    sc.frame_set(1)
+
+
+blocks = {"HELPER": ([], []), "ATTRIBUTE": ([], [])}
+for rep in range(3):
+    for target in ("ATTRIBUTE", "HELPER"):
+        use_target(target)
+        w, c = play()
+        blocks[target][0].append(w)
+        blocks[target][1].append(c)
+
 for k in parts:
     parts[k].clear()
     parts_cpu[k].clear()
@@ -122,67 +155,98 @@ med_cpu = {k: 1e3 * float(np.median(v)) for k, v in parts_cpu.items()}
 n_deform = len(parts["deform"]) - 1  # the last one is frame 1 after play()
 for k, fn in orig.items():
     setattr(ops_skeletal, k, fn)
+# OpenMP inside Blender: the same native deform with 1 thread and with all, interleaved (wall and
+# process CPU per call; CPU above wall x threads used is spin-waiting).
+names = list(info["bones"])
+pose_b = ops_skeletal._pose_matrices(obj, arm, names)
+nthreads = dgmesh.num_threads()
+omp = {1: ([], []), nthreads: ([], [])}
+for _ in range(5):
+    for t in omp:
+        dgmesh.set_num_threads(t)
+        c0, t0 = time.process_time(), time.perf_counter()
+        ops_skeletal._deformed(obj, pose_b)
+        omp[t][0].append(time.perf_counter() - t0)
+        omp[t][1].append(time.process_time() - c0)
+dgmesh.set_num_threads(nthreads)
+
 # Blender's own per-frame work on the bound mesh, without our handler: ~0 unless something still ties
 # the mesh to the pose (a disabled Armature modifier with its object set did: one more evaluation).
 ops_skeletal._remove_handlers()
 idle_ms, idle_cpu_ms = play()
 ops_skeletal._add_handlers()
 
-# The write alone: the attribute (this add-on) vs a shape key (the earlier version's target).
+# The write alone: the helper's vertices (this version), the attribute (the previous one), a shape
+# key (the first one).
 n = len(V)
 off = np.zeros(3 * n, dtype=np.float32)
-att = obj.data.attributes["dg_skeletal_offset"]
-w_attr = []
+helper = ops_skeletal._helper_of(obj, info)
+hverts = helper.data.vertices
+w_helper = []
 for _ in range(7):
     t0 = time.perf_counter()
-    att.data.foreach_set("vector", off)
-    w_attr.append(time.perf_counter() - t0)
+    hverts.foreach_set("co", off)
+    w_helper.append(time.perf_counter() - t0)
 
 # Blender's evaluation of the mesh after a write (our modifier on top of the mesh), the part of
 # frame_set outside our handler.
 ev = []
 c0 = time.process_time()
 for _ in range(7):
-    att.data.foreach_set("vector", off)
-    obj.data.update()
+    hverts.foreach_set("co", off)
+    helper.data.update()
     t0 = time.perf_counter()
     bpy.context.view_layer.update()
     ev.append(time.perf_counter() - t0)
 ev_cpu = (time.process_time() - c0) / 7
 
-# Interleaved A/B of the evaluation after a write: this add-on's attribute + node modifier against a
-# shape key on a copy of the mesh (the earlier version's target), wall and CPU per write + update.
-obj2 = bpy.data.objects.new("K", me.copy())
+# Interleaved A/B of write + evaluation, wall and CPU: the helper (this version, on the bound
+# object) against the offset attribute + Named Attribute modifier (previous version) and a shape key
+# (first version), each on a copy of the mesh (vertex groups included) in the same scene.
+obj2 = bpy.data.objects.new("A", me.copy())
 bpy.context.scene.collection.objects.link(obj2)
-obj2.shape_key_add(name="Basis")
-kb2 = obj2.shape_key_add(name="K")
+att = obj2.data.attributes.new(ops_skeletal.ATTR, 'FLOAT_VECTOR', 'POINT')
+obj2.modifiers.new("dg_skeletal", 'NODES').node_group = ng_attr
+obj3 = bpy.data.objects.new("K", me.copy())
+bpy.context.scene.collection.objects.link(obj3)
+obj3.shape_key_add(name="Basis")
+kb2 = obj3.shape_key_add(name="K")
 kb2.value = 1.0
 co2 = np.empty(3 * n, dtype=np.float32)
 me.vertices.foreach_get("co", co2)
-co2 *= 1.01
-ab = {"attribute": ([], []), "shape_key": ([], [])}
+bpy.context.view_layer.update()
+w_attr = []
+for _ in range(7):
+    t0 = time.perf_counter()
+    att.data.foreach_set("vector", off)
+    w_attr.append(time.perf_counter() - t0)
+ab = {"helper": ([], []), "attribute": ([], []), "shape_key": ([], [])}
 for i in range(8):
+    off[:] = 0.001 * (i + 1)
     for key in ab:
         c0, t0 = time.process_time(), time.perf_counter()
-        if key == "attribute":
+        if key == "helper":
+            hverts.foreach_set("co", off)
+            helper.data.update()
+        elif key == "attribute":
             att.data.foreach_set("vector", off)
-            obj.data.update()
-        else:
-            kb2.data.foreach_set("co", co2)
             obj2.data.update()
+        else:
+            kb2.data.foreach_set("co", co2 + off)
+            obj3.data.update()
         bpy.context.view_layer.update()
         ab[key][0].append(time.perf_counter() - t0)
         ab[key][1].append(time.process_time() - c0)
-    off[:] = 0.001 * (i + 1)
 bpy.data.objects.remove(obj2)
+bpy.data.objects.remove(obj3)
 
 
 def eval_after_write(k=7):
     w, c0 = [], time.process_time()
     for i in range(k):
         off[:] = 0.001 * i
-        att.data.foreach_set("vector", off)
-        obj.data.update()
+        hverts.foreach_set("co", off)
+        helper.data.update()
         t0 = time.perf_counter()
         bpy.context.view_layer.update()
         w.append(time.perf_counter() - t0)
@@ -200,6 +264,8 @@ if hasattr(me, "use_auto_smooth"):
     me.use_auto_smooth = False
 me.polygons.foreach_set("use_smooth", np.zeros(len(F), dtype=bool))
 
+ops_skeletal._buffers.clear()
+ops_skeletal._last_pose.clear()
 # Reference: unbind (the Armature modifier comes back) and play the same frames with Blender's own
 # linear blend skinning and Preserve Volume.
 bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT')
@@ -225,10 +291,23 @@ out = {
     "pose_read_ms": med["pose"], "deform_ms": med["deform"], "handler_ms": med["update"],
     "write_ms": med["update"] - med["deform"] - med["pose"],
     "deform_cpu_ms": med_cpu["deform"], "handler_cpu_ms": med_cpu["update"],
+    "ab_frame_helper_ms": float(np.median(blocks["HELPER"][0])),
+    "ab_frame_helper_cpu_ms": float(np.median(blocks["HELPER"][1])),
+    "ab_frame_attribute_ms": float(np.median(blocks["ATTRIBUTE"][0])),
+    "ab_frame_attribute_cpu_ms": float(np.median(blocks["ATTRIBUTE"][1])),
+    "ab_frame_blocks": {k: v[0] for k, v in blocks.items()},
+    "ab_frame_blocks_cpu": {k: v[1] for k, v in blocks.items()},
+    "threads": nthreads,
+    "deform_1thread_ms": 1e3 * float(np.median(omp[1][0])), "deform_1thread_cpu_ms": 1e3 * float(np.median(omp[1][1])),
+    "deform_nthreads_ms": 1e3 * float(np.median(omp[nthreads][0])),
+    "deform_nthreads_cpu_ms": 1e3 * float(np.median(omp[nthreads][1])),
+    "ab_helper_ms": 1e3 * float(np.median(ab["helper"][0])),
+    "ab_helper_cpu_ms": 1e3 * float(np.median(ab["helper"][1])),
     "ab_attribute_ms": 1e3 * float(np.median(ab["attribute"][0])),
     "ab_attribute_cpu_ms": 1e3 * float(np.median(ab["attribute"][1])),
     "ab_shape_key_ms": 1e3 * float(np.median(ab["shape_key"][0])),
     "ab_shape_key_cpu_ms": 1e3 * float(np.median(ab["shape_key"][1])),
+    "helper_write_ms": 1e3 * float(np.median(w_helper)),
     "attribute_write_ms": 1e3 * float(np.median(w_attr)), "shape_key_write_ms": 1e3 * float(np.median(w_key)),
     "eval_ms": 1e3 * float(np.median(ev)), "eval_cpu_ms": 1e3 * ev_cpu,
     "eval_smooth_ms": smooth[0], "eval_smooth_cpu_ms": smooth[1],

@@ -202,7 +202,7 @@ def speed(quick):
           "(`rig.deform(pose, out=np.empty((n, 3), np.float32))`).", "",
           "Live in Blender (`dgmesh.skeletal_bind` operator, then `scene.frame_set` over 20 keyframed frames, median): "
           "%d vertices, bind %.2f s, frame_set %.1f ms (%.1f frames per second), of which our deform %.1f ms "
-          "(%d deforms for %d frames); the rest is the offset-attribute write and Blender's own evaluation of the mesh. Target <= 60 ms."
+          "(%d deforms for %d frames); the rest is the write to the hidden helper object and Blender's own evaluation of the mesh (split in skeletal_live). Target <= 60 ms."
           % (live["V"], live["bind_s"], live["frame_ms"], 1e3 / live["frame_ms"], live["deform_ms"], live["n_deform"],
              live["n_frames"]), "",
           "`/usr/bin/python3 bench/run.py skeletal_speed`"]

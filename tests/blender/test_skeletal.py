@@ -16,11 +16,37 @@ def _mesh_co(mesh):
     return a.reshape(-1, 3)
 
 
+def _helper(obj):
+    return bpy.data.objects[obj.name + "_dg_offsets"]
+
+
 def _offset(obj):
-    att = obj.data.attributes["dg_skeletal_offset"]
-    a = np.empty(len(att.data) * 3, dtype=np.float32)
-    att.data.foreach_get("vector", a)
-    return a.reshape(-1, 3)
+    """The live offsets: the vertex positions of the bound object's hidden helper."""
+    return _mesh_co(_helper(obj).data)
+
+
+def _mesh_state(obj):
+    """Everything bind / unbind could touch on the object and its mesh, as bytes."""
+    me = obj.data
+    out = {"attributes": sorted((a.name, a.domain, a.data_type) for a in me.attributes),
+           "groups": [g.name for g in obj.vertex_groups],
+           "modifiers": [(m.name, m.type, m.show_viewport, m.show_render, getattr(m, "object", None))
+                         for m in obj.modifiers],
+           "keys": [k.name for k in me.shape_keys.key_blocks] if me.shape_keys else None,
+           "props": sorted(obj.keys()), "mesh_props": sorted(me.keys())}
+    for a in me.attributes:
+        prop = {'FLOAT_VECTOR': "vector", 'FLOAT_COLOR': "color", 'BYTE_COLOR': "color",
+                'FLOAT2': "vector"}.get(a.data_type, "value")
+        width = {"vector": 3 if a.data_type == 'FLOAT_VECTOR' else 2, "color": 4}.get(prop, 1)
+        dt = {'INT': np.int32, 'BOOLEAN': bool, 'INT8': np.int8}.get(a.data_type, np.float32)
+        arr = np.empty(len(a.data) * width, dtype=dt)
+        a.data.foreach_get(prop, arr)
+        out["attr:" + a.name] = arr.tobytes()
+    w = []
+    for v in me.vertices:
+        w.append(tuple((g.group, g.weight) for g in v.groups))
+    out["weights"] = w
+    return out
 
 
 def _evaluated_co(obj):
@@ -96,6 +122,11 @@ def test_bind_live_update_unbind():
     # The live modifier comes first (before the user's modifiers, like a shape key would).
     assert [m.name for m in obj.modifiers] == ["dg_skeletal", "Armature"]
     assert obj.data.shape_keys is None
+    # The live target: a hidden, unrenderable, unselectable helper of loose vertices, not the mesh.
+    h = _helper(obj)
+    assert len(h.data.vertices) == len(V) and len(h.data.polygons) == 0
+    assert h.hide_get() and h.hide_render and h.hide_select
+    assert "dg_skeletal_offset" not in obj.data.attributes
     assert np.abs(_evaluated_co(obj) - V).max() < 1e-5  # rest pose
     sk = bpy.data.objects[obj.name + "_skeleton"]
     assert "dg_radius_color" in sk.data.attributes
@@ -126,7 +157,31 @@ def test_bind_live_update_unbind():
     assert obj.modifiers["Armature"].show_viewport is True and obj.modifiers["Armature"].object == arm
     assert "dg_skeletal" not in obj.keys()
     assert obj.name + "_skeleton" not in bpy.data.objects
+    assert obj.name + "_dg_offsets" not in bpy.data.objects
+    assert not [m for m in bpy.data.meshes if m.name.startswith(obj.name + "_dg_offsets")]
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+
+
+def test_unbind_restores_mesh_exactly():
+    """Bind, pose, play, unbind: the object and its mesh are byte-identical to before bind (all
+    attributes, vertex groups and weights, modifiers, shape keys, custom properties)."""
+    obj, arm, V = _scene()
+    obj.shape_key_add(name="Basis")
+    obj.shape_key_add(name="Bump").value = 0.5
+    before = _mesh_state(obj)
+    n_objects, n_meshes, n_groups = len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.node_groups)
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, 0.0, frame=1)
+    _pose_lower(arm, math.pi / 2, frame=5)
+    for fr in (1, 3, 5):
+        bpy.context.scene.frame_set(fr)
+    assert np.abs(_offset(obj)).max() > 1.0  # the helper was written
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    after = _mesh_state(obj)
+    assert after.keys() == before.keys()
+    for k in before:
+        assert after[k] == before[k], k
+    assert (len(bpy.data.objects), len(bpy.data.meshes), len(bpy.data.node_groups)) == (n_objects, n_meshes, n_groups)
 
 
 def test_save_reload_bound(tmp_path):
@@ -141,9 +196,13 @@ def test_save_reload_bound(tmp_path):
     bpy.ops.wm.open_mainfile(filepath=path)
     obj = bpy.data.objects["Capsule"]
     assert "dg_skeletal" in obj.keys() and obj.modifiers[0].name == "dg_skeletal"
+    # The handler finds the helper after the load, also once it is renamed (through the modifier).
+    _helper(obj).name = "Renamed helper"
     bpy.context.scene.frame_set(1)
     bpy.context.scene.frame_set(10)
     assert np.abs(_evaluated_co(obj) - before).max() < 1e-5
+    h = bpy.data.objects["Renamed helper"]
+    assert np.abs(_mesh_co(obj.data) + _mesh_co(h.data) - before).max() < 1e-5
     # Twist keeps thickness: radial distance from the x axis.
     r = np.hypot(before[:, 1], before[:, 2])
     cyl = np.abs(V[:, 0]) < 3.0
@@ -232,26 +291,113 @@ def test_modifier_first_and_shape_keys_add():
     assert [m.name for m in obj.modifiers] == ["Armature", "Sub"]
 
 
+def _duplicate(obj):
+    """Shift+D of the object alone."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o is obj)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.duplicate() == {'FINISHED'}
+    dup = bpy.context.view_layer.objects.active
+    assert dup is not obj
+    return dup
+
+
 def test_duplicate_of_bound_object_updates():
-    """A duplicated bound object shares the bind id but has its own data: both follow the pose."""
+    """A duplicated bound object (Shift+D) shares the bind data and the original's helper: both
+    follow the pose, the original alone writes; either can be unbound without breaking the other,
+    and the helper goes with the last one."""
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
-    dup = obj.copy()
-    dup.data = obj.data.copy()
-    bpy.context.scene.collection.objects.link(dup)
+    h = _helper(obj)
+    dup = _duplicate(obj)
+    assert bpy.data.objects.get(dup.name + "_dg_offsets") is None  # no second helper
     _pose_lower(arm, math.pi / 2)
     bpy.context.scene.frame_set(1)
     tip = np.argmax(V[:, 0])
     for o in (obj, dup):
         X = _evaluated_co(o)
         assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05, o.name
+    assert h["dg_skeletal_owner"] == obj.name
+    # Binding the duplicate again is refused (it is bound).
+    with pytest.raises(RuntimeError, match="already bound"):
+        _bind()
     bpy.context.view_layer.objects.active = dup
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
-    assert obj.name + "_skeleton" in bpy.data.objects and "dg_skeletal" in bpy.data.node_groups
+    assert obj.name + "_skeleton" in bpy.data.objects and obj.name + "_dg_offsets" in bpy.data.objects
+    assert [m.type for m in dup.modifiers] == ['ARMATURE'] and "dg_skeletal" not in dup.keys()
     _pose_lower(arm, math.pi / 4)
     bpy.context.scene.frame_set(1)
     X = _evaluated_co(obj)  # the original still updates from the shared bind data
     assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 4) < 0.02
+    # The other way round: unbind the original, the duplicate takes the helper over.
+    dup2 = _duplicate(obj)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert h.name in bpy.data.objects
+    _pose_lower(arm, math.pi / 3)
+    bpy.context.scene.frame_set(1)
+    X = _evaluated_co(dup2)
+    assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 3) < 0.02
+    assert h["dg_skeletal_owner"] == dup2.name
+    # Binding the original again while the duplicate keeps the old helper: a helper of its own.
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = obj
+    assert _bind() == {'FINISHED'}
+    from dgmesh.blender import ops_skeletal
+    h2 = ops_skeletal._helper_of(obj, obj["dg_skeletal"])
+    assert h2 is not None and h2 != h and h2["dg_skeletal_owner"] == obj.name
+    h2_name = h2.name
+    _pose_lower(arm, math.pi / 6)
+    bpy.context.scene.frame_set(1)
+    for o in (obj, dup2):
+        X = _evaluated_co(o)
+        assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 6) < 0.02, o.name
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert h2_name not in bpy.data.objects and h.name in bpy.data.objects
+    bpy.context.view_layer.objects.active = dup2
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert not [o for o in bpy.data.objects if o.name.endswith("_dg_offsets")]
+    assert not [g for g in bpy.data.node_groups if g.name.startswith("dg_skeletal")]
+    for o in (obj, dup2):
+        assert np.array_equal(_mesh_co(o.data), V.astype(np.float32))
+
+
+def test_legacy_attribute_binding():
+    """Objects bound by the previous version (offset attribute on the mesh read by a Named Attribute
+    node) still update and unbind cleanly."""
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    info = obj["dg_skeletal"].to_dict()
+    h = _helper(obj)
+    obj.modifiers.remove(obj.modifiers["dg_skeletal"])
+    bpy.data.node_groups.remove(bpy.data.node_groups[info["node_group"]])
+    me = h.data
+    bpy.data.objects.remove(h)
+    bpy.data.meshes.remove(me)
+    obj.data.attributes.new("dg_skeletal_offset", 'FLOAT_VECTOR', 'POINT')
+    ng = ops_skeletal._offset_node_group()
+    mod = obj.modifiers.new("dg_skeletal", 'NODES')
+    mod.node_group = ng
+    ops_skeletal._move_first(obj, mod)
+    info.update(target="ATTRIBUTE", node_group=ng.name, modifier=mod.name)
+    del info["helper"]
+    obj["dg_skeletal"] = info
+    ops_skeletal._rigs.clear()  # as after a reload
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.scene.frame_set(1)
+    X = _evaluated_co(obj)
+    tip = np.argmax(V[:, 0])
+    assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05
+    att = obj.data.attributes["dg_skeletal_offset"]
+    off = np.empty(3 * len(V), dtype=np.float32)
+    att.data.foreach_get("vector", off)
+    assert np.abs(V + off.reshape(-1, 3) - X).max() < 1e-4
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert "dg_skeletal_offset" not in obj.data.attributes and [m.name for m in obj.modifiers] == ["Armature"]
+    assert not [g for g in bpy.data.node_groups if g.name.startswith("dg_skeletal")]
 
 
 def test_legacy_shape_key_binding():
@@ -260,13 +406,16 @@ def test_legacy_shape_key_binding():
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     info = obj["dg_skeletal"].to_dict()
-    # Turn it into an earlier-version binding: shape key instead of attribute + modifier.
+    # Turn it into an earlier-version binding: shape key instead of helper + modifier.
     obj.modifiers.remove(obj.modifiers["dg_skeletal"])
-    obj.data.attributes.remove(obj.data.attributes["dg_skeletal_offset"])
     bpy.data.node_groups.remove(bpy.data.node_groups["dg_skeletal"])
+    h = _helper(obj)
+    me = h.data
+    bpy.data.objects.remove(h)
+    bpy.data.meshes.remove(me)
     obj.shape_key_add(name="Basis", from_mix=False)
     obj.shape_key_add(name="dg_skeletal", from_mix=False).value = 1.0
-    for k in ("target", "modifier", "node_group"):
+    for k in ("target", "modifier", "node_group", "helper"):
         del info[k]
     info["created_basis"] = 1
     obj["dg_skeletal"] = info

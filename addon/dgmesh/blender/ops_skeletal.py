@@ -7,16 +7,24 @@ object holding the compressed arrays), plus a hidden object ``<mesh>_skeleton`` 
 skeletal mesh coloured by its medial-ball radius (thesis fig. 6.8).
 
 Live update. The basis is never changed: each pose's displacement from the rest positions goes to
-the float-vector point attribute ``dg_skeletal_offset``, added to the positions by a two-node
-geometry-nodes modifier ``dg_skeletal`` (Named Attribute -> Set Position offset) placed first in
-the stack, so other shape keys still add their deltas and later modifiers see the deformed mesh.
-A depsgraph / frame-change handler refreshes the attribute when the pose changes (Pose mode,
-timeline, renders, ``frame_set`` in --background), once per pose change: the pose matrices are
-compared with the last ones, and the write itself does not re-enter the handler. The attribute
-instead of a shape key is a measured choice: in Blender 3.4 ``ShapeKey.data`` has no raw-array
-path, so ``foreach_set`` on it costs 20-40 ms at 178K vertices against <1 ms for an attribute, while
-Blender's re-evaluation of the mesh costs about the same either way (bench ``skeletal_live``).
-Objects bound by an earlier version (shape key ``dg_skeletal``) keep working through their key.
+the vertex positions of a hidden helper object ``<mesh>_dg_offsets`` (a mesh of loose vertices, one
+per vertex of the bound mesh, never drawn, rendered or selectable), which a geometry-nodes modifier
+``dg_skeletal`` placed first in the stack reads (Object Info, Original space -> Sample Index by
+vertex index -> Set Position offset), so other shape keys still add their deltas and later
+modifiers see the deformed mesh. A depsgraph / frame-change handler refreshes the helper when the
+pose changes (Pose mode, timeline, renders, ``frame_set`` in --background), once per pose change:
+the pose matrices are compared with the last ones, and the write itself does not re-enter the
+handler. Why a helper object: writing to the bound mesh itself (an attribute, or a shape key)
+tags its datablock, and Blender then copies the whole original mesh (every layer, vertex groups
+included) for evaluation before running the modifiers; a changed helper only re-runs the modifier
+stack on the untouched original (bench ``skeletal_live``: about 20 ms less per frame at 178K
+vertices). A shape key is slower still: in Blender 3.4 ``ShapeKey.data`` has no raw-array path
+(``foreach_set`` 20-40 ms at 178K vertices against ~1 ms here).
+Objects bound by earlier versions keep working through their own target: the point attribute
+``dg_skeletal_offset`` read by a Named Attribute node, or the shape key ``dg_skeletal``.
+A duplicated bound object (Shift+D) shares the original's helper, so it shows the original's
+deformation; only the helper's owner writes it. Unbinding one of them keeps the helper for the
+other; unbinding the last one removes it.
 The mesh's own Armature modifiers are disabled while bound and restored on unbind; their armature
 is cleared meanwhile too, because a disabled modifier still makes the mesh depend on the pose and
 Blender would re-evaluate the whole mesh once more on every frame (measured: ~30 ms CPU per frame at
@@ -43,8 +51,11 @@ from .common import poll_active_mesh, poll_fail as _poll_fail
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key of objects bound by earlier versions (legacy live target)
-ATTR = "dg_skeletal_offset"     # point attribute: deformed - rest positions (float32)
-MOD = "dg_skeletal"             # geometry-nodes modifier adding ATTR to the positions
+ATTR = "dg_skeletal_offset"     # point attribute of objects bound by an earlier version (legacy live target)
+HELPER_SUFFIX = "_dg_offsets"   # helper object: its vertex positions are deformed - rest positions
+OWNER = "dg_skeletal_owner"     # custom property of the helper: the object that writes it
+HELPER_NODE = "dg_helper"       # the Object Info node of the node group (finds the helper after renames)
+MOD = "dg_skeletal"             # geometry-nodes modifier adding the offsets to the positions
 NODE_GROUP = "dg_skeletal"      # its node group
 METHODS = (
     ('VARIATIONAL', "Variational", "Thesis 6.5: stitched per-triangle frames plus shape-preserving fairing"),
@@ -108,8 +119,45 @@ def _key(obj, info):
     return (info["id"], obj.name)
 
 
+def _target(info):
+    """HELPER (this version), ATTRIBUTE or SHAPE_KEY (objects bound by earlier versions)."""
+    return str(info.get("target", "SHAPE_KEY"))
+
+
 def _uses_shape_key(info):
-    return str(info.get("target", "SHAPE_KEY")) == "SHAPE_KEY"
+    return _target(info) == "SHAPE_KEY"
+
+
+def _helper_of(obj, info):
+    """The helper object of a HELPER binding: the object the modifier's node group reads (follows
+    renames), else by the stored name; None if it is gone."""
+    mod = obj.modifiers.get(str(info.get("modifier", MOD)))
+    ng = mod.node_group if mod is not None and mod.type == 'NODES' else None
+    node = ng.nodes.get(HELPER_NODE) if ng is not None else None
+    h = node.inputs["Object"].default_value if node is not None else None
+    if h is None:
+        h = bpy.data.objects.get(str(info.get("helper", "")))
+    return h if h is not None and h.type == 'MESH' else None
+
+
+def _helper_users(helper, exclude=None):
+    """Bound objects (other than ``exclude``) whose live modifier reads ``helper``."""
+    return [o for o in bpy.data.objects if o is not exclude and is_bound(o) and _target(o[PROP]) == "HELPER"
+            and _helper_of(o, o[PROP]) == helper]
+
+
+def _writes_helper(obj, helper):
+    """Whether ``obj`` writes the helper it reads. A duplicate (Shift+D) reads the original's helper:
+    the original (the owner) writes it and the duplicate shows the same deformation. The owner is
+    claimed by the first reader when the recorded one is gone, renamed or no longer reads it."""
+    owner = helper.get(OWNER)
+    if owner == obj.name:
+        return True
+    o = bpy.data.objects.get(owner) if isinstance(owner, str) else None
+    if o is not None and is_bound(o) and _target(o[PROP]) == "HELPER" and _helper_of(o, o[PROP]) == helper:
+        return False
+    helper[OWNER] = obj.name
+    return True
 
 
 def _new_buffers(obj, rig):
@@ -150,18 +198,27 @@ def _deformed(obj, pose):
 
 
 def _live_target(obj, info):
-    """The foreach_set target of the live update: the offset attribute's data (or a legacy shape
-    key's), None when it is missing or the vertex count changed since bind (mesh edited)."""
+    """The foreach_set target of the live update: (collection, property, mesh to tag) of the helper's
+    vertices (or a legacy binding's attribute or shape key); Nones when it is missing, when the vertex
+    count changed since bind (mesh edited), or when the object is a duplicate reading the original's
+    helper (the original writes it)."""
+    none = None, None, None
     n = _rig(obj).n_vertices
     if len(obj.data.vertices) != n:
-        return None, None
-    if _uses_shape_key(info):
+        return none
+    target = _target(info)
+    if target == "HELPER":
+        h = _helper_of(obj, info)
+        if h is None or len(h.data.vertices) != n or not _writes_helper(obj, h):
+            return none
+        return h.data.vertices, "co", h.data
+    if target == "SHAPE_KEY":
         kb = obj.data.shape_keys.key_blocks.get(KEY) if obj.data.shape_keys else None
-        return (kb.data, "co") if kb is not None else (None, None)
+        return (kb.data, "co", obj.data) if kb is not None else none
     att = obj.data.attributes.get(ATTR)
     if att is None or att.data_type != 'FLOAT_VECTOR' or att.domain != 'POINT':
-        return None, None
-    return att.data, "vector"
+        return none
+    return att.data, "vector", obj.data
 
 
 def update_object(obj, force=False):
@@ -178,12 +235,12 @@ def update_object(obj, force=False):
     sig = pose.tobytes()
     if not force and _last_pose.get(_key(obj, info)) == sig:
         return False
-    data, prop = _live_target(obj, info)
+    data, prop, tagged = _live_target(obj, info)
     if data is None:
         return False
     _, co, _ = _deformed(obj, pose)
     data.foreach_set(prop, co)
-    obj.data.update()
+    tagged.update()
     _last_pose[_key(obj, info)] = sig
     return True
 
@@ -238,8 +295,8 @@ def _remove_handlers():
             lst.remove(h)
 
 
-def _offset_node_group():
-    """Group Input -> Set Position (Offset = Named Attribute ATTR) -> Group Output."""
+def _set_position_group():
+    """A node group Group Input -> Set Position -> Group Output: (group, Set Position node)."""
     ng = bpy.data.node_groups.new(NODE_GROUP, 'GeometryNodeTree')
     if hasattr(ng, "interface"):  # 4.0+
         ng.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
@@ -252,16 +309,71 @@ def _offset_node_group():
     nodes = ng.nodes
     gi, go = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
     sp = nodes.new('GeometryNodeSetPosition')
+    ng.links.new(gi.outputs[0], sp.inputs["Geometry"])
+    ng.links.new(sp.outputs["Geometry"], go.inputs[0])
+    gi.location, sp.location, go.location = (-400, 0), (-150, 0), (100, 0)
+    ng.use_fake_user = False
+    return ng, sp
+
+
+def _enabled(sockets, name, kind='VECTOR'):
+    """The socket of that name and type: 3.x nodes have one per data type, only the chosen enabled."""
+    return next(s for s in sockets if s.name == name and s.type == kind and getattr(s, "enabled", True))
+
+
+def _helper_node_group(helper):
+    """Set Position (Offset = Sample Index(Object Info(helper, Original).Geometry, Position, Index))."""
+    ng, sp = _set_position_group()
+    nodes = ng.nodes
+    oi = nodes.new('GeometryNodeObjectInfo')
+    oi.name = HELPER_NODE
+    oi.transform_space = 'ORIGINAL'  # the helper's own coordinates: offsets in the mesh's object space
+    oi.inputs["Object"].default_value = helper
+    si = nodes.new('GeometryNodeSampleIndex')
+    si.data_type, si.domain = 'FLOAT_VECTOR', 'POINT'
+    pos, idx = nodes.new('GeometryNodeInputPosition'), nodes.new('GeometryNodeInputIndex')
+    ng.links.new(oi.outputs["Geometry"], si.inputs["Geometry"])
+    ng.links.new(pos.outputs[0], _enabled(si.inputs, "Value"))
+    ng.links.new(idx.outputs[0], si.inputs["Index"])
+    ng.links.new(_enabled(si.outputs, "Value"), sp.inputs["Offset"])
+    oi.location, pos.location, idx.location, si.location = (-650, -150), (-650, -350), (-650, -450), (-400, -150)
+    return ng
+
+
+def _helper_object(obj, n):
+    """The hidden helper: ``n`` loose vertices at the origin (zero offsets: the rest pose), in the
+    mesh's collections so the depsgraph evaluates it, never drawn, rendered or selectable. Blender
+    suffixes the name if it is taken (a duplicate may still use an earlier helper of this name): the
+    modifier's node group points at the object itself."""
+    name = obj.name + HELPER_SUFFIX
+    me = bpy.data.meshes.new(name)
+    me.vertices.add(n)
+    me.update()
+    h = bpy.data.objects.new(name, me)
+    for coll in obj.users_collection:
+        coll.objects.link(h)
+    try:
+        h.hide_set(True)
+    except RuntimeError:  # not in the active view layer (a collection excluded from it)
+        pass
+    h.hide_render = True
+    h.hide_select = True
+    h.display_type = 'BOUNDS'
+    h[OWNER] = obj.name
+    return h
+
+
+def _offset_node_group():
+    """Objects bound by the previous version: Set Position (Offset = Named Attribute ATTR)."""
+    ng, sp = _set_position_group()
+    nodes = ng.nodes
     na = nodes.new('GeometryNodeInputNamedAttribute')
     na.data_type = 'FLOAT_VECTOR'
     na.inputs["Name"].default_value = ATTR
     # 3.x has one "Attribute" output per data type (only the chosen one enabled), 4.x one output.
     out = next(s for s in na.outputs if s.type == 'VECTOR' and getattr(s, "enabled", True))
-    ng.links.new(gi.outputs[0], sp.inputs["Geometry"])
     ng.links.new(out, sp.inputs["Offset"])
-    ng.links.new(sp.outputs["Geometry"], go.inputs[0])
-    gi.location, na.location, sp.location, go.location = (-400, 0), (-400, -150), (-150, 0), (100, 0)
-    ng.use_fake_user = False
+    na.location = (-400, -150)
     return ng
 
 
@@ -383,16 +495,16 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                 m.object = None
                 m.show_viewport = False
                 m.show_render = False
-        obj.data.attributes.new(ATTR, 'FLOAT_VECTOR', 'POINT')  # zero offsets: the rest pose
-        ng = _offset_node_group()
+        helper = _helper_object(obj, len(V))
+        ng = _helper_node_group(helper)
         mod = obj.modifiers.new(MOD, 'NODES')
         mod.node_group = ng
         _move_first(obj, mod)
         sk = _skeleton_object(context, obj, rig)
         obj[PROP] = {
             "id": bid, "armature": arm.name, "bones": names, "data": _encode(rig.to_arrays()),
-            "fairing_steps": self.fairing_steps, "method": self.method, "target": "ATTRIBUTE",
-            "modifier": mod.name, "node_group": ng.name,
+            "fairing_steps": self.fairing_steps, "method": self.method, "target": "HELPER",
+            "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
             "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
             "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
             "skeleton": sk.name,
@@ -417,15 +529,25 @@ def unbind(obj):
         if info.get("created_basis") and keys and len(keys.key_blocks) == 1:
             obj.shape_key_remove(keys.key_blocks[0])
     else:
+        helper = _helper_of(obj, info) if _target(info) == "HELPER" else None
         mod = obj.modifiers.get(str(info["modifier"]))
+        ng = mod.node_group if mod is not None and mod.type == 'NODES' else None
         if mod is not None and mod.type == 'NODES':
             obj.modifiers.remove(mod)
-        att = obj.data.attributes.get(ATTR)
-        if att is not None:
-            obj.data.attributes.remove(att)
-        ng = bpy.data.node_groups.get(str(info["node_group"]))
+        if _target(info) == "ATTRIBUTE":
+            att = obj.data.attributes.get(ATTR)
+            if att is not None:
+                obj.data.attributes.remove(att)
+        if ng is None:
+            ng = bpy.data.node_groups.get(str(info["node_group"]))
         if ng is not None and ng.users == 0:
             bpy.data.node_groups.remove(ng)
+        # The helper goes with the last object reading it (a duplicate may still read it).
+        if helper is not None and not _helper_users(helper, exclude=obj):
+            me = helper.data
+            bpy.data.objects.remove(helper)
+            if me.users == 0:
+                bpy.data.meshes.remove(me)
     objects = info.get("modifiers_object", [None] * len(info["modifiers"]))
     for name, vp, rd, ob in zip(info["modifiers"], info["modifiers_viewport"], info["modifiers_render"], objects):
         m = obj.modifiers.get(name)
@@ -445,8 +567,8 @@ def unbind(obj):
 
 
 class DGMESH_OT_skeletal_unbind(bpy.types.Operator):
-    """Remove the skeletal binding: the live modifier and its attribute, the skeleton object and \
-the stored data; the Armature modifiers are restored"""
+    """Remove the skeletal binding: the live modifier and its hidden helper object, the skeleton \
+object and the stored data; the Armature modifiers are restored"""
 
     bl_idname = "dgmesh.skeletal_unbind"
     bl_label = "Skeletal Unbind"
