@@ -1,4 +1,5 @@
 #include "dgmesh/geometry.h"
+#include "dgmesh/parallel.h"
 
 #include <cmath>
 #include <vector>
@@ -55,7 +56,7 @@ void for_each_corner(const MatX3i& F, const Topology& t, int v, Fn&& fn) {
 // Boundary vertices take the mean of their interior neighbours' values.
 void extend_to_boundary(VecXd& x, const Topology& t) {
   const VecXd interior = x;
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (t.n_vertices >= kParallelMin)
   for (int v = 0; v < t.n_vertices; ++v) {
     if (!t.on_boundary[v]) continue;
     double sum = 0.0;
@@ -72,7 +73,7 @@ void extend_to_boundary(VecXd& x, const Topology& t) {
 
 MatX3d face_normals(const MatX3d& V, const MatX3i& F) {
   MatX3d N(F.rows(), 3);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (F.rows() >= kParallelMin)
   for (int f = 0; f < F.rows(); ++f) {
     const Vec3 n = (V.row(F(f, 1)) - V.row(F(f, 0))).cross(V.row(F(f, 2)) - V.row(F(f, 0)));
     const double len = n.norm();
@@ -83,7 +84,7 @@ MatX3d face_normals(const MatX3d& V, const MatX3i& F) {
 
 VecXd face_areas(const MatX3d& V, const MatX3i& F) {
   VecXd A(F.rows());
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (F.rows() >= kParallelMin)
   for (int f = 0; f < F.rows(); ++f)
     A[f] = 0.5 * (V.row(F(f, 1)) - V.row(F(f, 0))).cross(V.row(F(f, 2)) - V.row(F(f, 0))).norm();
   return A;
@@ -91,7 +92,7 @@ VecXd face_areas(const MatX3d& V, const MatX3i& F) {
 
 MatX3d vertex_normals(const MatX3d& V, const MatX3i& F, const Topology& t, NormalWeights w) {
   MatX3d N(t.n_vertices, 3);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (t.n_vertices >= kParallelMin)
   for (int v = 0; v < t.n_vertices; ++v) {
     Vec3 n = Vec3::Zero();
     for_each_corner(F, t, v, [&](int f, int k) {
@@ -120,7 +121,7 @@ MatX3d vertex_normals(const MatX3d& V, const MatX3i& F, const Topology& t, Norma
 
 VecXd mixed_areas(const MatX3d& V, const MatX3i& F, const Topology& t) {
   VecXd A = VecXd::Zero(t.n_vertices);
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (t.n_vertices >= kParallelMin)
   for (int v = 0; v < t.n_vertices; ++v)
     for_each_corner(F, t, v, [&](int f, int k) { A[v] += corner_mixed_area(corner(V, F, f, k)); });
   return A;
@@ -155,7 +156,7 @@ Curvature curvature(const MatX3d& V, const MatX3i& F, const Topology& t) {
   c.area.setZero(n);
   c.laplace.setZero(n, 3);
   // One pass per vertex over its corners: no scatter, so no atomics and no per-thread buffers.
-#pragma omp parallel for schedule(static)
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
   for (int v = 0; v < n; ++v) {
     Vec3 lap = Vec3::Zero(), nmax = Vec3::Zero();
     double area = 0.0, angle_sum = 0.0;

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "dgmesh/errors.h"
+#include "dgmesh/parallel.h"
 
 namespace dgmesh {
 
@@ -124,7 +125,7 @@ Topology build_topology(const VertexCorners& vc, int n_faces) {
   t.on_boundary.assign(n, 0);
   std::vector<VertexReport> reports(n);
   bool any_defect = false;
-#pragma omp parallel for schedule(dynamic, 2048) reduction(|| : any_defect)
+#pragma omp parallel for schedule(dynamic, 2048) reduction(|| : any_defect) if (n >= kParallelMin)
   for (int v = 0; v < n; ++v) {
     Corner* c = fan.data() + vc.offset[v];
     const int d = vc.offset[v + 1] - vc.offset[v];
@@ -175,7 +176,7 @@ Topology build_topology(const VertexCorners& vc, int n_faces) {
   // Pass 2 (parallel): rings, faces in fan order, edges owned by their smaller vertex with their
   // faces. In fan order, edge v-ring[i] has corner i on its left (v -> ring[i]) and corner i-1 on
   // its right. Every slot is written by exactly one vertex: no synchronisation needed.
-#pragma omp parallel for schedule(dynamic, 2048)
+#pragma omp parallel for schedule(dynamic, 2048) if (n >= kParallelMin)
   for (int v = 0; v < n; ++v) {
     const Corner* c = fan.data() + vc.offset[v];
     const int d = vc.offset[v + 1] - vc.offset[v];
@@ -273,7 +274,7 @@ double average_edge_length(const MatX3d& V, const Topology& topo) {
   const int ne = topo.n_edges();
   if (ne == 0) return 0.0;
   double sum = 0.0;
-#pragma omp parallel for reduction(+ : sum)
+#pragma omp parallel for reduction(+ : sum) if (ne >= kParallelMin)
   for (int e = 0; e < ne; ++e) sum += (V.row(topo.edges(e, 0)) - V.row(topo.edges(e, 1))).norm();
   return sum / ne;
 }

@@ -44,9 +44,6 @@ namespace Far = OpenSubdiv::Far;
 namespace Sdc = OpenSubdiv::Sdc;
 
 constexpr int kMaxCvs = 20;
-// Dense loops smaller than this run serially: on a busy 2-core machine an OpenMP barrier (and
-// libgomp's spin-waiting) costs more than a few thousand vertices of work.
-constexpr int kParallelMin = 16384;
 // Patch points padded to 4 doubles per row: 32-byte rows that SSE2/AVX handle as whole packets.
 using MatX4d = Eigen::Matrix<double, Eigen::Dynamic, 4, Eigen::RowMajor>;
 using Vec4 = Eigen::Vector4d;

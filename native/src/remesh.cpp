@@ -30,7 +30,6 @@ constexpr double kFlipCos = 0.94;  // cos 20 degrees
 constexpr double kSmoothMinAngle = kPi / 6;  // 30 degrees: smoothing may not create angles below this
 constexpr double kSmoothFeatureCos = 0.7;    // ~45 degrees between a triangle and its star's normal
 constexpr int kMaxStar = 64;                  // stars with more triangles are not smoothed
-constexpr int kParallelMin = 1 << 14;  // smaller loops stay serial (libgomp spin-waits, fair.cpp)
 constexpr int kBand = 16;              // raster rows per band (one band per task, no write races)
 
 inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }

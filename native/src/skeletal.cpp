@@ -12,6 +12,7 @@
 #include "dgmesh/delaunay.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
+#include "dgmesh/parallel.h"
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
@@ -23,10 +24,6 @@ using Mat3 = Eigen::Matrix3d;
 using MatX9d = Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>;
 
 namespace {
-
-// Loops over the control mesh (a few thousand items, microseconds each) run serially below this
-// size: on a busy 2-core machine an OpenMP barrier costs more than the loop.
-constexpr int kParallelMin = 16384;
 
 // Nearest rotation (polar decomposition) of a 3x3 matrix; the identity for a zero matrix.
 // Scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3 inverses, with the SVD as

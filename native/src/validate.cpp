@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "dgmesh/errors.h"
+#include "dgmesh/parallel.h"
 
 namespace dgmesh {
 
@@ -49,7 +50,7 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
     const double diag = bbox_diagonal(V);
     const double min_area = 1e-12 * diag * diag;
     int repeated = 0, zero = 0, first_r = m, first_z = m;
-#pragma omp parallel for schedule(static) reduction(+ : repeated, zero) reduction(min : first_r, first_z)
+#pragma omp parallel for schedule(static) reduction(+ : repeated, zero) reduction(min : first_r, first_z) if (m >= kParallelMin)
     for (int f = 0; f < m; ++f) {
       const int a = F(f, 0), b = F(f, 1), c = F(f, 2);
       if (a == b || b == c || a == c) {
@@ -75,7 +76,7 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
   if (checks & kNoDuplicateFaces) {
     // A face is owned by its smallest vertex; duplicates share the owner and the other two.
     int dup = 0, first = -1, first_of = -1;
-#pragma omp parallel for schedule(dynamic, 4096) reduction(+ : dup)
+#pragma omp parallel for schedule(dynamic, 4096) reduction(+ : dup) if (n >= kParallelMin)
     for (int v = 0; v < n; ++v) {
       for (int i = vc.offset[v]; i < vc.offset[v + 1]; ++i) {
         const Corner& a = vc.corners[i];
