@@ -404,32 +404,53 @@ int smooth_in_map(const MatX3d& V, const MatX3i& F, const Topology& topo, const 
     Vec2 du = JtJ.inverse() * (J.transpose() * disp);
     if (!du.allFinite()) continue;
     const Vec2 ui = uv_row(P, i);
-    for (int attempt = 0; attempt < 4; ++attempt, du *= 0.5) {
-      const Vec2 un = ui + du;
-      bool ok = true;
-      for (int q = ring_off[i]; ok && q < ring_off[i + 1]; ++q) {
+    // Moves i to `un` in the map if that keeps the star embedded and passes `accept(after)` on the
+    // star's new largest angle cosine; the star's current one is `cur`.
+    double cur = before;
+    auto try_move = [&](const Vec2& un, auto accept) {
+      for (int q = ring_off[i]; q < ring_off[i + 1]; ++q) {
         const int t = ring[q];
         Vec2 p[3];
         for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? un : uv_row(P, T(t, k));
-        ok = orient_sign * cross2(p[1] - p[0], p[2] - p[0]) > 1e-14;
+        if (!(orient_sign * cross2(p[1] - p[0], p[2] - p[0]) > 1e-14)) return false;
       }
-      if (!ok) continue;
       Sample sn;
-      if (!locate_in_map(Ut, F, topo, un, f, sn)) continue;
-      {
-        // "Smart" smoothing (Freitag 1997): no move may push the star's smallest 3D angle down
-        // below kSmoothMinAngle, so smoothing never creates the bad triangles it is meant to remove.
-        const Vec3 xn = sn.w0 * row3(V, F(sn.face, 0)) + sn.w1 * row3(V, F(sn.face, 1)) + sn.w2 * row3(V, F(sn.face, 2));
-        const double after = star_max_cos(i, xn);  // cosines: larger is a smaller angle
-        if (after > before && after > cos_min) continue;
-        if (sharp && !(after < before)) continue;
-      }
+      if (!locate_in_map(Ut, F, topo, un, S[i].face, sn)) return false;
+      const Vec3 xn = sn.w0 * row3(V, F(sn.face, 0)) + sn.w1 * row3(V, F(sn.face, 1)) + sn.w2 * row3(V, F(sn.face, 2));
+      const double after = star_max_cos(i, xn);  // cosines: larger is a smaller angle
+      if (!accept(after)) return false;
       S[i] = sn;
       P.row(i) = un.transpose();
-      X.row(i) = sn.w0 * V.row(F(sn.face, 0)) + sn.w1 * V.row(F(sn.face, 1)) + sn.w2 * V.row(F(sn.face, 2));
+      X.row(i) = xn.transpose();
       rho_out[i] = sn.w0 * rho[F(sn.face, 0)] + sn.w1 * rho[F(sn.face, 1)] + sn.w2 * rho[F(sn.face, 2)];
-      ++moves;
-      break;
+      cur = after;
+      return true;
+    };
+    // "Smart" smoothing (Freitag 1997): no move may push the star's smallest 3D angle down below
+    // kSmoothMinAngle, so smoothing never creates the bad triangles it is meant to remove.
+    auto smart = [&](double after) { return !(after > before && after > cos_min) && !(sharp && !(after < before)); };
+    bool moved = false;
+    for (int attempt = 0; attempt < 4 && !moved; ++attempt, du *= 0.5) moved = try_move(ui + du, smart);
+    if (moved) ++moves;
+    if (cur <= cos_min) continue;
+    // A star still holding an angle below kSmoothMinAngle: a pattern search in the map (8
+    // directions, halving steps from a quarter of the star's mean edge) for the position with the
+    // largest smallest angle; the centroid is not where the worst angle is best.
+    double h = 0;
+    for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
+      for (int k = 0; k < 3; ++k) h += (uv_row(P, T(ring[q], k)) - uv_row(P, i)).norm();
+    h *= 0.25 / (2 * deg);
+    for (int level = 0; level < 4; ++level, h *= 0.5) {
+      bool better = true;
+      for (int walk = 0; better && cur > cos_min && walk < 8; ++walk) {
+        better = false;
+        const Vec2 uc = uv_row(P, i);
+        for (int dir = 0; dir < 8 && !better; ++dir) {
+          const double a = dir * kPi / 4;
+          better = try_move(uc + h * Vec2(std::cos(a), std::sin(a)), [&](double after) { return after < cur - 1e-9; });
+        }
+        if (better) ++moves;
+      }
     }
   }
   }  // colours

@@ -248,6 +248,9 @@ def test_smoothing_on_a_scan_keeps_vertices_on_the_surface_and_improves_angles(c
     assert (s > 0).all() or (s < 0).all()
     A, A0 = angles_deg(r.V, r.F).min(1), angles_deg(base.V, base.F).min(1)
     assert (A < 30).mean() < 0.5 * (A0 < 30).mean()
+    # The pattern search on stars still holding an angle under 30 degrees lifts the worst ones
+    # (measured: 28.1 degrees and 3 triangles under 30 with it, 17.0 and 30 with the centroid alone).
+    assert A.min() > 25 and (A < 30).sum() <= 10
     assert edge_cv(r.V, r.F) < edge_cv(base.V, base.F)
     with pytest.raises(dgmesh.MeshError, match="smooth_iterations"):
         dgmesh.remesh_full(V, F, target_vertices=3000, smooth_iterations=-1)
