@@ -13,7 +13,7 @@ import numpy as np
 
 from .core import MeshError, _native, as_faces, as_vertices
 
-__all__ = ["FairResult", "fair", "regularize", "willmore_energy", "subdivide_region"]
+__all__ = ["FairResult", "fair", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
 METHODS = ("willmore", "bilaplacian", "laplacian_of_h")
 SCHEMES = ("explicit", "semi_implicit")
@@ -78,7 +78,7 @@ def _choice(value, allowed, what):
 
 def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", subdivisions=0,
          tolerance=1e-4, max_iterations=None, tangential=True, scheme="semi_implicit",
-         max_seconds=0.0, step_scale=1.0, linear_start=True, progress=None):
+         max_seconds=0.0, step_scale=1.0, linear_start=True, refine=False, progress=None):
     """Fair a triangle mesh (or a region of it) by a curvature flow.
 
     method: "willmore" (thesis eq. 3.5: speed -Lap(H) - 2H(H^2-K) along the normal, plus the
@@ -104,6 +104,11 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         the fixed rings as boundary data, the bilaplacian flow's steady state) when that lowers
         the Willmore energy, then flow from there. A flat hole fill has a crease along its rim
         that costs little discrete energy on a coarse mesh, and the flow alone stays near it.
+    refine: region mode only: before the flow, refine the region's faces like Liepa's hole
+        filling (split triangles larger than the mesh around the hole at their centroid, Delaunay
+        edge flips inside the region, until the patch's triangles match the border's edge
+        lengths). For a coarse fill (Fill, a fan, a grid with few vertices); the region's border
+        edges are never split, the new vertices move.
     progress: callable(fraction) -> bool/None; returning False cancels (raises Cancelled).
 
     Returns a :class:`FairResult`.
@@ -129,7 +134,7 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         raise MeshError(f"subdivisions must be an integer in [0, 6], got {subdivisions!r}")
     r = _native.fair(V, F, method, scheme, boundary, vm, fm, int(subdivisions), float(tolerance),
                      int(max_iterations), float(max_seconds), bool(tangential), float(step_scale), progress,
-                     bool(linear_start))
+                     bool(linear_start), bool(refine))
     return FairResult(
         vertices=r["vertices"], faces=r["faces"], face_origin=r["face_origin"], energy=r["energy"],
         moved=r["vertex_mask"], iterations=r["iterations"], level_iterations=list(r["level_iterations"]),
@@ -169,3 +174,17 @@ def subdivide_region(V, F, faces):
     if fm is None:
         fm = np.ones(len(F), dtype=bool)
     return _native.subdivide_region(V, F, fm)
+
+
+def refine_region(V, F, faces, density=2 ** 0.5):
+    """Liepa-style refinement of the faces selected by ``faces`` (a hole fill): triangles larger
+    than the mesh around the region are split at their centroid and region-interior edges are
+    flipped to Delaunay until the triangles match the border's edge lengths (``density`` is
+    Liepa's alpha). The region's border edges are never split or flipped and faces outside keep
+    their rows. Returns (V, F, face_origin); new vertices follow the input's."""
+    V = as_vertices(V)
+    F = as_faces(F)
+    fm = _mask(faces, len(F), "faces")
+    if fm is None:
+        fm = np.ones(len(F), dtype=bool)
+    return _native.refine_region(V, F, fm, float(density))

@@ -5,12 +5,18 @@ scanned meshes, speed of the explicit and semi-implicit schemes.
 """
 
 import heapq
+import os
+import pathlib
+import shutil
+import subprocess
+import tempfile
 import time
 
 import numpy as np
 
 import dgmesh
-from bench.common import bbox_diagonal, cgal_mesh, table
+from bench.common import ROOT, bbox_diagonal, cgal_mesh, table
+from dgmesh.fair import refine_region
 
 
 
@@ -201,6 +207,19 @@ def patch_distances(V_orig, F, hole, V_new, F_new, new_region):
     return float(both.mean()), float(both.max())
 
 
+def fan_fill(V, F, hole, inner):
+    """What a user gets from Fill on the hole: the removed faces replaced by a fan over the rim loop
+    (no inner vertex; the removed interior vertices stay, unused). Returns (F2, fill face mask)."""
+    rim = set(np.setdiff1d(np.unique(F[hole]), np.flatnonzero(inner)).tolist())
+    loops = dgmesh.topology(V, F[~hole])["boundary_loops"]
+    loop = next(lp for lp in loops if rim.issuperset(lp))
+    fan = np.array([[loop[0], loop[i + 1], loop[i]] for i in range(1, len(loop) - 1)], dtype=F.dtype)
+    F2 = np.concatenate([F[~hole], fan])
+    region = np.zeros(len(F2), dtype=bool)
+    region[len(F2) - len(fan):] = True
+    return F2, region
+
+
 def find_hole(V, F, fraction, seed):
     """A valid disk-shaped hole of about `fraction` of the area around a random vertex."""
     rng = np.random.default_rng(seed)
@@ -242,6 +261,94 @@ def fair_energy(quick):
     return {"markdown": md, "data": data}
 
 
+# ---------------------------------------------------------------------------------------------
+# CGAL reference on the same holes (bench/tools/cgal_fair_hole.cpp, compiled here on demand)
+# ---------------------------------------------------------------------------------------------
+
+_CGAL_SRC = ROOT / "bench" / "tools" / "cgal_fair_hole.cpp"
+_CGAL_EXE = ROOT / ".cache" / "cgal_fair_hole"
+
+
+def cgal_tool(build=True):
+    """Path of the CGAL reference tool, built with g++ against Debian's libcgal-dev on first use
+    (about 40 s; not when `build` is False); None when g++ or the CGAL headers are missing."""
+    if _CGAL_EXE.exists() and _CGAL_EXE.stat().st_mtime >= _CGAL_SRC.stat().st_mtime:
+        return _CGAL_EXE
+    if not build or not shutil.which("g++") or not pathlib.Path("/usr/include/CGAL/Polygon_mesh_processing/fair.h").exists():
+        return None
+    _CGAL_EXE.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _CGAL_EXE.with_suffix(".tmp")
+    subprocess.run(["g++", "-O2", "-std=c++17", "-DNDEBUG", "-DCGAL_EIGEN3_ENABLED", "-I/usr/include/eigen3",
+                    str(_CGAL_SRC), "-o", str(tmp), "-lgmp", "-lmpfr"], check=True)
+    os.replace(tmp, _CGAL_EXE)
+    return _CGAL_EXE
+
+
+def _write_off(path, V, F):
+    with open(path, "w") as f:
+        f.write(f"OFF\n{len(V)} {len(F)} 0\n")
+        np.savetxt(f, V, fmt="%.17g")
+        np.savetxt(f, np.c_[np.full(len(F), 3), F], fmt="%d")
+
+
+def _read_off(path):
+    with open(path) as f:
+        f.readline()
+        nv, nf, _ = map(int, f.readline().split())
+        data = f.read().split()
+    V = np.array(data[:3 * nv], float).reshape(-1, 3)
+    F = np.array(data[3 * nv:3 * nv + 4 * nf], int).reshape(-1, 4)[:, 1:]
+    return V, F
+
+
+def cgal_restore(V, F, hole, inner, V0, build=True):
+    """CGAL 5.5 on the same hole: (a) triangulate_refine_and_fair_hole on the mesh with the hole
+    cut out (its own Liepa triangulation, refinement and cotangent bi-Laplacian fairing), (b)
+    Polygon_mesh_processing::fair of our flat fill's interior vertices (our connectivity).
+    (c) triangulate_and_refine_hole alone: a fresh refined flat fill whose connectivity owes nothing
+    to the removed original (our fill keeps the scan's connectivity, which carries information about
+    the removed shape into the connectivity-based uniform bi-umbrella).
+    Returns {"refine_and_fair": (V, F, seconds), "fair": (V, seconds), "refined_fill": (V, F,
+    patch face mask, moving vertex mask)}; missing entries when the
+    tool is unavailable or CGAL reports a failure. Seconds include the tool's OFF I/O."""
+    exe = cgal_tool(build)
+    if exe is None:
+        return {}
+    out = {}
+    keep = ~inner
+    newidx = np.full(len(V), -1)
+    newidx[keep] = np.arange(int(keep.sum()))
+    rim = np.setdiff1d(np.unique(F[hole]), np.flatnonzero(inner))
+    with tempfile.TemporaryDirectory() as d:
+        d = pathlib.Path(d)
+        _write_off(d / "hole.off", V[keep], newidx[F[~hole]])
+        t0 = time.perf_counter()
+        p = subprocess.run([str(exe), "trf", str(d / "hole.off"), str(int(newidx[rim[0]])), str(d / "trf.off")],
+                           capture_output=True, text=True)
+        secs = time.perf_counter() - t0
+        if p.returncode == 0:
+            Vt, Ft = _read_off(d / "trf.off")
+            out["refine_and_fair"] = (Vt, Ft, secs)
+        p = subprocess.run([str(exe), "tr", str(d / "hole.off"), str(int(newidx[rim[0]])), str(d / "tr.off")],
+                           capture_output=True, text=True)
+        if p.returncode == 0:
+            Vr, Fr = _read_off(d / "tr.off")
+            region = np.zeros(len(Fr), dtype=bool)
+            region[int((~hole).sum()):] = True  # the tool writes the patch faces last
+            moving = np.zeros(len(Vr), dtype=bool)
+            moving[int(keep.sum()):] = True  # CGAL's new vertices follow the input's
+            out["refined_fill"] = (Vr, Fr, region, moving)
+        _write_off(d / "fill.off", V0, F)
+        np.savetxt(d / "mask.txt", np.flatnonzero(inner), fmt="%d")
+        t0 = time.perf_counter()
+        p = subprocess.run([str(exe), "fair", str(d / "fill.off"), str(d / "mask.txt"), str(d / "fair.off")],
+                           capture_output=True, text=True)
+        secs = time.perf_counter() - t0
+        if p.returncode == 0:
+            out["fair"] = (_read_off(d / "fair.off")[0], secs)
+    return out
+
+
 def _region_energy(V, F, inner):
     """Willmore energy of the region (moving vertices and their first fixed ring)."""
     return float(dgmesh.fair(V, F, mask=inner, max_iterations=0).energy[0])
@@ -274,41 +381,131 @@ def fair_restore(quick):
     for name, frac, seed, (V, F, hole, inner) in cases:
         diag = bbox_diagonal(V)
         V0 = membrane_fill(V, F, hole, inner)
+        nrim = len(np.setdiff1d(np.unique(F[hole]), np.flatnonzero(inner)))
+        head = [name, frac, seed, int(inner.sum()), nrim]
         e_orig = _region_energy(V, F, inner)
-        rows.append([name, frac, seed, int(inner.sum()), "original", 0.0, 0.0, e_orig, "", 0, 0.0])
+        rows.append(head + ["original", 0.0, 0.0, e_orig, "", 0, 0.0])
         d0 = patch_distances(V, F, hole, V0, F, hole)
-        rows.append([name, frac, seed, int(inner.sum()), "flat fill", d0[0] / diag, d0[1] / diag,
-                     _region_energy(V0, F, inner), "", 0, 0.0])
+        rows.append(head + ["flat fill", d0[0] / diag, d0[1] / diag, _region_energy(V0, F, inner), "", 0, 0.0])
+        key = f"{name}/{frac}/{seed}"
         got = {}
         for method in ("willmore", "bilaplacian", "laplacian_of_h"):
             secs, r = _timed(lambda: dgmesh.fair(V0, F, mask=inner, method=method))
             d = patch_distances(V, F, hole, r.vertices, r.faces, hole)
             got[method] = d[0] / diag
-            rows.append([name, frac, seed, int(inner.sum()), method, d[0] / diag, d[1] / diag, float(r.energy[-1]),
-                         "yes" if r.linear_start else "", r.iterations, secs])
-            data[f"{name}/{frac}/{seed}/{method}"] = {"mean": d[0] / diag, "max": d[1] / diag, "E": float(r.energy[-1]),
-                                                      "linear_start": bool(r.linear_start),
-                                                      "iterations": r.iterations, "seconds": secs}
-        data[f"{name}/{frac}/{seed}/original"] = {"E": e_orig}
-        wins.append((name, frac, got["willmore"] < got["bilaplacian"], got["willmore"], got["bilaplacian"]))
+            rows.append(head + [method, d[0] / diag, d[1] / diag, float(r.energy[-1]),
+                                "yes" if r.linear_start else "", r.iterations, secs])
+            data[f"{key}/{method}"] = {"mean": d[0] / diag, "max": d[1] / diag, "E": float(r.energy[-1]),
+                                       "linear_start": bool(r.linear_start),
+                                       "iterations": r.iterations, "seconds": secs}
+        cg = cgal_restore(V, F, hole, inner, V0, build=not quick)
+        if "refine_and_fair" in cg:
+            Vt, Ft, secs = cg["refine_and_fair"]
+            d = patch_distances(V, F, hole, Vt, Ft, np.ones(len(Ft), dtype=bool))
+            got["cgal_trf"] = d[0] / diag
+            rows.append(head + ["CGAL triangulate_refine_and_fair_hole", d[0] / diag, d[1] / diag, "", "", 0, secs])
+            data[f"{key}/cgal_trf"] = {"mean": d[0] / diag, "max": d[1] / diag, "faces": len(Ft), "seconds": secs}
+        if "fair" in cg:
+            Vc, secs = cg["fair"]
+            d = patch_distances(V, F, hole, Vc, F, hole)
+            got["cgal_fair"] = d[0] / diag
+            rows.append(head + ["CGAL fair (our fill)", d[0] / diag, d[1] / diag, _region_energy(Vc, F, inner), "", 0,
+                                secs])
+            data[f"{key}/cgal_fair"] = {"mean": d[0] / diag, "max": d[1] / diag, "seconds": secs}
+        if "refined_fill" in cg and not quick:  # quick mode: keep it under a minute
+            # Same comparison on CGAL's own refined fill (the connectivity CGAL's fairing uses).
+            Vr, Fr, region, moving = cg["refined_fill"]
+            d = patch_distances(V, F, hole, Vr, Fr, region)
+            hr = [name, frac, seed, int(moving.sum()), nrim]
+            rows.append(hr + ["CGAL refined fill", d[0] / diag, d[1] / diag, "", "", 0, 0.0])
+            for method in ("willmore", "bilaplacian") + (() if quick else ("laplacian_of_h",)):
+                secs, r = _timed(lambda: dgmesh.fair(Vr, Fr, mask=moving, method=method))
+                d = patch_distances(V, F, hole, r.vertices, r.faces, region[r.face_origin])
+                got[method + "_rf"] = d[0] / diag
+                rows.append(hr + [method + " (CGAL refined fill)", d[0] / diag, d[1] / diag, float(r.energy[-1]),
+                                  "yes" if r.linear_start else "", r.iterations, secs])
+                data[f"{key}/{method}_rf"] = {"mean": d[0] / diag, "max": d[1] / diag, "E": float(r.energy[-1]),
+                                              "iterations": r.iterations, "seconds": secs}
+        # The Blender workflow: Fill (a fan, no inner vertex), then fair(refine=True): Liepa-style
+        # refinement to the rim's edge lengths, then the flow.
+        F2, fill = fan_fill(V, F, hole, inner)
+        Vr, Fr, origin = refine_region(V, F2, fill)
+        d = patch_distances(V, F, hole, Vr, Fr, fill[origin])
+        hf = [name, frac, seed, len(Vr) - len(V), nrim]
+        rows.append(hf + ["fan fill + refine_region", d[0] / diag, d[1] / diag, "", "", 0, 0.0])
+        for method in ("willmore", "bilaplacian"):
+            secs, r = _timed(lambda: dgmesh.fair(V, F2, faces=fill, refine=True, method=method))
+            d = patch_distances(V, F, hole, r.vertices, r.faces, fill[r.face_origin])
+            got[method + "_fan"] = d[0] / diag
+            rows.append(hf + [method + " (fan fill, refine=True)", d[0] / diag, d[1] / diag, float(r.energy[-1]),
+                              "yes" if r.linear_start else "", r.iterations, secs])
+            data[f"{key}/{method}_fan"] = {"mean": d[0] / diag, "max": d[1] / diag, "E": float(r.energy[-1]),
+                                           "iterations": r.iterations, "seconds": secs}
+        data[f"{key}/original"] = {"E": e_orig, "rim_vertices": nrim}
+        wins.append((name, frac, got))
     scans = [w for w in wins if not w[0].startswith("icosphere")]
     ten = [w for w in scans if w[1] >= 0.1]
-    summary = (f"Willmore closer than bilaplacian on {sum(w[2] for w in wins)} of {len(wins)} holes "
-               f"({sum(w[2] for w in scans)} of {len(scans)} scanned). ")
-    if ten:
-        summary += (f"Mean over the 10% scanned holes: Willmore {np.mean([w[3] for w in ten]):.4g}, "
-                    f"bilaplacian {np.mean([w[4] for w in ten]):.4g} (CGAL's reference: ~0.009).")
-    data["summary"] = {"willmore_wins": int(sum(w[2] for w in wins)), "holes": len(wins)}
+
+    def beats(group, other, ours="willmore"):
+        pairs = [w[2] for w in group if other in w[2] and ours in w[2]]
+        return sum(g[ours] < g[other] for g in pairs), len(pairs)
+
+    lines = ["On our fill (the removed faces' connectivity):"]
+    for ours, other, label in (("willmore", "bilaplacian", "the bilaplacian flow"),
+                               ("willmore", "cgal_trf", "CGAL triangulate_refine_and_fair_hole"),
+                               ("willmore", "cgal_fair", "CGAL fair on our fill"),
+                               ("bilaplacian", "cgal_trf", "CGAL triangulate_refine_and_fair_hole (bilaplacian)"),
+                               ("willmore_rf", "bilaplacian_rf", "the bilaplacian flow, both on CGAL's refined fill"),
+                               ("willmore_rf", "cgal_trf", "CGAL triangulate_refine_and_fair_hole (same fill)"),
+                               ("willmore_fan", "bilaplacian_fan", "the bilaplacian flow, both on a fan fill refined "
+                                                                    "by fair(refine=True)"),
+                               ("willmore_fan", "cgal_trf", "CGAL triangulate_refine_and_fair_hole (fan + refine)")):
+        k_all, n_all = beats(wins, other, ours)
+        k_sc, n_sc = beats(scans, other, ours)
+        if ours.endswith("_rf") and "On CGAL's refined fill (triangulate_and_refine_hole):" not in lines:
+            lines.append("On CGAL's refined fill (triangulate_and_refine_hole):")
+        if ours.endswith("_fan") and "On a fan fill refined by fair(refine=True):" not in lines:
+            lines.append("On a fan fill refined by fair(refine=True):")
+        who = "Bilaplacian" if ours == "bilaplacian" else "Willmore"
+        if n_all:
+            lines.append(f"{who} closer than {label} on {k_all} of {n_all} holes ({k_sc} of {n_sc} scanned).")
+            data.setdefault("summary", {})[f"{ours}_vs_{other}"] = [k_all, n_all, k_sc, n_sc]
+    lines.append("Means:")
+    for group, label in ((scans, "scanned holes"), (ten, "10% scanned holes")):
+        if not group:
+            continue
+        means = []
+        for m, lab in (("willmore", "Willmore"), ("bilaplacian", "bilaplacian"), ("laplacian_of_h", "Laplacian of H"),
+                       ("cgal_trf", "CGAL refine+fair"), ("cgal_fair", "CGAL fair (our fill)"),
+                       ("willmore_rf", "Willmore (CGAL refined fill)"),
+                       ("bilaplacian_rf", "bilaplacian (CGAL refined fill)"),
+                       ("willmore_fan", "Willmore (fan + refine)"), ("bilaplacian_fan", "bilaplacian (fan + refine)")):
+            vals = [w[2][m] for w in group if m in w[2]]
+            if len(vals) == len(group):
+                means.append(f"{lab} {np.mean(vals):.4g}")
+                data.setdefault("summary", {})[f"mean/{label}/{m}"] = float(np.mean(vals))
+        lines.append(f"Mean distance over the {len(group)} {label}: " + ", ".join(means) + ".")
+    if cgal_tool(build=False) is None:
+        lines.append("CGAL rows missing: g++ or libcgal-dev not installed (or, in quick mode, the tool not built yet).")
+    summary = "\n".join(f"- {ln}" if not ln.endswith(":") else ln for ln in lines)
     md = ("Remove a geodesic disk of the given area fraction around a vertex (random for the scans), fill it "
           "flat (same connectivity, interior at the membrane solution spanning the rim), restore with "
           "`dgmesh.fair(mask=interior, method=...)` (semi-implicit, tolerance 1e-4; Willmore and Laplacian-of-H "
           "start from the linearised minimiser U0^2 P = 0 when it lowers the energy, column 'linear start'). "
+          "Reference, measured on the same holes with CGAL 5.5 (bench/tools/cgal_fair_hole.cpp, built on demand): "
+          "`triangulate_refine_and_fair_hole` on the mesh with the hole cut out (its own triangulation and "
+          "refinement, default cotangent bi-Laplacian fairing) and `Polygon_mesh_processing::fair` of our flat "
+          "fill's interior (our connectivity); their times include the tool's start and OFF file I/O. "
           "Distances: symmetric, restored patch <-> removed original surface, over the bbox diagonal. "
           "E: discrete Willmore energy (sum H^2 A) of the moving vertices and their first fixed ring. "
-          "CGAL's triangulate_refine_and_fair_hole reference (issue): ~0.009 mean on 10% holes.\n\n"
+          "Fan rows: the Blender workflow, Fill (a fan over the rim, no inner vertex) then "
+          "`dgmesh.fair(faces=fill, refine=True)` (Liepa-style refinement to the rim's edge lengths, then the flow); "
+          "'moving vertices' is then the refinement's new vertices. "
+          "'rim' is the number of vertices on the hole's border: a hole whose rim is short for its area "
+          "swallowed a protrusion (a leg, an ear) that no fairing of the rim can restore.\n\n"
           + summary + "\n\n"
-          + table(["mesh", "area", "seed", "moving vertices", "method", "mean dist", "max dist", "E", "linear start",
-                   "iterations", "s"], rows)
+          + table(["mesh", "area", "seed", "moving vertices", "rim", "method", "mean dist", "max dist", "E",
+                   "linear start", "iterations", "s"], rows)
           + "\n\nReproduce: `/usr/bin/python3 bench/run.py fair_restore`")
     return {"markdown": md, "data": data}
 

@@ -45,9 +45,10 @@ void bind_fair(pb::module_& m) {
       "fair",
       [](InV Vin, InF Fin, const std::string& method, const std::string& scheme, const std::string& boundary,
          Mask mask, Mask face_mask, int subdivisions, double tolerance, int max_iterations, double max_seconds,
-         bool tangential, double step_scale, const pb::object& progress, bool linear_start) {
+         bool tangential, double step_scale, const pb::object& progress, bool linear_start, bool refine) {
         FairOptions o;
         o.linear_start = linear_start;
+        o.refine = refine;
         o.method = method_from(method);
         o.scheme = scheme_from(scheme);
         o.boundary = boundary_from(boundary);
@@ -83,7 +84,7 @@ void bind_fair(pb::module_& m) {
       pb::arg("V"), pb::arg("F"), pb::arg("method"), pb::arg("scheme"), pb::arg("boundary"), pb::arg("mask"),
       pb::arg("face_mask"), pb::arg("subdivisions"), pb::arg("tolerance"), pb::arg("max_iterations"),
       pb::arg("max_seconds"), pb::arg("tangential"), pb::arg("step_scale"), pb::arg("progress"),
-      pb::arg("linear_start") = true);
+      pb::arg("linear_start") = true, pb::arg("refine") = false);
 
   m.def(
       "regularize",
@@ -127,6 +128,20 @@ void bind_fair(pb::module_& m) {
         return pb::make_tuple(std::move(r.V), std::move(r.F), std::move(r.face_origin));
       },
       pb::arg("V"), pb::arg("F"), pb::arg("face_mask"));
+
+  m.def(
+      "refine_region",
+      [](InV V, InF F, Mask face_mask, double density) {
+        std::vector<char> fm = to_mask(face_mask);
+        RegionSubdivision r;
+        {
+          pb::gil_scoped_release nogil;
+          validate(V, F, kNonEmpty | kIndices | kFinite);
+          r = refine_region(V, F, fm, density);
+        }
+        return pb::make_tuple(std::move(r.V), std::move(r.F), std::move(r.face_origin));
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("face_mask"), pb::arg("density"));
 }
 
 }  // namespace dgmesh::py

@@ -28,6 +28,7 @@
 #include <limits>
 #include <numeric>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
@@ -982,6 +983,205 @@ RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::
   return out;
 }
 
+RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask, double density) {
+  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  if (face_mask.size() != static_cast<size_t>(m)) throw MeshError("refine_region: face mask size differs from the face count");
+  if (!(density > 0)) throw MeshError("refine_region: density must be > 0");
+  // Edges touched by a face outside the region are fixed (never flipped).
+  std::unordered_map<long long, char> fixed_edge;
+  std::vector<double> sig_sum(n, 0.0);
+  std::vector<int> sig_cnt(n, 0);
+  std::vector<char> in_region(n, 0);
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      if (face_mask[f]) {
+        in_region[a] = 1;
+        continue;
+      }
+      fixed_edge[edge_key(a, b)] = 1;
+    }
+  // sigma of a region vertex: mean length of its edges in faces outside the region (each edge
+  // once per such face).
+  for (int f = 0; f < m; ++f) {
+    if (face_mask[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      if (!in_region[a] && !in_region[b]) continue;
+      const double len = (V.row(a) - V.row(b)).norm();
+      sig_sum[a] += len, sig_cnt[a]++;
+      sig_sum[b] += len, sig_cnt[b]++;
+    }
+  }
+  std::vector<Vec3> P(n);
+  for (int v = 0; v < n; ++v) P[v] = V.row(v).transpose();
+  std::vector<double> sig(n, 0.0);
+  double rim_sum = 0, region_len = 0;
+  int rim_cnt = 0, region_cnt = 0;
+  for (int v = 0; v < n; ++v)
+    if (in_region[v] && sig_cnt[v]) sig[v] = sig_sum[v] / sig_cnt[v], rim_sum += sig[v], ++rim_cnt;
+  for (int f = 0; f < m; ++f)
+    if (face_mask[f])
+      for (int k = 0; k < 3; ++k) region_len += (V.row(F(f, k)) - V.row(F(f, (k + 1) % 3))).norm(), ++region_cnt;
+  const double sig_inner = rim_cnt ? rim_sum / rim_cnt : (region_cnt ? region_len / region_cnt : 1.0);
+  for (int v = 0; v < n; ++v)
+    if (in_region[v] && !sig_cnt[v]) sig[v] = sig_inner;
+
+  std::vector<Eigen::Vector3i> T(m);
+  std::vector<int> origin(m);
+  std::vector<char> reg(m);
+  for (int f = 0; f < m; ++f) T[f] = F.row(f).transpose(), origin[f] = f, reg[f] = face_mask[f] != 0;
+
+  // Delaunay relaxation of the region-interior edges: flip a-b (faces a,b,c and b,a,d) to c-d
+  // when the angles at c and d sum over pi, unless c-d exists or the flip folds the surface.
+  auto angle_at = [&](int c, int a, int b) {
+    const Vec3 u = P[a] - P[c], w = P[b] - P[c];
+    return std::atan2(u.cross(w).norm(), u.dot(w));
+  };
+  std::unordered_map<long long, std::pair<int, int>> emap;  // edge -> region faces (second -1 if one)
+  std::vector<char> touched;
+  auto relax = [&]() {
+    for (int pass = 0; pass < 100; ++pass) {
+      emap.clear();
+      const int mt = static_cast<int>(T.size());
+      for (int t = 0; t < mt; ++t) {
+        if (!reg[t]) continue;
+        for (int k = 0; k < 3; ++k) {
+          auto [it, fresh] = emap.try_emplace(edge_key(T[t][k], T[t][(k + 1) % 3]), t, -1);
+          if (!fresh) it->second.second = t;
+        }
+      }
+      touched.assign(mt, 0);
+      int flips = 0;
+      for (const auto& [key, ff] : emap) {
+        const int t1 = ff.first, t2 = ff.second;
+        if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
+        // Orient: t1 = (a, b, c), t2 holds b -> a with third vertex d.
+        int k1 = 0;
+        while (edge_key(T[t1][k1], T[t1][(k1 + 1) % 3]) != key) ++k1;
+        const int a = T[t1][k1], b = T[t1][(k1 + 1) % 3], c = T[t1][(k1 + 2) % 3];
+        int d = -1;
+        for (int k = 0; k < 3; ++k)
+          if (T[t2][k] != a && T[t2][k] != b) d = T[t2][k];
+        if (d < 0 || c == d) continue;
+        if (angle_at(c, a, b) + angle_at(d, a, b) <= M_PI + 1e-9) continue;
+        const long long nk = edge_key(c, d);
+        if (emap.count(nk) || fixed_edge.count(nk)) continue;
+        const Vec3 n_old = (P[b] - P[a]).cross(P[c] - P[a]) + (P[a] - P[b]).cross(P[d] - P[b]);
+        const Vec3 n1 = (P[d] - P[a]).cross(P[c] - P[a]), n2 = (P[b] - P[d]).cross(P[c] - P[d]);
+        if (n1.dot(n_old) <= 0 || n2.dot(n_old) <= 0) continue;
+        T[t1] = Eigen::Vector3i(a, d, c);
+        T[t2] = Eigen::Vector3i(d, b, c);
+        touched[t1] = touched[t2] = 1;
+        emap[nk] = {t1, t2};  // blocks a second c-d within this pass
+        ++flips;
+      }
+      if (!flips) break;
+    }
+  };
+
+  // Delaunay flips leave centroid vertices of valence 3-4 whose uniform bi-umbrella start (the
+  // flow's linear start) is badly shaped; flip region-interior edges that bring the four
+  // vertices' valences closer to 6 (as isotropic remeshers do) when no triangle gets an angle
+  // below the smaller of 15 degrees and the pair's current minimum.
+  auto min_angle = [&](int a, int b, int c) {
+    return std::min({angle_at(a, b, c), angle_at(b, c, a), angle_at(c, a, b)});
+  };
+  std::vector<int> valence;
+  std::unordered_set<long long> edge_set;
+  auto valence_flips = [&]() {
+    for (int pass = 0; pass < 20; ++pass) {
+      emap.clear();
+      const int mt = static_cast<int>(T.size());
+      valence.assign(P.size(), 0);
+      edge_set.clear();
+      for (int t = 0; t < mt; ++t)
+        for (int k = 0; k < 3; ++k) {
+          const int a = T[t][k], b = T[t][(k + 1) % 3];
+          if (edge_set.insert(edge_key(a, b)).second) valence[a]++, valence[b]++;
+          if (reg[t]) {
+            auto [it, fresh] = emap.try_emplace(edge_key(a, b), t, -1);
+            if (!fresh) it->second.second = t;
+          }
+        }
+      touched.assign(mt, 0);
+      int flips = 0;
+      for (const auto& [key, ff] : emap) {
+        const int t1 = ff.first, t2 = ff.second;
+        if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
+        int k1 = 0;
+        while (edge_key(T[t1][k1], T[t1][(k1 + 1) % 3]) != key) ++k1;
+        const int a = T[t1][k1], b = T[t1][(k1 + 1) % 3], c = T[t1][(k1 + 2) % 3];
+        int d = -1;
+        for (int k = 0; k < 3; ++k)
+          if (T[t2][k] != a && T[t2][k] != b) d = T[t2][k];
+        if (d < 0 || c == d) continue;
+        auto dev = [](int x) { return (x - 6) * (x - 6); };
+        const int before = dev(valence[a]) + dev(valence[b]) + dev(valence[c]) + dev(valence[d]);
+        const int after = dev(valence[a] - 1) + dev(valence[b] - 1) + dev(valence[c] + 1) + dev(valence[d] + 1);
+        if (after >= before || valence[a] <= 3 || valence[b] <= 3) continue;
+        const long long nk = edge_key(c, d);
+        if (emap.count(nk) || fixed_edge.count(nk)) continue;
+        const Vec3 n_old = (P[b] - P[a]).cross(P[c] - P[a]) + (P[a] - P[b]).cross(P[d] - P[b]);
+        const Vec3 n1 = (P[d] - P[a]).cross(P[c] - P[a]), n2 = (P[b] - P[d]).cross(P[c] - P[d]);
+        if (n1.dot(n_old) <= 0 || n2.dot(n_old) <= 0) continue;
+        const double floor = std::min(15.0 * M_PI / 180.0, std::min(min_angle(a, b, c), min_angle(b, a, d)));
+        if (std::min(min_angle(a, d, c), min_angle(d, b, c)) < floor) continue;
+        T[t1] = Eigen::Vector3i(a, d, c);
+        T[t2] = Eigen::Vector3i(d, b, c);
+        touched[t1] = touched[t2] = 1;
+        valence[a]--, valence[b]--, valence[c]++, valence[d]++;
+        emap[nk] = {t1, t2};
+        ++flips;
+      }
+      if (!flips) break;
+    }
+  };
+
+  constexpr size_t kMaxVertices = size_t{1} << 26;
+  for (int round = 0; round < 60; ++round) {
+    int splits = 0;
+    const int mt = static_cast<int>(T.size());
+    for (int t = 0; t < mt; ++t) {
+      if (!reg[t]) continue;
+      const int a = T[t][0], b = T[t][1], c = T[t][2];
+      const Vec3 pc = (P[a] + P[b] + P[c]) / 3.0;
+      const double sc = (sig[a] + sig[b] + sig[c]) / 3.0;
+      bool split = true;
+      for (int v : {a, b, c}) {
+        const double d = density * (pc - P[v]).norm();
+        split = split && d > sc && d > sig[v];
+      }
+      if (!split) continue;
+      if (P.size() >= kMaxVertices) throw MeshError("refine_region: refinement would exceed 67M vertices");
+      const int x = static_cast<int>(P.size());
+      P.push_back(pc);
+      sig.push_back(sc);
+      T[t] = Eigen::Vector3i(a, b, x);
+      T.emplace_back(b, c, x), origin.push_back(origin[t]), reg.push_back(1);
+      T.emplace_back(c, a, x), origin.push_back(origin[t]), reg.push_back(1);
+      ++splits;
+    }
+    if (!splits) break;
+    relax();
+  }
+  valence_flips();
+
+  RegionSubdivision out;
+  const int nv = static_cast<int>(P.size()), mt = static_cast<int>(T.size());
+  out.V.resize(nv, 3);
+  for (int v = 0; v < nv; ++v) out.V.row(v) = P[v].transpose();
+  out.F.resize(mt, 3);
+  out.face_origin.resize(mt);
+  out.face_mask.assign(mt, 0);
+  for (int t = 0; t < mt; ++t) {
+    out.F.row(t) = T[t].transpose();
+    out.face_origin[t] = origin[t];
+    out.face_mask[t] = reg[t];
+  }
+  return out;
+}
+
 double willmore_energy(const MatX3d& V, const MatX3i& F) {
   Work w;
   w.P = V;
@@ -1011,7 +1211,8 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
       region_full[f] = movable_full[F(f, 0)] || movable_full[F(f, 1)] || movable_full[F(f, 2)];
   }
   if (!whole && std::none_of(movable_full.begin(), movable_full.end(), [](char c) { return c; }) &&
-      (opt.subdivisions == 0 || std::none_of(region_full.begin(), region_full.end(), [](char c) { return c; })))
+      ((opt.subdivisions == 0 && !opt.refine) ||
+       std::none_of(region_full.begin(), region_full.end(), [](char c) { return c; })))
     throw MeshError("nothing to fair: the mask selects no vertex (and no face to subdivide)");
 
   Submesh sub = extract(V, F, movable_full, region_full, whole);
@@ -1031,6 +1232,16 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
   VecXi origin = VecXi::LinSpaced(ms0, 0, ms0 - 1);  // working face -> level-0 working face
   Driver driver(opt, progress, clock, res.energy);
   bool first_energy = true;
+  if (opt.refine && !whole) {
+    // Liepa refinement of the region before the flow; its new vertices move.
+    RegionSubdivision rs = refine_region(w.P, w.F, w.region);
+    w.P = std::move(rs.V);
+    w.F = std::move(rs.F);
+    origin = rs.face_origin;
+    w.region = std::move(rs.face_mask);
+    w.topo = validated_topology(w, whole);
+    w.movable.resize(w.topo.n_vertices, 1);
+  }
   for (int level = 0; level <= opt.subdivisions; ++level) {
     if (level > 0) {
       RegionSubdivision rs = subdivide_region(w.P, w.F, w.region);

@@ -102,6 +102,55 @@ def test_hole_workflow_with_subdivision_keeps_other_uvs_and_undoes():
     assert mesh_snapshot(bpy.data.objects["Ball"].data) == snap
 
 
+def test_hole_workflow_with_refine_fill():
+    """Delete -> Fill (one n-gon) -> Fair with Refine Fill: the n-gon becomes rim-sized triangles
+    faired to the sphere; other faces keep their UVs; undo restores the mesh."""
+    obj = _fresh_sphere()
+    _cut_and_fill(obj)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    uv_before = _uv_by_polygon(mesh)
+    ngon_key = tuple(sorted(next(p for p in mesh.polygons if p.select).vertices))
+    V_before = _positions(mesh)
+    # Target size: the mesh's edges at the rim (Liepa's sigma).
+    E0 = np.array([e.vertices[:] for e in mesh.edges])
+    E0 = E0[np.isin(E0, ngon_key).any(axis=1)]
+    sigma = np.linalg.norm(V_before[E0[:, 0]] - V_before[E0[:, 1]], axis=1).mean()
+    n_before = len(mesh.vertices)
+    snap = mesh_snapshot(mesh)
+
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.ed.undo_push(message="before fair")
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, refine=True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    V = _positions(mesh)
+    assert len(V) > n_before + 20
+    assert np.array_equal(V[:n_before], V_before)
+    new = V[n_before:]
+    dev = np.abs(np.linalg.norm(new, axis=1) - R)
+    assert dev.max() < 0.02, dev.max()
+    assert new[:, 2].max() > 0.95 * R
+    # Patch edges about as long as the mesh's at the rim (the n-gon spans the whole hole).
+    E = np.array([e.vertices[:] for e in mesh.edges])
+    patch = (E >= n_before).any(axis=1)
+    lengths = np.linalg.norm(V[E[patch, 0]] - V[E[patch, 1]], axis=1)
+    assert lengths.mean() < 1.5 * sigma and lengths.max() < 3 * sigma, (sigma, lengths.mean(), lengths.max())
+    uv_after = _uv_by_polygon(mesh)
+    for key, val in uv_before.items():
+        if key != ngon_key:
+            assert uv_after[key] == val
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    assert all(e.is_manifold for e in bm.edges)
+    bm.free()
+
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert mesh_snapshot(bpy.data.objects["Ball"].data) == snap
+
+
 def test_grid_fill_hole_without_subdivision_moves_only_inner_vertices():
     obj = _fresh_sphere(segments=32, rings=16)
     bpy.ops.object.mode_set(mode='EDIT')
@@ -172,7 +221,7 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
         bl_label = "Fair"
         method, scheme, boundary = 'WILLMORE', 'EXPLICIT', 'FIXED'
         subdivisions, tolerance, max_iterations, tangential, keep_border = 0, 0.0, 100000, True, True
-        linear_start = True
+        linear_start, refine = True, False
         _collect = ops_fair._FairBase._collect
         prepare = ops_fair._FairBase.prepare
         _run = ops_fair.DGMESH_OT_fair._run

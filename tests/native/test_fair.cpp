@@ -286,3 +286,65 @@ TEST(Fair, CancelChangesNothing) {
   int calls = 0;
   EXPECT_THROW(fair(s.V, s.F, o, [&](double) { return ++calls < 2; }), CancelledError);
 }
+
+// A hole filled the way Blender's Fill does (a fan over the rim, no inner vertex), refined
+// Liepa-style: the patch gets triangles sized like the rim's edges, the rest stays as it was.
+TEST(Fair, RefineRegionSizesAFanFillLikeTheRim) {
+  const TriMesh s = icosphere(4);
+  std::vector<Eigen::Vector3i> kept;
+  for (int f = 0; f < s.F.rows(); ++f) {
+    bool cap = true;
+    for (int k = 0; k < 3; ++k) cap &= s.V(s.F(f, k), 2) > 0.7;
+    if (!cap) kept.emplace_back(s.F.row(f).transpose());
+  }
+  MatX3i Fk(kept.size(), 3);
+  for (size_t i = 0; i < kept.size(); ++i) Fk.row(i) = kept[i].transpose();
+  const Topology t = build_topology(Fk, static_cast<int>(s.V.rows()));
+  ASSERT_EQ(t.boundary_loops.size(), 1u);
+  const std::vector<int>& loop = t.boundary_loops[0];
+  const int nl = static_cast<int>(loop.size()), mk = static_cast<int>(Fk.rows());
+  MatX3i F2(mk + nl - 2, 3);
+  F2.topRows(mk) = Fk;
+  for (int i = 1; i < nl - 1; ++i) F2.row(mk + i - 1) << loop[0], loop[i + 1], loop[i];
+  std::vector<char> region(F2.rows(), 0);
+  std::fill(region.begin() + mk, region.end(), 1);
+  double rim = 0;
+  for (int i = 0; i < nl; ++i) rim += (s.V.row(loop[i]) - s.V.row(loop[(i + 1) % nl])).norm();
+  rim /= nl;
+
+  const RegionSubdivision r = refine_region(s.V, F2, region);
+  EXPECT_GT(r.V.rows(), s.V.rows() + 100);
+  EXPECT_TRUE(r.V.topRows(s.V.rows()) == s.V);                 // old vertices untouched
+  EXPECT_TRUE(r.F.topRows(mk) == Fk);                           // faces outside keep their rows
+  for (int f = 0; f < r.F.rows(); ++f) EXPECT_EQ(r.face_mask[f] != 0, region[r.face_origin[f]] != 0);
+  // Closed, manifold, consistently oriented (the fill closed the sphere again).
+  const Topology tr = build_topology(r.F, static_cast<int>(r.V.rows()));
+  EXPECT_TRUE(tr.boundary_loops.empty());
+  EXPECT_NO_THROW(validate(r.V, r.F, kSurface));
+  // Patch edges sized like the rim (Liepa's density sqrt 2); the fan's were up to ~ the hole's diameter.
+  double sum = 0, longest = 0;
+  int cnt = 0;
+  for (int f = 0; f < r.F.rows(); ++f) {
+    if (!r.face_mask[f]) continue;
+    for (int k = 0; k < 3; ++k) {
+      const double len = (r.V.row(r.F(f, k)) - r.V.row(r.F(f, (k + 1) % 3))).norm();
+      sum += len, longest = std::max(longest, len), ++cnt;
+    }
+  }
+  EXPECT_NEAR(sum / cnt / rim, 1.0, 0.3);
+  EXPECT_LT(longest, 2.5 * rim);
+
+  // fair(refine): the refined patch restores the sphere (the new vertices move, the rest stays).
+  FairOptions o;
+  o.face_mask = region;
+  o.vertex_mask.assign(s.V.rows(), 0);
+  o.refine = true;
+  o.scheme = FairScheme::SemiImplicit;
+  o.max_iterations = 200;
+  const FairResult fr = fair(s.V, F2, o);
+  EXPECT_GT(fr.V.rows(), s.V.rows() + 100);
+  EXPECT_TRUE(fr.V.topRows(s.V.rows()) == s.V);
+  double dev = 0;
+  for (int v = static_cast<int>(s.V.rows()); v < fr.V.rows(); ++v) dev = std::max(dev, std::abs(fr.V.row(v).norm() - 1));
+  EXPECT_LT(dev, 0.01);  // the flat fan is 0.27 off the sphere
+}

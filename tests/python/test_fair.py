@@ -78,6 +78,63 @@ def test_fill_without_interior_vertices_needs_subdivision():
     dgmesh.validate(r.vertices, r.faces)
 
 
+def _fan_filled_cap(z0=0.7):
+    """Unit icosphere(4) with the cap above z0 removed and its rim filled by a fan (Blender's Fill:
+    no inner vertex). Returns (V, F, fill face mask, rim loop)."""
+    V, F = shapes.icosphere(4)
+    cap = (V[F][:, :, 2] > z0).all(axis=1)
+    loop = dgmesh.topology(V, F[~cap])["boundary_loops"][0]
+    fan = np.array([[loop[0], loop[i + 1], loop[i]] for i in range(1, len(loop) - 1)], dtype=np.int32)
+    F2 = np.concatenate([F[~cap], fan])
+    region = np.zeros(len(F2), dtype=bool)
+    region[len(F2) - len(fan):] = True
+    return V, F2, region, np.asarray(loop)
+
+
+def _edge_lengths(V, F):
+    E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    return np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+
+
+def test_refine_region_sizes_a_coarse_fill_like_the_rim():
+    from dgmesh.fair import refine_region
+
+    V, F, region, loop = _fan_filled_cap()
+    rim = np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1).mean()
+    assert _edge_lengths(V, F[region]).max() > 5 * rim  # the fan's long edges
+    Vr, Fr, origin = refine_region(V, F, region)
+    reg = region[origin]
+    assert len(Vr) > len(V) + 100
+    assert np.array_equal(Vr[:len(V)], V)
+    assert np.array_equal(Fr[:len(F)][~region], F[~region])  # outside: same rows
+    lengths = _edge_lengths(Vr, Fr[reg])
+    assert lengths.mean() == pytest.approx(rim, rel=0.3)
+    assert lengths.max() < 2.5 * rim
+    assert dgmesh.topology(Vr, Fr)["boundary_loops"] == []  # closed again, manifold
+    with pytest.raises(dgmesh.MeshError, match="faces must be"):
+        refine_region(V, F, region[:-1])
+    with pytest.raises(dgmesh.MeshError, match="density"):
+        refine_region(V, F, region, density=0)
+
+
+def test_fair_refine_restores_a_fan_filled_hole():
+    """Delete -> Fill -> Fair(refine): the fan is refined to rim-sized triangles and faired back to
+    the sphere; the rest of the mesh is untouched."""
+    V, F, region, _ = _fan_filled_cap()
+    r = dgmesh.fair(V, F, faces=region, refine=True)
+    assert r.subdivided
+    new = np.arange(len(V), len(r.vertices))
+    assert len(new) > 100 and r.moved[new].all() and not r.moved[:len(V)].any()
+    assert np.array_equal(r.vertices[:len(V)], V)
+    assert np.array_equal(r.faces[:len(F)][~region], F[~region])
+    dev = np.abs(np.linalg.norm(r.vertices[new], axis=1) - 1)
+    assert dev.max() < 0.01  # the flat fan is ~0.27 off
+    rb = dgmesh.fair(V, F, faces=region, refine=True, method="bilaplacian")
+    devb = np.abs(np.linalg.norm(rb.vertices[new], axis=1) - 1)
+    assert dev.max() < 0.2 * devb.max()
+    dgmesh.validate(r.vertices, r.faces)
+
+
 @pytest.mark.parametrize("method", ["willmore", "bilaplacian", "laplacian_of_h"])
 @pytest.mark.parametrize("scheme", ["explicit", "semi_implicit"])
 def test_methods_and_schemes_lower_the_energy(method, scheme):

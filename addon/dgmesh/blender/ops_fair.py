@@ -4,8 +4,9 @@ Fair: Object mode fairs whole objects (mesh-boundary vertices fixed or sliding).
 the selection: the selected faces are the region (they are refined by Subdivisions), the
 selected vertices inside it move, and everything else -- including the border of the selection --
 stays, so a patch blends smoothly (position and tangent) into the rest. The hole workflow:
-delete faces, fill the hole (F / Grid Fill), keep the new face(s) selected, Fair with
-Subdivisions >= 1 when the fill has no inner vertices.
+delete faces, fill the hole (F / Grid Fill), keep the new face(s) selected, Fair with Refine Fill
+(Liepa-style refinement to the mesh's edge lengths around the hole) or Subdivisions >= 1 when the
+fill has no inner vertices.
 
 Without subdivision only vertex positions change. With subdivision the selected polygons are
 replaced by triangles through bmesh; every other face keeps its data (UVs, colours, attributes),
@@ -160,6 +161,12 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         description="With fixed vertices, Willmore and Laplacian of H first jump to the bilaplacian "
         "solution (when that lowers the bending energy) and flow from there; a flat fill alone "
         "can keep a crease along the hole's rim")
+    refine: BoolProperty(
+        name="Refine Fill", default=False,
+        description="Edit mode: first refine the selected faces to triangles sized like the mesh "
+        "around them (Liepa's hole-filling refinement: centroid splits and Delaunay flips). For a "
+        "hole filled with Fill (one n-gon or a fan) or a coarse Grid Fill; the selection's border "
+        "edges are not split")
 
     def draw(self, context):
         col = self.layout.column()
@@ -168,13 +175,14 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             col.prop(self, p)
         if context.mode == 'EDIT_MESH':
             col.prop(self, "keep_border")
+            col.prop(self, "refine")
 
     def _run(self, t, progress):
         return api().fair(
             t.arrays.V, t.arrays.F, method=self.method.lower(), mask=t.mask, faces=t.faces,
             boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
-            linear_start=self.linear_start, progress=progress)
+            linear_start=self.linear_start, refine=self.refine and t.faces is not None, progress=progress)
 
     def finish(self, context, targets):
         written, failures = [], []
@@ -257,6 +265,7 @@ def _write_subdivided(t, select):
     # replaced whole, so the rows of the polygons' other triangles come along.
     refined = np.zeros(m, dtype=bool)
     refined[origin[m:]] = True
+    refined |= np.any(F[:m] != t.arrays.F, axis=1)  # rows rewritten by Refine Fill's edge flips
     polys = np.unique(tri_poly[refined])
     poly_of_row = tri_poly[origin]
     rows = np.flatnonzero(np.isin(poly_of_row, polys))

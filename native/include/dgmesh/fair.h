@@ -55,6 +55,10 @@ struct FairOptions {
   // energy (U0^2 P = 0, the bilaplacian flow's steady state, with the fixed rings as boundary
   // data) when that lowers the energy; see fair.cpp.
   bool linear_start = true;
+  // Before the flow, refine the region like Liepa's hole filling (see refine_region): a coarse
+  // fill (Blender's Fill, a fan, an n-gon) gets triangles sized like the mesh around the hole.
+  // The new vertices move; the region's border edges are never split.
+  bool refine = false;
 };
 
 struct FairResult {
@@ -102,5 +106,19 @@ struct RegionSubdivision {
 // get their midpoint; a face with 3/2/1/0 split edges becomes 4/3/2/1 triangles. Border edges
 // are not split, so faces outside the region are unchanged (same rows, same indices).
 RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask);
+
+// Liepa-style refinement of a hole fill (P. Liepa, "Filling holes in meshes", SGP 2003, sec. 3.3):
+// each vertex gets a target edge length sigma (the mean length of its edges outside the region;
+// the mean over the region's border for vertices inside it); a region triangle whose centroid c
+// has density * |c - v| > max(sigma(c), sigma(v)) for its three corners v is split 1-to-3 at c
+// (sigma(c) = mean of the corners'), and region-interior edges are flipped to the Delaunay
+// (opposite angles sum <= pi) configuration after each round, until nothing splits; a last pass
+// flips edges that bring valences closer to 6 without creating angles under 15 degrees (the
+// flow's linear start depends on the connectivity only). Border edges
+// of the region are never split or flipped, so faces outside keep their topology. New vertices
+// follow the input's (n + i); rows of the input's faces keep their index (flips may change a
+// region row), extra faces follow with face_origin a region face. edge_a/edge_b stay empty.
+RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask,
+                                double density = 1.4142135623730951);
 
 }  // namespace dgmesh
