@@ -139,10 +139,12 @@ def remesh_quality(quick):
                 f"{mo} {np.median([data['models'][n]['runs'][f'{mo}/{v}']['hausdorff'] for n in models]):.4f}"
                 for mo in MODES) for v in VARIANTS) + ".",
         "",
-        "Notes. The minimum angle is one triangle: on these scans it sits at a sharp fold or a scan defect "
+        "Notes. The minimum angle is one triangle: without smoothing it sits at a sharp fold or a scan defect "
         "where the triangulation map is strongly anisotropic, so a 3D-Delaunay flip there would fold the map "
-        "and is refused; single_u0's minimum-angle wins come with an edge CV 4-5x that of double on the "
-        "curved scans. nefertiti (299 input vertices, nearly developable) has U0 close to Uopt: double and "
+        "and is refused; the default smoothing ends with a pattern search on every star still holding an "
+        "angle under 30 degrees, which lifts the worst triangles of every mode towards 30 degrees, so "
+        "where the maps allow it the modes tie there (ties are within 0.5 degree); single_u0's "
+        "minimum-angle results come with an edge CV 4-5x that of double on the curved scans. nefertiti (299 input vertices, nearly developable) has U0 close to Uopt: double and "
         "single_uopt sample nearly the same points (the same edge CV) and the three modes differ by a few "
         "percent: a structural tie, not something the double scheme can win. single_u0 hits the count only by oversampling the parts of U0 "
         "whose pixels are small on the surface (the separation drops the crowded samples elsewhere), hence its "
