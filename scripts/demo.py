@@ -494,9 +494,9 @@ def remesh(demo):
 @step
 def fair(demo):
     """Hole restoration (thesis fig. 3.6-3.7) as a user does it, on a copy of the model: delete a
-    geodesic disk of 5% of the area facing the camera, fill the hole (F: one n-gon, then Poke Faces),
-    keep the fill selected, run dgmesh.fair with 3 subdivision levels; the filled and the faired copy rendered by mean
-    curvature."""
+    geodesic disk of 5% of the area facing the camera, fill the hole (F: one n-gon), keep the fill
+    selected, run dgmesh.fair with Refine Fill (Liepa-style refinement to the rim's edge lengths, then the
+    Willmore flow); the filled and the faired copy rendered by mean curvature."""
     import bmesh
     sys.path.insert(0, str(REPO))
     from bench.workloads.fair import cut_hole
@@ -562,15 +562,14 @@ def fair(demo):
     bmesh.update_edit_mesh(obj.data)
     assert bpy.ops.mesh.edge_face_add() == {'FINISHED'}  # F: one n-gon, selected
     bpy.ops.mesh.normals_make_consistent(inside=False)
-    assert bpy.ops.mesh.poke() == {'FINISHED'}  # Poke Faces: a fan around a centre, still selected
     bpy.ops.object.mode_set(mode='OBJECT')
     filled = sum(p.select for p in obj.data.polygons)
     demo.obj = obj
     assert bpy.ops.dgmesh.curvature_map(kind='MEAN') == {'FINISHED'}
     demo.render("fair_filled.png", "dg_curvature_color")
     bpy.ops.object.mode_set(mode='EDIT')
-    with demo.timed(f"fair ({int(inner.sum())} vertices removed, {filled} fill triangles, 3 subdivisions)"):
-        result = bpy.ops.dgmesh.fair(subdivisions=3)
+    with demo.timed(f"fair ({int(inner.sum())} vertices removed, {filled} fill n-gon, Refine Fill)"):
+        result = bpy.ops.dgmesh.fair(refine=True, subdivisions=0)
     assert result == {'FINISHED'}, result
     bpy.ops.object.mode_set(mode='OBJECT')
     assert bpy.ops.dgmesh.curvature_map(kind='MEAN') == {'FINISHED'}

@@ -618,6 +618,7 @@ class Driver {
     double s = 64.0;
     constexpr double s_max = 1e6;
     double s_used = 0;
+    double cap = 0.5;  // longest step, in mean edge lengths
     SparseSolver solver;
     bool have_pattern = false;
     double factored_tau = -1;
@@ -677,10 +678,29 @@ class Driver {
           if (i >= 0) rhs.row(i) = tau * g_.A[v] * speed_[v] * g_.N.row(v);
         }
         Eigen::MatrixXd u = solver.solve(rhs);
-        // Keep one step below half an edge: the preconditioned step is a descent direction,
-        // so shortening it is safe.
-        const double umax = u.rowwise().norm().maxCoeff();
-        if (umax > 0.5 * h_) u *= 0.5 * h_ / umax;
+        // Keep each vertex's step below `cap` edges (half an edge at most): scale the whole
+        // step so that its 98th percentile length meets the cap (a uniform scaling keeps the
+        // preconditioned descent direction), then clamp the few outliers on their own. Scaling
+        // by the maximum instead let a single spike (a tiny-area vertex with a huge speed,
+        // e.g. where the thesis's H rescaling divides by a small lambda) shrink everyone's step
+        // to nothing. The cap also shrinks on rejection, because a capped step does not
+        // shorten with tau: shrinking tau alone rejected every step and stopped the flow at
+        // the linear start on refined fan fills (the fan-plus-refine stall).
+        ulen_.resize(nm_);
+        for (int i = 0; i < nm_; ++i) ulen_[i] = u.row(i).norm();
+        const double umax = ulen_.maxCoeff();
+        const bool capped = umax > cap * h_;
+        if (capped) {
+          const int k = nm_ - 1 - nm_ / 50;
+          ulen_sorted_.assign(ulen_.data(), ulen_.data() + nm_);
+          std::nth_element(ulen_sorted_.begin(), ulen_sorted_.begin() + k, ulen_sorted_.end());
+          const double q = ulen_sorted_[k];
+          const double f = q > cap * h_ ? cap * h_ / q : 1.0;
+          for (int i = 0; i < nm_; ++i) {
+            const double l = f * ulen_[i];
+            u.row(i) *= l > cap * h_ ? cap * h_ / ulen_[i] : f;
+          }
+        }
         P_prev = w.P;
         for (int v = 0; v < w.topo.n_vertices; ++v)
           if (movable_idx_[v] >= 0) w.P.row(v) += u.row(movable_idx_[v]);
@@ -695,9 +715,10 @@ class Driver {
           w.P = P_prev;
           compute_geometry(w.P, w.F, w.topo, g_);
           s /= 16;
+          if (capped) cap /= 16;
           ++it;
           energy_.push_back(e);
-          if (s < 1e-2) {
+          if (capped ? cap < 1e-5 : s < 1e-2) {
             const size_t k = accepted_.size();
             const double e_ref = accepted_[k >= 4 ? k - 4 : 0];
             // A stall before any accepted step is not convergence (F is not a descent
@@ -707,8 +728,9 @@ class Driver {
           }
           continue;
         }
-        s_used = s;
+        s_used = capped ? 0.0 : s;  // a capped step says nothing about a steady state
         s = std::min(s * 4, s_max);
+        cap = std::min(cap * 4, 0.5);
         if (opt_.tangential) {
           // A few explicit drift sub-steps per (large) normal step keep the mesh regular.
           const double eps_t = 12.0 * min_area_near(w, g_);
@@ -818,6 +840,8 @@ class Driver {
   Geo g_;
   VecXd speed_;
   Tangential tan_;
+  VecXd ulen_;                        // step lengths (semi-implicit scratch)
+  std::vector<double> ulen_sorted_;
   BoundaryCurves curves_;
   MatX3d fixed_pos_;
 };
@@ -982,6 +1006,92 @@ RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::
   for (int i = 0; i < m + nx; ++i) out.face_mask[i] = face_mask[out.face_origin[i]];
   return out;
 }
+
+namespace {
+// A new vertex of valence 3 (a centroid split the flips could not dissolve, e.g. next to the
+// region's border, whose edges never flip) is removed and its three triangles merged back into
+// one. Its uniform umbrella is degenerate: the linear start put such vertices on tiny-area
+// spikes (angle deficit ~2.7 rad) whose curvature dominated the flow, and no step along the
+// Willmore speed lowered the energy (the fan-plus-refine stall). Removed vertices are compacted
+// away; faces are renumbered but stay in order (input rows first).
+void remove_valence3(std::vector<Eigen::Vector3i>& T, std::vector<char>& reg, std::vector<int>& origin,
+                     std::vector<Vec3>& P, int n, int m) {
+  const int np = static_cast<int>(P.size());
+  if (np == n) return;
+  std::vector<char> drop_face(T.size(), 0), gone(np, 0), busy;
+  std::vector<std::vector<int>> vf(np - n);
+  int spare = 0, dropped_low = 0, removed_total = 0;  // appended region faces; refills needed
+  for (size_t t = m; t < T.size(); ++t) spare += reg[t] != 0;
+  // Each sweep removes valence-3 vertices whose faces no other removal of the sweep touched;
+  // a removal lowers its neighbours' valences, so sweep until nothing changes.
+  for (int sweep = 0; sweep < 64; ++sweep) {
+    for (auto& l : vf) l.clear();
+    for (int t = 0; t < static_cast<int>(T.size()); ++t) {
+      if (drop_face[t]) continue;
+      for (int k = 0; k < 3; ++k)
+        if (T[t][k] >= n) vf[T[t][k] - n].push_back(t);
+    }
+    busy.assign(T.size(), 0);
+    int removed = 0;
+    for (int i = 0; i < np - n; ++i) {
+      std::vector<int>& fs = vf[i];
+      if (fs.size() != 3 || gone[n + i]) continue;
+      bool ok = true;
+      for (int t : fs) ok = ok && reg[t] && !busy[t];
+      if (!ok) continue;
+      std::sort(fs.begin(), fs.end());
+      // The merged triangle takes the lowest row. A dropped input row (< m, a region face)
+      // is refilled below by an appended region face, so every input row keeps its index.
+      const int low = (fs[1] < m) + (fs[2] < m);
+      if (low && dropped_low + low > spare - 2 * (removed_total + 1)) continue;
+      dropped_low += low;
+      ++removed_total;
+      const int x = n + i, t0 = fs[0];
+      int k = 0;
+      while (T[t0][k] != x) ++k;
+      const int a = T[t0][(k + 1) % 3], b = T[t0][(k + 2) % 3];
+      int c = -1;
+      for (int j = 0; j < 3; ++j)
+        if (T[fs[1]][j] != x && T[fs[1]][j] != a && T[fs[1]][j] != b) c = T[fs[1]][j];
+      if (c < 0) continue;
+      T[t0] = Eigen::Vector3i(a, b, c);  // a, b follow x in t0: orientation kept
+      drop_face[fs[1]] = drop_face[fs[2]] = 1;
+      for (int t : fs) busy[t] = 1;
+      gone[x] = 1;
+      ++removed;
+    }
+    if (!removed) break;
+  }
+  // Refill dropped input rows with the last surviving appended faces.
+  size_t tail = T.size();
+  for (int r = 0; r < m; ++r) {
+    if (!drop_face[r]) continue;
+    while (tail > static_cast<size_t>(m) && drop_face[tail - 1]) --tail;
+    if (tail <= static_cast<size_t>(m)) throw Error("refine_region: internal error (no face to refill a row)");
+    --tail;
+    T[r] = T[tail], origin[r] = origin[tail], reg[r] = reg[tail];
+    drop_face[r] = 0, drop_face[tail] = 1;
+  }
+  std::vector<int> remap(np);
+  int nv = 0;
+  for (int v = 0; v < np; ++v) {
+    remap[v] = gone[v] ? -1 : nv;
+    if (!gone[v]) P[nv++] = P[v];
+  }
+  P.resize(nv);
+  size_t w = 0;
+  for (size_t t = 0; t < T.size(); ++t) {
+    if (drop_face[t]) continue;
+    T[w] = Eigen::Vector3i(remap[T[t][0]], remap[T[t][1]], remap[T[t][2]]);
+    reg[w] = reg[t];
+    origin[w] = origin[t];
+    ++w;
+  }
+  T.resize(w);
+  reg.resize(w);
+  origin.resize(w);
+}
+}  // namespace
 
 RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask, double density) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
@@ -1166,6 +1276,7 @@ RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vec
     relax();
   }
   valence_flips();
+  remove_valence3(T, reg, origin, P, n, m);
 
   RegionSubdivision out;
   const int nv = static_cast<int>(P.size()), mt = static_cast<int>(T.size());

@@ -114,10 +114,13 @@ RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::
 // (sigma(c) = mean of the corners'), and region-interior edges are flipped to the Delaunay
 // (opposite angles sum <= pi) configuration after each round, until nothing splits; a last pass
 // flips edges that bring valences closer to 6 without creating angles under 15 degrees (the
-// flow's linear start depends on the connectivity only). Border edges
+// flow's linear start depends on the connectivity only), and new vertices left with valence 3
+// are removed (their three triangles merged: the uniform umbrella of a valence-3 vertex put it
+// on a spike in the linear start). Border edges
 // of the region are never split or flipped, so faces outside keep their topology. New vertices
-// follow the input's (n + i); rows of the input's faces keep their index (flips may change a
-// region row), extra faces follow with face_origin a region face. edge_a/edge_b stay empty.
+// follow the input's (n + i); rows of the input's faces keep their index (a region row may hold
+// another region triangle after flips and merges), extra faces follow with face_origin a region
+// face. edge_a/edge_b stay empty.
 RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask,
                                 double density = 1.4142135623730951);
 
