@@ -1068,7 +1068,7 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   const MatX3d Xc = impl.control_pose(pose, opt, &Sd, &args);
   if (impl.multires) {
     impl.multires->reconstruct(Xc, out);
-    if (dense_projection(opt)) impl.project_dense(Sd, args, opt.projection, opt.projection_passes, out);
+    if (dense_projection(opt)) impl.project_dense(Sd, args, opt.projection, opt.dense_projection_passes, out);
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }
