@@ -533,6 +533,16 @@ struct BoundaryCurve {
         s[k % nb] = k >= nb ? x - period : x;
       }
     }
+    if (na == 1) {
+      // One anchor (circle, free boundary) only fixes the curve's sliding gauge: shift the whole
+      // loop so its mean move along the curve is zero instead of pinning the loop's first vertex,
+      // which would make the map depend on the vertex order.
+      double mean = 0;
+      for (int k = 0; k < nb; ++k) mean += s[k] - su[k];
+      mean /= nb;
+      for (int k = 0; k < nb; ++k) s[k] -= mean;
+      while (s[0] < 0) for (int k = 0; k < nb; ++k) s[k] += period;
+    }
     // Keep s increasing from s[0] (wrap-around runs may have produced values below s[0]).
     for (int k = 1; k < nb; ++k)
       while (s[k] < s[0]) s[k] += period;

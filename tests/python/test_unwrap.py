@@ -191,3 +191,21 @@ def test_step_metrics_and_final_metrics(cgal):
     for key in ("stretch_l2", "edge", "angle", "area"):
         assert m[key] == pytest.approx(r.final[key], rel=1e-9)
     assert m["flipped"] == r.final["flipped"] == 0
+
+
+def test_sliding_free_boundary_does_not_depend_on_the_vertex_order(cgal):
+    """The sliding boundary's gauge is the loop's mean move, not its first vertex: renumbering the
+    vertices gives the same map's stretch (direct solver; measured spread 1e-5, 2e-3 when the
+    loop's first vertex was pinned)."""
+    V, F = dgmesh.read_mesh(cgal / "mushroom.off")
+    rng = np.random.default_rng(1)
+    vals = []
+    for k in range(3):
+        p = rng.permutation(len(V)) if k else np.arange(len(V))
+        inv = np.empty_like(p)
+        inv[p] = np.arange(len(V))
+        r = dgmesh.unwrap(V[p], inv[F].astype(np.int32), boundary="free", eta=0.5, slide_boundary=True,
+                          solver="umfpack")
+        assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+        vals.append(r.final["stretch_l2"])
+    assert max(vals) - min(vals) < 2e-4, vals
