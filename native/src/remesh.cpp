@@ -839,32 +839,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
       const int nthreads = npix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
       std::vector<double> acc(size_t(nthreads) * 3 * ng);
-      // Point location in the sampling map: walk from a start face across the edge opposite the most
-      // negative barycentric coordinate. Returns false if the walk leaves the chart.
-      auto locate = [&](const Vec2& p, int f, Sample& out) {
-        for (int step = 0; step < 256; ++step) {
-          const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
-          const double det = cross2(b - a, c - a);
-          if (det == 0) return false;
-          const double w[3] = {cross2(b - p, c - p) / det, cross2(c - p, a - p) / det, 0};
-          const double w2 = 1 - w[0] - w[1];
-          const double ww[3] = {w[0], w[1], w2};
-          int kmin = 0;
-          for (int k = 1; k < 3; ++k)
-            if (ww[k] < ww[kmin]) kmin = k;
-          if (ww[kmin] >= -1e-12) {
-            out = Sample{f, std::max(0.0, ww[0]), std::max(0.0, ww[1]), std::max(0.0, ww[2])};
-            const double sum = out.w0 + out.w1 + out.w2;
-            out.w0 /= sum, out.w1 /= sum, out.w2 /= sum;
-            return true;
-          }
-          const int e = topo.face_edges(f, (kmin + 1) % 3);  // the edge opposite corner kmin
-          const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
-          if (g < 0) return false;
-          f = g;
-        }
-        return false;
-      };
+      auto locate = [&](const Vec2& p, int f, Sample& out) { return locate_in_map(Us, F, topo, p, f, out); };
       // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
       // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
       // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
