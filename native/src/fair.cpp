@@ -1150,6 +1150,17 @@ RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vec
   };
   std::unordered_map<long long, std::pair<int, int>> emap;  // edge -> region faces (second -1 if one)
   std::vector<char> touched;
+  // The quad around region edge `key` shared by t1 and t2: t1 = (a, b, c), t2 holds b -> a with
+  // third vertex d. False when the pair is degenerate.
+  auto quad = [&](long long key, int t1, int t2, int& a, int& b, int& c, int& d) {
+    int k1 = 0;
+    while (edge_key(T[t1][k1], T[t1][(k1 + 1) % 3]) != key) ++k1;
+    a = T[t1][k1], b = T[t1][(k1 + 1) % 3], c = T[t1][(k1 + 2) % 3];
+    d = -1;
+    for (int k = 0; k < 3; ++k)
+      if (T[t2][k] != a && T[t2][k] != b) d = T[t2][k];
+    return d >= 0 && c != d;
+  };
   auto relax = [&]() {
     for (int pass = 0; pass < 100; ++pass) {
       emap.clear();
@@ -1166,14 +1177,8 @@ RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vec
       for (const auto& [key, ff] : emap) {
         const int t1 = ff.first, t2 = ff.second;
         if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
-        // Orient: t1 = (a, b, c), t2 holds b -> a with third vertex d.
-        int k1 = 0;
-        while (edge_key(T[t1][k1], T[t1][(k1 + 1) % 3]) != key) ++k1;
-        const int a = T[t1][k1], b = T[t1][(k1 + 1) % 3], c = T[t1][(k1 + 2) % 3];
-        int d = -1;
-        for (int k = 0; k < 3; ++k)
-          if (T[t2][k] != a && T[t2][k] != b) d = T[t2][k];
-        if (d < 0 || c == d) continue;
+        int a, b, c, d;
+        if (!quad(key, t1, t2, a, b, c, d)) continue;
         if (angle_at(c, a, b) + angle_at(d, a, b) <= M_PI + 1e-9) continue;
         const long long nk = edge_key(c, d);
         if (emap.count(nk) || fixed_edge.count(nk)) continue;
@@ -1219,13 +1224,8 @@ RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vec
       for (const auto& [key, ff] : emap) {
         const int t1 = ff.first, t2 = ff.second;
         if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
-        int k1 = 0;
-        while (edge_key(T[t1][k1], T[t1][(k1 + 1) % 3]) != key) ++k1;
-        const int a = T[t1][k1], b = T[t1][(k1 + 1) % 3], c = T[t1][(k1 + 2) % 3];
-        int d = -1;
-        for (int k = 0; k < 3; ++k)
-          if (T[t2][k] != a && T[t2][k] != b) d = T[t2][k];
-        if (d < 0 || c == d) continue;
+        int a, b, c, d;
+        if (!quad(key, t1, t2, a, b, c, d)) continue;
         auto dev = [](int x) { return (x - 6) * (x - 6); };
         const int before = dev(valence[a]) + dev(valence[b]) + dev(valence[c]) + dev(valence[d]);
         const int after = dev(valence[a] - 1) + dev(valence[b] - 1) + dev(valence[c] + 1) + dev(valence[d] + 1);

@@ -51,6 +51,18 @@ def _cut_and_fill(obj, zcut=0.8):
     bpy.ops.mesh.edge_face_add()  # one n-gon, selected
 
 
+def _assert_manifold_then_undo(mesh, snap):
+    """The faired mesh is a closed manifold; one undo in Edit mode restores the ball exactly."""
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    assert all(e.is_manifold for e in bm.edges)
+    bm.free()
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert mesh_snapshot(bpy.data.objects["Ball"].data) == snap
+
+
 def test_hole_workflow_with_subdivision_keeps_other_uvs_and_undoes():
     obj = _fresh_sphere()
     _cut_and_fill(obj)
@@ -91,15 +103,7 @@ def test_hole_workflow_with_subdivision_keeps_other_uvs_and_undoes():
     sel = np.zeros(len(mesh.vertices), bool)
     mesh.vertices.foreach_get("select", sel)
     assert sel[n_before:].all() and sel[rim].all()
-    bm = bmesh.new()
-    bm.from_mesh(mesh)
-    assert all(e.is_manifold for e in bm.edges)
-    bm.free()
-
-    bpy.ops.object.mode_set(mode='EDIT')
-    assert bpy.ops.ed.undo() == {'FINISHED'}
-    bpy.ops.object.mode_set(mode='OBJECT')
-    assert mesh_snapshot(bpy.data.objects["Ball"].data) == snap
+    _assert_manifold_then_undo(mesh, snap)
 
 
 def test_hole_workflow_with_refine_fill():
@@ -140,15 +144,7 @@ def test_hole_workflow_with_refine_fill():
     for key, val in uv_before.items():
         if key != ngon_key:
             assert uv_after[key] == val
-    bm = bmesh.new()
-    bm.from_mesh(mesh)
-    assert all(e.is_manifold for e in bm.edges)
-    bm.free()
-
-    bpy.ops.object.mode_set(mode='EDIT')
-    assert bpy.ops.ed.undo() == {'FINISHED'}
-    bpy.ops.object.mode_set(mode='OBJECT')
-    assert mesh_snapshot(bpy.data.objects["Ball"].data) == snap
+    _assert_manifold_then_undo(mesh, snap)
 
 
 def test_grid_fill_hole_without_subdivision_moves_only_inner_vertices():
