@@ -555,14 +555,40 @@ struct BoundaryCurve {
 // whose boundary terms come from the boundary edges of the faces.
 MatX2d lscm(const MatX3d& V, const MatX3i& F, const Topology& topo, int pin0, int pin1) {
   const int n = static_cast<int>(V.rows());
-  const SpMat L = cotan_laplacian(V, F);  // L_ij = (cot a + cot b)/2 >=< 0, rows sum to 0
+  const int m = static_cast<int>(F.rows());
+  // Unknowns: u and v of every vertex but the pins, interleaved (each vertex's 2x2 block together:
+  // on lion-head the LDL^T factorisation takes half the time of u-block-then-v-block); the pins'
+  // values move to the right-hand side.
+  std::vector<int> idx(2 * n, -1);
+  int nf = 0;
+  for (int v = 0; v < n; ++v) {
+    if (v != pin0 && v != pin1) idx[v] = nf++, idx[v + n] = nf++;
+  }
+  Eigen::VectorXd xp = Eigen::VectorXd::Zero(2 * n);
+  xp[pin1] = 1;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(nf);
+  // One pass straight into the reduced system's lower triangle (SimplicialLDLT reads only that).
   std::vector<Eigen::Triplet<double>> trip;
-  trip.reserve(static_cast<size_t>(L.nonZeros()) * 2 + topo.n_vertices * 4);
-  for (int col = 0; col < L.outerSize(); ++col)
-    for (SpMat::InnerIterator it(L, col); it; ++it) {
-      // E_D(u) = 1/2 u^T (-L) u
-      trip.emplace_back(static_cast<int>(it.row()), col, -it.value());
-      trip.emplace_back(static_cast<int>(it.row()) + n, col + n, -it.value());
+  trip.reserve(static_cast<size_t>(m) * 12 + topo.n_vertices * 4);
+  auto add = [&](int r, int c, double x) {
+    const int ir = idx[r], ic = idx[c];
+    if (ir < 0) return;
+    if (ic < 0) {
+      rhs[ir] -= x * xp[c];
+    } else if (ic <= ir) {
+      trip.emplace_back(ir, ic, x);
+    }
+  };
+  // E_D(u) + E_D(v) with the cotangent Dirichlet energy E_D(u) = 1/4 sum_edges (cot a + cot b) (u_i - u_j)^2.
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int i = F(f, (k + 1) % 3), j = F(f, (k + 2) % 3);
+      const Vec3 ab = V.row(i) - V.row(F(f, k)), ac = V.row(j) - V.row(F(f, k));
+      const double w = 0.5 * ab.dot(ac) / std::max(ab.cross(ac).norm(), 1e-300);  // cot / 2
+      for (int o = 0; o <= n; o += n) {
+        add(i + o, i + o, w), add(j + o, j + o, w);
+        add(i + o, j + o, -w), add(j + o, i + o, -w);
+      }
     }
   // -A(u,v) = -1/2 sum over boundary half-edges a->b of (u_a v_b - u_b v_a), as 1/2 x^T M x.
   for (int e = 0; e < topo.n_edges(); ++e) {
@@ -572,36 +598,11 @@ MatX2d lscm(const MatX3d& V, const MatX3i& F, const Topology& topo, int pin0, in
     for (int k = 0; k < 3; ++k) {
       if (topo.face_edges(f, k) == e) a = F(f, k), b = F(f, (k + 1) % 3);
     }
-    trip.emplace_back(a, b + n, -0.5);
-    trip.emplace_back(b + n, a, -0.5);
-    trip.emplace_back(b, a + n, 0.5);
-    trip.emplace_back(a + n, b, 0.5);
+    add(a, b + n, -0.5), add(b + n, a, -0.5);
+    add(b, a + n, 0.5), add(a + n, b, 0.5);
   }
-  SpMat Q(2 * n, 2 * n);
-  Q.setFromTriplets(trip.begin(), trip.end());
-  // Reduce to the free variables.
-  std::vector<int> idx(2 * n, -1);
-  int nf = 0;
-  for (int i = 0; i < 2 * n; ++i) {
-    const int v = i % n;
-    if (v != pin0 && v != pin1) idx[i] = nf++;
-  }
-  Eigen::VectorXd xp = Eigen::VectorXd::Zero(2 * n);
-  xp[pin0] = 0, xp[pin0 + n] = 0, xp[pin1] = 1, xp[pin1 + n] = 0;
-  std::vector<Eigen::Triplet<double>> tf;
-  tf.reserve(static_cast<size_t>(Q.nonZeros()));
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(nf);
-  for (int col = 0; col < Q.outerSize(); ++col)
-    for (SpMat::InnerIterator it(Q, col); it; ++it) {
-      const int r = static_cast<int>(it.row());
-      if (idx[r] < 0) continue;
-      if (idx[col] >= 0)
-        tf.emplace_back(idx[r], idx[col], it.value());
-      else
-        rhs[idx[r]] -= it.value() * xp[col];
-    }
   SpMat Qf(nf, nf);
-  Qf.setFromTriplets(tf.begin(), tf.end());
+  Qf.setFromTriplets(trip.begin(), trip.end());
   pmark("lscm_build");
   SparseSolver solver;
   solver.factor(Qf, SparseSolver::Kind::Cholesky);
@@ -634,6 +635,28 @@ int reflex_count(const MatX2d& U, const std::vector<int>& loop) {
     if (cross2(e0, e1) < -1e-12 * e0.norm() * e1.norm()) ++reflex;
   }
   return reflex;
+}
+
+// A diameter-like pair of loop vertices that does not depend on the vertex numbering: the farthest
+// from the lexicographically smallest position, then the farthest from that (ties likewise).
+std::pair<int, int> diameter_pair(const MatX3d& V, const std::vector<int>& loop) {
+  auto less = [&](int a, int b) {
+    for (int c = 0; c < 3; ++c)
+      if (V(a, c) != V(b, c)) return V(a, c) < V(b, c);
+    return false;
+  };
+  auto farthest = [&](int from) {
+    int best = loop[0];
+    double bd = -1;
+    for (int v : loop) {
+      const double d = (V.row(v) - V.row(from)).squaredNorm();
+      if (d > bd || (d == bd && less(v, best))) bd = d, best = v;
+    }
+    return best;
+  };
+  const int start = *std::min_element(loop.begin(), loop.end(), less);
+  const int p0 = farthest(start);
+  return {p0, farthest(p0)};
 }
 
 // ----- linear solves of eq. 5.3 -------------------------------------------------------------------
@@ -1510,17 +1533,8 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
   BoundaryCurve curve;
   curve.anchors = {0};
   if (bnd == UvBoundary::Free) {
-    // Pins: a diameter-like pair of outer boundary vertices.
-    auto farthest = [&](int from) {
-      int best = loop[0];
-      double bd = -1;
-      for (int v : loop) {
-        const double d = (mesh.V.row(v) - mesh.V.row(from)).squaredNorm();
-        if (d > bd) bd = d, best = v;
-      }
-      return best;
-    };
-    const int p0 = farthest(loop[0]), p1 = farthest(p0);
+    // LSCM depends (mildly) on the pins, so they must not depend on the vertex order.
+    const auto [p0, p1] = diameter_pair(mesh.V, loop);
     pmark("setup");
     // The conformal map and the system of eq. 5.3 are independent: on two threads they overlap
     // (one fork; each side runs serially inside).
@@ -1558,11 +1572,9 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     if (signed_area < 0) L.col(1) *= -1;
     for (int v : loop) U.row(v) = L.row(v);
     fit_unit_box(U, loop);
-    const int reflex = reflex_count(U, loop);
-    res.boundary_convex = reflex == 0;
-    if (reflex)
-      res.warnings.push_back("free boundary is not convex (" + std::to_string(reflex) +
-                             " reflex boundary vertices): Tutte's no-flip guarantee does not hold");
+    // A non-convex natural boundary usually still gives an embedding; where it does not, the
+    // equalization falls back to the circle (below).
+    res.boundary_convex = reflex_count(U, loop) == 0;
     std::vector<Vec2> pts;
     for (int v : loop) pts.push_back(U.row(v).transpose());
     curve.set_polygon(std::move(pts));
@@ -1679,12 +1691,12 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     st.seconds = seconds_since(t_start);  // includes the boundary and the weights
     res.steps.push_back(st);
   }
-  // A free boundary that is not convex may fold the map: fall back to the circle. (Zero-area
-  // triangles are not a sign of folding: a circle gives them too on near-degenerate scan triangles.)
-  if (bnd == UvBoundary::Free && res.steps[0].metrics.flipped) {
-    res.warnings.push_back("the free boundary folded the initial map (" + std::to_string(res.steps[0].metrics.flipped) +
-                           " flipped, " + std::to_string(res.steps[0].metrics.zero_area) +
-                           " zero-area triangles); used a circle instead");
+  // A free boundary that is not convex may fold the map (Tutte's guarantee needs a convex polygon):
+  // the map is then redone on the circle, from the initial weights. (Zero-area triangles are not a
+  // sign of folding: a circle gives them too on near-degenerate scan triangles.)
+  const std::vector<double> w_base = bnd == UvBoundary::Free ? w : std::vector<double>();
+  auto to_circle = [&](const std::string& why) {
+    res.warnings.push_back(why + "; used a circle instead");
     bnd = UvBoundary::Circle;
     res.boundary_used = bnd;
     res.boundary_convex = true;
@@ -1693,12 +1705,18 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     curve.circle = true;
     curve.anchors = {0};
     curve.s.assign(t.begin(), t.end() - 1);
+    w = w_base;
     const auto t0 = Clock::now();
     UnwrapStep st;
+    solver.set_tolerance(opt.tolerance);
     solve_checked(U, st, true);
     st.seconds = seconds_since(t0);
-    res.steps[0] = st;
-  }
+    res.steps.assign(1, st);
+    res.uv_initial = U.topRows(n);
+  };
+  if (bnd == UvBoundary::Free && res.steps[0].metrics.flipped)
+    to_circle("the free boundary folded the initial map (" + std::to_string(res.steps[0].metrics.flipped) +
+              " flipped, " + std::to_string(res.steps[0].metrics.zero_area) + " zero-area triangles)");
   progress(frac(0));
   res.uv_initial = U.topRows(n);
 
@@ -1739,6 +1757,15 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     UnwrapStep st;
     solve_checked(U, st);
     st.seconds = seconds_since(t0);
+    if (bnd == UvBoundary::Free && !res.boundary_convex && st.metrics.flipped) {
+      to_circle("the non-convex free boundary folded equalization step " + std::to_string(h) + " (" +
+                std::to_string(st.metrics.flipped) + " flipped triangles)");
+      solver.set_tolerance(step_tol);
+      best = U;
+      res.chosen = 0;
+      h = 0;  // start the equalization again
+      continue;
+    }
     res.steps.push_back(st);
     progress(frac(h));
     if (!optimal) {

@@ -209,3 +209,24 @@ def test_sliding_free_boundary_does_not_depend_on_the_vertex_order(cgal):
         assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
         vals.append(r.final["stretch_l2"])
     assert max(vals) - min(vals) < 2e-4, vals
+
+
+def test_free_boundary_default_is_order_independent_and_never_flips(cgal):
+    """The operator's defaults with the iterative solver on mannequin-devil, whose natural (LSCM)
+    boundary is not convex and folds the first equalization step: the map is redone on the circle,
+    and renumbering the vertices changes neither that choice nor the stretch (the LSCM pins start
+    from the lexicographically smallest boundary position, not from the loop's first vertex;
+    measured spread before this: L2 1.45-1.71 and up to 1 flipped triangle over renumberings)."""
+    V, F = dgmesh.read_mesh(cgal / "mannequin-devil.off")
+    rng = np.random.default_rng(7)
+    vals = []
+    for k in range(3):
+        p = rng.permutation(len(V)) if k else np.arange(len(V))
+        inv = np.empty_like(p)
+        inv[p] = np.arange(len(V))
+        r = dgmesh.unwrap(V[p], inv[F].astype(np.int32), boundary="free", eta=0.5, slide_boundary=True)
+        assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+        assert any("circle" in w for w in r.warnings), r.warnings
+        vals.append(r.final["stretch_l2"])
+    assert max(vals) - min(vals) < 2e-3 * min(vals), vals
+    assert max(vals) < 1.5, vals
