@@ -45,6 +45,8 @@ class RemeshResult:
     sampling_rounds: diffusion + relaxation + separation rounds (repeated with a raised diffusion
         goal while the separation drops more than 0.5% of the target).
     smooth_moves: vertex moves made by ``smooth_iterations``.
+    n_removed: interior vertices of valence 3 or 4 with an angle under 20 degrees in their star,
+        removed by ``smooth_iterations`` (their star becomes its link).
     seconds: wall time of the stages (parameterize, sample, triangulate).
     warnings: human-readable notes (e.g. resolution too low for the target).
     """
@@ -63,6 +65,7 @@ class RemeshResult:
     n_separated: int = 0
     sampling_rounds: int = 0
     smooth_moves: int = 0
+    n_removed: int = 0
     seconds: dict = field(default_factory=dict)
     warnings: List[str] = field(default_factory=list)
 
@@ -82,13 +85,17 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
     min_separation: after relaxing, interior samples closer in 3D than this fraction of the target
         spacing to another sample are dropped (0 disables); a warning says how many when it is more
         than 1% (the sampling map is too coarse there for the target).
-    flip_3d: 3D Delaunay edge flips after the triangulation (across near-flat edges, or where the
-        flip unfolds a fold), keeping the embedding in the triangulation map. Default on.
+    flip_3d: 3D Delaunay edge flips after the triangulation (across near-flat edges, where the
+        flip unfolds a fold, or where it raises the smallest angle of a pair holding one under 20
+        degrees), keeping the embedding in the triangulation map. Default on.
     smooth_iterations: sweeps of tangential smoothing of the new mesh's interior vertices in the
-        surface metric (towards the area-weighted mean of their triangles' centroids), moved inside
-        the triangulation map so they stay on the input surface and no map triangle flips; a move
-        may not create a 3D angle below 30 degrees and vertices on sharp features only move to lift
-        such an angle; each sweep is followed by the 3D flips when ``flip_3d``. Default 3; 0 (with
+        surface metric (towards the area-weighted mean of their triangles' circumcentres, the
+        optimal-Delaunay step), moved inside the triangulation map so they stay on the input surface
+        and no map triangle flips; a move may not create a 3D angle below 35 degrees (33 on sharp
+        features, whose vertices only move to lift such an angle) and stars still holding one get a
+        max-min-angle pattern search; each sweep is followed by the 3D flips when ``flip_3d`` and by
+        the removal of interior valence-3/4 vertices whose star holds an angle under 20 degrees
+        (``n_removed``). Default 3; 0 (with
         ``flip_3d=False, lloyd_iterations=0``) is the thesis's scheme as published.
     boundary_clearance, eta, uopt_steps, domain: see RemeshOptions in remesh.h.
     """
@@ -116,7 +123,7 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         n_interior_target=int(r["n_interior_target"]), n_rejected=int(r["n_rejected"]),
         passes=int(r["passes"]), uopt_iterations=int(r["uopt_iterations"]), n_flips=int(r["n_flips"]),
         lloyd_iterations=int(r["lloyd_iterations"]), n_separated=int(r["n_separated"]),
-        sampling_rounds=int(r["sampling_rounds"]), smooth_moves=int(r["smooth_moves"]),
+        sampling_rounds=int(r["sampling_rounds"]), smooth_moves=int(r["smooth_moves"]), n_removed=int(r["n_removed"]),
         seconds=dict(parameterize=r["seconds_parameterize"], sample=r["seconds_sample"],
                      relax=r["seconds_relax"], triangulate=r["seconds_triangulate"]),
         warnings=list(r["warnings"]))

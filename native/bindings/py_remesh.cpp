@@ -59,6 +59,7 @@ void bind_remesh(pb::module_& m) {
         d["n_separated"] = r.n_separated;
         d["sampling_rounds"] = r.sampling_rounds;
         d["smooth_moves"] = r.smooth_moves;
+        d["n_removed"] = r.n_removed;
         d["seconds_relax"] = r.seconds_relax;
         d["seconds_parameterize"] = r.seconds_parameterize;
         d["seconds_sample"] = r.seconds_sample;

@@ -69,7 +69,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
     smooth: IntProperty(
         name="Smoothing Sweeps", default=3, min=0, max=100,
         description="Sweeps of tangential smoothing of the new vertices on the surface (never creating an "
-                    "angle below 30 degrees, sharp features kept), each followed by the flips; beyond the thesis")
+                    "angle below 35 degrees, sharp features kept), each followed by the flips; beyond the thesis")
     resample_boundary: BoolProperty(
         name="Resample Boundary", default=False,
         description="Object mode only: place new boundary vertices at the target spacing "

@@ -11,9 +11,10 @@
 //      Lloyd steps over the control map's pixels, boundary samples fixed;
 //   4. map the samples to the triangulation map through the shared triangulation (same face, same
 //      barycentric coordinates), Delaunay-triangulate them there (Qhull) and lift to 3D;
-//   4b. (beyond the thesis) 3D Delaunay edge flips and a few sweeps of tangential smoothing of the
-//      new vertices in the surface metric, moved inside the triangulation map (flip_3d,
-//      smooth_iterations): the same post-processing whatever the mode.
+//   4b. (beyond the thesis) 3D Delaunay edge flips and a few sweeps of tangential (optimal-
+//      Delaunay) smoothing of the new vertices in the surface metric, moved inside the
+//      triangulation map, with removal of stuck valence-3/4 vertices (flip_3d, smooth_iterations):
+//      the same post-processing whatever the mode.
 // Modes (thesis fig. 5.6-5.9): Double samples on Uopt and triangulates on U0; SingleU0 and
 // SingleUopt sample and triangulate on one map.
 #pragma once
@@ -61,7 +62,8 @@ struct RemeshOptions {
   int uopt_steps = -1;
   // Beyond the thesis: after the Delaunay triangulation in the parameter map, flip edges towards a
   // Delaunay triangulation of the 3D mesh (opposite angles summing to more than pi), keeping the
-  // embedding in the map, across near-flat edges or where the flip unfolds a fold. Off (with
+  // embedding in the map, across near-flat edges, where the flip unfolds a fold, or where it raises
+  // the smallest angle of a pair holding one under 20 degrees (within 90 degrees of coplanar). Off (with
   // smooth_iterations 0 and lloyd_iterations 0) reproduces the thesis's scheme exactly.
   bool flip_3d = true;
   // Density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the centroidal Voronoi
@@ -71,9 +73,12 @@ struct RemeshOptions {
   int lloyd_iterations = 4;
   // Beyond the thesis: sweeps of tangential smoothing of the new mesh's interior vertices after the
   // triangulation (each vertex towards the area- and density-weighted mean of its triangles' 3D
-  // centroids, moved inside the triangulation map so it stays on the input surface and no map
-  // triangle flips; a move may not create a 3D angle below 30 degrees, and vertices on sharp
-  // features only move to lift such an angle), each followed by the 3D flips when flip_3d is on.
+  // circumcentres, the optimal-Delaunay step of Chen & Xu 2004, moved inside the triangulation map
+  // so it stays on the input surface and no map triangle flips; a move may not create a 3D angle
+  // below 35 degrees (33 at vertices on sharp features, which only move to lift such an angle), and
+  // stars still holding one get a max-min-angle pattern search), each followed by the 3D flips when flip_3d is
+  // on and by the removal of interior valence-3/4 vertices whose star holds an angle under 20
+  // degrees (RemeshResult::n_removed; the count drops by a few per mille at most).
   // 0: off. The same post-processing for all three modes (bench remesh_quality).
   int smooth_iterations = 3;
   RemeshRelaxMetric relax_metric = RemeshRelaxMetric::Surface;
@@ -97,6 +102,7 @@ struct RemeshResult {
   int lloyd_iterations = 0;  // Lloyd steps made (fewer than asked when no sample moved)
   int n_separated = 0;       // interior samples dropped by min_separation (last sampling round)
   int smooth_moves = 0;      // vertex moves made by smooth_iterations (all sweeps)
+  int n_removed = 0;         // interior vertices of valence 3-4 removed by the smoothing (all sweeps)
   // Wall time of the stages; relax = Lloyd steps + minimum separation (all rounds); triangulate =
   // Delaunay + lift + flips + smoothing.
   double seconds_parameterize = 0, seconds_sample = 0, seconds_relax = 0, seconds_triangulate = 0;
