@@ -678,6 +678,7 @@ constexpr int kDirectRows = 1000;       // UvSolver::Auto solves charts up to th
 // by more (stretches up to stretch_cap) and a stale hierarchy cost more than its setup (measured on
 // mannequin-devil x16, 207K: 26-30 instead of 12-19 iterations per step).
 constexpr int kAmgReuse = 3;
+constexpr int kCheapIters = 6;
 constexpr int kSmallAmgRows = 20000;  // also: stricter aggregation strength up to here (Amg::setup)
 // Charts above this many faces compute the free boundary's conformal map on one thread while the
 // other builds the weights, the matrix and the multigrid hierarchy of eq. 5.3.
@@ -1172,7 +1173,9 @@ class ChartSolver {
   int solve(const SpMat& A, const SpMatR& Ar, const Eigen::MatrixXd& B, Eigen::MatrixXd& X) {
     if (kind_ == UvSolver::Multigrid) {
       pmark("other");
-      const int reuse = Ar.rows() <= kSmallAmgRows ? kAmgReuse : 0;
+      // Large charts keep a hierarchy only while it stays cheap: after a solve of at most
+      // kCheapIters iterations (the late, small equalization steps).
+      const int reuse = Ar.rows() <= kSmallAmgRows || last_iters_ <= kCheapIters ? kAmgReuse : 0;
       if (prepared_ && amg_.refresh(Ar)) {
         reuse_left_ = reuse;
       } else if (reuse_left_ > 0 && amg_.refresh(Ar)) {
@@ -1185,6 +1188,8 @@ class ChartSolver {
       pmark("amg_setup");
       Blk Bb = B, Xb = X;
       const int iters = bicgstab_amg(Ar, amg_, Bb, Xb, tol_, 500);
+      last_iters_ = iters >= 0 ? iters : 1 << 20;
+      if (last_iters_ > kCheapIters && Ar.rows() > kSmallAmgRows) reuse_left_ = 0;
       const bool ok = iters >= 0 && Xb.allFinite();
       if (ok) X = Xb;
       pmark("krylov");
@@ -1236,6 +1241,7 @@ class ChartSolver {
   double tol_;
   bool fell_back_ = false;
   int reuse_left_ = 0;  // solves left before the multigrid hierarchy is rebuilt
+  int last_iters_ = 1 << 20;
   bool prepared_ = false;
   SparseSolver direct_;
   Eigen::BiCGSTAB<SpMat, Eigen::IncompleteLUT<double>> bicg_;
