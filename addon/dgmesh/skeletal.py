@@ -131,7 +131,7 @@ class SkeletalRig:
         return cls(rig)
 
     def deform(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5, homotopy_steps=3,
-               fold_iterations=10, projection=1.0, out=None, dual_quaternion=False):
+               fold_iterations=10, projection=1.0, out=None, dual_quaternion=False, bone_clearance=0.95):
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
@@ -150,6 +150,11 @@ class SkeletalRig:
         posed skeletal vertices are then pushed back out to their rest distance from the posed bone
         segments they have weight on (segments from the rest frames), which undoes most of the blend's
         pull towards the bones in a joint's inner crease.
+        ``bone_clearance`` (variational method): after the thickness steps each control vertex is
+        pushed radially out until its distance to the posed segments of the bones it has weight on
+        (their union) is at least this fraction of its rest distance to them (a joint's crease where
+        the medial surface is a sheet off the stick bones); 0 = off, 1 = every rest distance kept
+        (costs thickness under twists).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
@@ -164,15 +169,18 @@ class SkeletalRig:
                 raise MeshError("deform: out must be a writeable C-contiguous float64 or float32 array of shape "
                                 "(%d, 3)" % self.n_vertices)
         return self._rig.deform(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                int(fold_iterations), float(projection), out, bool(dual_quaternion))
+                                int(fold_iterations), float(projection), out, bool(dual_quaternion),
+                                float(bone_clearance))
 
     def deform_control(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5,
-                       homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=False):
+                       homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=False,
+                       bone_clearance=0.95):
         """(control mesh positions, deformed skeletal vertices) for a pose."""
         self._check_method(method)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         return self._rig.deform_control(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                        int(fold_iterations), float(projection), bool(dual_quaternion))
+                                        int(fold_iterations), float(projection), bool(dual_quaternion),
+                                        float(bone_clearance))
 
     def skeleton_pose(self, bones_pose):
         """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""

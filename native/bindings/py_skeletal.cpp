@@ -40,8 +40,9 @@ SkeletalMethod method_from(const std::string& s) {
 
 SkeletalDeformOptions deform_options(const std::string& method, int fairing_steps, double fairing_step,
                                      int homotopy_steps, int fold_iterations, double projection = 1.0,
-                                     bool dual_quaternion = false) {
+                                     bool dual_quaternion = false, double bone_clearance = -1) {
   SkeletalDeformOptions o;
+  if (bone_clearance >= 0) o.bone_clearance = bone_clearance;
   o.projection = projection;
   o.dual_quaternion = dual_quaternion;
   o.method = method_from(method);
@@ -144,9 +145,9 @@ void bind_skeletal(pb::module_& m) {
       .def(
           "deform",
           [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs, int fi,
-             double proj, pb::object out, bool dq) -> pb::object {
+             double proj, pb::object out, bool dq, double bc) -> pb::object {
             const auto p = to_mats(pose, "bones_pose");
-            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq);
+            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq, bc);
             if (out.is_none()) {
               MatX3d X;
               {
@@ -170,12 +171,12 @@ void bind_skeletal(pb::module_& m) {
           },
           pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-          pb::arg("out") = pb::none(), pb::arg("dual_quaternion") = false)
+          pb::arg("out") = pb::none(), pb::arg("dual_quaternion") = false, pb::arg("bone_clearance") = -1.0)
       .def("deform_control",
            [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs,
-              int fi, double proj, bool dq) {
+              int fi, double proj, bool dq, double bc) {
              const auto p = to_mats(pose, "bones_pose");
-             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq);
+             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq, bc);
              MatX3d X, Sd;
              {
                pb::gil_scoped_release nogil;
@@ -185,7 +186,7 @@ void bind_skeletal(pb::module_& m) {
            },
            pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
            pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-           pb::arg("dual_quaternion") = false)
+           pb::arg("dual_quaternion") = false, pb::arg("bone_clearance") = -1.0)
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");
