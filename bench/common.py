@@ -6,6 +6,7 @@ import os
 import pathlib
 import platform
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -44,6 +45,32 @@ def cgal_dir():
 def cgal_mesh(name):
     """(V, F) of a CGAL data mesh by file stem, e.g. 'fandisk', 'bunny00', 'armadillo'."""
     return dgmesh.read_mesh(cgal_dir() / f"{name}.off")
+
+
+def cgal_tool(src_name, probe_header, build=True, extra_flags=()):
+    """Path of a bench-only CGAL reference tool bench/tools/<src_name> (e.g. "cgal_fair_hole.cpp"),
+    compiled with g++ against Debian's libcgal-dev into .cache/<stem> on first use and whenever the
+    source is newer or the compile command changed (tens of seconds; not when `build` is False).
+    `probe_header` is a header below /usr/include that the tool needs (e.g.
+    "CGAL/Polygon_mesh_processing/fair.h"); `extra_flags` go before the default include paths (e.g.
+    an -I of patched headers). Returns None when the tool is not built and cannot be: no g++, no
+    CGAL headers, or `build` False. Built without OpenMP, so the tools run single-threaded."""
+    src = ROOT / "bench" / "tools" / src_name
+    exe = ROOT / ".cache" / src.stem
+    stamp = exe.with_suffix(".cmd")
+    cmd = ["g++", "-O2", "-std=c++17", "-DNDEBUG", "-DCGAL_EIGEN3_ENABLED", *extra_flags, "-I/usr/include/eigen3",
+           str(src), "-o", str(exe.with_suffix(".tmp")), "-lgmp", "-lmpfr"]
+    # No stamp: built by an older helper with the default command (no extra flags).
+    built_cmd = stamp.read_text() if stamp.exists() else (" ".join(cmd) if not extra_flags else "")
+    if exe.exists() and exe.stat().st_mtime >= src.stat().st_mtime and built_cmd == " ".join(cmd):
+        return exe
+    if not build or not shutil.which("g++") or not (pathlib.Path("/usr/include") / probe_header).exists():
+        return None
+    exe.parent.mkdir(parents=True, exist_ok=True)
+    subprocess.run(cmd, check=True)
+    os.replace(exe.with_suffix(".tmp"), exe)
+    stamp.write_text(" ".join(cmd))
+    return exe
 
 
 def loop_subdivide(V, F, levels):

@@ -29,7 +29,7 @@ from .core import MeshError, _native, as_faces, as_vertices
 __all__ = ["UnwrapResult", "unwrap", "uv_metrics", "uv_stretch", "BOUNDARIES", "WEIGHTS", "SOLVERS"]
 
 BOUNDARIES = ("square", "circle", "free")
-WEIGHTS = ("floater", "mean_value", "cotangent", "uniform")
+WEIGHTS = ("floater", "mean_value", "cotangent", "uniform", "auto")
 SOLVERS = ("auto", "umfpack", "sparselu", "bicgstab", "multigrid")
 
 
@@ -89,8 +89,10 @@ def unwrap(V, F, *, boundary="square", weights="floater", eta=1.0, iterations="o
     one boundary loop; every vertex used).
     boundary: "square" (thesis), "circle", or "free" (the natural boundary of the least-squares
         conformal map; falls back to a circle, with a warning, if that boundary folds the map).
-    weights: "floater" (shape-preserving, default), "mean_value", "cotangent" (may fold: warns)
-        or "uniform".
+    weights: "floater" (shape-preserving, default), "mean_value", "cotangent" (may fold: warns),
+        "uniform", or "auto" (beyond the thesis: cotangent, and Floater's from the start again as
+        soon as a cotangent map folds or its solve stalls; the lowest stretch on the CGAL disk
+        scans, the Blender operator's default).
     eta: strength of each equalization step, 0 < eta <= 1 (eq. 5.6).
     iterations: "optimal" for Uopt, or an int k >= 0 for exactly k steps (0 = U0, 1 = U1).
     slide_boundary: beyond the thesis (whose boundary stays fixed): each step also slides the

@@ -5,9 +5,7 @@ scanned meshes, speed of the explicit and semi-implicit schemes.
 """
 
 import heapq
-import os
 import pathlib
-import shutil
 import subprocess
 import tempfile
 import time
@@ -15,7 +13,8 @@ import time
 import numpy as np
 
 import dgmesh
-from bench.common import ROOT, bbox_diagonal, cgal_mesh, table
+from bench.common import bbox_diagonal, cgal_mesh, table
+from bench.common import cgal_tool as common_cgal_tool
 from dgmesh.fair import refine_region
 
 
@@ -268,23 +267,11 @@ def fair_energy(quick):
 # CGAL reference on the same holes (bench/tools/cgal_fair_hole.cpp, compiled here on demand)
 # ---------------------------------------------------------------------------------------------
 
-_CGAL_SRC = ROOT / "bench" / "tools" / "cgal_fair_hole.cpp"
-_CGAL_EXE = ROOT / ".cache" / "cgal_fair_hole"
-
-
 def cgal_tool(build=True):
-    """Path of the CGAL reference tool, built with g++ against Debian's libcgal-dev on first use
-    (about 40 s; not when `build` is False); None when g++ or the CGAL headers are missing."""
-    if _CGAL_EXE.exists() and _CGAL_EXE.stat().st_mtime >= _CGAL_SRC.stat().st_mtime:
-        return _CGAL_EXE
-    if not build or not shutil.which("g++") or not pathlib.Path("/usr/include/CGAL/Polygon_mesh_processing/fair.h").exists():
-        return None
-    _CGAL_EXE.parent.mkdir(parents=True, exist_ok=True)
-    tmp = _CGAL_EXE.with_suffix(".tmp")
-    subprocess.run(["g++", "-O2", "-std=c++17", "-DNDEBUG", "-DCGAL_EIGEN3_ENABLED", "-I/usr/include/eigen3",
-                    str(_CGAL_SRC), "-o", str(tmp), "-lgmp", "-lmpfr"], check=True)
-    os.replace(tmp, _CGAL_EXE)
-    return _CGAL_EXE
+    """Path of the CGAL reference tool (bench/tools/cgal_fair_hole.cpp), built with g++ against
+    Debian's libcgal-dev on first use (about 40 s; not when `build` is False); None when g++ or the
+    CGAL headers are missing."""
+    return common_cgal_tool("cgal_fair_hole.cpp", "CGAL/Polygon_mesh_processing/fair.h", build)
 
 
 def _write_off(path, V, F):

@@ -22,7 +22,8 @@ UvWeights parse_weights(const std::string& s) {
   if (s == "mean_value") return UvWeights::MeanValue;
   if (s == "cotangent") return UvWeights::Cotangent;
   if (s == "uniform") return UvWeights::Uniform;
-  throw MeshError("weights must be 'floater', 'mean_value', 'cotangent' or 'uniform', got '" + s + "'");
+  if (s == "auto") return UvWeights::Auto;
+  throw MeshError("weights must be 'floater', 'mean_value', 'cotangent', 'uniform' or 'auto', got '" + s + "'");
 }
 
 UvSolver parse_solver(const std::string& s) {

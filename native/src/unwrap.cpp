@@ -679,6 +679,10 @@ constexpr int kDirectRows = 1000;       // UvSolver::Auto solves charts up to th
 // mannequin-devil x16, 207K: 26-30 instead of 12-19 iterations per step).
 constexpr int kAmgReuse = 3;
 constexpr int kCheapIters = 6;
+// UvWeights::Auto drops the cotangent weights when a solve needs more BiCGSTAB iterations than
+// this (their negative weights can make the system indefinite: 704 iterations for U0 of a 207K
+// chart, against 9 with Floater's weights).
+constexpr int kGiveUpIters = 100;
 constexpr int kSmallAmgRows = 20000;  // also: stricter aggregation strength up to here (Amg::setup)
 // Charts above this many faces compute the free boundary's conformal map on one thread while the
 // other builds the weights, the matrix and the multigrid hierarchy of eq. 5.3.
@@ -1187,13 +1191,14 @@ class ChartSolver {
       prepared_ = false;
       pmark("amg_setup");
       Blk Bb = B, Xb = X;
-      const int iters = bicgstab_amg(Ar, amg_, Bb, Xb, tol_, 500);
+      const int iters = bicgstab_amg(Ar, amg_, Bb, Xb, tol_, max_iters_);
       last_iters_ = iters >= 0 ? iters : 1 << 20;
       if (last_iters_ > kCheapIters && Ar.rows() > kSmallAmgRows) reuse_left_ = 0;
       const bool ok = iters >= 0 && Xb.allFinite();
       if (ok) X = Xb;
       pmark("krylov");
       if (ok) return iters;
+      if (!fallback_) return -1;
       kind_ = UvSolver::Umfpack;
       fell_back_ = true;
     }
@@ -1232,6 +1237,9 @@ class ChartSolver {
     prepared_ = true;
   }
   bool fell_back() const { return fell_back_; }
+  // A multigrid solve that does not converge within `max_iterations` returns -1 instead of
+  // falling back to UMFPACK (UvWeights::Auto's cotangent attempt gives up instead).
+  void give_up_after(int max_iterations) { max_iters_ = max_iterations, fallback_ = false; }
   bool iterative() const { return kind_ == UvSolver::Multigrid || kind_ == UvSolver::BiCGSTAB; }
   double tolerance() const { return tol_; }
   void set_tolerance(double t) { tol_ = t; }
@@ -1240,6 +1248,8 @@ class ChartSolver {
   UvSolver kind_;
   double tol_;
   bool fell_back_ = false;
+  bool fallback_ = true;
+  int max_iters_ = 500;
   int reuse_left_ = 0;  // solves left before the multigrid hierarchy is rebuilt
   int last_iters_ = 1 << 20;
   bool prepared_ = false;
@@ -1398,10 +1408,14 @@ VecXi connected_labels(int n, const MatX2i& pairs) {
   return label;
 }
 
-UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& opt, const ProgressFn& progress_fn) {
-  if (!(opt.eta > 0 && opt.eta <= 1)) throw MeshError("unwrap: eta must be in (0, 1], got " + std::to_string(opt.eta));
-  if (opt.iterations < -1) throw MeshError("unwrap: iterations must be -1 (optimal) or >= 0");
-  if (opt.max_iterations < 0) throw MeshError("unwrap: max_iterations must be >= 0");
+namespace {
+
+// unwrap() for one kind of weights. With `fold_stops`, the first map with flipped triangles (after
+// the tight re-solve) ends the call at once with `folded` set: UvWeights::Auto then starts again
+// with Floater's weights instead of equalizing a folded map.
+UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& opt,
+                            const ProgressFn& progress_fn, bool fold_stops, bool& folded) {
+  folded = false;
   ProfileScope profile;
   Progress progress(progress_fn);
   progress(0.0);
@@ -1639,6 +1653,8 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
   FaceData fd;
   bool fd_valid = false;
   const int nff = static_cast<int>(Ff.rows());
+  bool gave_up = false;  // a solve gave up (solver.give_up_after)
+  if (fold_stops) solver.give_up_after(kGiveUpIters);
   auto solve_step = [&](MatX2d& Ucur) {
     pmark("other");
     const int bad = sys.fill(*T, w, Ucur);
@@ -1649,6 +1665,10 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     for (int r = 0; r < m; ++r) X.row(r) = Ucur.row(sys.free_v[r]);
     // A chart without interior vertices (e.g. a fan-triangulated n-gon) has nothing to solve.
     const int it = m > 0 ? solver.solve(sys.A, sys.Ar, sys.B, X) : 0;
+    if (it < 0) {
+      gave_up = true;
+      return 0;
+    }
     fd_valid = false;
     for (int r = 0; r < m; ++r) Ucur.row(sys.free_v[r]) = X.row(r);
     place_ears(Ucur);
@@ -1671,7 +1691,7 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     st.metrics = metrics_of(Ucur, full);
     const double tol = solver.tolerance();
     double t = tol;
-    for (int k = 0; k < 2 && st.metrics.flipped && solver.iterative(); ++k) {
+    for (int k = 0; k < 2 && st.metrics.flipped && solver.iterative() && !fold_stops; ++k) {
       t = std::max(t * 1e-2, 1e-10);
       solver.set_tolerance(t);
       st.solver_iterations += solve_step(Ucur);
@@ -1720,6 +1740,10 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     res.steps.assign(1, st);
     res.uv_initial = U.topRows(n);
   };
+  if (fold_stops && (gave_up || res.steps[0].metrics.flipped)) {
+    folded = true;
+    return res;
+  }
   if (bnd == UvBoundary::Free && res.steps[0].metrics.flipped)
     to_circle("the free boundary folded the initial map (" + std::to_string(res.steps[0].metrics.flipped) +
               " flipped, " + std::to_string(res.steps[0].metrics.zero_area) + " zero-area triangles)");
@@ -1763,6 +1787,11 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
     UnwrapStep st;
     solve_checked(U, st);
     st.seconds = seconds_since(t0);
+    if (fold_stops && (gave_up || st.metrics.flipped)) {
+      res.steps.push_back(st);
+      folded = true;
+      return res;
+    }
     if (bnd == UvBoundary::Free && !res.boundary_convex && st.metrics.flipped) {
       to_circle("the non-convex free boundary folded equalization step " + std::to_string(h) + " (" +
                 std::to_string(st.metrics.flipped) + " flipped triangles)");
@@ -1813,6 +1842,34 @@ UnwrapResult unwrap(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& o
   res.uv = best.topRows(n);
   progress(1.0);
   return res;
+}
+
+}  // namespace
+
+UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, const ProgressFn& progress) {
+  if (!(opt.eta > 0 && opt.eta <= 1)) throw MeshError("unwrap: eta must be in (0, 1], got " + std::to_string(opt.eta));
+  if (opt.iterations < -1) throw MeshError("unwrap: iterations must be -1 (optimal) or >= 0");
+  if (opt.max_iterations < 0) throw MeshError("unwrap: max_iterations must be >= 0");
+  bool folded = false;
+  if (opt.weights != UvWeights::Auto) return unwrap_weights(V, F, opt, progress, false, folded);
+  UnwrapOptions o = opt;
+  o.weights = UvWeights::Cotangent;
+  UnwrapResult r = unwrap_weights(V, F, o, progress, true, folded);
+  const UvMetrics& m = r.steps[r.chosen].metrics;
+  if (!folded && m.zero_area == 0) {
+    // The negative weights did no harm: not worth a warning.
+    r.warnings.erase(std::remove_if(r.warnings.begin(), r.warnings.end(),
+                                    [](const std::string& w) { return w.find("cotangent") != std::string::npos; }),
+                     r.warnings.end());
+    return r;
+  }
+  const UvMetrics& last = r.steps.back().metrics;
+  o.weights = UvWeights::Floater;
+  UnwrapResult fl = unwrap_weights(V, F, o, progress, false, folded);
+  fl.warnings.insert(fl.warnings.begin(), "the cotangent weights' map folded (" + std::to_string(last.flipped) +
+                                              " flipped, " + std::to_string(last.zero_area) +
+                                              " zero-area triangles) or its solve did not converge; used Floater's weights");
+  return fl;
 }
 
 }  // namespace dgmesh

@@ -112,12 +112,13 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             ('MEAN_VALUE', "Mean Value", "Mean-value weights"),
             ('COTANGENT', "Cotangent", "Harmonic weights (may fold the initial map)"),
             ('UNIFORM', "Uniform", "Tutte's uniform weights"),
+            ('AUTO', "Auto", "Cotangent, or Floater's where the cotangent map folds (lowest stretch measured)"),
         ),
-        default='FLOATER',
+        default='AUTO',
     )
     # Defaults measured on the CGAL disk scans (bench/RESULTS.md, unwrap_quality): free boundary,
-    # eta 0.5 and sliding boundary give the lowest L2 stretch on lion-head, mushroom, nefertiti,
-    # three_peaks and head; the thesis's setting is Square, eta 1, no sliding.
+    # eta 0.5, sliding boundary and Auto weights give the lowest L2 stretch on lion-head, mushroom,
+    # nefertiti, three_peaks and head; the thesis's setting is Square, Floater, eta 1, no sliding.
     eta: FloatProperty(name="Strength", description="Exponent eta of each equalization step (eq. 5.6)",
                        default=0.5, min=0.05, max=1.0)
     slide_boundary: BoolProperty(

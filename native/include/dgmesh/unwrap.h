@@ -29,6 +29,11 @@ enum class UvWeights {
   MeanValue,  // mean-value weights [Flo03]
   Cotangent,  // harmonic (cot a + cot b) weights; may be negative, so U0 may flip
   Uniform,    // Tutte's barycentric weights
+  // Beyond the thesis: Cotangent (the harmonic map, closest to conformal, equalizes to a lower
+  // stretch than Floater's start on the CGAL disk scans; bench unwrap_quality) and, as soon as a
+  // map of it folds or if the result has zero-area triangles, Floater (positive: no flips on a
+  // convex polygon) from the start again.
+  Auto,
 };
 
 enum class UvSolver {
