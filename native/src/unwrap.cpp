@@ -1410,9 +1410,9 @@ VecXi connected_labels(int n, const MatX2i& pairs) {
 
 namespace {
 
-// unwrap() for one kind of weights. With `fold_stops`, the first map with flipped triangles (after
-// the tight re-solve) ends the call at once with `folded` set: UvWeights::Auto then starts again
-// with Floater's weights instead of equalizing a folded map.
+// unwrap() for one kind of weights. With `fold_stops`, the first map with flipped triangles (not
+// re-solved tighter) or a solve that gives up (kGiveUpIters) ends the call at once with `folded`
+// set: UvWeights::Auto then starts again with Floater's weights instead of equalizing a folded map.
 UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& opt,
                             const ProgressFn& progress_fn, bool fold_stops, bool& folded) {
   folded = false;
