@@ -1413,8 +1413,10 @@ namespace {
 // unwrap() for one kind of weights. With `fold_stops`, the first map with flipped triangles (not
 // re-solved tighter) or a solve that gives up (kGiveUpIters) ends the call at once with `folded`
 // set: UvWeights::Auto then starts again with Floater's weights instead of equalizing a folded map.
+// `lscm`: the free boundary's conformal map, computed here when empty (it does not depend on the
+// weights, so Auto's second attempt reuses the first one's).
 UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& opt,
-                            const ProgressFn& progress_fn, bool fold_stops, bool& folded) {
+                            const ProgressFn& progress_fn, bool fold_stops, bool& folded, MatX2d& lscm_map) {
   folded = false;
   ProfileScope profile;
   Progress progress(progress_fn);
@@ -1565,7 +1567,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
 #pragma omp section
       {
         try {
-          L = lscm(mesh.V, mesh.F, topo, p0, p1);
+          L = lscm_map.rows() ? lscm_map : lscm(mesh.V, mesh.F, topo, p0, p1);
         } catch (...) {
           err[0] = std::current_exception();
         }
@@ -1582,6 +1584,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
     for (const auto& e : err)
       if (e) std::rethrow_exception(e);
     system_ready = true;
+    lscm_map = L;
     pmark("lscm+system");
     // The conformal energy favours the faces' orientation; mirror if the image came out negative.
     double signed_area = 0;
@@ -1851,10 +1854,11 @@ UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, 
   if (opt.iterations < -1) throw MeshError("unwrap: iterations must be -1 (optimal) or >= 0");
   if (opt.max_iterations < 0) throw MeshError("unwrap: max_iterations must be >= 0");
   bool folded = false;
-  if (opt.weights != UvWeights::Auto) return unwrap_weights(V, F, opt, progress, false, folded);
+  MatX2d lscm_map;
+  if (opt.weights != UvWeights::Auto) return unwrap_weights(V, F, opt, progress, false, folded, lscm_map);
   UnwrapOptions o = opt;
   o.weights = UvWeights::Cotangent;
-  UnwrapResult r = unwrap_weights(V, F, o, progress, true, folded);
+  UnwrapResult r = unwrap_weights(V, F, o, progress, true, folded, lscm_map);
   const UvMetrics& m = r.steps[r.chosen].metrics;
   if (!folded && m.zero_area == 0) {
     // The negative weights did no harm: not worth a warning.
@@ -1865,7 +1869,7 @@ UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, 
   }
   const UvMetrics& last = r.steps.back().metrics;
   o.weights = UvWeights::Floater;
-  UnwrapResult fl = unwrap_weights(V, F, o, progress, false, folded);
+  UnwrapResult fl = unwrap_weights(V, F, o, progress, false, folded, lscm_map);
   fl.warnings.insert(fl.warnings.begin(), "the cotangent weights' map folded (" + std::to_string(last.flipped) +
                                               " flipped, " + std::to_string(last.zero_area) +
                                               " zero-area triangles) or its solve did not converge; used Floater's weights");
