@@ -20,32 +20,11 @@
 #include <string>
 #include <vector>
 
+#include "read_off.h"
+
 using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Mesh = CGAL::Surface_mesh<K::Point_3>;
 namespace PMP = CGAL::Polygon_mesh_processing;
-
-static bool read_off(const char* path, Mesh& m) {
-  // Plain OFF reader keeping the file's vertex order (indices must match the bench's arrays).
-  std::ifstream in(path);
-  std::string head;
-  size_t nv = 0, nf = 0, ne = 0;
-  if (!(in >> head) || head != "OFF" || !(in >> nv >> nf >> ne)) return false;
-  std::vector<Mesh::Vertex_index> vs(nv);
-  for (size_t i = 0; i < nv; ++i) {
-    double x, y, z;
-    if (!(in >> x >> y >> z)) return false;
-    vs[i] = m.add_vertex(K::Point_3(x, y, z));
-  }
-  for (size_t i = 0; i < nf; ++i) {
-    int k, a, b, c;
-    if (!(in >> k >> a >> b >> c) || k != 3) return false;
-    if (m.add_face(vs[a], vs[b], vs[c]) == Mesh::null_face()) {
-      std::cerr << "non-manifold face " << i << "\n";
-      return false;
-    }
-  }
-  return true;
-}
 
 int main(int argc, char** argv) {
   if (argc != 5) {
@@ -54,7 +33,7 @@ int main(int argc, char** argv) {
   }
   const std::string mode = argv[1];
   Mesh m;
-  if (!read_off(argv[2], m)) {
+  if (!read_off_in_order(argv[2], m)) {
     std::cerr << "cannot read " << argv[2] << "\n";
     return 1;
   }

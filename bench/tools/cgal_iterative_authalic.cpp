@@ -32,35 +32,14 @@
 #include <string>
 #include <vector>
 
+#include "read_off.h"
+
 using K = CGAL::Simple_cartesian<double>;
 using Mesh = CGAL::Surface_mesh<K::Point_3>;
 using VD = Mesh::Vertex_index;
 using HD = Mesh::Halfedge_index;
 namespace SMP = CGAL::Surface_mesh_parameterization;
 namespace PMP = CGAL::Polygon_mesh_processing;
-
-static bool read_off(const char* path, Mesh& m) {
-  // Plain OFF reader keeping the file's vertex order (UVs must match the bench's arrays).
-  std::ifstream in(path);
-  std::string head;
-  size_t nv = 0, nf = 0, ne = 0;
-  if (!(in >> head) || head != "OFF" || !(in >> nv >> nf >> ne)) return false;
-  std::vector<VD> vs(nv);
-  for (size_t i = 0; i < nv; ++i) {
-    double x, y, z;
-    if (!(in >> x >> y >> z)) return false;
-    vs[i] = m.add_vertex(K::Point_3(x, y, z));
-  }
-  for (size_t i = 0; i < nf; ++i) {
-    size_t k, a, b, c;
-    if (!(in >> k >> a >> b >> c) || k != 3 || a >= nv || b >= nv || c >= nv) return false;
-    if (m.add_face(vs[a], vs[b], vs[c]) == Mesh::null_face()) {
-      std::cerr << "non-manifold face " << i << "\n";
-      return false;
-    }
-  }
-  return true;
-}
 
 // One parameterization call with border parameterizer B; iterations in/out (best iteration).
 template <class B>
@@ -109,7 +88,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   Mesh input;
-  if (!read_off(argv[2], input)) {
+  if (!read_off_in_order(argv[2], input)) {
     std::cerr << "cannot read " << argv[2] << "\n";
     return 1;
   }
