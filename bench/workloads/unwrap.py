@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 import dgmesh
+from dgmesh.unwrap import chart_labels
 from bench.common import (IMAGES, ROOT, cgal_dir, cgal_mesh, cgal_tool, loop_subdivide, machine,
                           run_blender, table)
 
@@ -382,30 +383,14 @@ def _face_pairs(F):
 
 
 def _largest_piece(F, keep):
-    """Mask of the largest edge-connected piece among the faces in `keep`."""
+    """Mask of the largest edge-connected piece among the faces in `keep` (ties: the piece with the
+    lowest first face), and the number of pieces."""
     a, b = _face_pairs(F)
     both = keep[a] & keep[b]
-    a, b = a[both], b[both]
-    src, dst = np.concatenate([a, b]), np.concatenate([b, a])
-    order = np.argsort(src, kind="stable")
-    ptr = np.searchsorted(src[order], np.arange(len(F) + 1))
-    nbr = dst[order]
-    label = np.full(len(F), -1, np.int64)
-    sizes = []
-    for seed in np.nonzero(keep)[0]:
-        if label[seed] >= 0:
-            continue
-        label[seed] = len(sizes)
-        stack, n = [seed], 0
-        while stack:
-            f = stack.pop()
-            n += 1
-            for g in nbr[ptr[f]:ptr[f + 1]]:
-                if label[g] < 0:
-                    label[g] = len(sizes)
-                    stack.append(g)
-        sizes.append(n)
-    return label == int(np.argmax(sizes)), len(sizes)
+    label = chart_labels(len(F), np.c_[a[both], b[both]])  # labels in order of first face
+    kept = np.unique(label[keep])
+    sizes = np.bincount(label[keep], minlength=int(label.max()) + 1)[kept]
+    return label == kept[int(np.argmax(sizes))], len(kept)
 
 
 def cut_part(V, F, spec):

@@ -345,6 +345,18 @@ bool locate_in_map(const MatX2d& U, const MatX3i& F, const Topology& topo, const
   return false;
 }
 
+// Vertex -> incident triangles of T over nv vertices, as offsets and a flat list (CSR).
+void vertex_triangles(const MatX3i& T, int nv, std::vector<int>& off, std::vector<int>& ring) {
+  off.assign(nv + 1, 0);
+  for (int t = 0; t < T.rows(); ++t)
+    for (int k = 0; k < 3; ++k) ++off[T(t, k) + 1];
+  for (int v = 0; v < nv; ++v) off[v + 1] += off[v];
+  ring.resize(off[nv]);
+  std::vector<int> fill(off.begin(), off.end() - 1);
+  for (int t = 0; t < T.rows(); ++t)
+    for (int k = 0; k < 3; ++k) ring[fill[T(t, k)]++] = t;
+}
+
 // Beyond the thesis: removes interior vertices of valence 3 or 4 whose star holds a small 3D angle.
 // Such a vertex cannot be smoothed out of it (three triangles around a vertex average 120 degrees
 // there, leaving small angles elsewhere; four share a quadrilateral that the vertex crowds). The
@@ -356,16 +368,8 @@ bool locate_in_map(const MatX2d& U, const MatX3i& F, const Topology& topo, const
 int remove_low_valence(MatX3i& T, MatX3d& X, MatX2d& P, std::vector<Sample>& S, VecXd& rho_out, int nb,
                        double orient_sign, double max_cos) {
   const int nv = int(X.rows()), nt = int(T.rows());
-  std::vector<int> off(nv + 1, 0), ring;
-  for (int t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) ++off[T(t, k) + 1];
-  for (int v = 0; v < nv; ++v) off[v + 1] += off[v];
-  ring.resize(off[nv]);
-  {
-    std::vector<int> fill(off.begin(), off.end() - 1);
-    for (int t = 0; t < nt; ++t)
-      for (int k = 0; k < 3; ++k) ring[fill[T(t, k)]++] = t;
-  }
+  std::vector<int> off, ring;
+  vertex_triangles(T, nv, off, ring);
   auto tri_cos = [&](int a, int b, int c) { return min_angle_cos(row3(X, a), row3(X, b), row3(X, c)); };
   auto orient = [&](int a, int b, int c) {
     return orient_sign * cross2(uv_row(P, b) - uv_row(P, a), uv_row(P, c) - uv_row(P, a));
@@ -546,7 +550,7 @@ int smooth_in_map(const MatX3d& V, const MatX3i& F, const Topology& topo, const 
         sharp = l > 0 && nt[m].dot(nm) < kSmoothFeatureCos * l;
       }
     }
-    // On a feature the goal stays at 30 degrees: lifting angles further there moves the feature.
+    // On a feature the goal is lower (kSmoothSharpMinAngle): lifting angles there moves the feature.
     const double goal = sharp ? cos_sharp : cos_min;
     if (sharp && before <= goal) continue;
     const Sample& s0 = S[i];
@@ -1250,17 +1254,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       }
     std::vector<int> ring_off(nout + 1), ring, colour(nout), groups, group_off;
     for (int it = 0; it < o.smooth_iterations; ++it) {
-      // Vertex -> incident triangles (rebuilt after flips).
-      std::fill(ring_off.begin(), ring_off.end(), 0);
-      for (int t = 0; t < res.F.rows(); ++t)
-        for (int k = 0; k < 3; ++k) ++ring_off[res.F(t, k) + 1];
-      for (int i = 0; i < nout; ++i) ring_off[i + 1] += ring_off[i];
-      ring.assign(ring_off[nout], 0);
-      {
-        std::vector<int> fill(ring_off.begin(), ring_off.end() - 1);
-        for (int t = 0; t < res.F.rows(); ++t)
-          for (int k = 0; k < 3; ++k) ring[fill[res.F(t, k)]++] = t;
-      }
+      vertex_triangles(res.F, nout, ring_off, ring);  // rebuilt after flips and removals
       // Greedy colouring of the interior vertices (neighbours = vertices of the star's triangles);
       // colour 64 collects the few the 64 colours cannot place (processed serially).
       constexpr int kColours = 64;
@@ -1297,7 +1291,6 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
         res.n_removed += rem;
         if (rem > 0) {
           nout = int(res.V.rows());
-          ring_off.resize(nout + 1);
           colour.resize(nout);
           if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
         }
