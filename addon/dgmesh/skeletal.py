@@ -153,8 +153,9 @@ class SkeletalRig:
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         (their union) is at least this fraction of its rest distance to them (a joint's crease where
-        the medial surface is a sheet off the stick bones); 0 = off, 1 = every rest distance kept
-        (costs thickness under twists).
+        the medial surface is a sheet off the stick bones); through the multiresolution layer the
+        dense vertices too (against the bones of their base face's control vertices); 0 = off,
+        1 = every rest distance kept (costs thickness under twists).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step

@@ -332,3 +332,39 @@ def test_surface_bone_clearance():
     M[:3, 3] += (0.3, -1, 2)
     Xr = rig.deform(np.array([M @ REST[0], M @ REST[1]]), bone_clearance=1.0)
     assert np.abs(Xr - (V @ M[:3, :3].T + M[:3, 3])).max() < 1e-8
+
+
+def test_multires_surface_bone_clearance():
+    """Through the multiresolution layer the dense vertices get the surface bone clearance too (each
+    against the bones its base face's control vertices have weight on): the limit surface of the
+    posed control mesh rounds the crease and, under a twist, cuts the sheared control polygon, and
+    comes closer to the bones (here min ratio 0.50 bend / 0.16 twist without the step)."""
+    V, F = capsule(0.5, 6.0, 32, 6, 48)
+    V = V * np.array([1.0, 1.0, 0.4])
+    t = np.clip(V[:, 0] + 0.5, 0, 1)
+    W = np.c_[1 - t, t]
+    rig = dgmesh.SkeletalRig.bind(V, F, REST, W, bone_heads=HEADS, bone_tails=TAILS, control_faces=1500)
+    assert rig.has_multires
+    whole = dgmesh.SkeletalRig.bind(V, F, REST, W, bone_heads=HEADS, bone_tails=TAILS, control_faces=len(F) + 1)
+    f_rest = dgmesh.union_of_balls_distance(V, whole.skeleton_vertices, whole.radii)
+    has = W > 1e-3
+
+    def skel_dist(P, pose):
+        return np.where(has, _segment_dists(P, pose), np.inf).min(1)
+
+    d0 = skel_dist(V, REST)
+    ok = d0 > 1e-9
+    for pose in (np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]]),
+                 np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]])):
+        X0, X = rig.deform(pose, bone_clearance=0), rig.deform(pose)
+        assert (skel_dist(X0, pose)[ok] / d0[ok]).min() < 0.9  # not vacuous
+        assert (skel_dist(X, pose)[ok] / d0[ok]).min() >= 0.95 - 1e-9
+        assert (np.linalg.norm(X - X0, axis=1) > 1e-12).sum() < 0.3 * len(V)
+        Sd = whole.skeleton_pose(pose)
+        e0, e = (((dgmesh.union_of_balls_distance(P, Sd, whole.radii) - f_rest) ** 2).sum() for P in (X0, X))
+        assert e < 1.2 * e0
+    assert np.abs(rig.deform(REST, bone_clearance=1.0) - V).max() < 1e-9
+    M = rot((1, 2, 3), 0.7, pivot=(1, 0, 0))
+    M[:3, 3] += (0.3, -1, 2)
+    Xr = rig.deform(np.array([M @ REST[0], M @ REST[1]]), bone_clearance=1.0)
+    assert np.abs(Xr - (V @ M[:3, :3].T + M[:3, 3])).max() < 1e-8
