@@ -41,7 +41,7 @@ import uuid
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, IntProperty, StringProperty
+from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from .. import colors
 from ..core import MeshError
@@ -180,7 +180,8 @@ def _deformed(obj, pose):
     if buf is None or buf[0].shape[0] != rig.n_vertices:
         buf = _buffers[key] = _new_buffers(obj, rig)
     pos, out, rest = buf
-    kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower())
+    kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
+              bone_clearance=float(info.get("bone_clearance", 0.95)))  # files bound before the option: 0.95
     try:
         rig.deform(pose, out=pos, **kw)
     except (MeshError, TypeError):
@@ -422,6 +423,10 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
     fairing_steps: IntProperty(name="Fairing Steps", default=2, min=0, max=20,
                                description="Shape-preserving self-intersection fairing steps per pose (eq. 6.15)")
     method: EnumProperty(name="Method", items=METHODS, default='VARIATIONAL')
+    bone_clearance: FloatProperty(name="Bone Clearance", default=0.95, min=0.0, max=1.0,
+                                  description="Keep each vertex at least this fraction of its rest distance from "
+                                  "the bones it follows (a joint's inner crease); 0 = off, 1 = every rest distance "
+                                  "(costs thickness under twists)")
 
     @classmethod
     def register(cls):
@@ -503,7 +508,8 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         sk = _skeleton_object(context, obj, rig)
         obj[PROP] = {
             "id": bid, "armature": arm.name, "bones": names, "data": _encode(rig.to_arrays()),
-            "fairing_steps": self.fairing_steps, "method": self.method, "target": "HELPER",
+            "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
+            "target": "HELPER",
             "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
             "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
             "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
