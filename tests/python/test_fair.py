@@ -303,3 +303,40 @@ def test_willmore_descends_after_the_linear_start_on_a_refined_fan_fill():
 
     dw, db = dist(w), dist(b)
     assert dw < 0.6 * db, (dw, db)  # 0.38 measured; equal before the fix
+
+
+def test_refine_region_retriangulates_a_fill_by_min_weight():
+    """A fill without inner vertices is first re-triangulated by Liepa's minimum-weight
+    triangulation of its loop (smallest largest dihedral angle, then area): two fans over the same
+    hole, from different apexes, refine to the same mesh, and the refined fill does not keep a
+    fan's folds across a non-planar rim."""
+    from dgmesh.fair import refine_region
+
+    V, F, hole, F2, fill = _bunny_fan_hole()
+    k = len(F2) - int(fill.sum())
+    fan = F2[k:]  # rows (l[0], l[i + 1], l[i]) for i = 1 .. n - 2
+    loop = [int(fan[0, 0])] + [int(v) for v in fan[:, 2]] + [int(fan[-1, 1])]
+    assert len(set(loop)) == len(loop) == len(fan) + 2
+    shift = len(loop) // 3
+    other = np.roll(loop, -shift)
+    fan2 = np.array([[other[0], other[i + 1], other[i]] for i in range(1, len(other) - 1)], dtype=F2.dtype)
+    F3 = np.concatenate([F2[:k], fan2])
+    a, b = refine_region(V, F2, fill), refine_region(V, F3, fill)
+    assert np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1])
+
+    def max_dihedral(Vx, Fx, region):
+        N = np.cross(Vx[Fx[:, 1]] - Vx[Fx[:, 0]], Vx[Fx[:, 2]] - Vx[Fx[:, 0]])
+        N /= np.linalg.norm(N, axis=1, keepdims=True)
+        E = np.concatenate([np.sort(Fx[:, [0, 1]], 1), np.sort(Fx[:, [1, 2]], 1), np.sort(Fx[:, [2, 0]], 1)])
+        f = np.tile(np.arange(len(Fx)), 3)
+        order = np.lexsort(E.T[::-1])
+        E, f = E[order], f[order]
+        same = np.all(E[1:] == E[:-1], axis=1)
+        f0, f1 = f[:-1][same], f[1:][same]
+        keep = region[f0] | region[f1]
+        return np.degrees(np.arccos(np.clip((N[f0[keep]] * N[f1[keep]]).sum(1), -1, 1))).max()
+
+    # Without splits (a huge target length) the fill keeps n - 2 triangles; its folds are gone.
+    Vn, Fn, on = refine_region(V, F2, fill, density=1e-9)
+    assert len(Vn) == len(V)
+    assert max_dihedral(V, F2, fill) > 170 and max_dihedral(Vn, Fn, fill[on]) < 120

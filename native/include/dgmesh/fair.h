@@ -107,13 +107,17 @@ struct RegionSubdivision {
 // are not split, so faces outside the region are unchanged (same rows, same indices).
 RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask);
 
-// Liepa-style refinement of a hole fill (P. Liepa, "Filling holes in meshes", SGP 2003, sec. 3.3):
-// each vertex gets a target edge length sigma (the mean length of its edges outside the region;
+// Liepa-style refinement of a hole fill (P. Liepa, "Filling holes in meshes", SGP 2003, sec. 3.2-3.3):
+// a region that is a fill without inner vertices (one boundary loop through all its vertices, up to
+// 600 of them) is first re-triangulated by Liepa's minimum-weight triangulation of the loop (smallest
+// largest dihedral angle, with the faces around the hole included, then smallest area), so the
+// result does not depend on how the hole was filled (a fan, an n-gon's triangulation); then each
+// vertex gets a target edge length sigma (the mean length of its edges outside the region;
 // the mean over the region's border for vertices inside it); a region triangle whose centroid c
 // has density * |c - v| > max(sigma(c), sigma(v)) for its three corners v is split 1-to-3 at c
 // (sigma(c) = mean of the corners'), and region-interior edges are flipped to the Delaunay
-// (opposite angles sum <= pi) configuration after each round, until nothing splits; a last pass
-// flips edges that bring valences closer to 6 without creating angles under 15 degrees (the
+// (opposite angles sum <= pi) configuration after each round, until nothing splits; when it split, a
+// last pass flips edges that bring valences closer to 6 without creating angles under 15 degrees (the
 // flow's linear start depends on the connectivity only), and new vertices left with valence 3
 // are removed (their three triangles merged: the uniform umbrella of a valence-3 vertex put it
 // on a spike in the linear start). Border edges
