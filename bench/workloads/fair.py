@@ -521,7 +521,8 @@ def fair_restore(quick):
                                                   "willmore_beats_cgal": n_wc, "compared_with_cgal": n_cmp,
                                                   "willmore_best": n_w}
     headline = (f"**Blender workflow** (delete, Fill: a fan over the rim, select, Fair with Refine Fill = "
-                f"`dgmesh.fair(V, F, faces=fill, refine=True)`): the fill knows nothing of the removed shape. "
+                f"`dgmesh.fair(V, F, faces=fill, refine=True)`, which re-triangulates the fan by Liepa's minimum-weight "
+                f"triangulation of the rim before refining it): the fill knows nothing of the removed shape. "
                 f"On the {n_ok} scanned holes that fairing can restore (of {n_scan}; the others swallowed a "
                 f"protrusion: removed vertices > rim^2 / 4, where a disk on an even mesh has about rim^2 / 11), "
                 f"Willmore is closer than the bilaplacian flow on {n_wb} of {n_ok}, closer than CGAL "
