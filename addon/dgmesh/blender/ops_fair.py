@@ -164,8 +164,9 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
     refine: BoolProperty(
         name="Refine Fill", default=False,
         description="Edit mode: first refine the selected faces to triangles sized like the mesh "
-        "around them (Liepa's hole-filling refinement: centroid splits and Delaunay flips). For a "
-        "hole filled with Fill (one n-gon or a fan) or a coarse Grid Fill; the selection's border "
+        "around them (Liepa's hole filling: a fill without inner vertices is first re-triangulated "
+        "by the minimum-weight triangulation of its rim, then centroid splits and Delaunay flips). For "
+        "a hole filled with Fill (one n-gon or a fan) or a coarse Grid Fill; the selection's border "
         "edges are not split")
 
     def draw(self, context):
