@@ -1090,6 +1090,8 @@ void SkeletalRig::Impl::setup_clearance() {
 // The dense vertices' surface bone clearance (multiresolution layer): a dense vertex is driven by
 // the control vertices of its base face (and their rings), so it keeps its distance to the stick
 // skeleton of the bones those three have weight on, as clear_surface does for a control vertex.
+// (Adding the rings' bones changed no minimum ratio of bench skeletal_limb.) Vertices that move
+// rigidly with one bone (dense_rigid) are skipped, as by the thickness step.
 void SkeletalRig::Impl::setup_dense_clearance(const MatX3d& Xd) {
   const int B = static_cast<int>(rest.size()), m = static_cast<int>(control.F.rows());
   const Eigen::Index nd = Xd.rows();
