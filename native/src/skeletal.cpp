@@ -140,31 +140,39 @@ double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
 }
 
 // Push p out to at least distance e from the segment (h, h + v) (a point on the segment itself has
-// no direction: kept).
-inline void push_from_segment(Vec3& p, const Vec3& h, const Vec3& v, double e) {
+// no direction: kept). Returns whether p moved.
+inline bool push_from_segment(Vec3& p, const Vec3& h, const Vec3& v, double e) {
   const double vv = v.squaredNorm();
   const double t = vv > 0 ? std::clamp((p - h).dot(v) / vv, 0.0, 1.0) : 0.0;
   const Vec3 c = h + t * v;
   const double d = (p - c).norm();
-  if (d < e * (1 - 1e-9) && d > 1e-6 * e) p = c + (p - c) * (e / d);
+  if (!(d < e * (1 - 1e-9) && d > 1e-6 * e)) return false;
+  p = c + (p - c) * (e / d);
+  return true;
 }
 
 // Push p out to at least distance fraction * e[j] from each posed segment j with e[j] > 0 (two
-// Gauss-Seidel passes over the bones).
+// Gauss-Seidel passes over the bones; the second only when the first moved p).
 template <class Row>
 inline Vec3 push_out(Vec3 p, const Row& e, const std::vector<Vec3>& h, const std::vector<Vec3>& v,
                      double fraction) {
-  for (int pass = 0; pass < 2; ++pass)
+  for (int pass = 0; pass < 2; ++pass) {
+    bool moved = false;
     for (int j = 0; j < static_cast<int>(h.size()); ++j)
-      if (e[j] > 0) push_from_segment(p, h[j], v[j], fraction * e[j]);
+      if (e[j] > 0) moved |= push_from_segment(p, h[j], v[j], fraction * e[j]);
+    if (!moved) break;
+  }
   return p;
 }
 
 // The same with one distance e for the listed bones.
 inline Vec3 push_out(Vec3 p, const int* bones, int nb, double e, const std::vector<Vec3>& h,
                      const std::vector<Vec3>& v) {
-  for (int pass = 0; pass < 2; ++pass)
-    for (int k = 0; k < nb; ++k) push_from_segment(p, h[bones[k]], v[bones[k]], e);
+  for (int pass = 0; pass < 2; ++pass) {
+    bool moved = false;
+    for (int k = 0; k < nb; ++k) moved |= push_from_segment(p, h[bones[k]], v[bones[k]], e);
+    if (!moved) break;
+  }
   return p;
 }
 
