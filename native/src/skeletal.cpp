@@ -151,30 +151,38 @@ inline bool push_from_segment(Vec3& p, const Vec3& h, const Vec3& v, double e) {
   return true;
 }
 
-// Push p out to at least distance fraction * e[j] from each posed segment j with e[j] > 0 (two
-// Gauss-Seidel passes over the bones; the second only when the first moved p).
+// Push p out to at least distance e[j] from each posed segment j with e[j] > 0 (two Gauss-Seidel
+// passes over the bones; the second only when the first moved p).
 template <class Row>
-inline Vec3 push_out(Vec3 p, const Row& e, const std::vector<Vec3>& h, const std::vector<Vec3>& v,
-                     double fraction) {
+inline Vec3 push_out(Vec3 p, const Row& e, const std::vector<Vec3>& h, const std::vector<Vec3>& v) {
   for (int pass = 0; pass < 2; ++pass) {
     bool moved = false;
     for (int j = 0; j < static_cast<int>(h.size()); ++j)
-      if (e[j] > 0) moved |= push_from_segment(p, h[j], v[j], fraction * e[j]);
+      if (e[j] > 0) moved |= push_from_segment(p, h[j], v[j], e[j]);
     if (!moved) break;
   }
   return p;
 }
 
-// The same with one distance e for the listed bones.
-inline Vec3 push_out(Vec3 p, const int* bones, int nb, double e, const std::vector<Vec3>& h,
-                     const std::vector<Vec3>& v) {
-  for (int pass = 0; pass < 2; ++pass) {
-    bool moved = false;
-    for (int k = 0; k < nb; ++k) moved |= push_from_segment(p, h[bones[k]], v[bones[k]], e);
-    if (!moved) break;
+// Surface bone clearance data: for each point, the bones it follows (CSR) and its rest distance to
+// the union of their segments (-1: none).
+struct BoneClearance {
+  std::vector<int> offset{0}, bones;
+  VecXd rest;
+
+  // Point i at p, pushed out to at least fraction * rest[i] from each of its posed segments (h, v)
+  // (two Gauss-Seidel passes; the second only when the first moved p).
+  Vec3 push(int i, Vec3 p, double fraction, const std::vector<Vec3>& h, const std::vector<Vec3>& v) const {
+    const double e = fraction * rest[i];
+    if (!(e > 0)) return p;
+    for (int pass = 0; pass < 2; ++pass) {
+      bool moved = false;
+      for (int k = offset[i]; k < offset[i + 1]; ++k) moved |= push_from_segment(p, h[bones[k]], v[bones[k]], e);
+      if (!moved) break;
+    }
+    return p;
   }
-  return p;
-}
+};
 
 }  // namespace
 
@@ -520,11 +528,9 @@ struct SkeletalRig::Impl {
   std::vector<int> dense_arg;
   // Dense vertices whose limit surface moves rigidly with one bone (project_dense skips them).
   std::vector<char> dense_rigid;
-  // Surface bone clearance of the dense vertices (see project_dense): the bones each control face's
-  // vertices have weight on (CSR over the faces), and each dense vertex's rest distance to the union
-  // of its base face's bones' segments (-1: none).
-  std::vector<int> face_bone_offset, face_bones;
-  VecXd dense_clearance;
+  // Surface bone clearance (see clear_surface) of the control vertices and, through the
+  // multiresolution layer, of the dense ones (see project_dense).
+  BoneClearance surface_clearance, dense_clearance;
   MatX3d cot;        // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
   double mu = 0;     // frame regularisation weight (absolute)
@@ -535,8 +541,6 @@ struct SkeletalRig::Impl {
   // and each skeletal vertex's rest distance to the segments of the bones it has weight on (-1: none).
   std::vector<Vec3> bone_head, bone_vec;
   Eigen::MatrixXd clearance;
-  // The same for the control mesh's vertices (surface clearance, see clear_surface).
-  Eigen::MatrixXd surface_clearance;
 
   void setup();
   void setup_clearance();
@@ -551,7 +555,8 @@ struct SkeletalRig::Impl {
   std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const;
   void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
                         std::vector<int>* args = nullptr) const;
-  void setup_dense_clearance(const MatX3d& Xd);
+  template <class Follows>
+  BoneClearance union_clearance(const MatX3d& P, Follows follows) const;
   template <class Out>
   void project_dense(const MatX3d& Sd, const std::vector<int>& control_args, const std::vector<Mat4>& pose,
                      const SkeletalDeformOptions& opt, Out& out) const;
@@ -635,7 +640,14 @@ void SkeletalRig::Impl::setup() {
       const int b = ring_solo[F(face[i], 0)];
       dense_rigid[i] = b >= 0 && ring_solo[F(face[i], 1)] == b && ring_solo[F(face[i], 2)] == b;
     }
-    setup_dense_clearance(Xd);
+    // A dense vertex is driven by the control vertices of its base face (and their rings): it
+    // follows the bones those three have weight on (adding the rings' bones changed no minimum
+    // ratio of bench skeletal_limb). Vertices that move rigidly with one bone (dense_rigid) are
+    // skipped by project_dense, as by its thickness step.
+    dense_clearance = union_clearance(Xd, [&](int i, int j) {
+      const int f = face[i];
+      return W(F(f, 0), j) > 1e-3 || W(F(f, 1), j) > 1e-3 || W(F(f, 2), j) > 1e-3;
+    });
   }
   {
     std::vector<double> rs(radii.data(), radii.data() + n);
@@ -741,7 +753,7 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
   // Then the surface bone clearance, as clear_surface does for the control vertices (a limit
   // surface rounds the control mesh's crease and comes closer to the bones than its vertices: camel
   // knee through a 5000-face control mesh, min ratio 0.19 without this step).
-  const bool clear = opt.bone_clearance > 0 && dense_clearance.size() == out.rows();
+  const bool clear = opt.bone_clearance > 0 && dense_clearance.rest.size() == out.rows();
   std::vector<Vec3> h, v;
   if (clear) posed_segments(pose, h, v);
   // Dynamic chunks: the vertices that are not skipped cluster where the pose bends the mesh, and a
@@ -778,10 +790,7 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
       if (!(len > 1e-300)) break;
       x -= (w * f / len) * d;
     }
-    if (clear && dense_clearance[i] > 0) {
-      const int b0 = face_bone_offset[face[i]], b1 = face_bone_offset[face[i] + 1];
-      x = push_out(x, face_bones.data() + b0, b1 - b0, opt.bone_clearance * dense_clearance[i], h, v);
-    }
+    if (clear) x = dense_clearance.push(i, x, opt.bone_clearance, h, v);
     out.row(i) = x.transpose().template cast<typename Out::Scalar>();
   }
 }
@@ -1074,55 +1083,36 @@ void SkeletalRig::Impl::setup_clearance() {
     }
     bone_vec[j] = std::max(len, 1e-9) * axis[j];
   }
-  surface_clearance.setConstant(n, B, -1.0);
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < B; ++j)
-      if (W(i, j) > 1e-3) {
-        clearance(i, j) = std::sqrt(segment_sq_dist(row3(S, i), bone_head[j], bone_head[j] + bone_vec[j]));
-        surface_clearance(i, j) =
-            std::sqrt(segment_sq_dist(row3(control.V, i), bone_head[j], bone_head[j] + bone_vec[j]));
-      }
+      if (W(i, j) > 1e-3) clearance(i, j) = std::sqrt(segment_sq_dist(row3(S, i), bone_head[j], bone_head[j] + bone_vec[j]));
   // A surface vertex keeps its distance to the stick skeleton of its bones (the union of their
   // segments), not to each of them: in a bend's inner crease the flesh near one bone folds towards
   // the other, which is closer than at rest, and must (capsule, 90 degrees: 0.7 of its rest distance
   // to the other bone).
-  for (int i = 0; i < n; ++i) {
-    double m = std::numeric_limits<double>::infinity();
-    for (int j = 0; j < B; ++j)
-      if (surface_clearance(i, j) >= 0) m = std::min(m, surface_clearance(i, j));
-    for (int j = 0; j < B; ++j)
-      if (surface_clearance(i, j) >= 0) surface_clearance(i, j) = m;
-  }
+  surface_clearance = union_clearance(control.V, [&](int i, int j) { return W(i, j) > 1e-3; });
 }
 
-// The dense vertices' surface bone clearance (multiresolution layer): a dense vertex is driven by
-// the control vertices of its base face (and their rings), so it keeps its distance to the stick
-// skeleton of the bones those three have weight on, as clear_surface does for a control vertex.
-// (Adding the rings' bones changed no minimum ratio of bench skeletal_limb.) Vertices that move
-// rigidly with one bone (dense_rigid) are skipped, as by the thickness step.
-void SkeletalRig::Impl::setup_dense_clearance(const MatX3d& Xd) {
-  const int B = static_cast<int>(rest.size()), m = static_cast<int>(control.F.rows());
-  const Eigen::Index nd = Xd.rows();
-  face_bone_offset.assign(m + 1, 0);
-  face_bones.clear();
-  dense_clearance.setConstant(nd, -1.0);
-  if (B < 2) return;
-  for (int f = 0; f < m; ++f) {
-    for (int j = 0; j < B; ++j)
-      if (W(control.F(f, 0), j) > 1e-3 || W(control.F(f, 1), j) > 1e-3 || W(control.F(f, 2), j) > 1e-3)
-        face_bones.push_back(j);
-    face_bone_offset[f + 1] = static_cast<int>(face_bones.size());
-  }
-  const VecXi& face = multires->base_face();
-#pragma omp parallel for schedule(static) if (nd >= kParallelMin)
-  for (Eigen::Index i = 0; i < nd; ++i) {
+// Bone sets (follows(i, j): point i follows bone j) and rest distances of the points P to the union
+// of their bones' rest segments; nothing when one bone moves everything rigidly.
+template <class Follows>
+BoneClearance SkeletalRig::Impl::union_clearance(const MatX3d& P, Follows follows) const {
+  const int B = static_cast<int>(rest.size()), n = static_cast<int>(P.rows());
+  BoneClearance c;
+  c.rest.setConstant(n, -1.0);
+  if (B < 2) return c;
+  c.offset.reserve(n + 1);
+  for (int i = 0; i < n; ++i) {
     double d2 = std::numeric_limits<double>::infinity();
-    for (int k = face_bone_offset[face[i]]; k < face_bone_offset[face[i] + 1]; ++k) {
-      const int j = face_bones[k];
-      d2 = std::min(d2, segment_sq_dist(row3(Xd, i), bone_head[j], bone_head[j] + bone_vec[j]));
-    }
-    if (std::isfinite(d2)) dense_clearance[i] = std::sqrt(d2);
+    for (int j = 0; j < B; ++j)
+      if (follows(i, j)) {
+        c.bones.push_back(j);
+        d2 = std::min(d2, segment_sq_dist(row3(P, i), bone_head[j], bone_head[j] + bone_vec[j]));
+      }
+    c.offset.push_back(static_cast<int>(c.bones.size()));
+    if (std::isfinite(d2)) c.rest[i] = std::sqrt(d2);
   }
+  return c;
 }
 
 void SkeletalRig::Impl::posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h,
@@ -1146,11 +1136,11 @@ void SkeletalRig::Impl::posed_segments(const std::vector<Mat4>& pose, std::vecto
 // no push.
 void SkeletalRig::Impl::clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction) const {
   const int B = static_cast<int>(rest.size()), n = static_cast<int>(X.rows());
-  if (B < 2 || surface_clearance.rows() != n || !(fraction > 0)) return;
+  if (B < 2 || surface_clearance.rest.size() != n || !(fraction > 0)) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
-  for (int i = 0; i < n; ++i) X.row(i) = push_out(row3(X, i), surface_clearance.row(i), h, v, fraction).transpose();
+  for (int i = 0; i < n; ++i) X.row(i) = surface_clearance.push(i, row3(X, i), fraction, h, v).transpose();
 }
 
 // SSD (eq. 6.2) blends the bone motions, and where a limb's medial surface is a sheet rather than a
@@ -1163,7 +1153,7 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
   if (B < 2 || clearance.rows() != n) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
-  for (int i = 0; i < n; ++i) Sd.row(i) = push_out(row3(Sd, i), clearance.row(i), h, v, 1.0).transpose();
+  for (int i = 0; i < n; ++i) Sd.row(i) = push_out(row3(Sd, i), clearance.row(i), h, v).transpose();
 }
 
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
