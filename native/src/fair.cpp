@@ -1185,31 +1185,23 @@ void retriangulate_fill(const std::vector<Vec3>& P, const MatX3i& F, const std::
   const int m = static_cast<int>(F.rows());
   auto he = [](int a, int b) { return (static_cast<long long>(a) << 32) | static_cast<unsigned>(b); };
   std::vector<int> rows;
-  std::unordered_set<long long> region_he;
   for (int f = 0; f < m; ++f)
-    if (face_mask[f]) {
-      rows.push_back(f);
-      for (int k = 0; k < 3; ++k) region_he.insert(he(F(f, k), F(f, (k + 1) % 3)));
-    }
+    if (face_mask[f]) rows.push_back(f);
   const int nr = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
   if (nr < 4 || nr > kMaxLoop || static_cast<int>(rows.size()) != nr - 2) return;
-  std::unordered_map<int, int> next;  // boundary halfedge a -> b of the region
-  for (int f : rows)
-    for (int k = 0; k < 3; ++k) {
-      const int a = F(f, k), b = F(f, (k + 1) % 3);
-      if (!region_he.count(he(b, a)) && !next.emplace(a, b).second) return;  // pinched loop
-    }
-  if (static_cast<int>(next.size()) != nr) return;  // an inner vertex, or several loops
-  // Started at its smallest vertex: the result depends on the loop only, not on the fill.
-  int start = next.begin()->first;
-  for (const auto& [a, b] : next) start = std::min(start, a);
-  std::vector<int> loop{start};
-  while (static_cast<int>(loop.size()) <= nr) {
-    const int b = next.at(loop.back());
-    if (b == loop.front()) break;
-    loop.push_back(b);
+  // The region's boundary loop, in its faces' orientation, from its smallest vertex (so the result
+  // depends on the loop only, not on the fill).
+  MatX3i R(static_cast<Eigen::Index>(rows.size()), 3);
+  for (size_t r = 0; r < rows.size(); ++r) R.row(static_cast<Eigen::Index>(r)) = F.row(rows[r]);
+  Topology topo;
+  try {
+    topo = build_topology(R, static_cast<int>(P.size()));
+  } catch (const MeshError&) {
+    return;  // a pinched region (non-manifold)
   }
-  if (static_cast<int>(loop.size()) != nr) return;
+  if (topo.boundary_loops.size() != 1) return;
+  const std::vector<int>& loop = topo.boundary_loops[0];
+  if (static_cast<int>(loop.size()) != nr) return;  // an inner vertex
   // Normals of the faces outside along the loop (halfedge b -> a).
   std::unordered_map<long long, int> outside;
   for (int f = 0; f < m; ++f)
