@@ -106,9 +106,12 @@ def test_hole_workflow_with_subdivision_keeps_other_uvs_and_undoes():
     _assert_manifold_then_undo(mesh, snap)
 
 
-def test_hole_workflow_with_refine_fill():
+@pytest.mark.parametrize("kwargs", [{"refine": True}, {}], ids=["refine_fill", "defaults"])
+def test_hole_workflow_with_refine_fill(kwargs):
     """Delete -> Fill (one n-gon) -> Fair with Refine Fill: the n-gon becomes rim-sized triangles
-    faired to the sphere; other faces keep their UVs; undo restores the mesh."""
+    faired to the sphere; other faces keep their UVs; undo restores the mesh. With the operator's
+    defaults too: a fill without inner vertices turns Refine Fill on (shown so in the redo panel)
+    instead of failing with nothing to move."""
     obj = _fresh_sphere()
     _cut_and_fill(obj)
     bpy.ops.object.mode_set(mode='OBJECT')
@@ -125,7 +128,8 @@ def test_hole_workflow_with_refine_fill():
 
     bpy.ops.object.mode_set(mode='EDIT')
     bpy.ops.ed.undo_push(message="before fair")
-    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, refine=True) == {'FINISHED'}
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, **kwargs) == {'FINISHED'}
+    assert bpy.context.window_manager.operator_properties_last("dgmesh.fair").refine
     bpy.ops.object.mode_set(mode='OBJECT')
     mesh = obj.data
     V = _positions(mesh)

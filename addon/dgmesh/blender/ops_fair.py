@@ -57,6 +57,7 @@ class _Target:
         self.arrays = arrays
         self.mask = mask  # movable vertices or None
         self.faces = faces  # region triangles or None
+        self.refine = False  # Refine Fill for this object (asked for, or a fill without inner vertices)
         self.result = None
 
 
@@ -115,6 +116,18 @@ class _FairBase(NativeJobOperator):
         if targets is None:
             return None
         self._t0 = time.perf_counter()
+        self._auto_refined = []
+        for t in targets:
+            t.refine = bool(getattr(self, "refine", False)) and t.faces is not None
+            # A hole just filled (Fill / F) has no inner vertex to move: without subdivisions the
+            # flow could do nothing, so the fill is refined (Liepa) as the workflow needs; the redo
+            # panel then shows Refine Fill on.
+            if (not t.refine and t.faces is not None and getattr(self, "subdivisions", 1) == 0
+                    and not t.mask.any()):
+                t.refine = True
+                self._auto_refined.append(t.name)
+        if self._auto_refined and hasattr(self, "refine"):
+            self.refine = True
 
         def work(progress):
             n = len(targets)
@@ -167,7 +180,8 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         "around them (Liepa's hole filling: a fill without inner vertices is first re-triangulated "
         "by the minimum-weight triangulation of its rim, then centroid splits and Delaunay flips). For "
         "a hole filled with Fill (one n-gon or a fan) or a coarse Grid Fill; the selection's border "
-        "edges are not split")
+        "edges are not split. Turned on by itself when the selected faces have no inner vertex to "
+        "move and Subdivisions is 0")
 
     def draw(self, context):
         col = self.layout.column()
@@ -183,7 +197,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             t.arrays.V, t.arrays.F, method=self.method.lower(), mask=t.mask, faces=t.faces,
             boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
-            linear_start=self.linear_start, refine=self.refine and t.faces is not None, progress=progress)
+            linear_start=self.linear_start, refine=t.refine, progress=progress)
 
     def finish(self, context, targets):
         written, failures = [], []
@@ -213,7 +227,10 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
                 + (f", {len(r.vertices) - len(t.arrays.V)} added" if r.subdivided else "")
                 + f", {r.iterations} iterations, bending energy {e0:.4g} \u2192 {e1:.4g}"
                 + ("" if r.converged else " (iteration budget reached)"))
-        self.report({'INFO'}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts))
+        note = (" (Refine Fill on: the selected faces had no inner vertex to move)"
+                if getattr(self, "_auto_refined", None) else "")
+        self.report({'INFO'}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts)
+                    + note)
         return {'FINISHED'}
 
 
