@@ -255,6 +255,50 @@ def test_bake_then_unbind_plays_cache(tmp_path):
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
 
 
+def test_animation_render_deforms_every_frame(tmp_path):
+    """Rendering an animation (Render Animation, ``blender -b file -a``) evaluates each frame in the
+    render's own depsgraph and leaves the original armature at the frame it started from: every
+    rendered frame must still show its own pose."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, 0.0, frame=1)
+    _pose_lower(arm, math.pi / 2, frame=5)
+    sc = bpy.context.scene
+    frames = (1, 3, 5)
+    expected = {}
+    for fr in frames:
+        sc.frame_set(fr)
+        expected[fr] = _evaluated_co(obj)
+    assert np.abs(expected[5] - expected[1]).max() > 1.0  # not vacuous: the pose moves the mesh
+    seen = {}
+
+    def capture(scene, depsgraph=None):  # runs after the add-on's own frame handler
+        if depsgraph is not None and depsgraph.mode == 'RENDER':
+            ev = obj.evaluated_get(depsgraph)
+            me = ev.to_mesh()
+            seen[scene.frame_current] = _mesh_co(me).copy()
+            ev.to_mesh_clear()
+
+    sc.frame_set(1)
+    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+    sc.collection.objects.link(cam)
+    sc.camera = cam
+    cam.location = (0, 0, 20)
+    sc.render.engine = 'BLENDER_WORKBENCH'
+    sc.render.resolution_x = sc.render.resolution_y = 16
+    sc.render.filepath = str(tmp_path / "frame_")
+    sc.frame_start, sc.frame_end, sc.frame_step = 1, 5, 2
+    bpy.app.handlers.frame_change_post.append(capture)
+    try:
+        assert bpy.ops.render.render(animation=True) == {'FINISHED'}
+    finally:
+        bpy.app.handlers.frame_change_post.remove(capture)
+    assert sorted(seen) == list(frames)
+    for fr in frames:
+        assert np.abs(seen[fr] - expected[fr]).max() < 1e-4, fr
+    assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+
+
 def test_one_deform_per_pose_change():
     from dgmesh.blender import ops_skeletal
     obj, arm, V = _scene()

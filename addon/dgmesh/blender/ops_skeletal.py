@@ -222,9 +222,13 @@ def _live_target(obj, info):
     return att.data, "vector", obj.data
 
 
-def update_object(obj, force=False):
+def update_object(obj, force=False, depsgraph=None):
     """Recomputes the live deformation of a bound object if its armature's pose changed; True if
-    it wrote. One native deform and one float32 ``foreach_set`` per pose change."""
+    it wrote. One native deform and one float32 ``foreach_set`` per pose change. The pose is read
+    from ``depsgraph``'s evaluated armature when given: a render of an animation evaluates each
+    frame in its own depsgraph and never writes the animated pose back to the original armature
+    (only the view layer's depsgraph does), so the original's pose stays at the frame the render
+    started from."""
     info = obj[PROP]
     arm = bpy.data.objects.get(info["armature"])
     if arm is None or arm.type != 'ARMATURE':
@@ -232,7 +236,10 @@ def update_object(obj, force=False):
     names = list(info["bones"])
     if any(n not in arm.pose.bones for n in names):
         return False
-    pose = _pose_matrices(obj, arm, names)
+    if depsgraph is not None:
+        pose = _pose_matrices(obj.evaluated_get(depsgraph), arm.evaluated_get(depsgraph), names)
+    else:
+        pose = _pose_matrices(obj, arm, names)
     sig = pose.tobytes()
     if not force and _last_pose.get(_key(obj, info)) == sig:
         return False
@@ -253,13 +260,19 @@ def _on_update(scene, depsgraph=None):
         return
     _updating = True
     try:
+        wrote = False
         for obj in scene.objects:
             # In Edit mode the edit-mesh owns the data (attribute arrays are empty): wait for Object mode.
             if is_bound(obj) and obj.mode != 'EDIT':
                 try:
-                    update_object(obj)
+                    wrote |= update_object(obj, depsgraph=depsgraph)
                 except Exception as exc:  # a handler must never take Blender down
                     print(f"dgmesh skeletal: update of {obj.name!r} failed: {exc}")
+        # A render's depsgraph has evaluated this frame before the handler wrote the offsets, and
+        # nothing evaluates it again before the frame is drawn (the view layer's does, after
+        # frame_set): re-evaluate what the write changed.
+        if wrote and depsgraph is not None and depsgraph.mode == 'RENDER':
+            depsgraph.update()
     finally:
         _updating = False
 
