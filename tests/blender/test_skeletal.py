@@ -299,6 +299,38 @@ def test_animation_render_deforms_every_frame(tmp_path):
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
 
 
+def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path):
+    """The cache replaces the part of the stack the rig drives (basis, shape keys, live offsets):
+    a shape key and a Subdivision Surface after it still show, before and after unbind, and the
+    defaults (no file, no range) give a per-object file next to the .blend and the scene's range."""
+    obj, arm, V = _scene()
+    obj.shape_key_add(name="Basis")
+    kb = obj.shape_key_add(name="Fat")
+    kb.data.foreach_set("co", (V * np.array([1.0, 1.2, 1.2])).astype(np.float32).ravel())
+    kb.value = 1.0
+    obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, 0.0, frame=1)
+    _pose_lower(arm, math.pi / 2, frame=5)
+    sc = bpy.context.scene
+    sc.frame_start, sc.frame_end = 1, 5
+    live = {}
+    for fr in (1, 3, 5):
+        sc.frame_set(fr)
+        live[fr] = _evaluated_co(obj)
+    assert len(live[5]) > len(V)  # subdivided
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
+    obj = bpy.data.objects["Capsule"]
+    assert bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT') == {'FINISHED'}
+    assert (tmp_path / "Capsule_skeletal.pc2").exists()
+    for unbound in (False, True):
+        if unbound:
+            assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+        for fr in (1, 3, 5):
+            sc.frame_set(fr)
+            assert np.abs(_evaluated_co(obj) - live[fr]).max() < 1e-4, (unbound, fr)
+
+
 def test_one_deform_per_pose_change():
     from dgmesh.blender import ops_skeletal
     obj, arm, V = _scene()

@@ -31,7 +31,10 @@ Blender would re-evaluate the whole mesh once more on every frame (measured: ~30
 178K vertices) before the handler's write.
 
 Bake writes a frame range to a .pc2 point cache played by a Mesh Cache modifier, so renders and
-exports need no add-on. Unbind removes everything bind added and leaves the mesh as it was.
+exports need no add-on: each frame as the stack evaluates it up to the live deformation (shape keys
+included), the cache placed after the live and Armature modifiers and before the others (a
+Subdivision Surface still applies). Unbind removes everything bind added and leaves the mesh as it
+was.
 """
 
 import base64
@@ -393,14 +396,18 @@ def _offset_node_group():
 
 def _move_first(obj, mod):
     """Puts a modifier first in the stack (shape keys apply before any modifier, so should we)."""
+    _move_to(obj, mod, 0)
+
+
+def _move_to(obj, mod, index):
     idx = [m.name for m in obj.modifiers].index(mod.name)
-    if idx == 0:
+    if idx == index:
         return
     if hasattr(obj.modifiers, "move"):  # 4.x
-        obj.modifiers.move(idx, 0)
+        obj.modifiers.move(idx, index)
         return
     with bpy.context.temp_override(object=obj, active_object=obj):
-        bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=0)
+        bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=index)
 
 
 def _skeleton_object(context, obj, rig):
@@ -626,23 +633,27 @@ Cache modifier (renders and exports then need no add-on)"""
     bl_label = "Skeletal Bake"
     bl_options = {'REGISTER', 'UNDO'}
 
-    filepath: StringProperty(name="File", subtype='FILE_PATH', default="//skeletal.pc2")
-    frame_start: IntProperty(name="Start", default=1)
-    frame_end: IntProperty(name="End", default=250)
+    filepath: StringProperty(name="File", subtype='FILE_PATH', default="",
+                             description="The .pc2 file; empty: //<object name>_skeletal.pc2 next to the .blend")
+    frame_start: IntProperty(name="Start", default=1, description="First frame (default: the scene's)")
+    frame_end: IntProperty(name="End", default=250, description="Last frame (default: the scene's)")
 
     @classmethod
     def poll(cls, context):
         return context.mode == 'OBJECT'
-
-    def invoke(self, context, event):
-        self.frame_start, self.frame_end = context.scene.frame_start, context.scene.frame_end
-        return self.execute(context)
 
     def execute(self, context):
         obj = context.active_object
         if not is_bound(obj):
             self.report({'ERROR'}, "The active object is not bound (DG Mesh > Skeletal Bind)")
             return {'CANCELLED'}
+        # Unset options follow the scene and the object (two bound objects must not share a cache).
+        if not self.properties.is_property_set("frame_start"):
+            self.frame_start = context.scene.frame_start
+        if not self.properties.is_property_set("frame_end"):
+            self.frame_end = context.scene.frame_end
+        if not self.filepath:
+            self.filepath = f"//{bpy.path.clean_name(obj.name)}_skeletal.pc2"
         if self.frame_end < self.frame_start:
             self.report({'ERROR'}, f"Frame range {self.frame_start}..{self.frame_end} is empty")
             return {'CANCELLED'}
@@ -658,25 +669,32 @@ Cache modifier (renders and exports then need no add-on)"""
         scene = context.scene
         current = scene.frame_current
         frames = []
-        names = list(info["bones"])
         wm = context.window_manager
         has_window = context.window is not None
+        # Each frame is sampled as the stack evaluates it up to the live deformation: the basis,
+        # shape keys (animated ones too) and the live offsets, with the modifiers after it muted;
+        # the cache then replaces exactly that part of the stack (see _place_cache).
+        live = obj.modifiers.get(str(info.get("modifier", MOD)))
+        muted = [m for m in obj.modifiers if m != live and m.show_viewport]
+        for m in muted:
+            m.show_viewport = False
         if has_window:
             wm.progress_begin(self.frame_start, self.frame_end)
         try:
             for fr in range(self.frame_start, self.frame_end + 1):
-                scene.frame_set(fr)  # the live handler deforms this frame's pose ...
-                pose = _pose_matrices(obj, arm, names)
-                buf = _buffers.get(_key(obj, info))
-                if buf is None or _last_pose.get(_key(obj, info)) != pose.tobytes():
-                    buf = _deformed(obj, pose)  # ... unless the live target is gone
-                frames.append(buf[0].copy())
+                scene.frame_set(fr)  # the live handler deforms this frame's pose
+                frames.append(_evaluated_positions(obj, context.evaluated_depsgraph_get()))
                 if has_window:
                     wm.progress_update(fr)
         finally:
+            for m in muted:
+                m.show_viewport = True
             scene.frame_set(current)
             if has_window:
                 wm.progress_end()
+        if any(len(f) != len(obj.data.vertices) for f in frames):
+            self.report({'ERROR'}, "The live deformation changed the vertex count: nothing baked")
+            return {'CANCELLED'}
         try:
             write_pc2(path, np.array(frames), self.frame_start)
         except OSError as exc:
@@ -684,10 +702,33 @@ Cache modifier (renders and exports then need no add-on)"""
             return {'CANCELLED'}
         mod = obj.modifiers.get("dg_skeletal_cache") or obj.modifiers.new("dg_skeletal_cache", 'MESH_CACHE')
         mod.cache_format = 'PC2'
+        mod.deform_mode = 'OVERWRITE'
         mod.filepath = self.filepath
         mod.frame_start = self.frame_start
+        _place_cache(obj, mod, live)
         self.report({'INFO'}, f"Baked {len(frames)} frames of {obj.name!r} to {path}")
         return {'FINISHED'}
+
+
+def _evaluated_positions(obj, depsgraph):
+    ev = obj.evaluated_get(depsgraph)
+    me = ev.to_mesh()
+    try:
+        co = np.empty(3 * len(me.vertices), dtype=np.float32)
+        me.vertices.foreach_get("co", co)
+        return co.reshape(-1, 3)
+    finally:
+        ev.to_mesh_clear()
+
+
+def _place_cache(obj, cache, live):
+    """The Mesh Cache (overwrite) goes right after the live modifier and the Armature modifiers
+    (restored by unbind, they deform before it and are overwritten), before every other modifier:
+    a Subdivision Surface or a Smooth then works on the cached positions, whose vertex count is the
+    mesh's."""
+    others = [m for m in obj.modifiers if m != cache]
+    after = [i for i, m in enumerate(others) if m == live or m.type == 'ARMATURE']
+    _move_to(obj, cache, max(after) + 1 if after else 0)
 
 
 classes = (DGMESH_OT_skeletal_bind, DGMESH_OT_skeletal_unbind, DGMESH_OT_skeletal_bake)
