@@ -331,6 +331,32 @@ def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path):
             assert np.abs(_evaluated_co(obj) - live[fr]).max() < 1e-4, (unbound, fr)
 
 
+def test_renamed_armature_stays_bound_and_unbind_restores_it():
+    """The armature is kept by reference: renaming it keeps the live update, bake and the restored
+    Armature modifier's link; deleting it freezes the mesh without errors."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    arm.name = "CharacterRig"
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() > 1.0
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert obj.modifiers["Armature"].object == arm
+    assert "dg_skeletal_rig" not in arm.keys()  # the tag goes with the last binding
+    # Bound again, then the armature deleted (the delete operator): the mesh stays as it was.
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = obj
+    assert _bind() == {'FINISHED'}
+    before = _evaluated_co(obj)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == arm)
+    assert bpy.ops.object.delete() == {'FINISHED'}
+    assert "CharacterRig" not in bpy.data.objects
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - before).max() < 1e-6
+
+
 def test_one_deform_per_pose_change():
     from dgmesh.blender import ops_skeletal
     obj, arm, V = _scene()

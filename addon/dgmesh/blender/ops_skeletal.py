@@ -57,6 +57,7 @@ KEY = "dg_skeletal"             # shape key of objects bound by earlier versions
 ATTR = "dg_skeletal_offset"     # point attribute of objects bound by an earlier version (legacy live target)
 HELPER_SUFFIX = "_dg_offsets"   # helper object: its vertex positions are deformed - rest positions
 OWNER = "dg_skeletal_owner"     # custom property of the helper: the object that writes it
+ARM_TAG = "dg_skeletal_rig"     # custom property of a bound armature: finds it after a rename
 HELPER_NODE = "dg_helper"       # the Object Info node of the node group (finds the helper after renames)
 MOD = "dg_skeletal"             # geometry-nodes modifier adding the offsets to the positions
 NODE_GROUP = "dg_skeletal"      # its node group
@@ -99,6 +100,17 @@ def _encode(arrays):
 def _decode(text):
     with np.load(io.BytesIO(base64.b64decode(text))) as z:
         return {k: z[k] for k in z.files}
+
+
+def _armature(info):
+    """The bound armature: the object of the stored name, or after a rename the armature carrying
+    the binding's tag (a custom property set at bind; an ID pointer would keep a deleted armature
+    alive as a user). Files bound before the tag: by name only."""
+    arm = bpy.data.objects.get(info["armature"])
+    tag = info.get("armature_tag")
+    if tag is None or (arm is not None and arm.get(ARM_TAG) == tag):
+        return arm if arm is not None and arm.type == 'ARMATURE' else None
+    return next((o for o in bpy.data.objects if o.type == 'ARMATURE' and o.get(ARM_TAG) == tag), None)
 
 
 def is_bound(obj):
@@ -233,8 +245,8 @@ def update_object(obj, force=False, depsgraph=None):
     (only the view layer's depsgraph does), so the original's pose stays at the frame the render
     started from."""
     info = obj[PROP]
-    arm = bpy.data.objects.get(info["armature"])
-    if arm is None or arm.type != 'ARMATURE':
+    arm = _armature(info)
+    if arm is None:
         return False
     names = list(info["bones"])
     if any(n not in arm.pose.bones for n in names):
@@ -512,6 +524,9 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             if has_window:
                 wm.progress_end()
         bid = uuid.uuid4().hex
+        tag = arm.get(ARM_TAG)
+        if not isinstance(tag, str):
+            tag = arm[ARM_TAG] = uuid.uuid4().hex
         disabled = []
         for m in obj.modifiers:
             if m.type == 'ARMATURE' and (m.show_viewport or m.show_render):
@@ -527,7 +542,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         _move_first(obj, mod)
         sk = _skeleton_object(context, obj, rig)
         obj[PROP] = {
-            "id": bid, "armature": arm.name, "bones": names, "data": _encode(rig.to_arrays()),
+            "id": bid, "armature": arm.name, "armature_tag": tag, "bones": names, "data": _encode(rig.to_arrays()),
             "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
             "target": "HELPER",
             "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
@@ -575,12 +590,13 @@ def unbind(obj):
             if me.users == 0:
                 bpy.data.meshes.remove(me)
     objects = info.get("modifiers_object", [None] * len(info["modifiers"]))
+    arm = _armature(info)  # renamed since bind: found by its tag
     for name, vp, rd, ob in zip(info["modifiers"], info["modifiers_viewport"], info["modifiers_render"], objects):
         m = obj.modifiers.get(name)
         if m is not None:
             m.show_viewport, m.show_render = bool(vp), bool(rd)
             if ob and m.object is None:
-                m.object = bpy.data.objects.get(ob)
+                m.object = arm if ob == info["armature"] else bpy.data.objects.get(ob)
     sk = bpy.data.objects.get(info["skeleton"])
     if sk is not None and sk.parent == obj:  # not the original's when unbinding a duplicate
         me = sk.data
@@ -588,6 +604,9 @@ def unbind(obj):
         if me.users == 0:
             bpy.data.meshes.remove(me)
     del obj[PROP]
+    tag = info.get("armature_tag")
+    if arm is not None and tag and not any(is_bound(o) and o[PROP].get("armature_tag") == tag for o in bpy.data.objects):
+        del arm[ARM_TAG]  # the last binding to this armature
     if not any(is_bound(o) and o[PROP]["id"] == info["id"] for o in bpy.data.objects):
         _rigs.pop(info["id"], None)  # no duplicate left using this bind data
 
@@ -662,8 +681,7 @@ Cache modifier (renders and exports then need no add-on)"""
             self.report({'ERROR'}, "Save the .blend first or give an absolute path for the cache")
             return {'CANCELLED'}
         info = obj[PROP]
-        arm = bpy.data.objects.get(info["armature"])
-        if arm is None:
+        if _armature(info) is None:
             self.report({'ERROR'}, f"Armature {info['armature']!r} is gone")
             return {'CANCELLED'}
         scene = context.scene
