@@ -82,13 +82,33 @@ def _armature_of(context, mesh_obj):
     return None
 
 
-def _pose_matrices(mesh_obj, arm, names, rest=False):
+def _pose_matrices(mesh_obj, arm, names, rest=False, space=None):
+    """Bone frames in the rig's space: the mesh's object space, or ``space`` (4x4) times it."""
     to_mesh = mesh_obj.matrix_world.inverted() @ arm.matrix_world
     out = np.empty((len(names), 4, 4))
     for j, name in enumerate(names):
         m = arm.data.bones[name].matrix_local if rest else arm.pose.bones[name].matrix
         out[j] = np.array(to_mesh @ m)
-    return out
+    return out if space is None else space @ out
+
+
+def _rig_space(obj, arm):
+    """None when the mesh's object space suits the rig: its transform relative to the armature is a
+    similarity, so the bone frames stay rigid in it. Otherwise (non-uniform or negative scale left
+    unapplied) the 4x4 map from the mesh's object space to the armature's, in which the rig works:
+    bone frames there are rigid, and the mesh keeps its shape as the Armature modifier shows it."""
+    A = np.array(arm.matrix_world.inverted() @ obj.matrix_world)
+    M = A[:3, :3]
+    G = M.T @ M
+    s2 = np.trace(G) / 3
+    if np.linalg.det(M) > 0 and np.abs(G - s2 * np.eye(3)).max() <= 1e-6 * s2:
+        return None
+    return A
+
+
+def _space(info):
+    sp = info.get("space")
+    return None if sp is None else np.array(sp, dtype=float).reshape(4, 4)
 
 
 def _encode(arrays):
@@ -206,6 +226,10 @@ def _deformed(obj, pose):
         pos = np.empty(pos.shape)
         buf = _buffers[key] = (pos, out, rest)
         rig.deform(pose, out=pos, **kw)
+    space = _space(info)
+    if space is not None:  # rig space -> the mesh's object space
+        inv = np.linalg.inv(space)
+        pos[:] = pos @ inv[:3, :3].T.astype(pos.dtype) + inv[:3, 3].astype(pos.dtype)
     if _uses_shape_key(info):
         np.copyto(out, pos.ravel())
     else:
@@ -251,10 +275,11 @@ def update_object(obj, force=False, depsgraph=None):
     names = list(info["bones"])
     if any(n not in arm.pose.bones for n in names):
         return False
+    space = _space(info)
     if depsgraph is not None:
-        pose = _pose_matrices(obj.evaluated_get(depsgraph), arm.evaluated_get(depsgraph), names)
+        pose = _pose_matrices(obj.evaluated_get(depsgraph), arm.evaluated_get(depsgraph), names, space=space)
     else:
-        pose = _pose_matrices(obj, arm, names)
+        pose = _pose_matrices(obj, arm, names, space=space)
     sig = pose.tobytes()
     if not force and _last_pose.get(_key(obj, info)) == sig:
         return False
@@ -422,11 +447,14 @@ def _move_to(obj, mod, index):
         bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=index)
 
 
-def _skeleton_object(context, obj, rig):
+def _skeleton_object(context, obj, rig, space=None):
     """Hidden mesh object with the skeletal mesh and its radius colouring (fig. 6.8)."""
     name = obj.name + "_skeleton"
     me = bpy.data.meshes.new(name)
     S = rig.skeleton_vertices
+    if space is not None:  # rig space -> the mesh's object space (the skeleton is parented to it)
+        inv = np.linalg.inv(space)
+        S = S @ inv[:3, :3].T + inv[:3, 3]
     me.from_pydata([tuple(p) for p in S], [], [tuple(int(i) for i in f) for f in rig.control_faces])
     me.update()
     rgba = colors.sequential(rig.radii)
@@ -502,10 +530,15 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                     j = col.get(g.group)
                     if j is not None:
                         W[v.index, j] = g.weight
-        rest = _pose_matrices(obj, arm, names, rest=True)
+        space = _rig_space(obj, arm)
+        rest = _pose_matrices(obj, arm, names, rest=True, space=space)
         to_mesh = obj.matrix_world.inverted() @ arm.matrix_world
         heads = np.array([tuple(to_mesh @ arm.data.bones[n].head_local) for n in names])
         tails = np.array([tuple(to_mesh @ arm.data.bones[n].tail_local) for n in names])
+        if space is not None:
+            V, heads, tails = (P @ space[:3, :3].T + space[:3, 3] for P in (V, heads, tails))
+            if np.linalg.det(space[:3, :3]) < 0:  # a mirror turns the surface inside out: re-orient
+                F = F[:, ::-1].copy()
         wm = context.window_manager
         has_window = context.window is not None
         if has_window:
@@ -540,7 +573,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         mod = obj.modifiers.new(MOD, 'NODES')
         mod.node_group = ng
         _move_first(obj, mod)
-        sk = _skeleton_object(context, obj, rig)
+        sk = _skeleton_object(context, obj, rig, space)
         obj[PROP] = {
             "id": bid, "armature": arm.name, "armature_tag": tag, "bones": names, "data": _encode(rig.to_arrays()),
             "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
@@ -550,6 +583,8 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
             "skeleton": sk.name,
         }
+        if space is not None:
+            obj[PROP]["space"] = [float(x) for x in space.ravel()]
         _rigs[bid] = rig
         update_object(obj, force=True)
         self.report({'INFO'}, f"Bound {obj.name!r} ({len(V)} vertices, control mesh {rig.n_control} vertices) to "
