@@ -151,6 +151,69 @@ def test_hole_workflow_with_refine_fill(kwargs):
     _assert_manifold_then_undo(mesh, snap)
 
 
+def test_triangle_fill_then_fair_with_defaults():
+    """Delete -> Fill (Alt+F: a triangle fan, no inner vertex) -> Fair with the defaults: Refine Fill
+    turns on, and where its flips restore one of the fan's triangles the face is kept (creating it
+    again failed with 'face already exists')."""
+    obj = _fresh_sphere()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = v.co.x > 0.75 * R
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.delete(type='VERT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.mesh.select_non_manifold()
+    bpy.ops.mesh.fill()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    n_before = len(obj.data.vertices)
+    V_before = _positions(obj.data)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    V = _positions(obj.data)
+    assert len(V) > n_before + 10
+    assert np.array_equal(V[:n_before], V_before)
+    assert np.abs(np.linalg.norm(V[n_before:], axis=1) - R).max() < 0.02
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    assert all(e.is_manifold for e in bm.edges)
+    assert len({frozenset(v.index for v in f.verts) for f in bm.faces}) == len(bm.faces)
+    bm.free()
+
+
+def test_grid_fill_beside_a_valence_two_rim_vertex():
+    """A side hole's Grid Fill leaves a quad and a rim quad sharing two sides (a valence-2 vertex):
+    Blender's loop triangles give the same triangle twice. Fair re-triangulates those quads instead
+    of rejecting the mesh with duplicate faces."""
+    obj = _fresh_sphere()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = v.co.x > 0.7 * R
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.delete(type='VERT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.mesh.select_non_manifold()
+    bpy.ops.mesh.fill_grid()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    from dgmesh.blender import bridge
+    tris = [tuple(sorted(t)) for t in bridge.read_object(obj).F.tolist()]
+    assert len(set(tris)) < len(tris)  # not vacuous: the doubled triangle is there
+    V_before = _positions(obj.data)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    V = _positions(obj.data)
+    moved = np.linalg.norm(V - V_before, axis=1) > 1e-9
+    assert moved.any()
+    d0 = np.abs(np.linalg.norm(V_before[moved], axis=1) - R).mean()
+    d1 = np.abs(np.linalg.norm(V[moved], axis=1) - R).mean()
+    assert d1 < 0.25 * d0  # the flat grid bulges out towards the removed cap
+
+
 def test_grid_fill_hole_without_subdivision_moves_only_inner_vertices():
     obj = _fresh_sphere(segments=32, rings=16)
     bpy.ops.object.mode_set(mode='EDIT')

@@ -66,7 +66,9 @@ def _read_target(obj, edit_mode, keep_border):
     dg = api()
     if obj.data.library is not None:
         raise dg.MeshError("mesh data is linked from a library and cannot be changed")
-    arrays = bridge.read_object(obj)
+    # Two n-gons sharing a valence-2 vertex (a Grid Fill quad beside a rim quad) can triangulate
+    # into the same triangle twice; re-triangulate those instead of reporting duplicate faces.
+    arrays = bridge.repair_ngon_triangles(bridge.read_object(obj))
     if len(arrays.F) == 0:
         raise dg.MeshError("mesh has no faces")
     if not edit_mode:
@@ -303,13 +305,24 @@ def _write_subdivided(t, select):
         by_poly = {int(p): bm.faces[int(p)] for p in polys}
         old_faces = list(by_poly.values())
         layers = _corner_layers(bm)
-        new_faces = []
+        new_faces, kept = [], set()
+        old_set = set(old_faces)
         for row in rows:
             src = by_poly[int(poly_of_row[row])]
-            f = bm.faces.new([verts[k] for k in F[row]], src)  # example face: material, smooth
+            fv = [verts[k] for k in F[row]]
+            same = bm.faces.get(fv)
+            if same is not None and same in old_set:
+                # An input triangle the refinement kept (a fill triangle its flips restored): keep
+                # the face itself rather than a second one on the same vertices.
+                kept.add(same)
+                same.select = select
+                new_faces.append(same)
+                continue
+            f = bm.faces.new(fv, src)  # example face: material, smooth
             _interpolate_corners(f, src, layers)
             f.select = select
             new_faces.append(f)
+        old_faces = [f for f in old_faces if f not in kept]
         old_edges = {e for f in old_faces for e in f.edges}
         bmesh.ops.delete(bm, geom=old_faces, context='FACES_ONLY')
         # Edges of the old polygons that were split now have no face: remove them.
