@@ -70,3 +70,20 @@ def test_other_native_errors_are_reported(dg, monkeypatch, exc):
     with pytest.raises(RuntimeError, match=f"internal error: {type(exc).__name__}"):
         curvature_map()
     assert mesh_snapshot(obj.data) == before
+
+
+@pytest.mark.parametrize("op", ["fair", "regularize", "remesh"])
+def test_shape_keys_are_refused_by_position_changing_operators(op):
+    """The shown shape is the active key's (the basis alone would change, and Edit mode brings the
+    keys back; a new triangulation cannot carry them): a clear error, nothing changed."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8) if op == "remesh" else \
+        bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
+    obj = bpy.context.object
+    obj.shape_key_add(name="Basis")
+    obj.shape_key_add(name="Key 1").value = 1.0
+    before = mesh_snapshot(obj.data)
+    select(obj.name)
+    with pytest.raises(RuntimeError, match="shape keys"):
+        getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT')
+    assert mesh_snapshot(obj.data) == before

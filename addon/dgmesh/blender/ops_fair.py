@@ -66,6 +66,10 @@ def _read_target(obj, edit_mode, keep_border):
     dg = api()
     if obj.data.library is not None:
         raise dg.MeshError("mesh data is linked from a library and cannot be changed")
+    if obj.data.shape_keys is not None:
+        # The basis alone would change (the shown shape is the active key's) and Edit mode would
+        # bring the keys' positions back.
+        raise dg.MeshError("the mesh has shape keys; fairing would only change the basis (remove or apply them first)")
     # Two n-gons sharing a valence-2 vertex (a Grid Fill quad beside a rim quad) can triangulate
     # into the same triangle twice; re-triangulate those instead of reporting duplicate faces.
     arrays = bridge.repair_ngon_triangles(bridge.read_object(obj))

@@ -96,6 +96,10 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
             if obj.data.library is not None:
                 self.report({'ERROR'}, f"Remesh failed on '{obj.name}': mesh data is linked from a library")
                 return None
+            if obj.data.shape_keys is not None:
+                self.report({'ERROR'}, f"Remesh failed on '{obj.name}': the mesh has shape keys, which a new "
+                            "triangulation cannot carry (remove or apply them first)")
+                return None
             arrays = bridge.read_object(obj)  # syncs the edit-mesh in Edit mode
             mesh = obj.data
             npoly = len(mesh.polygons)
