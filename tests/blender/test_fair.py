@@ -183,6 +183,31 @@ def test_triangle_fill_then_fair_with_defaults():
     bm.free()
 
 
+def test_triangle_fill_with_subdivisions_is_refined_first():
+    """A polar cap filled by Alt+F (a fan without inner vertices) and faired with Subdivisions 3:
+    the fill is refined first (the fan's slivers, split 1-to-4, ballooned to twice the radius)."""
+    obj = _fresh_sphere()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = v.co.z > 0.8 * R
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.delete(type='VERT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.mesh.select_non_manifold()
+    bpy.ops.mesh.fill()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    n_before = len(obj.data.vertices)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, subdivisions=3) == {'FINISHED'}
+    assert bpy.context.window_manager.operator_properties_last("dgmesh.fair").refine
+    bpy.ops.object.mode_set(mode='OBJECT')
+    V = _positions(obj.data)
+    assert len(V) > n_before + 100
+    assert np.abs(np.linalg.norm(V[n_before:], axis=1) - R).max() < 0.03
+
+
 def test_grid_fill_beside_a_valence_two_rim_vertex():
     """A side hole's Grid Fill leaves a quad and a rim quad sharing two sides (a valence-2 vertex):
     Blender's loop triangles give the same triangle twice. Fair re-triangulates those quads instead

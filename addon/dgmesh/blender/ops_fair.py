@@ -4,9 +4,9 @@ Fair: Object mode fairs whole objects (mesh-boundary vertices fixed or sliding).
 the selection: the selected faces are the region (they are refined by Subdivisions), the
 selected vertices inside it move, and everything else -- including the border of the selection --
 stays, so a patch blends smoothly (position and tangent) into the rest. The hole workflow:
-delete faces, fill the hole (F / Grid Fill), keep the new face(s) selected, Fair with Refine Fill
-(Liepa-style refinement to the mesh's edge lengths around the hole) or Subdivisions >= 1 when the
-fill has no inner vertices.
+delete faces, fill the hole (F / Alt+F / Grid Fill), keep the new face(s) selected, Fair: a fill
+without inner vertices is refined first (Refine Fill, Liepa-style refinement to the mesh's edge
+lengths around the hole; on by itself then).
 
 Without subdivision only vertex positions change. With subdivision the selected polygons are
 replaced by triangles through bmesh; every other face keeps its data (UVs, colours, attributes),
@@ -126,10 +126,11 @@ class _FairBase(NativeJobOperator):
         for t in targets:
             t.refine = bool(getattr(self, "refine", False)) and t.faces is not None
             # A hole just filled (Fill / F) has no inner vertex to move: without subdivisions the
-            # flow could do nothing, so the fill is refined (Liepa) as the workflow needs; the redo
-            # panel then shows Refine Fill on.
-            if (not t.refine and t.faces is not None and getattr(self, "subdivisions", 1) == 0
-                    and not t.mask.any()):
+            # flow could do nothing, and subdividing the fill's long triangles 1-to-4 leaves the
+            # flow slivers to balloon (a triangle fan over a polar cap rose to twice the sphere's
+            # radius), so the fill is refined (Liepa) as the workflow needs; the redo panel then
+            # shows Refine Fill on.
+            if (not t.refine and hasattr(self, "refine") and t.faces is not None and not t.mask.any()):
                 t.refine = True
                 self._auto_refined.append(t.name)
         if self._auto_refined and hasattr(self, "refine"):
@@ -160,8 +161,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
     scheme: EnumProperty(name="Scheme", items=SCHEMES, default='SEMI_IMPLICIT')
     subdivisions: IntProperty(
         name="Subdivisions", default=0, min=0, max=4,
-        description="Coarse-to-fine levels: fair, subdivide the region 1-to-4, fair again. "
-        "Needed when a filled hole has no inner vertices")
+        description="Coarse-to-fine levels: fair, subdivide the region 1-to-4, fair again")
     tolerance: FloatProperty(
         name="Tolerance", default=1e-4, min=1e-9, max=0.1, precision=6,
         description="Stop when the relative change of the bending energy falls below this")
@@ -187,7 +187,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         "by the minimum-weight triangulation of its rim, then centroid splits and Delaunay flips). For "
         "a hole filled with Fill (one n-gon or a fan) or a coarse Grid Fill; the selection's border "
         "edges are not split. Turned on by itself when the selected faces have no inner vertex to "
-        "move and Subdivisions is 0")
+        "move")
 
     def draw(self, context):
         col = self.layout.column()
