@@ -1185,7 +1185,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   // 5. Delaunay in the triangulation map (Qhull), lift through the shared triangulation.
   int n_keep = 0;
   for (char k : keep) n_keep += k;
-  const int n_all = nb + n_keep;
+  int n_all = nb + n_keep;
   MatX2d P(n_all, 2);
   MatX3d X(n_all, 3);
   std::vector<Sample> PS(n_all, Sample{-1, 0, 0, 0});  // input face + barycentrics (interior only)
@@ -1194,16 +1194,40 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     X.row(k) = bnd_x[k].transpose();
   }
   {
+    // The boundary polygon is convex but for the tips of ears (a boundary triangle whose three
+    // vertices are on the boundary, a grid's corner: the unwrap lays it out in its 3D shape, outside
+    // the circle or square), which leave their neighbours reflex. The Delaunay triangulation keeps a
+    // polygon edge next to a reflex vertex only when no sample lies in its diametral disk (a Gabriel
+    // edge); a sample there connects past the reflex vertex, which becomes an interior vertex. So
+    // the few interior samples in those disks are left out (hull edges need no such care).
+    std::vector<std::pair<Vec2, double>> disks;  // centre, squared radius
+    double area2 = 0;
+    for (int k = 0; k < nb; ++k) area2 += cross2(bnd_u[k], bnd_u[(k + 1) % nb]);
+    for (int k = 0; k < nb; ++k) {
+      const Vec2 &a = bnd_u[(k + nb - 1) % nb], &b = bnd_u[k], &c = bnd_u[(k + 1) % nb];
+      if (cross2(b - a, c - b) * area2 >= 0) continue;  // convex (or straight) corner
+      disks.emplace_back(0.5 * (a + b), 0.25 * (b - a).squaredNorm());
+      disks.emplace_back(0.5 * (b + c), 0.25 * (c - b).squaredNorm());
+    }
     int w = nb;
     for (size_t s = 0; s < samples.size(); ++s) {
       if (!keep[s]) continue;
       const Sample& q = samples[s];
       const int f = q.face;
-      P.row(w) = q.w0 * Ut.row(F(f, 0)) + q.w1 * Ut.row(F(f, 1)) + q.w2 * Ut.row(F(f, 2));
+      const Vec2 u = (q.w0 * Ut.row(F(f, 0)) + q.w1 * Ut.row(F(f, 1)) + q.w2 * Ut.row(F(f, 2))).transpose();
+      if (std::any_of(disks.begin(), disks.end(), [&](const auto& d) { return (u - d.first).squaredNorm() < d.second; })) {
+        keep[s] = 0;
+        continue;
+      }
+      P.row(w) = u.transpose();
       X.row(w) = q.w0 * V.row(F(f, 0)) + q.w1 * V.row(F(f, 1)) + q.w2 * V.row(F(f, 2));
       PS[w] = q;
       ++w;
     }
+    P.conservativeResize(w, 2);
+    X.conservativeResize(w, 3);
+    PS.resize(w);
+    n_all = w;
   }
   report(0.8);
   const MatX3i T = delaunay_2d(P);

@@ -105,6 +105,32 @@ def test_boundary_is_kept_bit_for_bit():
     assert abs(len(r.V) - 900) <= 45
 
 
+@pytest.mark.parametrize("mode", ("double", "single_u0", "single_uopt"))
+@pytest.mark.parametrize("domain", ("circle", "square"))
+def test_grid_with_ear_corners_keeps_its_boundary(mode, domain):
+    """A displaced grid (Blender's Add > Grid): each corner that one triangle covers is an ear, which
+    the unwrap lays out in its 3D shape outside the circle or square; the remesh puts the tip back
+    on the domain's boundary (a sample beside a tip out of the convex polygon made the tip's
+    neighbour an interior vertex: 'the triangulation's boundary is not the chart's boundary')."""
+    S = 10
+    x = np.linspace(-1, 1, S + 1)
+    X, Y = np.meshgrid(x, x)
+    V = np.c_[X.ravel(), Y.ravel(), 0.3 * np.sin(3 * X.ravel()) * np.cos(2 * Y.ravel())]
+    F = []
+    for i in range(S):
+        for j in range(S):
+            a = i * (S + 1) + j
+            F += [(a, a + 1, a + S + 2), (a, a + S + 2, a + S + 1)]
+    F = np.array(F)
+    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    for target in (500, 2000):
+        r = dgmesh.remesh_full(V, F, target_vertices=target, mode=mode, domain=domain)
+        t = check_disk(r.V, r.F)
+        assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+        assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
+        assert abs(len(r.V) - target) <= 0.05 * target
+
+
 def test_adaptivity_puts_more_vertices_where_curvature_is_high():
     # Graph z = 0.3 exp(-8 r^2) over the unit disk: curvature concentrates at the bump.
     V, F = polar_disk()
