@@ -33,6 +33,8 @@ class FairResult:
         and its first fixed ring in region mode).
     moved: (n',) bool, vertices that were free to move.
     linear_start: the flow started from the linearised minimiser (counted as iteration 1).
+    energy_rose: some level's flow ended above the energy it started from (a mesh the flow cannot
+        improve: slivers, fan-triangulated caps); that level's lowest-energy state was returned.
     """
 
     vertices: np.ndarray
@@ -45,6 +47,7 @@ class FairResult:
     converged: bool = False
     lam: float = 1.0
     linear_start: bool = False
+    energy_rose: bool = False
 
     @property
     def subdivided(self):
@@ -138,7 +141,8 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
     return FairResult(
         vertices=r["vertices"], faces=r["faces"], face_origin=r["face_origin"], energy=r["energy"],
         moved=r["vertex_mask"], iterations=r["iterations"], level_iterations=list(r["level_iterations"]),
-        converged=r["converged"], lam=r["lambda"], linear_start=r["linear_start"])
+        converged=r["converged"], lam=r["lambda"], linear_start=r["linear_start"],
+        energy_rose=r.get("energy_rose", False))
 
 
 def regularize(V, F, *, iterations=100, mask=None, boundary="fixed", step_scale=1.0, project=True,

@@ -79,6 +79,7 @@ void bind_fair(pb::module_& m) {
         d["converged"] = r.converged;
         d["lambda"] = r.lambda;
         d["linear_start"] = r.linear_start;
+        d["energy_rose"] = r.energy_rose;
         return d;
       },
       pb::arg("V"), pb::arg("F"), pb::arg("method"), pb::arg("scheme"), pb::arg("boundary"), pb::arg("mask"),

@@ -463,6 +463,7 @@ struct LevelReport {
   bool converged = false;
   double lambda = 1.0;
   bool linear_start = false;
+  bool energy_rose = false;
 };
 
 class Driver {
@@ -611,6 +612,14 @@ class Driver {
     e_mark_ = e;
     t_acc_ = 0;
     accepted_.assign(1, e);
+    // The lowest-energy state of the level, returned if the level ends above where it started: on
+    // meshes the flow cannot improve (a cylinder whose caps are triangle fans, slivers) the
+    // unjudged tangential sub-steps, or the explicit scheme's instability, can raise the energy
+    // step after step and inflate the mesh. (Only then: a level that ends below its start keeps its
+    // last state, whose slow energy creep goes with real progress of the mesh; see the report.)
+    const double e_start = e;
+    double e_best = e;
+    MatX3d P_best = w.P;
     const double t_window = relaxation_time(w, g_);
     const bool semi = opt_.scheme == FairScheme::SemiImplicit;
     // Semi-implicit: tau = s h^4. Start large (the step is stable for any tau; the energy test
@@ -744,6 +753,7 @@ class Driver {
         e = energy_of(w, g_);
         dt = tau;
       }
+      if (e < e_best) e_best = e, P_best = w.P;
       energy_.push_back(e);
       ++it;
       // Semi-implicit: every step is long (s >= 64 h^4 is ~5e4 explicit steps), so the window
@@ -754,6 +764,13 @@ class Driver {
         rep.converged = true;
         break;
       }
+    }
+    if (!(e <= e_start * (1 + 10 * opt_.tolerance) + 1e-12)) {
+      w.P = P_best;
+      compute_geometry(w.P, w.F, w.topo, g_);
+      energy_.push_back(e_best);
+      rep.energy_rose = true;
+      rep.converged = false;
     }
     rep.iterations = it;
     return rep;
@@ -1518,6 +1535,7 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
     res.converged = rep.converged;
     res.lambda = rep.lambda;
     res.linear_start = res.linear_start || rep.linear_start;
+    res.energy_rose = res.energy_rose || rep.energy_rose;
     if (opt.max_seconds > 0 && clock.seconds() > opt.max_seconds && level < opt.subdivisions) {
       // Out of time: still refine (so the output has the requested resolution), without flow.
       continue;

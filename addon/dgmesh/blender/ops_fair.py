@@ -224,18 +224,29 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         if not written:
             return {'CANCELLED'}
         secs = time.perf_counter() - self._t0
-        parts = []
+        parts, level = [], 'INFO'
         for t in written:
             r = t.result
             e0, e1 = float(r.energy[0]), float(r.energy[-1])
+            n = len(t.arrays.V)
+            moved = int((np.abs(r.vertices[:n] - t.arrays.V).max(axis=1) > 0).sum())
+            if r.energy_rose:
+                level = 'WARNING'
+                status = (" (the flow could not lower the bending energy here and kept its lowest-energy state: "
+                          "slivers or fan-triangulated n-gons? Triangulate with Beauty or Regularize first)")
+            elif r.converged:
+                status = ""
+            elif r.level_iterations and r.level_iterations[-1] >= self.max_iterations:
+                status = " (iteration budget reached)"
+            else:
+                status = " (stopped before the tolerance: the flow stalled)"
             parts.append(
-                f"'{t.name}': {int(r.moved.sum())} vertices moved"
-                + (f", {len(r.vertices) - len(t.arrays.V)} added" if r.subdivided else "")
-                + f", {r.iterations} iterations, bending energy {e0:.4g} \u2192 {e1:.4g}"
-                + ("" if r.converged else " (iteration budget reached)"))
+                f"'{t.name}': {moved} vertices moved"
+                + (f", {len(r.vertices) - n} added" if r.subdivided else "")
+                + f", {r.iterations} iterations, bending energy {e0:.4g} \u2192 {e1:.4g}" + status)
         note = (" (Refine Fill on: the selected faces had no inner vertex to move)"
                 if getattr(self, "_auto_refined", None) else "")
-        self.report({'INFO'}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts)
+        self.report({level}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts)
                     + note)
         return {'FINISHED'}
 

@@ -72,6 +72,9 @@ struct FairResult {
   bool converged = false;  // the last level met the tolerance
   double lambda = 1.0;     // last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
   bool linear_start = false;  // the flow started from the linearised minimiser (iteration 1)
+  // Some level's flow ended above the energy it started from (a mesh the flow cannot improve:
+  // slivers, fan-triangulated caps); that level returned its lowest-energy state instead.
+  bool energy_rose = false;
 };
 
 FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress = {});
