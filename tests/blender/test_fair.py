@@ -124,6 +124,10 @@ def test_hole_workflow_with_refine_fill(kwargs):
     E0 = E0[np.isin(E0, ngon_key).any(axis=1)]
     sigma = np.linalg.norm(V_before[E0[:, 0]] - V_before[E0[:, 1]], axis=1).mean()
     n_before = len(mesh.vertices)
+    group = obj.vertex_groups.new(name="W")  # point data the new vertices should take from the rim
+    for v in mesh.vertices:
+        group.add([v.index], 0.5 + 0.4 * v.co.x, 'REPLACE')
+    rim_w = np.array([0.5 + 0.4 * mesh.vertices[i].co.x for i in ngon_key])
     snap = mesh_snapshot(mesh)
 
     bpy.ops.object.mode_set(mode='EDIT')
@@ -142,6 +146,11 @@ def test_hole_workflow_with_refine_fill(kwargs):
     # Patch edges about as long as the mesh's at the rim (the n-gon spans the whole hole).
     E = np.array([e.vertices[:] for e in mesh.edges])
     patch = (E >= n_before).any(axis=1)
+    # New vertices are in the rim's vertex group, with weights blended from it.
+    w_new = [[g.weight for g in mesh.vertices[i].groups] for i in range(n_before, len(V))]
+    assert all(len(w) == 1 for w in w_new)
+    w_new = np.array(w_new).ravel()
+    assert w_new.min() >= rim_w.min() - 1e-6 and w_new.max() <= rim_w.max() + 1e-6
     lengths = np.linalg.norm(V[E[patch, 0]] - V[E[patch, 1]], axis=1)
     assert lengths.mean() < 1.5 * sigma and lengths.max() < 3 * sigma, (sigma, lengths.mean(), lengths.max())
     uv_after = _uv_by_polygon(mesh)

@@ -289,6 +289,43 @@ def _interpolate_corners(face, src, layers):
                 loop[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) / total for k in range(n)]
 
 
+def _point_layers(bm):
+    out = []
+    for kind in ("float", "float_vector", "float_color", "color", "int"):
+        group = getattr(bm.verts.layers, kind, None)
+        if group is not None:
+            out += [(layer, kind) for layer in group.values()]
+    deform = bm.verts.layers.deform.active
+    return out, deform
+
+
+def _interpolate_point(vert, src, layers, deform):
+    """Point data (vertex-group weights, point attributes) of a new vertex from the polygon it was
+    made in: inverse-distance weights to the polygon's vertices (integers: the nearest one's)."""
+    corners = list(src.verts)
+    d = [(vert.co - c.co).length for c in corners]
+    w = [1.0 / max(x * x, 1e-300) for x in d]
+    total = sum(w)
+    w = [x / total for x in w]
+    for layer, kind in layers:
+        if kind == "int":
+            vert[layer] = corners[d.index(min(d))][layer]
+        elif kind == "float":
+            vert[layer] = sum(wi * c[layer] for wi, c in zip(w, corners))
+        else:
+            n = len(corners[0][layer])
+            vert[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) for k in range(n)]
+    if deform is not None:
+        acc = {}
+        for wi, c in zip(w, corners):
+            for g, x in c[deform].items():
+                acc[g] = acc.get(g, 0.0) + wi * x
+        dv = vert[deform]
+        for g, x in acc.items():
+            if x > 0:
+                dv[g] = x
+
+
 def _write_subdivided(t, select):
     """Replace the refined polygons by the output triangles with bmesh; other faces untouched."""
     mesh = t.obj.data
@@ -321,6 +358,8 @@ def _write_subdivided(t, select):
         by_poly = {int(p): bm.faces[int(p)] for p in polys}
         old_faces = list(by_poly.values())
         layers = _corner_layers(bm)
+        vlayers, deform = _point_layers(bm)
+        filled = set()  # new vertices given point data (from the first polygon they were made in)
         new_faces, kept = [], set()
         old_set = set(old_faces)
         for row in rows:
@@ -334,6 +373,10 @@ def _write_subdivided(t, select):
                 same.select = select
                 new_faces.append(same)
                 continue
+            for k in F[row]:
+                if k >= n_old and k not in filled:
+                    filled.add(k)
+                    _interpolate_point(verts[k], src, vlayers, deform)
             f = bm.faces.new(fv, src)  # example face: material, smooth
             _interpolate_corners(f, src, layers)
             f.select = select
