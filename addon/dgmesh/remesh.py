@@ -34,6 +34,9 @@ class RemeshResult:
     boundary_source: with ``boundary="keep"``, the input vertex of each boundary vertex (its
         position is copied bit for bit); empty with ``"resample"``.
     uv: output vertices in the triangulation map (U0 for "double" and "single_u0").
+    source_face, source_bary: where each output vertex lies on the input, an input face (row of
+        F) and the barycentric weights of its three corners, to carry UVs, vertex weights and
+        other data over.
     n_interior_target: interior samples asked of the error diffusion (target minus boundary).
     n_rejected: interior samples dropped for being too close to the boundary (last pass).
     passes: error-diffusion passes (the density is rescaled until the count is within 0.2%).
@@ -68,6 +71,8 @@ class RemeshResult:
     n_removed: int = 0
     seconds: dict = field(default_factory=dict)
     warnings: List[str] = field(default_factory=list)
+    source_face: np.ndarray = None
+    source_bary: np.ndarray = None
 
 
 def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double",
@@ -126,7 +131,8 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         sampling_rounds=int(r["sampling_rounds"]), smooth_moves=int(r["smooth_moves"]), n_removed=int(r["n_removed"]),
         seconds=dict(parameterize=r["seconds_parameterize"], sample=r["seconds_sample"],
                      relax=r["seconds_relax"], triangulate=r["seconds_triangulate"]),
-        warnings=list(r["warnings"]))
+        warnings=list(r["warnings"]),
+        source_face=np.asarray(r["source_face"], dtype=np.int64), source_bary=np.asarray(r["source_bary"]))
 
 
 def remesh(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double", boundary="keep",

@@ -50,6 +50,8 @@ void bind_remesh(pb::module_& m) {
         d["uv"] = std::move(r.uv);
         d["n_boundary"] = r.n_boundary;
         d["boundary_source"] = std::move(r.boundary_source);
+        d["source_face"] = std::move(r.source_face);
+        d["source_bary"] = std::move(r.source_bary);
         d["n_interior_target"] = r.n_interior_target;
         d["n_rejected"] = r.n_rejected;
         d["passes"] = r.passes;

@@ -709,12 +709,28 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   std::vector<Vec3> bnd_x;
   std::vector<Vec2> bnd_u;
   std::vector<Vec2> bnd_s;  // the same boundary samples in the sampling map (Lloyd generators)
+  std::vector<Sample> bnd_src;  // the same on the input: face and barycentric weights
+  // A point (1 - t) a + t b of the boundary edge (a, b), on the input face holding that edge.
+  auto on_edge = [&](int a, int b, double t) {
+    for (int q = topo.vf_offset[a]; q < topo.vf_offset[a + 1]; ++q) {
+      const int f = topo.vf_index[q];
+      double w[3] = {0, 0, 0};
+      int hits = 0;
+      for (int k = 0; k < 3; ++k) {
+        if (F(f, k) == a) w[k] += 1 - t, ++hits;
+        else if (F(f, k) == b) w[k] += t, ++hits;
+      }
+      if (a == b ? hits == 1 : hits == 2) return Sample{f, w[0], w[1], w[2]};
+    }
+    return Sample{-1, 0, 0, 0};
+  };
   if (o.boundary == RemeshBoundary::Keep) {
     res.boundary_source.resize(nbl);
     for (int k = 0; k < nbl; ++k) {
       bnd_x.push_back(row3(V, loop[k]));
       bnd_u.push_back(uv_row(Ut, loop[k]));
       bnd_s.push_back(uv_row(Us, loop[k]));
+      bnd_src.push_back(on_edge(loop[k], loop[k], 0.0));
       res.boundary_source[k] = loop[k];
     }
   } else {
@@ -747,6 +763,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       bnd_x.push_back((1 - t) * row3(V, a) + t * row3(V, b));
       bnd_u.push_back((1 - t) * uv_row(Ut, a) + t * uv_row(Ut, b));
       bnd_s.push_back((1 - t) * uv_row(Us, a) + t * uv_row(Us, b));
+      bnd_src.push_back(on_edge(a, b, t));
     };
     const int na = int(anchors.size());
     const int min_per_piece = na == 1 ? 3 : 1;
@@ -758,6 +775,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
         if (q == 0) {  // the anchor itself, exactly
           bnd_x.push_back(row3(V, loop[anchors[m]]));
           bnd_u.push_back(uv_row(Ut, loop[anchors[m]]));
+          bnd_src.push_back(on_edge(loop[anchors[m]], loop[anchors[m]], 0.0));
           bnd_s.push_back(uv_row(Us, loop[anchors[m]]));
         } else {
           place(c0 + (c1 - c0) * q / n_piece);
@@ -1332,6 +1350,13 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
                 "); try another resolution or target");
   }
   res.seconds_triangulate = seconds_since(t_tri);
+  res.source_face.resize(nout);
+  res.source_bary.resize(nout, 3);
+  for (int i = 0; i < nout; ++i) {
+    const Sample& q = i < nb ? bnd_src[i] : out_s[i];
+    res.source_face[i] = q.face;
+    res.source_bary.row(i) << q.w0, q.w1, q.w2;
+  }
   report(1);
   return res;
 }

@@ -233,3 +233,38 @@ def test_edit_mode_quad_region_inside_a_grid_stays_stitched():
     assert boundary_coords(mesh) == outer_before
     quads = sum(1 for p in mesh.polygons if p.loop_total == 4)
     assert quads == n_unselected
+
+
+def test_new_vertices_carry_uvs_and_vertex_weights():
+    """The new triangulation's corners take the UV map and the new vertices the vertex-group weights
+    of the input point each lies on (source_face / source_bary): on Add > Grid, whose UVs and the
+    weights here are affine in x and y, they are exact (they were (0, 0) and no group)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=12, y_subdivisions=12, size=2)
+    obj = bpy.context.object
+    me = obj.data
+    group = obj.vertex_groups.new(name="W")
+    for v in me.vertices:
+        group.add([v.index], 0.5 + 0.2 * v.co.x - 0.1 * v.co.y, 'REPLACE')
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(me)
+    for f in bm.faces:
+        f.select = f.calc_center_median().length < 0.6
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(me)
+    n_before = len(me.vertices)
+    assert remesh(target_vertices=400) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    me = obj.data
+    co = coords(me)
+    assert len(co) > n_before + 100
+    uv = np.empty(2 * len(me.loops), np.float32)
+    me.uv_layers.active.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    lv = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    # Add > Grid of size 2 maps x, y in [-1, 1] to u, v in [0, 1].
+    assert np.abs(uv - (co[lv, :2] + 1) / 2).max() < 1e-5
+    for v in me.vertices:
+        w = [g.weight for g in v.groups]
+        assert len(w) == 1 and abs(w[0] - (0.5 + 0.2 * v.co.x - 0.1 * v.co.y)) < 1e-5

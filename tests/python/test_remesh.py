@@ -131,6 +131,18 @@ def test_grid_with_ear_corners_keeps_its_boundary(mode, domain):
         assert abs(len(r.V) - target) <= 0.05 * target
 
 
+@pytest.mark.parametrize("boundary", ("keep", "resample"))
+def test_source_face_and_barycentrics_rebuild_every_output_vertex(boundary):
+    """Each output vertex lies on the input face it names, at its barycentric weights (what the
+    add-on uses to carry UVs and vertex weights over), boundary vertices included."""
+    V, F = polar_disk()
+    r = dgmesh.remesh_full(V, F, target_vertices=900, boundary=boundary)
+    assert r.source_face.shape == (len(r.V),) and (r.source_face >= 0).all()
+    assert np.all(r.source_bary >= -1e-12) and np.abs(r.source_bary.sum(1) - 1).max() < 1e-12
+    P = (r.source_bary[:, :, None] * V[F[r.source_face]]).sum(1)
+    assert np.abs(P - r.V).max() < 1e-12
+
+
 def test_adaptivity_puts_more_vertices_where_curvature_is_high():
     # Graph z = 0.3 exp(-8 r^2) over the unit disk: curvature concentrates at the bump.
     V, F = polar_disk()

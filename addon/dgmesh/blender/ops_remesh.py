@@ -6,7 +6,9 @@ each edited object must form one disk chart; they are replaced by the new triang
 the rest of the mesh along the chart's boundary, whose vertices (and edges) are kept as they are, so
 the result is as watertight as the input. Non-disk input is an error and nothing is written (all or
 nothing over the objects). The new faces take the material and smooth flag of the chart's first face
-and, in Edit mode, are left selected. Long runs show progress and Esc cancels
+and, in Edit mode, are left selected. The new corners take the UV maps and corner colours, the new
+vertices the vertex-group weights and point attributes, of the input point each lies on (blended
+over its input triangle); a UV seam inside the region is not kept (each vertex gets one UV). Long runs show progress and Esc cancels
 (jobs.NativeJobOperator); the mesh is written only when the computation has finished.
 """
 
@@ -122,6 +124,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
             outside[lv[~np.repeat(mask, total)]] = True
             items.append(dict(name=obj.name, counts=(len(mesh.vertices), len(mesh.loops), npoly),
                               polys=np.nonzero(mask)[0], ids=ids, outside=outside,
+                              tri_loops=arrays.tri_loops[tri_mask],
                               V=np.ascontiguousarray(arrays.V[ids]), F=Fc.reshape(-1, 3).astype(np.int32)))
         if not items:
             self.report({'WARNING'}, "No faces to remesh (select faces in Edit mode)")
@@ -195,6 +198,11 @@ def _replace_region(mesh, it, select_new):
         bm.verts.ensure_lookup_table()
         bm.faces.ensure_lookup_table()
         faces = [bm.faces[p] for p in it["polys"]]
+        # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
+        # of the new vertices, blended from the input face each lies on (source_face/bary).
+        corner = _corner_values(mesh, it, r)
+        vlayers, deform = _point_layers(bm)
+        point = [_point_values(bm.verts[int(v)], vlayers, deform) for v in ids]
         example = faces[0]
         material, smooth = example.material_index, example.smooth
         region_edges = {e for f in faces for e in f.edges}
@@ -208,11 +216,20 @@ def _replace_region(mesh, it, select_new):
                     e.select_set(False)
         nb = len(kept)
         new = [bm.verts.new(co) for co in r.V[nb:].tolist()]
+        for v, (f, w) in zip(new, zip(r.source_face[nb:].tolist(), r.source_bary[nb:].tolist())):
+            _blend_point(v, [point[int(k)] for k in it["F"][f]], w, vlayers, deform)
         vmap = kept + new
+        corner = [(getattr(bm.loops.layers, kind)[name], values) for (kind, name), values in corner]
         for a, b, c in r.F.tolist():
             f = bm.faces.new((vmap[a], vmap[b], vmap[c]))
             f.material_index = material
             f.smooth = smooth
+            for loop, j in zip(f.loops, (a, b, c)):
+                for layer, values in corner:
+                    if hasattr(loop[layer], "uv"):
+                        loop[layer].uv = values[j]
+                    else:
+                        loop[layer] = values[j]
             if select_new:
                 f.select_set(True)
         # Old chords of the region (edges between two boundary vertices) that no face uses now.
@@ -223,6 +240,63 @@ def _replace_region(mesh, it, select_new):
     finally:
         bm.free()
     mesh.update()
+
+
+def _corner_values(mesh, it, r):
+    """(bmesh loop layer name, per-output-vertex values) for each UV map and corner colour."""
+    L = it["tri_loops"][r.source_face]  # (n_out, 3) mesh loops of each source face
+    w = r.source_bary[:, :, None]
+    out = []
+    for uv in mesh.uv_layers:
+        a = np.empty(2 * len(mesh.loops), np.float32)
+        uv.data.foreach_get("uv", a)
+        out.append((("uv", uv.name), (w * a.reshape(-1, 2)[L]).sum(1).tolist()))
+    for att in mesh.color_attributes:
+        if att.domain == 'CORNER':
+            a = np.empty(4 * len(mesh.loops), np.float32)
+            att.data.foreach_get("color", a)
+            kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
+            out.append(((kind, att.name), (w * a.reshape(-1, 4)[L]).sum(1).tolist()))
+    return out
+
+
+def _point_layers(bm):
+    out = []
+    for kind in ("float", "float_vector", "float_color", "color", "int"):
+        group = getattr(bm.verts.layers, kind, None)
+        if group is not None:
+            out += [(layer, kind) for layer in group.values()]
+    return out, bm.verts.layers.deform.active
+
+
+def _point_values(v, layers, deform):
+    vals = []
+    for layer, kind in layers:
+        x = v[layer]
+        vals.append(x if kind in ("float", "int") else tuple(x))
+    return vals, (dict(v[deform].items()) if deform is not None else {})
+
+
+def _blend_point(v, sources, w, layers, deform):
+    """Point data of a new vertex: the barycentric blend of its source face's corners (integers:
+    the heaviest corner's)."""
+    heavy = int(np.argmax(w))
+    for q, (layer, kind) in enumerate(layers):
+        if kind == "int":
+            v[layer] = sources[heavy][0][q]
+        elif kind == "float":
+            v[layer] = sum(wi * s[0][q] for wi, s in zip(w, sources))
+        else:
+            v[layer] = [sum(wi * s[0][q][k] for wi, s in zip(w, sources)) for k in range(len(sources[0][0][q]))]
+    if deform is not None:
+        acc = {}
+        for wi, s in zip(w, sources):
+            for g, x in s[1].items():
+                acc[g] = acc.get(g, 0.0) + wi * x
+        dv = v[deform]
+        for g, x in acc.items():
+            if x > 0:
+                dv[g] = x
 
 
 classes = (DGMESH_OT_remesh,)

@@ -93,6 +93,10 @@ struct RemeshResult {
   int n_boundary = 0;
   VecXi boundary_source;     // Keep: input vertex of each boundary vertex; Resample: empty
   MatX2d uv;                 // output vertices in the triangulation map
+  // Where each output vertex lies on the input: an input face and barycentric weights of its three
+  // corners (so callers can carry UVs, weights and other per-vertex or per-corner data over).
+  VecXi source_face;
+  MatX3d source_bary;
   int n_interior_target = 0; // expected interior samples (target minus boundary)
   int n_rejected = 0;        // interior samples dropped by the boundary clearance (last pass)
   int passes = 0;            // error-diffusion passes, all rounds (the density is rescaled to hit the count)
