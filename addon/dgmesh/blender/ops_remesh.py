@@ -8,8 +8,9 @@ the result is as watertight as the input. Non-disk input is an error and nothing
 nothing over the objects). The new faces take the material and smooth flag of the chart's first face
 and, in Edit mode, are left selected. The new corners take the UV maps and corner colours, the new
 vertices the vertex-group weights and point attributes, of the input point each lies on (blended
-over its input triangle); a UV seam inside the region is not kept (each vertex gets one UV). Long runs show progress and Esc cancels
-(jobs.NativeJobOperator); the mesh is written only when the computation has finished.
+over its input triangle); a UV seam inside the region is not kept (each vertex gets one UV). Long
+runs show progress and Esc cancels (jobs.NativeJobOperator); the mesh is written only when the
+computation has finished.
 """
 
 import bmesh
