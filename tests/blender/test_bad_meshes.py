@@ -87,3 +87,14 @@ def test_shape_keys_are_refused_by_position_changing_operators(op):
     with pytest.raises(RuntimeError, match="shape keys"):
         getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT')
     assert mesh_snapshot(obj.data) == before
+
+
+def test_fair_error_names_the_object_among_several():
+    open_fixture("bad_meshes")
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2)
+    good = bpy.context.object
+    snap = mesh_snapshot(good.data)
+    select(good.name, "Bad_NaN", active=good.name)
+    with pytest.raises(RuntimeError, match="'Bad_NaN'"):
+        bpy.ops.dgmesh.fair('EXEC_DEFAULT')
+    assert mesh_snapshot(good.data) == snap  # all or nothing

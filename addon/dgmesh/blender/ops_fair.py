@@ -142,7 +142,10 @@ class _FairBase(NativeJobOperator):
             for i, t in enumerate(targets):
                 def sub(f, i=i):
                     return progress((i + f) / n)
-                t.result = self._run(t, sub)
+                try:
+                    t.result = self._run(t, sub)
+                except api().MeshError as exc:  # name the object: several may be selected
+                    raise api().MeshError(f"'{t.name}': {exc}") from None
             return targets
 
         return work

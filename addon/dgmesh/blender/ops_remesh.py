@@ -128,7 +128,8 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                               tri_loops=arrays.tri_loops[tri_mask],
                               V=np.ascontiguousarray(arrays.V[ids]), F=Fc.reshape(-1, 3).astype(np.int32)))
         if not items:
-            self.report({'WARNING'}, "No faces to remesh (select faces in Edit mode)")
+            self.report({'WARNING'}, "No faces to remesh (select faces in Edit mode)" if edit
+                        else "No faces to remesh: the selected meshes have no faces")
             return None
         keep = edit or not self.resample_boundary
         opts = dict(target_vertices=self.target_vertices, adaptivity=self.adaptivity,

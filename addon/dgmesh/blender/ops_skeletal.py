@@ -551,6 +551,12 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             msg = str(exc)
             if "no weight" in msg:
                 msg += " (vertex groups must be named after deform bones: " + ", ".join(names[:8]) + ")"
+            if "open" in msg or "boundary" in msg:
+                if any(m.type == 'MIRROR' for m in obj.modifiers):
+                    msg += (" (the Mirror modifier closes it only in the evaluated mesh: apply the modifier "
+                            "before binding)")
+                else:
+                    msg += " (unmerged vertices along a seam? Mesh > Clean Up > Merge by Distance)"
             self.report({'ERROR'}, msg)
             return {'CANCELLED'}
         finally:
