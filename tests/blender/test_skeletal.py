@@ -390,6 +390,26 @@ def test_unapplied_object_scale_deforms_like_applied(scale):
     assert np.median(d) < 1e-3 and d.max() < 0.1
 
 
+def test_edited_mesh_shows_undeformed_instead_of_scrambled():
+    """Deleting vertices of a bound mesh (Edit mode) leaves offsets made for the bound vertices: the
+    mesh then shows undeformed (and the console says to rebind) instead of scrambled."""
+    import bmesh
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() > 1.0
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -3.0], context='VERTS')
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    _pose_lower(arm, math.pi / 3)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
+
+
 def test_one_deform_per_pose_change():
     from dgmesh.blender import ops_skeletal
     obj, arm, V = _scene()

@@ -38,6 +38,7 @@ was.
 """
 
 import base64
+import hashlib
 import io
 import struct
 import uuid
@@ -147,6 +148,7 @@ def _rig(obj):
     return rig
 
 
+_rest_ok = {}  # (bind id, object name) -> the mesh's vertices are the ones bound (checked once per load)
 _buffers = {}  # (bind id, object name) -> (positions (n, 3), float32 (n*3,) output, float32 (n*3,) rest)
 
 
@@ -193,6 +195,39 @@ def _writes_helper(obj, helper):
         return False
     helper[OWNER] = obj.name
     return True
+
+
+def _rest_hash(mesh):
+    co = np.empty(3 * len(mesh.vertices), dtype=np.float32)
+    mesh.vertices.foreach_get("co", co)
+    return hashlib.blake2b(co.tobytes(), digest_size=16).hexdigest()
+
+
+def _edited(obj, info):
+    """The mesh was edited since it was bound: another vertex count, or (checked once per load, as
+    hashing every frame would cost milliseconds) other rest positions. Offsets made for the bound
+    vertices would scramble it."""
+    if len(obj.data.vertices) != _rig(obj).n_vertices:
+        return True
+    key = _key(obj, info)
+    if key not in _rest_ok:
+        _rest_ok[key] = info.get("rest_hash") in (None, _rest_hash(obj.data))  # None: bound before the hash
+    return not _rest_ok[key]
+
+
+def _clear_live(obj, info):
+    """Zero offsets (the mesh shows undeformed) for an edited mesh, once, with a console note."""
+    key = _key(obj, info)
+    if _last_pose.get(key) == b"edited" or _target(info) != "HELPER":
+        return
+    h = _helper_of(obj, info)
+    if h is None or not _writes_helper(obj, h):
+        return
+    h.data.vertices.foreach_set("co", np.zeros(3 * len(h.data.vertices), dtype=np.float32))
+    h.data.update()
+    _last_pose[key] = b"edited"
+    print(f"dgmesh skeletal: {obj.name!r} was edited since it was bound (vertex count or positions): "
+          "shown undeformed; unbind and bind it again")
 
 
 def _new_buffers(obj, rig):
@@ -275,6 +310,9 @@ def update_object(obj, force=False, depsgraph=None):
     names = list(info["bones"])
     if any(n not in arm.pose.bones for n in names):
         return False
+    if _edited(obj, info):
+        _clear_live(obj, info)
+        return False
     space = _space(info)
     if depsgraph is not None:
         pose = _pose_matrices(obj.evaluated_get(depsgraph), arm.evaluated_get(depsgraph), names, space=space)
@@ -319,6 +357,7 @@ def _on_update(scene, depsgraph=None):
 
 @bpy.app.handlers.persistent
 def _on_load(*_args):
+    _rest_ok.clear()
     _rigs.clear()
     _last_pose.clear()
     _buffers.clear()
@@ -587,7 +626,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
             "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
             "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
-            "skeleton": sk.name,
+            "skeleton": sk.name, "rest_hash": _rest_hash(obj.data),
         }
         if space is not None:
             obj[PROP]["space"] = [float(x) for x in space.ravel()]
