@@ -632,9 +632,12 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             obj[PROP]["space"] = [float(x) for x in space.ravel()]
         _rigs[bid] = rig
         update_object(obj, force=True)
+        others = [o.name for o in context.selected_objects if o.type == 'MESH' and o != obj]
         self.report({'INFO'}, f"Bound {obj.name!r} ({len(V)} vertices, control mesh {rig.n_control} vertices) to "
                     f"{len(names)} deform bones of {arm.name!r}" + ("" if W is not None else
-                                                                  " with distance weights (no vertex groups)"))
+                                                                  " with distance weights (no vertex groups)")
+                    + (f"; only the active mesh is bound: bind {', '.join(map(repr, others[:3]))} one at a time"
+                       if others else ""))
         return {'FINISHED'}
 
 
