@@ -410,6 +410,21 @@ def test_edited_mesh_shows_undeformed_instead_of_scrambled():
     assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
 
 
+def test_deleting_a_bound_mesh_leaves_no_hidden_objects(tmp_path):
+    """The helper and skeleton objects are hidden and unselectable: when the bound mesh is deleted
+    they go at the next load (or bind / unbind)."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    assert "Capsule_dg_offsets" in bpy.data.objects and "Capsule_skeleton" in bpy.data.objects
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    assert bpy.ops.object.delete() == {'FINISHED'}
+    path = str(tmp_path / "deleted.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert sorted(o.name for o in bpy.data.objects) == ["Rig"]
+
+
 def test_one_deform_per_pose_change():
     from dgmesh.blender import ops_skeletal
     obj, arm, V = _scene()

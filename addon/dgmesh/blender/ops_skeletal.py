@@ -58,6 +58,7 @@ KEY = "dg_skeletal"             # shape key of objects bound by earlier versions
 ATTR = "dg_skeletal_offset"     # point attribute of objects bound by an earlier version (legacy live target)
 HELPER_SUFFIX = "_dg_offsets"   # helper object: its vertex positions are deformed - rest positions
 OWNER = "dg_skeletal_owner"     # custom property of the helper: the object that writes it
+SKELETON_OF = "dg_skeleton_of"  # custom property of the skeleton object: the mesh it belongs to
 ARM_TAG = "dg_skeletal_rig"     # custom property of a bound armature: finds it after a rename
 HELPER_NODE = "dg_helper"       # the Object Info node of the node group (finds the helper after renames)
 MOD = "dg_skeletal"             # geometry-nodes modifier adding the offsets to the positions
@@ -357,6 +358,7 @@ def _on_update(scene, depsgraph=None):
 
 @bpy.app.handlers.persistent
 def _on_load(*_args):
+    _purge_orphans()
     _rest_ok.clear()
     _rigs.clear()
     _last_pose.clear()
@@ -433,6 +435,24 @@ def _helper_node_group(helper):
     return ng
 
 
+def _remove_object(o):
+    me = o.data
+    bpy.data.objects.remove(o)
+    if me is not None and me.users == 0:
+        bpy.data.meshes.remove(me)
+
+
+def _purge_orphans():
+    """The hidden helper and skeleton objects of a bound mesh that was deleted (hidden and
+    unselectable, the user cannot find them to delete them); run at load, bind and unbind."""
+    for h in [o for o in bpy.data.objects if OWNER in o.keys()]:
+        if not _helper_users(h):
+            _remove_object(h)
+    for sk in [o for o in bpy.data.objects if SKELETON_OF in o.keys()]:
+        if sk.parent is None or not is_bound(sk.parent):
+            _remove_object(sk)
+
+
 def _helper_object(obj, n):
     """The hidden helper: ``n`` loose vertices at the origin (zero offsets: the rest pose), in the
     mesh's collections so the depsgraph evaluates it, never drawn, rendered or selectable. Blender
@@ -503,6 +523,7 @@ def _skeleton_object(context, obj, rig, space=None):
     for coll in obj.users_collection:
         coll.objects.link(sk)
     sk.parent = obj
+    sk[SKELETON_OF] = obj.name
     sk.hide_set(True)
     sk.hide_render = True
     return sk
@@ -631,6 +652,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         if space is not None:
             obj[PROP]["space"] = [float(x) for x in space.ravel()]
         _rigs[bid] = rig
+        _purge_orphans()
         update_object(obj, force=True)
         others = [o.name for o in context.selected_objects if o.type == 'MESH' and o != obj]
         self.report({'INFO'}, f"Bound {obj.name!r} ({len(V)} vertices, control mesh {rig.n_control} vertices) to "
@@ -714,6 +736,7 @@ object and the stored data; the Armature modifiers are restored"""
             self.report({'ERROR'}, "The active object is not bound (DG Mesh > Skeletal Bind)")
             return {'CANCELLED'}
         unbind(obj)
+        _purge_orphans()
         self.report({'INFO'}, f"Unbound {obj.name!r}")
         return {'FINISHED'}
 
