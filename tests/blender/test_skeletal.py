@@ -300,8 +300,9 @@ def test_animation_render_deforms_every_frame(tmp_path):
 
 
 def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path):
-    """The cache replaces the part of the stack the rig drives (basis, shape keys, live offsets):
-    a shape key and a Subdivision Surface after it still show, before and after unbind, and the
+    """The cache replaces the part of the stack the rig drives (basis, shape keys, live offsets, a
+    Smooth before the Armature modifier): a shape key, that Smooth and a Subdivision Surface after
+    it still show, before and after unbind, and the
     defaults (no file, no range) give a per-object file next to the .blend and the scene's range."""
     obj, arm, V = _scene()
     obj.shape_key_add(name="Basis")
@@ -309,6 +310,10 @@ def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path):
     kb.data.foreach_set("co", (V * np.array([1.0, 1.2, 1.2])).astype(np.float32).ravel())
     kb.value = 1.0
     obj.modifiers.new("Subdivision", 'SUBSURF').levels = 1
+    smooth = obj.modifiers.new("Smooth", 'SMOOTH')  # before the Armature modifier: kept in the cache
+    smooth.factor, smooth.iterations = 0.5, 3
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.modifier_move_to_index(modifier="Smooth", index=0)
     assert _bind() == {'FINISHED'}
     _pose_lower(arm, 0.0, frame=1)
     _pose_lower(arm, math.pi / 2, frame=5)
@@ -390,7 +395,7 @@ def test_unapplied_object_scale_deforms_like_applied(scale):
     assert np.median(d) < 1e-3 and d.max() < 0.1
 
 
-def test_edited_mesh_shows_undeformed_instead_of_scrambled():
+def test_edited_mesh_shows_undeformed_instead_of_scrambled(tmp_path):
     """Deleting vertices of a bound mesh (Edit mode) leaves offsets made for the bound vertices: the
     mesh then shows undeformed (and the console says to rebind) instead of scrambled."""
     import bmesh
@@ -408,6 +413,8 @@ def test_edited_mesh_shows_undeformed_instead_of_scrambled():
     _pose_lower(arm, math.pi / 3)
     bpy.context.view_layer.update()
     assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
+    with pytest.raises(RuntimeError, match="edited since it was bound"):  # and no undeformed bake
+        bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT', filepath=str(tmp_path / "x.pc2"), frame_start=1, frame_end=2)
 
 
 def test_deleting_a_bound_mesh_leaves_no_hidden_objects(tmp_path):
@@ -423,6 +430,43 @@ def test_deleting_a_bound_mesh_leaves_no_hidden_objects(tmp_path):
     bpy.ops.wm.save_as_mainfile(filepath=path)
     bpy.ops.wm.open_mainfile(filepath=path)
     assert sorted(o.name for o in bpy.data.objects) == ["Rig"]
+
+
+def test_bound_mesh_object_moved_after_bind_moves_with_its_object():
+    """Moving the bound mesh object afterwards moves it as the Armature modifier would (it stayed
+    where it was bound: the rig saw the bones move the other way)."""
+    obj, arm, V = _scene()
+    obj.parent = None
+    assert _bind() == {'FINISHED'}
+    obj.location = (2.0, 0.0, 0.0)
+    obj.rotation_euler = (0.0, 0.0, 0.5)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-4  # rest pose: the mesh moved with its object
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    assert np.abs(X - V).max() > 1.0  # and still follows the pose
+
+
+def test_mesh_duplicated_with_its_rig_unbinds_to_the_copy():
+    """Shift+D of the bound mesh and its rig together (a second character): the copy's armature is
+    its parent, the copy of the rig (which carries the same tag), so unbinding the copy gives its
+    Armature modifier the copied rig, not the original."""
+    obj, arm, V = _scene()
+    obj.parent = arm
+    assert _bind() == {'FINISHED'}
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.object.duplicate() == {'FINISHED'}
+    obj2 = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
+    arm2 = next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE')
+    assert obj2.parent == arm2
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj2)
+    bpy.context.view_layer.objects.active = obj2
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert obj2.modifiers["Armature"].object == arm2
 
 
 def test_one_deform_per_pose_change():

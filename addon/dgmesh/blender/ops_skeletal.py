@@ -62,6 +62,7 @@ SKELETON_OF = "dg_skeleton_of"  # custom property of the skeleton object: the me
 ARM_TAG = "dg_skeletal_rig"     # custom property of a bound armature: finds it after a rename
 HELPER_NODE = "dg_helper"       # the Object Info node of the node group (finds the helper after renames)
 MOD = "dg_skeletal"             # geometry-nodes modifier adding the offsets to the positions
+CACHE = "dg_skeletal_cache"     # the Mesh Cache modifier skeletal_bake adds
 NODE_GROUP = "dg_skeletal"      # its node group
 METHODS = (
     ('VARIATIONAL', "Variational", "Thesis 6.5: stitched per-triangle frames plus shape-preserving fairing"),
@@ -84,14 +85,28 @@ def _armature_of(context, mesh_obj):
     return None
 
 
-def _pose_matrices(mesh_obj, arm, names, rest=False, space=None):
-    """Bone frames in the rig's space: the mesh's object space, or ``space`` (4x4) times it."""
-    to_mesh = mesh_obj.matrix_world.inverted() @ arm.matrix_world
+def _pose_matrices(mesh_obj, arm, names, rest=False, space=None, bind=None):
+    """Bone frames in the rig's space (the mesh's object space, or ``space`` (4x4) times it).
+
+    Rest: the bones' rest frames. Pose: each bone's motion as the Armature modifier applies it,
+    D = T P R^-1 T^-1 (T: armature -> rig space now, P/R: pose/rest frame in armature space), times
+    the rig's rest frame T_bind R (``bind``: the armature -> mesh map at bind time; None = now). So
+    moving the mesh object or the armature object later moves the mesh as Blender's modifier would
+    (it stayed where it was bound). A pose-bone scale stays in D: the rig's linear blend of the
+    skeleton follows it, the thickness does not (making D rigid, each head kept where D puts it,
+    measured worse: a parent bone scaled 0.5 stretched edges 7.4x against 2.3x)."""
+    S = np.eye(4) if space is None else space
+    T = S @ np.array(mesh_obj.matrix_world.inverted() @ arm.matrix_world)  # armature -> rig space now
+    T_bind = T if bind is None else S @ bind
+    T_inv = np.linalg.inv(T)
     out = np.empty((len(names), 4, 4))
     for j, name in enumerate(names):
-        m = arm.data.bones[name].matrix_local if rest else arm.pose.bones[name].matrix
-        out[j] = np.array(to_mesh @ m)
-    return out if space is None else space @ out
+        R = np.array(arm.data.bones[name].matrix_local)
+        if rest:
+            out[j] = T @ R
+        else:
+            out[j] = T @ np.array(arm.pose.bones[name].matrix) @ np.linalg.inv(R) @ T_inv @ T_bind @ R
+    return out
 
 
 def _rig_space(obj, arm):
@@ -124,15 +139,25 @@ def _decode(text):
         return {k: z[k] for k in z.files}
 
 
-def _armature(info):
-    """The bound armature: the object of the stored name, or after a rename the armature carrying
-    the binding's tag (a custom property set at bind; an ID pointer would keep a deleted armature
-    alive as a user). Files bound before the tag: by name only."""
+def _armature(obj, info):
+    """The bound armature, found by the tag bind put on it (a custom property; an ID pointer would
+    keep a deleted armature alive as a user): the mesh's parent if it carries the tag (a mesh
+    duplicated with its rig follows the copy), else the object of the stored name, else after a
+    rename the one armature with the tag and the bound armature data (a copy of the rig, Shift+D,
+    carries the tag but has its own data). Files bound before the tag: by name only."""
     arm = bpy.data.objects.get(info["armature"])
     tag = info.get("armature_tag")
-    if tag is None or (arm is not None and arm.get(ARM_TAG) == tag):
+    if tag is None:
         return arm if arm is not None and arm.type == 'ARMATURE' else None
-    return next((o for o in bpy.data.objects if o.type == 'ARMATURE' and o.get(ARM_TAG) == tag), None)
+    p = obj.parent
+    if p is not None and p.type == 'ARMATURE' and p.get(ARM_TAG) == tag:
+        return p
+    if arm is not None and arm.type == 'ARMATURE' and arm.get(ARM_TAG) == tag:
+        return arm
+    data = info.get("armature_data")
+    found = [o for o in bpy.data.objects
+             if o.type == 'ARMATURE' and o.get(ARM_TAG) == tag and (data is None or o.data.name == data)]
+    return found[0] if len(found) == 1 else None
 
 
 def is_bound(obj):
@@ -305,7 +330,7 @@ def update_object(obj, force=False, depsgraph=None):
     (only the view layer's depsgraph does), so the original's pose stays at the frame the render
     started from."""
     info = obj[PROP]
-    arm = _armature(info)
+    arm = _armature(obj, info)
     if arm is None:
         return False
     names = list(info["bones"])
@@ -315,10 +340,13 @@ def update_object(obj, force=False, depsgraph=None):
         _clear_live(obj, info)
         return False
     space = _space(info)
+    bind = info.get("bind_to_mesh")
+    bind = None if bind is None else np.array(bind, dtype=float).reshape(4, 4)
     if depsgraph is not None:
-        pose = _pose_matrices(obj.evaluated_get(depsgraph), arm.evaluated_get(depsgraph), names, space=space)
+        pose = _pose_matrices(obj.evaluated_get(depsgraph), arm.evaluated_get(depsgraph), names, space=space,
+                              bind=bind)
     else:
-        pose = _pose_matrices(obj, arm, names, space=space)
+        pose = _pose_matrices(obj, arm, names, space=space, bind=bind)
     sig = pose.tobytes()
     if not force and _last_pose.get(_key(obj, info)) == sig:
         return False
@@ -641,7 +669,9 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         _move_first(obj, mod)
         sk = _skeleton_object(context, obj, rig, space)
         obj[PROP] = {
-            "id": bid, "armature": arm.name, "armature_tag": tag, "bones": names, "data": _encode(rig.to_arrays()),
+            "id": bid, "armature": arm.name, "armature_tag": tag, "armature_data": arm.data.name,
+            "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
+            "bones": names, "data": _encode(rig.to_arrays()),
             "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
             "target": "HELPER",
             "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
@@ -695,7 +725,7 @@ def unbind(obj):
             if me.users == 0:
                 bpy.data.meshes.remove(me)
     objects = info.get("modifiers_object", [None] * len(info["modifiers"]))
-    arm = _armature(info)  # renamed since bind: found by its tag
+    arm = _armature(obj, info)  # renamed since bind: found by its tag
     for name, vp, rd, ob in zip(info["modifiers"], info["modifiers_viewport"], info["modifiers_render"], objects):
         m = obj.modifiers.get(name)
         if m is not None:
@@ -787,19 +817,27 @@ Cache modifier (renders and exports then need no add-on)"""
             self.report({'ERROR'}, "Save the .blend first or give an absolute path for the cache")
             return {'CANCELLED'}
         info = obj[PROP]
-        if _armature(info) is None:
-            self.report({'ERROR'}, f"Armature {info['armature']!r} is gone")
+        if _armature(obj, info) is None:
+            self.report({'ERROR'}, f"The armature {obj.name!r} was bound to ({info['armature']!r} at bind time) is "
+                        "gone")
+            return {'CANCELLED'}
+        if _edited(obj, info):
+            self.report({'ERROR'}, f"{obj.name!r} was edited since it was bound (vertex count or positions): "
+                        "unbind and bind it again before baking")
             return {'CANCELLED'}
         scene = context.scene
         current = scene.frame_current
         frames = []
         wm = context.window_manager
         has_window = context.window is not None
-        # Each frame is sampled as the stack evaluates it up to the live deformation: the basis,
-        # shape keys (animated ones too) and the live offsets, with the modifiers after it muted;
-        # the cache then replaces exactly that part of the stack (see _place_cache).
+        # Each frame is sampled as the stack evaluates it up to where the cache goes (_cache_index:
+        # the basis, shape keys, the live offsets and any modifier before the Armature modifiers),
+        # with the modifiers after it (and an earlier cache) muted: the cache then replaces exactly
+        # that part of the stack.
         live = obj.modifiers.get(str(info.get("modifier", MOD)))
-        muted = [m for m in obj.modifiers if m != live and m.show_viewport]
+        cut = _cache_index(obj, live)
+        others = [m for m in obj.modifiers if m.name != CACHE]
+        muted = [m for m in obj.modifiers if m.show_viewport and (m.name == CACHE or others.index(m) >= cut)]
         for m in muted:
             m.show_viewport = False
         if has_window:
@@ -824,12 +862,12 @@ Cache modifier (renders and exports then need no add-on)"""
         except OSError as exc:
             self.report({'ERROR'}, f"Cannot write {path}: {exc}")
             return {'CANCELLED'}
-        mod = obj.modifiers.get("dg_skeletal_cache") or obj.modifiers.new("dg_skeletal_cache", 'MESH_CACHE')
+        mod = obj.modifiers.get(CACHE) or obj.modifiers.new(CACHE, 'MESH_CACHE')
         mod.cache_format = 'PC2'
         mod.deform_mode = 'OVERWRITE'
         mod.filepath = self.filepath
         mod.frame_start = self.frame_start
-        _place_cache(obj, mod, live)
+        _move_to(obj, mod, cut)
         self.report({'INFO'}, f"Baked {len(frames)} frames of {obj.name!r} to {path}")
         return {'FINISHED'}
 
@@ -845,14 +883,14 @@ def _evaluated_positions(obj, depsgraph):
         ev.to_mesh_clear()
 
 
-def _place_cache(obj, cache, live):
-    """The Mesh Cache (overwrite) goes right after the live modifier and the Armature modifiers
-    (restored by unbind, they deform before it and are overwritten), before every other modifier:
-    a Subdivision Surface or a Smooth then works on the cached positions, whose vertex count is the
-    mesh's."""
-    others = [m for m in obj.modifiers if m != cache]
+def _cache_index(obj, live):
+    """Where the baked Mesh Cache (overwrite) goes in the stack without it: right after the live
+    modifier and the Armature modifiers (restored by unbind, they deform before it and are
+    overwritten), before every other modifier after them (a Subdivision Surface or a Smooth then
+    works on the cached positions, whose vertex count is the mesh's)."""
+    others = [m for m in obj.modifiers if m.name != CACHE]
     after = [i for i, m in enumerate(others) if m == live or m.type == 'ARMATURE']
-    _move_to(obj, cache, max(after) + 1 if after else 0)
+    return max(after) + 1 if after else 0
 
 
 classes = (DGMESH_OT_skeletal_bind, DGMESH_OT_skeletal_unbind, DGMESH_OT_skeletal_bake)
