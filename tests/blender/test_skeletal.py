@@ -413,6 +413,8 @@ def test_edited_mesh_shows_undeformed_instead_of_scrambled(tmp_path):
     _pose_lower(arm, math.pi / 3)
     bpy.context.view_layer.update()
     assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
+    from dgmesh.blender import ops_skeletal
+    assert ops_skeletal.shown_undeformed(obj)  # the sidebar panel says so
     with pytest.raises(RuntimeError, match="edited since it was bound"):  # and no undeformed bake
         bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT', filepath=str(tmp_path / "x.pc2"), frame_start=1, frame_end=2)
 

@@ -256,6 +256,12 @@ def _clear_live(obj, info):
           "shown undeformed; unbind and bind it again")
 
 
+def shown_undeformed(obj):
+    """Whether a bound object is shown undeformed because it was edited since bind (the sidebar
+    panel says so)."""
+    return is_bound(obj) and _last_pose.get(_key(obj, obj[PROP])) == b"edited"
+
+
 def _new_buffers(obj, rig):
     """Positions (float32: the native deform rounds on output), the float32 array handed to
     foreach_set and the float32 rest positions (the basis: what bind read)."""

@@ -45,6 +45,10 @@ class DGMESH_PT_main(bpy.types.Panel):
         layout = self.layout
         col = layout.column(align=True)
         _draw_operators(col)
+        from . import ops_skeletal
+        for obj in context.scene.objects:
+            if ops_skeletal.shown_undeformed(obj):
+                layout.label(text=f"{obj.name}: edited since bound, rebind it", icon='ERROR')
         # Colour attributes only show in Solid shading with Color = Attribute.
         space = context.space_data
         if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':
