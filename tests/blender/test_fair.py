@@ -133,7 +133,6 @@ def test_hole_workflow_with_refine_fill(kwargs):
     bpy.ops.object.mode_set(mode='EDIT')
     bpy.ops.ed.undo_push(message="before fair")
     assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, **kwargs) == {'FINISHED'}
-    assert bpy.context.window_manager.operator_properties_last("dgmesh.fair").refine
     bpy.ops.object.mode_set(mode='OBJECT')
     mesh = obj.data
     V = _positions(mesh)
@@ -210,11 +209,38 @@ def test_triangle_fill_with_subdivisions_is_refined_first():
     n_before = len(obj.data.vertices)
     bpy.ops.object.mode_set(mode='EDIT')
     assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, subdivisions=3) == {'FINISHED'}
-    assert bpy.context.window_manager.operator_properties_last("dgmesh.fair").refine
     bpy.ops.object.mode_set(mode='OBJECT')
     V = _positions(obj.data)
     assert len(V) > n_before + 100
     assert np.abs(np.linalg.norm(V[n_before:], axis=1) - R).max() < 0.03
+
+
+def test_refine_fill_turned_on_by_itself_is_not_remembered():
+    """After Fair turned Refine Fill on for a fill without inner vertices, the next Fair invoked
+    with no options (as from the menu) on a Grid Fill, which has inner vertices, keeps its quads."""
+    obj = _fresh_sphere()
+    _cut_and_fill(obj)
+    assert bpy.ops.dgmesh.fair('INVOKE_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=R, location=(3, 0, 0))
+    other = bpy.context.object
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(other.data)
+    for v in bm.verts:
+        v.select = v.co.x > 0.7 * R  # a side hole: its Grid Fill quads are larger than the rim's
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(other.data)
+    bpy.ops.mesh.delete(type='VERT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.mesh.select_non_manifold()
+    bpy.ops.mesh.fill_grid()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    quads = sum(p.select and p.loop_total == 4 for p in other.data.polygons)
+    assert quads > 0
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('INVOKE_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert sum(p.select and p.loop_total == 4 for p in other.data.polygons) == quads
 
 
 def test_grid_fill_beside_a_valence_two_rim_vertex():

@@ -184,8 +184,10 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         description="With fixed vertices, Willmore and Laplacian of H first jump to the bilaplacian "
         "solution (when that lowers the bending energy) and flow from there; a flat fill alone "
         "can keep a crease along the hole's rim")
+    # SKIP_SAVE: turned on by itself for a fill without inner vertices, it must not stay on for the
+    # next Fair (a Grid Fill with inner vertices would be re-triangulated).
     refine: BoolProperty(
-        name="Refine Fill", default=False,
+        name="Refine Fill", default=False, options={'SKIP_SAVE'},
         description="Edit mode: first refine the selected faces to triangles sized like the mesh "
         "around them (Liepa's hole filling: a fill without inner vertices is first re-triangulated "
         "by the minimum-weight triangulation of its rim, then centroid splits and Delaunay flips). For "
