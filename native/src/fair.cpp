@@ -786,6 +786,11 @@ class Driver {
     double e = energy_of(w, g_);
     e_mark_ = e;
     t_acc_ = 0;
+    // As in run_curvature_flow: a level ending above its starting energy returns its lowest state
+    // (the bi-umbrella flow shrinks a closed mesh without fixed vertices towards a point).
+    const double e_start = e;
+    double e_best = e;
+    MatX3d P_best = w.P;
     const bool semi = opt_.scheme == FairScheme::SemiImplicit;
     double tau = semi ? 1.0 : 0.2 * opt_.step_scale;  // explicit: stable below 0.5
     SparseSolver solver;
@@ -832,6 +837,7 @@ class Driver {
         break;
       }
       e = e_new;
+      if (e < e_best) e_best = e, P_best = w.P;
       energy_.push_back(e);
       ++it;
       const double dt = tau;
@@ -840,6 +846,13 @@ class Driver {
         rep.converged = true;
         break;
       }
+    }
+    if (!(e <= e_start * (1 + 10 * opt_.tolerance) + 1e-12)) {
+      w.P = P_best;
+      compute_geometry(w.P, w.F, w.topo, g_);
+      energy_.push_back(e_best);
+      rep.energy_rose = true;
+      rep.converged = false;
     }
     rep.iterations = it;
     return rep;

@@ -648,6 +648,10 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   Progress report(progress);
   report(0);
   const Topology topo = check_disk(V, F);
+  // Squared lengths and areas of coordinates beyond ~1e19 overflow (the raster and the Lloyd step
+  // then index memory out of range): a clear error instead.
+  if (V.size() > 0 && V.cwiseAbs().maxCoeff() > 1e15)
+    throw MeshError("remesh: coordinates beyond 1e15 in magnitude; scale the mesh down first");
   const std::vector<int>& loop = topo.boundary_loops[0];
   const int nv = topo.n_vertices, nf = topo.n_faces, nbl = int(loop.size());
   RemeshResult res;

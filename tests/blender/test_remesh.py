@@ -246,6 +246,8 @@ def test_new_vertices_carry_uvs_and_vertex_weights():
     group = obj.vertex_groups.new(name="W")
     for v in me.vertices:
         group.add([v.index], 0.5 + 0.2 * v.co.x - 0.1 * v.co.y, 'REPLACE')
+    col = me.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')  # stored as sRGB bytes
+    col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(me.loops)).astype(np.float32))
     bpy.ops.object.mode_set(mode='EDIT')
     bm = bmesh.from_edit_mesh(me)
     for f in bm.faces:
@@ -268,3 +270,6 @@ def test_new_vertices_carry_uvs_and_vertex_weights():
     for v in me.vertices:
         w = [g.weight for g in v.groups]
         assert len(w) == 1 and abs(w[0] - (0.5 + 0.2 * v.co.x - 0.1 * v.co.y)) < 1e-5
+    c = np.empty(4 * len(me.loops), np.float32)
+    me.color_attributes["Col"].data.foreach_get("color_srgb", c)
+    assert np.abs(c.reshape(-1, 4) - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255  # not darkened

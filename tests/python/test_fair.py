@@ -340,3 +340,16 @@ def test_refine_region_retriangulates_a_fill_by_min_weight():
     Vn, Fn, on = refine_region(V, F2, fill, density=1e-9)
     assert len(Vn) == len(V)
     assert max_dihedral(V, F2, fill) > 170 and max_dihedral(Vn, Fn, fill[on]) < 120
+
+
+def test_a_flow_that_raises_the_energy_keeps_its_lowest_state():
+    """The bi-umbrella flow of a closed mesh without fixed vertices shrinks it towards a point (its
+    bending energy rising without bound): the level returns its lowest-energy state and says so."""
+    V, F = shapes.icosphere(3)
+    V = V * np.array([2.0, 1.0, 1.0])
+    r = dgmesh.fair(V, F, method="bilaplacian", max_iterations=50)
+    assert r.energy_rose
+    assert r.energy[-1] <= r.energy[0] * (1 + 1e-9)
+    assert np.ptp(r.vertices, axis=0).min() > 0.5 * np.ptp(V, axis=0).min()
+    # The Willmore flow of the same ellipsoid lowers its energy: no such fallback.
+    assert not dgmesh.fair(V, F).energy_rose

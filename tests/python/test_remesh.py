@@ -333,3 +333,11 @@ def test_low_valence_vertices_are_removed(cgal):
     assert len(r.V) == len(base.V) - r.n_removed
     assert abs(len(r.V) - 5000) <= 0.01 * 5000
     assert bad_low_valence(r) < bad_low_valence(base), (bad_low_valence(r), bad_low_valence(base))
+
+
+def test_huge_coordinates_are_refused():
+    """Coordinates near float max overflowed squared lengths and corrupted memory (the interpreter
+    aborted): a clear error instead."""
+    V, F = polar_disk()
+    with pytest.raises(dgmesh.MeshError, match="1e15"):
+        dgmesh.remesh(V * 1e39, F, target_vertices=500)

@@ -70,7 +70,7 @@ def _read_target(obj, edit_mode, keep_border):
     if obj.data.shape_keys is not None:
         # The basis alone would change (the shown shape is the active key's) and Edit mode would
         # bring the keys' positions back.
-        raise dg.MeshError("the mesh has shape keys; fairing would only change the basis (remove or apply them first)")
+        raise dg.MeshError("the mesh has shape keys; only the basis would change (remove or apply them first)")
     # Two n-gons sharing a valence-2 vertex (a Grid Fill quad beside a rim quad) can triangulate
     # into the same triangle twice; re-triangulate those instead of reporting duplicate faces.
     arrays = bridge.repair_ngon_triangles(bridge.read_object(obj))
@@ -235,19 +235,20 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             r = t.result
             e0, e1 = float(r.energy[0]), float(r.energy[-1])
             n = len(t.arrays.V)
-            moved = int((np.abs(r.vertices[:n] - t.arrays.V).max(axis=1) > 0).sum())
+            moved = _moved_count(r.vertices[:n], t.arrays.V)
             if r.energy_rose:
                 level = 'WARNING'
-                status = (" (the flow could not lower the bending energy here and kept its lowest-energy state: "
-                          "slivers or fan-triangulated n-gons? Triangulate with Beauty or Regularize first)")
+                status = (" (the flow could not lower the bending energy and kept its lowest-energy state: already "
+                          "faired, or slivers / fan-triangulated n-gons? Triangulate with Beauty or Regularize first)")
             elif r.converged:
                 status = ""
             elif r.level_iterations and r.level_iterations[-1] >= self.max_iterations:
                 status = " (iteration budget reached)"
             else:
                 status = " (stopped before the tolerance: the flow stalled)"
+            mods = _modifier_note(t.obj)
             parts.append(
-                f"'{t.name}': {moved} vertices moved"
+                f"'{t.name}'{mods}: {moved} vertices moved"
                 + (f", {len(r.vertices) - n} added" if r.subdivided else "")
                 + f", {r.iterations} iterations, bending energy {e0:.4g} \u2192 {e1:.4g}" + status)
         note = (" (Refine Fill on: the selected faces had no inner vertex to move)"
@@ -255,6 +256,18 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         self.report({level}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts)
                     + note)
         return {'FINISHED'}
+
+
+def _moved_count(V, V0):
+    """Vertices moved by more than rounding (1e-9 of the mesh's size)."""
+    size = float(np.ptp(V0, axis=0).max()) if len(V0) else 0.0
+    return int((np.abs(V - V0).max(axis=1) > 1e-9 * max(size, 1e-300)).sum())
+
+
+def _modifier_note(obj):
+    """' (its base mesh, before Mirror, Subdivision)' when modifiers change what the user sees."""
+    names = [m.type.title().replace("_", " ") for m in obj.modifiers if m.show_viewport]
+    return f" (its base mesh, before {', '.join(names[:3])})" if names else ""
 
 
 def _corner_layers(bm):
@@ -436,9 +449,10 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         with bridge.object_mode(context):
             for t in targets:
                 bridge.write_positions(t.obj.data, t.result)
-        moved = sum(int(np.any(t.result != t.arrays.V, axis=1).sum()) for t in targets)
+        moved = sum(_moved_count(t.result, t.arrays.V) for t in targets)
         secs = time.perf_counter() - self._t0
-        self.report({'INFO'}, f"Regularize: {moved} vertices moved on {len(targets)} object(s), "
+        mods = "".join(_modifier_note(t.obj) for t in targets[:1])
+        self.report({'INFO'}, f"Regularize: {moved} vertices moved on {len(targets)} object(s){mods}, "
                               f"{self.iterations} iterations in {secs:.2f} s")
         return {'FINISHED'}
 

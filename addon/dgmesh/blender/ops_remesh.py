@@ -183,6 +183,13 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                              f"{len(it['F'])} -> {len(r.F)} triangles, min angle {_min_angle_deg(r.V, r.F):.1f} deg")
         for w in sorted({w for it in items for w in it["result"].warnings})[:3]:
             self.report({'WARNING'}, w)
+        # A kept boundary far coarser than the new spacing (Add > Plane: 4 corners for thousands of
+        # vertices) leaves slivers along it.
+        coarse = [it["name"] for it in items if len(it["result"].boundary_source)
+                  and len(it["result"].boundary_source) ** 2 < 0.5 * len(it["result"].V)]
+        if coarse and not edit:
+            self.report({'WARNING'}, f"{', '.join(map(repr, coarse[:3]))}: the kept boundary is much coarser than "
+                        "the new vertices (slivers along it): turn on Resample Boundary")
         self.report({'INFO'}, f"Remeshed {plural(len(items), 'region')} ({self.mode.lower()}, target "
                               f"{self.target_vertices}): " + "; ".join(lines))
         return {'FINISHED'}
@@ -256,7 +263,8 @@ def _corner_values(mesh, it, r):
     for att in mesh.color_attributes:
         if att.domain == 'CORNER':
             a = np.empty(4 * len(mesh.loops), np.float32)
-            att.data.foreach_get("color", a)
+            # bmesh's byte-colour layers hold the stored (sRGB) values; `color` is linear.
+            att.data.foreach_get("color_srgb" if att.data_type == 'BYTE_COLOR' else "color", a)
             kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
             out.append(((kind, att.name), (w * a.reshape(-1, 4)[L]).sum(1).tolist()))
     return out
