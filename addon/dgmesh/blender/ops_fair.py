@@ -16,6 +16,7 @@ corner data.
 Nothing is written before the native run ends: errors and Esc leave the mesh untouched.
 """
 
+import dataclasses
 import time
 
 import bmesh
@@ -91,7 +92,43 @@ def _read_target(obj, edit_mode, keep_border):
         touched[arrays.F[~tri_sel].ravel()] = True
         movable &= ~touched
     faces = tri_sel if tri_sel.any() else None
+    if faces is not None:
+        arrays = _orient_region(arrays, tri_sel)
     return _Target(obj, arrays, movable, faces)
+
+
+def _orient_region(arrays, region):
+    """Triangles of the selected region turned to agree with their neighbours, outward from the
+    unselected faces. Fill (Alt+F) can orient some of its triangles against the mesh, which the
+    flow rejects as 'inconsistent face orientation'; the written faces then follow the mesh."""
+    F = arrays.F
+    faces_of = {}
+    for f, (a, b, c) in enumerate(F.tolist()):
+        for u, v in ((a, b), (b, c), (c, a)):
+            faces_of.setdefault((min(u, v), max(u, v)), []).append(f)
+
+    def has_directed(h, u, v):
+        a, b, c = F[h]
+        return (u, v) in ((a, b), (b, c), (c, a))
+
+    flip = np.zeros(len(F), bool)
+    done = ~region.copy()
+    queue = list(np.flatnonzero(done))
+    while queue:
+        f = queue.pop()
+        a, b, c = F[f][::-1] if flip[f] else F[f]
+        for u, v in ((a, b), (b, c), (c, a)):
+            for h in faces_of[(min(u, v), max(u, v))]:
+                if h != f and not done[h]:
+                    flip[h] = has_directed(h, u, v)  # holds the edge the same way as f: turn it
+                    done[h] = True
+                    queue.append(h)
+    if not flip.any():
+        return arrays
+    F2, L2 = F.copy(), arrays.tri_loops.copy()
+    F2[flip] = F2[flip][:, ::-1]
+    L2[flip] = L2[flip][:, ::-1]
+    return dataclasses.replace(arrays, F=F2, tri_loops=L2)
 
 
 class _FairBase(NativeJobOperator):
@@ -317,31 +354,42 @@ def _point_layers(bm):
     return out, deform
 
 
-def _interpolate_point(vert, src, layers, deform):
-    """Point data (vertex-group weights, point attributes) of a new vertex from the polygon it was
-    made in: inverse-distance weights to the polygon's vertices (integers: the nearest one's)."""
-    corners = list(src.verts)
-    d = [(vert.co - c.co).length for c in corners]
-    w = [1.0 / max(x * x, 1e-300) for x in d]
-    total = sum(w)
-    w = [x / total for x in w]
+def _blend_points(new_verts, src_verts, layers, deform):
+    """Point data (vertex-group weights, point attributes) of the new vertices: inverse fourth-power
+    distance weights over the vertices of the replaced polygons (Shepard interpolation over the
+    hole's rim: a fill's flips make the polygon a new vertex was traced to a poor guide);
+    integers from the nearest vertex."""
+    if not new_verts or not src_verts or (not layers and deform is None):
+        return
+    P = np.array([v.co[:] for v in new_verts])
+    Q = np.array([v.co[:] for v in src_verts])
+    d2 = ((P[:, None, :] - Q[None, :, :]) ** 2).sum(-1)
+    nearest = d2.argmin(1)
+    W = 1.0 / np.maximum(d2, 1e-300) ** 2
+    W /= W.sum(1, keepdims=True)
     for layer, kind in layers:
         if kind == "int":
-            vert[layer] = corners[d.index(min(d))][layer]
-        elif kind == "float":
-            vert[layer] = sum(wi * c[layer] for wi, c in zip(w, corners))
+            vals = [src_verts[j][layer] for j in nearest]
         else:
-            n = len(corners[0][layer])
-            vert[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) for k in range(n)]
+            A = np.array([src_verts[j][layer] if kind == "float" else tuple(src_verts[j][layer])
+                          for j in range(len(src_verts))], dtype=float)
+            vals = (W @ A).tolist()
+        for v, x in zip(new_verts, vals):
+            v[layer] = x
     if deform is not None:
-        acc = {}
-        for wi, c in zip(w, corners):
-            for g, x in c[deform].items():
-                acc[g] = acc.get(g, 0.0) + wi * x
-        dv = vert[deform]
-        for g, x in acc.items():
-            if x > 0:
-                dv[g] = x
+        groups = sorted({g for v in src_verts for g in v[deform].keys()})
+        if groups:
+            col = {g: k for k, g in enumerate(groups)}
+            A = np.zeros((len(src_verts), len(groups)))
+            for j, v in enumerate(src_verts):
+                for g, x in v[deform].items():
+                    A[j, col[g]] = x
+            B = W @ A
+            for v, row in zip(new_verts, B):
+                dv = v[deform]
+                for g, x in zip(groups, row):
+                    if x > 0:
+                        dv[g] = float(x)
 
 
 def _write_subdivided(t, select):
@@ -377,7 +425,7 @@ def _write_subdivided(t, select):
         old_faces = list(by_poly.values())
         layers = _corner_layers(bm)
         vlayers, deform = _point_layers(bm)
-        filled = set()  # new vertices given point data (from the first polygon they were made in)
+        _blend_points(verts[n_old:], list({v for f in old_faces for v in f.verts}), vlayers, deform)
         new_faces, kept = [], set()
         old_set = set(old_faces)
         for row in rows:
@@ -391,10 +439,6 @@ def _write_subdivided(t, select):
                 same.select = select
                 new_faces.append(same)
                 continue
-            for k in F[row]:
-                if k >= n_old and k not in filled:
-                    filled.add(k)
-                    _interpolate_point(verts[k], src, vlayers, deform)
             f = bm.faces.new(fv, src)  # example face: material, smooth
             _interpolate_corners(f, src, layers)
             f.select = select
