@@ -604,6 +604,28 @@ class Driver {
     return true;
   }
 
+  // The lowest-energy state of a level, returned if the level ends above where it started: on
+  // meshes a flow cannot improve (a cylinder whose caps are triangle fans, slivers) the unjudged
+  // tangential sub-steps or the explicit scheme's instability can raise the energy step after step
+  // and inflate the mesh, and the bi-umbrella flow shrinks a closed mesh without fixed vertices
+  // towards a point. (Only then: a level that ends below its start keeps its last state, whose slow
+  // energy creep goes with real progress of the mesh; see the report.)
+  struct Lowest {
+    double start, best;
+    MatX3d P;
+    void track(double e, const MatX3d& Pc) {
+      if (e < best) best = e, P = Pc;
+    }
+  };
+  void keep_lowest(Work& w, double e, const Lowest& lowest, LevelReport& rep) {
+    if (e <= lowest.start * (1 + 10 * opt_.tolerance) + 1e-12) return;
+    w.P = lowest.P;
+    compute_geometry(w.P, w.F, w.topo, g_);
+    energy_.push_back(lowest.best);
+    rep.energy_rose = true;
+    rep.converged = false;
+  }
+
   LevelReport run_curvature_flow(Work& w, int it0) {
     LevelReport rep;
     compute_geometry(w.P, w.F, w.topo, g_);
@@ -612,14 +634,7 @@ class Driver {
     e_mark_ = e;
     t_acc_ = 0;
     accepted_.assign(1, e);
-    // The lowest-energy state of the level, returned if the level ends above where it started: on
-    // meshes the flow cannot improve (a cylinder whose caps are triangle fans, slivers) the
-    // unjudged tangential sub-steps, or the explicit scheme's instability, can raise the energy
-    // step after step and inflate the mesh. (Only then: a level that ends below its start keeps its
-    // last state, whose slow energy creep goes with real progress of the mesh; see the report.)
-    const double e_start = e;
-    double e_best = e;
-    MatX3d P_best = w.P;
+    Lowest lowest{e, e, w.P};
     const double t_window = relaxation_time(w, g_);
     const bool semi = opt_.scheme == FairScheme::SemiImplicit;
     // Semi-implicit: tau = s h^4. Start large (the step is stable for any tau; the energy test
@@ -753,7 +768,7 @@ class Driver {
         e = energy_of(w, g_);
         dt = tau;
       }
-      if (e < e_best) e_best = e, P_best = w.P;
+      lowest.track(e, w.P);
       energy_.push_back(e);
       ++it;
       // Semi-implicit: every step is long (s >= 64 h^4 is ~5e4 explicit steps), so the window
@@ -765,13 +780,7 @@ class Driver {
         break;
       }
     }
-    if (!(e <= e_start * (1 + 10 * opt_.tolerance) + 1e-12)) {
-      w.P = P_best;
-      compute_geometry(w.P, w.F, w.topo, g_);
-      energy_.push_back(e_best);
-      rep.energy_rose = true;
-      rep.converged = false;
-    }
+    keep_lowest(w, e, lowest, rep);
     rep.iterations = it;
     return rep;
   }
@@ -786,11 +795,7 @@ class Driver {
     double e = energy_of(w, g_);
     e_mark_ = e;
     t_acc_ = 0;
-    // As in run_curvature_flow: a level ending above its starting energy returns its lowest state
-    // (the bi-umbrella flow shrinks a closed mesh without fixed vertices towards a point).
-    const double e_start = e;
-    double e_best = e;
-    MatX3d P_best = w.P;
+    Lowest lowest{e, e, w.P};
     const bool semi = opt_.scheme == FairScheme::SemiImplicit;
     double tau = semi ? 1.0 : 0.2 * opt_.step_scale;  // explicit: stable below 0.5
     SparseSolver solver;
@@ -837,7 +842,7 @@ class Driver {
         break;
       }
       e = e_new;
-      if (e < e_best) e_best = e, P_best = w.P;
+      lowest.track(e, w.P);
       energy_.push_back(e);
       ++it;
       const double dt = tau;
@@ -847,13 +852,7 @@ class Driver {
         break;
       }
     }
-    if (!(e <= e_start * (1 + 10 * opt_.tolerance) + 1e-12)) {
-      w.P = P_best;
-      compute_geometry(w.P, w.F, w.topo, g_);
-      energy_.push_back(e_best);
-      rep.energy_rose = true;
-      rep.converged = false;
-    }
+    keep_lowest(w, e, lowest, rep);
     rep.iterations = it;
     return rep;
   }

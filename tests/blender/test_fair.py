@@ -36,18 +36,24 @@ def _uv_by_polygon(mesh):
     return out
 
 
-def _cut_and_fill(obj, zcut=0.8):
-    """Edit mode: delete the vertices above zcut (a polar cap), fill the hole with one n-gon (F)
-    and leave it selected, as a user would."""
+def _cut(obj, inside):
+    """Edit mode: delete the vertices where inside(co) holds and select the hole's rim, as a user
+    would before filling it."""
     bpy.ops.object.mode_set(mode='EDIT')
     bm = bmesh.from_edit_mesh(obj.data)
     for v in bm.verts:
-        v.select = v.co.z > zcut * R
+        v.select = inside(v.co)
     bm.select_flush(True)
     bmesh.update_edit_mesh(obj.data)
     bpy.ops.mesh.delete(type='VERT')
     bpy.ops.mesh.select_all(action='DESELECT')
     bpy.ops.mesh.select_non_manifold()
+
+
+def _cut_and_fill(obj, zcut=0.8):
+    """Edit mode: delete the vertices above zcut (a polar cap), fill the hole with one n-gon (F)
+    and leave it selected, as a user would."""
+    _cut(obj, lambda co: co.z > zcut * R)
     bpy.ops.mesh.edge_face_add()  # one n-gon, selected
 
 
@@ -166,15 +172,7 @@ def test_triangle_fill_then_fair_with_defaults(x0):
     again failed with 'face already exists'); on a large hole Fill orients some triangles against
     the mesh, which the flow rejected ('inconsistent face orientation'): they are turned first."""
     obj = _fresh_sphere()
-    bpy.ops.object.mode_set(mode='EDIT')
-    bm = bmesh.from_edit_mesh(obj.data)
-    for v in bm.verts:
-        v.select = v.co.x > x0 * R
-    bm.select_flush(True)
-    bmesh.update_edit_mesh(obj.data)
-    bpy.ops.mesh.delete(type='VERT')
-    bpy.ops.mesh.select_all(action='DESELECT')
-    bpy.ops.mesh.select_non_manifold()
+    _cut(obj, lambda co: co.x > x0 * R)
     bpy.ops.mesh.fill()
     bpy.ops.object.mode_set(mode='OBJECT')
     n_before = len(obj.data.vertices)
@@ -197,15 +195,7 @@ def test_triangle_fill_with_subdivisions_is_refined_first():
     """A polar cap filled by Alt+F (a fan without inner vertices) and faired with Subdivisions 3:
     the fill is refined first (the fan's slivers, split 1-to-4, ballooned to twice the radius)."""
     obj = _fresh_sphere()
-    bpy.ops.object.mode_set(mode='EDIT')
-    bm = bmesh.from_edit_mesh(obj.data)
-    for v in bm.verts:
-        v.select = v.co.z > 0.8 * R
-    bm.select_flush(True)
-    bmesh.update_edit_mesh(obj.data)
-    bpy.ops.mesh.delete(type='VERT')
-    bpy.ops.mesh.select_all(action='DESELECT')
-    bpy.ops.mesh.select_non_manifold()
+    _cut(obj, lambda co: co.z > 0.8 * R)
     bpy.ops.mesh.fill()
     bpy.ops.object.mode_set(mode='OBJECT')
     n_before = len(obj.data.vertices)
@@ -226,15 +216,7 @@ def test_refine_fill_turned_on_by_itself_is_not_remembered():
     bpy.ops.object.mode_set(mode='OBJECT')
     bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=R, location=(3, 0, 0))
     other = bpy.context.object
-    bpy.ops.object.mode_set(mode='EDIT')
-    bm = bmesh.from_edit_mesh(other.data)
-    for v in bm.verts:
-        v.select = v.co.x > 0.7 * R  # a side hole: its Grid Fill quads are larger than the rim's
-    bm.select_flush(True)
-    bmesh.update_edit_mesh(other.data)
-    bpy.ops.mesh.delete(type='VERT')
-    bpy.ops.mesh.select_all(action='DESELECT')
-    bpy.ops.mesh.select_non_manifold()
+    _cut(other, lambda co: co.x > 0.7 * R)  # a side hole: its Grid Fill quads are larger than the rim's
     bpy.ops.mesh.fill_grid()
     bpy.ops.object.mode_set(mode='OBJECT')
     quads = sum(p.select and p.loop_total == 4 for p in other.data.polygons)
@@ -250,15 +232,7 @@ def test_grid_fill_beside_a_valence_two_rim_vertex():
     Blender's loop triangles give the same triangle twice. Fair re-triangulates those quads instead
     of rejecting the mesh with duplicate faces."""
     obj = _fresh_sphere()
-    bpy.ops.object.mode_set(mode='EDIT')
-    bm = bmesh.from_edit_mesh(obj.data)
-    for v in bm.verts:
-        v.select = v.co.x > 0.7 * R
-    bm.select_flush(True)
-    bmesh.update_edit_mesh(obj.data)
-    bpy.ops.mesh.delete(type='VERT')
-    bpy.ops.mesh.select_all(action='DESELECT')
-    bpy.ops.mesh.select_non_manifold()
+    _cut(obj, lambda co: co.x > 0.7 * R)
     bpy.ops.mesh.fill_grid()
     bpy.ops.object.mode_set(mode='OBJECT')
     from dgmesh.blender import bridge
@@ -278,15 +252,7 @@ def test_grid_fill_beside_a_valence_two_rim_vertex():
 
 def test_grid_fill_hole_without_subdivision_moves_only_inner_vertices():
     obj = _fresh_sphere(segments=32, rings=16)
-    bpy.ops.object.mode_set(mode='EDIT')
-    bm = bmesh.from_edit_mesh(obj.data)
-    for v in bm.verts:
-        v.select = v.co.z > 0.7 * R
-    bm.select_flush(True)
-    bmesh.update_edit_mesh(obj.data)
-    bpy.ops.mesh.delete(type='VERT')
-    bpy.ops.mesh.select_all(action='DESELECT')
-    bpy.ops.mesh.select_non_manifold()
+    _cut(obj, lambda co: co.z > 0.7 * R)
     bpy.ops.mesh.fill_grid()  # quads with inner vertices, selected
     bpy.ops.object.mode_set(mode='OBJECT')
     V0 = _positions(obj.data)

@@ -276,3 +276,15 @@ def mesh_has_modifiers(obj):
     """True if the object's displayed mesh differs from its datablock's
     because of enabled modifiers."""
     return any(m.show_viewport or m.show_render for m in obj.modifiers)
+
+
+def bmesh_point_layers(bm):
+    """The point-domain layers an operator that adds vertices should fill in: ([(layer, kind)],
+    the active deform (vertex-group) layer or None). Blender 3.4's bmesh cannot reach boolean and
+    2D-vector point attributes."""
+    out = []
+    for kind in ("float", "float_vector", "float_color", "color", "int"):
+        group = getattr(bm.verts.layers, kind, None)
+        if group is not None:
+            out += [(layer, kind) for layer in group.values()]
+    return out, bm.verts.layers.deform.active

@@ -344,16 +344,6 @@ def _interpolate_corners(face, src, layers):
                 loop[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) / total for k in range(n)]
 
 
-def _point_layers(bm):
-    out = []
-    for kind in ("float", "float_vector", "float_color", "color", "int"):
-        group = getattr(bm.verts.layers, kind, None)
-        if group is not None:
-            out += [(layer, kind) for layer in group.values()]
-    deform = bm.verts.layers.deform.active
-    return out, deform
-
-
 def _blend_points(new_verts, src_verts, layers, deform):
     """Point data (vertex-group weights, point attributes) of the new vertices: inverse fourth-power
     distance weights over the vertices of the replaced polygons (Shepard interpolation over the
@@ -424,7 +414,7 @@ def _write_subdivided(t, select):
         by_poly = {int(p): bm.faces[int(p)] for p in polys}
         old_faces = list(by_poly.values())
         layers = _corner_layers(bm)
-        vlayers, deform = _point_layers(bm)
+        vlayers, deform = bridge.bmesh_point_layers(bm)
         _blend_points(verts[n_old:], list({v for f in old_faces for v in f.verts}), vlayers, deform)
         new_faces, kept = [], set()
         old_set = set(old_faces)

@@ -210,7 +210,7 @@ def _replace_region(mesh, it, select_new):
         # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
         # of the new vertices, blended from the input face each lies on (source_face/bary).
         corner = _corner_values(mesh, it, r)
-        vlayers, deform = _point_layers(bm)
+        vlayers, deform = bridge.bmesh_point_layers(bm)
         point = [_point_values(bm.verts[int(v)], vlayers, deform) for v in ids]
         example = faces[0]
         material, smooth = example.material_index, example.smooth
@@ -268,15 +268,6 @@ def _corner_values(mesh, it, r):
             kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
             out.append(((kind, att.name), (w * a.reshape(-1, 4)[L]).sum(1).tolist()))
     return out
-
-
-def _point_layers(bm):
-    out = []
-    for kind in ("float", "float_vector", "float_color", "color", "int"):
-        group = getattr(bm.verts.layers, kind, None)
-        if group is not None:
-            out += [(layer, kind) for layer in group.values()]
-    return out, bm.verts.layers.deform.active
 
 
 def _point_values(v, layers, deform):
