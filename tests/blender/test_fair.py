@@ -165,8 +165,10 @@ def test_hole_workflow_with_refine_fill(kwargs):
     _assert_manifold_then_undo(mesh, snap)
 
 
-@pytest.mark.parametrize("x0", [0.75, 0.4])
-def test_triangle_fill_then_fair_with_defaults(x0):
+# The large hole's tolerance allows for Blender's Fill, which triangulates it differently from run
+# to run (measured up to 0.033 off the sphere).
+@pytest.mark.parametrize("x0, tol", [(0.75, 0.02), (0.4, 0.06)])
+def test_triangle_fill_then_fair_with_defaults(x0, tol):
     """Delete -> Fill (Alt+F: a triangle fan, no inner vertex) -> Fair with the defaults: Refine Fill
     turns on, and where its flips restore one of the fan's triangles the face is kept (creating it
     again failed with 'face already exists'); on a large hole Fill orients some triangles against
@@ -183,7 +185,7 @@ def test_triangle_fill_then_fair_with_defaults(x0):
     V = _positions(obj.data)
     assert len(V) > n_before + 10
     assert np.array_equal(V[:n_before], V_before)
-    assert np.abs(np.linalg.norm(V[n_before:], axis=1) - R).max() < 0.02
+    assert np.abs(np.linalg.norm(V[n_before:], axis=1) - R).max() < tol
     bm = bmesh.new()
     bm.from_mesh(obj.data)
     assert all(e.is_manifold for e in bm.edges)
@@ -294,7 +296,7 @@ def test_errors_leave_the_mesh_untouched():
     bpy.ops.object.mode_set(mode='OBJECT')
     snap = mesh_snapshot(obj.data)
     bpy.ops.object.mode_set(mode='EDIT')
-    with pytest.raises(RuntimeError, match="nothing to fair"):
+    with pytest.raises(RuntimeError, match="select the faces"):
         bpy.ops.dgmesh.fair('EXEC_DEFAULT', True)
     bpy.ops.object.mode_set(mode='OBJECT')
     assert mesh_snapshot(obj.data) == snap
@@ -369,3 +371,17 @@ def test_fair_of_a_fan_capped_cylinder_keeps_its_lowest_energy_state():
     assert bpy.ops.dgmesh.fair('EXEC_DEFAULT') == {'FINISHED'}
     V = _positions(obj.data)
     assert np.ptp(V, axis=0).max() < 2.5 and np.abs(V - V0).max() < 0.5
+
+
+def test_vertices_only_selection_explains_what_to_select():
+    """Edit mode with a few vertices selected and no face: with Keep Selection Border each of them
+    touches an unselected face; the error says to select faces (it said 'the mask selects no
+    vertex')."""
+    obj = _fresh_sphere()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.object.mode_set(mode='OBJECT')
+    obj.data.vertices[40].select = True
+    bpy.ops.object.mode_set(mode='EDIT')
+    with pytest.raises(RuntimeError, match="select the faces"):
+        bpy.ops.dgmesh.fair('EXEC_DEFAULT')

@@ -92,6 +92,9 @@ def _read_target(obj, edit_mode, keep_border):
         touched[arrays.F[~tri_sel].ravel()] = True
         movable &= ~touched
     faces = tri_sel if tri_sel.any() else None
+    if faces is None and not movable.any():
+        raise dg.MeshError("every selected vertex touches an unselected face, which keeps it fixed: select the "
+                           "faces to fair (or turn off Keep Selection Border)")
     if faces is not None:
         arrays = _orient_region(arrays, tri_sel)
     return _Target(obj, arrays, movable, faces)
