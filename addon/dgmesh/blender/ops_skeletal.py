@@ -25,6 +25,12 @@ Objects bound by earlier versions keep working through their own target: the poi
 A duplicated bound object (Shift+D) shares the original's helper, so it shows the original's
 deformation; only the helper's owner writes it. Unbinding one of them keeps the helper for the
 other; unbinding the last one removes it.
+The armature is found by a tag custom property bind puts on it (renames keep the binding). Bone
+motions are taken as the Armature modifier applies them in the mesh's current object space, so
+moving either object later behaves as with the modifier; a mesh whose transform relative to the
+armature is not a similarity (unapplied non-uniform or negative scale) is bound in the armature's
+space, where bone frames stay rigid. A mesh edited after bind (vertex count, or positions as found
+at load) shows undeformed until it is bound again.
 The mesh's own Armature modifiers are disabled while bound and restored on unbind; their armature
 is cleared meanwhile too, because a disabled modifier still makes the mesh depend on the pose and
 Blender would re-evaluate the whole mesh once more on every frame (measured: ~30 ms CPU per frame at
