@@ -288,3 +288,40 @@ def bmesh_point_layers(bm):
         if group is not None:
             out += [(layer, kind) for layer in group.values()]
     return out, bm.verts.layers.deform.active
+
+
+def blend_point_data(new_verts, src_verts, idx, w, layers, deform):
+    """Point data of new bmesh vertices blended from existing ones: new vertex i gets
+    sum_k w[i, k] * value(src_verts[idx[i, k]]) for every layer of ``bmesh_point_layers`` (integers:
+    the heaviest source's) and for the vertex-group weights (``deform``). Read all at once, so the
+    sources must still exist."""
+    if not len(new_verts) or not len(src_verts) or (not layers and deform is None):
+        return
+    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
+    heavy = idx[np.arange(len(idx)), w.argmax(1)]
+
+    def blend(A):
+        return np.einsum("nk,nkd->nd", w, np.asarray(A, dtype=float).reshape(len(src_verts), -1)[idx])
+
+    for layer, kind in layers:
+        if kind == "int":
+            vals = [src_verts[j][layer] for j in heavy]
+        elif kind == "float":
+            vals = blend([v[layer] for v in src_verts])[:, 0].tolist()
+        else:
+            vals = blend([tuple(v[layer]) for v in src_verts]).tolist()
+        for v, x in zip(new_verts, vals):
+            v[layer] = x
+    if deform is not None:
+        groups = sorted({g for v in src_verts for g in v[deform].keys()})
+        if groups:
+            col = {g: k for k, g in enumerate(groups)}
+            A = np.zeros((len(src_verts), len(groups)))
+            for j, v in enumerate(src_verts):
+                for g, x in v[deform].items():
+                    A[j, col[g]] = x
+            for v, row in zip(new_verts, blend(A)):
+                dv = v[deform]
+                for g, x in zip(groups, row.tolist()):
+                    if x > 0:
+                        dv[g] = x

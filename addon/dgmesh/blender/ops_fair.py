@@ -347,44 +347,6 @@ def _interpolate_corners(face, src, layers):
                 loop[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) / total for k in range(n)]
 
 
-def _blend_points(new_verts, src_verts, layers, deform):
-    """Point data (vertex-group weights, point attributes) of the new vertices: inverse fourth-power
-    distance weights over the vertices of the replaced polygons (Shepard interpolation over the
-    hole's rim: a fill's flips make the polygon a new vertex was traced to a poor guide);
-    integers from the nearest vertex."""
-    if not new_verts or not src_verts or (not layers and deform is None):
-        return
-    P = np.array([v.co[:] for v in new_verts])
-    Q = np.array([v.co[:] for v in src_verts])
-    d2 = ((P[:, None, :] - Q[None, :, :]) ** 2).sum(-1)
-    nearest = d2.argmin(1)
-    W = 1.0 / np.maximum(d2, 1e-300) ** 2
-    W /= W.sum(1, keepdims=True)
-    for layer, kind in layers:
-        if kind == "int":
-            vals = [src_verts[j][layer] for j in nearest]
-        else:
-            A = np.array([src_verts[j][layer] if kind == "float" else tuple(src_verts[j][layer])
-                          for j in range(len(src_verts))], dtype=float)
-            vals = (W @ A).tolist()
-        for v, x in zip(new_verts, vals):
-            v[layer] = x
-    if deform is not None:
-        groups = sorted({g for v in src_verts for g in v[deform].keys()})
-        if groups:
-            col = {g: k for k, g in enumerate(groups)}
-            A = np.zeros((len(src_verts), len(groups)))
-            for j, v in enumerate(src_verts):
-                for g, x in v[deform].items():
-                    A[j, col[g]] = x
-            B = W @ A
-            for v, row in zip(new_verts, B):
-                dv = v[deform]
-                for g, x in zip(groups, row):
-                    if x > 0:
-                        dv[g] = float(x)
-
-
 def _write_subdivided(t, select):
     """Replace the refined polygons by the output triangles with bmesh; other faces untouched."""
     mesh = t.obj.data
@@ -418,7 +380,16 @@ def _write_subdivided(t, select):
         old_faces = list(by_poly.values())
         layers = _corner_layers(bm)
         vlayers, deform = bridge.bmesh_point_layers(bm)
-        _blend_points(verts[n_old:], list({v for f in old_faces for v in f.verts}), vlayers, deform)
+        # New vertices: inverse fourth-power distance weights over the replaced polygons' vertices
+        # (Shepard interpolation over the hole's rim: a fill's flips make the polygon a new vertex
+        # was traced to a poor guide).
+        src = list({v for f in old_faces for v in f.verts})
+        if len(V) > n_old and src:
+            Q = np.array([v.co[:] for v in src])
+            d2 = ((V[n_old:, None, :] - Q[None, :, :]) ** 2).sum(-1)
+            W = 1.0 / np.maximum(d2, 1e-300) ** 2
+            bridge.blend_point_data(verts[n_old:], src, np.broadcast_to(np.arange(len(src)), W.shape),
+                                    W / W.sum(1, keepdims=True), vlayers, deform)
         new_faces, kept = [], set()
         old_set = set(old_faces)
         for row in rows:

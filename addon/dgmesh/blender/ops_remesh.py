@@ -210,23 +210,22 @@ def _replace_region(mesh, it, select_new):
         # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
         # of the new vertices, blended from the input face each lies on (source_face/bary).
         corner = _corner_values(mesh, it, r)
-        vlayers, deform = bridge.bmesh_point_layers(bm)
-        point = [_point_values(bm.verts[int(v)], vlayers, deform) for v in ids]
         example = faces[0]
         material, smooth = example.material_index, example.smooth
         region_edges = {e for f in faces for e in f.edges}
         kept = [bm.verts[int(ids[s])] for s in r.boundary_source]
         inner = [bm.verts[int(v)] for v in ids[it["inner"]]]
+        sources = [bm.verts[int(v)] for v in ids]  # the chart's vertices, inner ones included
+        nb = len(kept)
+        new = [bm.verts.new(co) for co in r.V[nb:].tolist()]  # before the inner vertices go
+        vlayers, deform = bridge.bmesh_point_layers(bm)
+        bridge.blend_point_data(new, sources, it["F"][r.source_face[nb:]], r.source_bary[nb:], vlayers, deform)
         bmesh.ops.delete(bm, geom=faces, context='FACES_ONLY')
         bmesh.ops.delete(bm, geom=inner, context='VERTS')
         if select_new:
             for coll in (bm.verts, bm.edges, bm.faces):
                 for e in coll:
                     e.select_set(False)
-        nb = len(kept)
-        new = [bm.verts.new(co) for co in r.V[nb:].tolist()]
-        for v, (f, w) in zip(new, zip(r.source_face[nb:].tolist(), r.source_bary[nb:].tolist())):
-            _blend_point(v, [point[int(k)] for k in it["F"][f]], w, vlayers, deform)
         vmap = kept + new
         corner = [(getattr(bm.loops.layers, kind)[name], values) for (kind, name), values in corner]
         for a, b, c in r.F.tolist():
@@ -268,36 +267,6 @@ def _corner_values(mesh, it, r):
             kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
             out.append(((kind, att.name), (w * a.reshape(-1, 4)[L]).sum(1).tolist()))
     return out
-
-
-def _point_values(v, layers, deform):
-    vals = []
-    for layer, kind in layers:
-        x = v[layer]
-        vals.append(x if kind in ("float", "int") else tuple(x))
-    return vals, (dict(v[deform].items()) if deform is not None else {})
-
-
-def _blend_point(v, sources, w, layers, deform):
-    """Point data of a new vertex: the barycentric blend of its source face's corners (integers:
-    the heaviest corner's)."""
-    heavy = int(np.argmax(w))
-    for q, (layer, kind) in enumerate(layers):
-        if kind == "int":
-            v[layer] = sources[heavy][0][q]
-        elif kind == "float":
-            v[layer] = sum(wi * s[0][q] for wi, s in zip(w, sources))
-        else:
-            v[layer] = [sum(wi * s[0][q][k] for wi, s in zip(w, sources)) for k in range(len(sources[0][0][q]))]
-    if deform is not None:
-        acc = {}
-        for wi, s in zip(w, sources):
-            for g, x in s[1].items():
-                acc[g] = acc.get(g, 0.0) + wi * x
-        dv = v[deform]
-        for g, x in acc.items():
-            if x > 0:
-                dv[g] = x
 
 
 classes = (DGMESH_OT_remesh,)
