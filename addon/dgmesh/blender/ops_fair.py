@@ -164,17 +164,18 @@ class _FairBase(NativeJobOperator):
             return None
         self._t0 = time.perf_counter()
         self._auto_refined = []
+        can_refine = hasattr(self, "refine")  # Fair has Refine Fill, Regularize does not
         for t in targets:
-            t.refine = bool(getattr(self, "refine", False)) and t.faces is not None
+            t.refine = can_refine and self.refine and t.faces is not None
             # A hole just filled (Fill / F) has no inner vertex to move: without subdivisions the
             # flow could do nothing, and subdividing the fill's long triangles 1-to-4 leaves the
             # flow slivers to balloon (a triangle fan over a polar cap rose to twice the sphere's
             # radius), so the fill is refined (Liepa) as the workflow needs; the redo panel then
             # shows Refine Fill on.
-            if (not t.refine and hasattr(self, "refine") and t.faces is not None and not t.mask.any()):
+            if can_refine and not t.refine and t.faces is not None and not t.mask.any():
                 t.refine = True
                 self._auto_refined.append(t.name)
-        if self._auto_refined and hasattr(self, "refine"):
+        if self._auto_refined:
             self.refine = True
 
         def work(progress):
