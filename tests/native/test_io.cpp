@@ -32,13 +32,14 @@ class IoTest : public ::testing::Test {
     std::random_device rd;
     std::string name = std::string(info->test_suite_name()) + "." + info->name();
     std::replace(name.begin(), name.end(), '/', '_');
-    dir_ = fs::temp_directory_path() / "dgmesh_test_io" / (name + "_" + std::to_string(rd()));
+    // A flat directory per test: a shared parent removed by one test's TearDown raced with
+    // another's create_directories under `ctest -j`.
+    dir_ = fs::temp_directory_path() / ("dgmesh_test_io_" + name + "_" + std::to_string(rd()));
     fs::create_directories(dir_);
   }
   void TearDown() override {
     std::error_code ec;
     fs::remove_all(dir_, ec);
-    fs::remove(dir_.parent_path(), ec);  // only succeeds once empty
   }
   std::string path(const std::string& name) const { return (dir_ / name).string(); }
   std::string write_file(const std::string& name, const std::string& content) const {
