@@ -81,7 +81,8 @@ def _choice(value, allowed, what):
 
 def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", subdivisions=0,
          tolerance=1e-4, max_iterations=None, tangential=True, scheme="semi_implicit",
-         max_seconds=0.0, step_scale=1.0, linear_start=True, refine=False, progress=None):
+         max_seconds=0.0, step_scale=1.0, linear_start=True, refine=False, keep_size=True,
+         progress=None):
     """Fair a triangle mesh (or a region of it) by a curvature flow.
 
     method: "willmore" (thesis eq. 3.5: speed -Lap(H) - 2H(H^2-K) along the normal, plus the
@@ -112,6 +113,10 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         edge flips inside the region, until the patch's triangles match the border's edge
         lengths). For a coarse fill (Fill, a fan, a grid with few vertices); the region's border
         edges are never split, the new vertices move.
+    keep_size: "willmore" only: a connected component without fixed vertices (a closed object
+        faired whole) keeps its centroid and surface area. The energy is invariant under
+        similarities, so this changes neither the energy nor the shape, only where and how large
+        the result is (without it the flow also shrinks, grows or moves a closed object).
     progress: callable(fraction) -> bool/None; returning False cancels (raises Cancelled).
 
     Returns a :class:`FairResult`.
@@ -137,7 +142,7 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         raise MeshError(f"subdivisions must be an integer in [0, 6], got {subdivisions!r}")
     r = _native.fair(V, F, method, scheme, boundary, vm, fm, int(subdivisions), float(tolerance),
                      int(max_iterations), float(max_seconds), bool(tangential), float(step_scale), progress,
-                     bool(linear_start), bool(refine))
+                     bool(linear_start), bool(refine), bool(keep_size))
     return FairResult(
         vertices=r["vertices"], faces=r["faces"], face_origin=r["face_origin"], energy=r["energy"],
         moved=r["vertex_mask"], iterations=r["iterations"], level_iterations=list(r["level_iterations"]),

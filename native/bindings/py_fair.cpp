@@ -45,8 +45,9 @@ void bind_fair(pb::module_& m) {
       "fair",
       [](InV Vin, InF Fin, const std::string& method, const std::string& scheme, const std::string& boundary,
          Mask mask, Mask face_mask, int subdivisions, double tolerance, int max_iterations, double max_seconds,
-         bool tangential, double step_scale, const pb::object& progress, bool linear_start, bool refine) {
+         bool tangential, double step_scale, const pb::object& progress, bool linear_start, bool refine, bool keep_size) {
         FairOptions o;
+        o.keep_size = keep_size;
         o.linear_start = linear_start;
         o.refine = refine;
         o.method = method_from(method);
@@ -85,7 +86,7 @@ void bind_fair(pb::module_& m) {
       pb::arg("V"), pb::arg("F"), pb::arg("method"), pb::arg("scheme"), pb::arg("boundary"), pb::arg("mask"),
       pb::arg("face_mask"), pb::arg("subdivisions"), pb::arg("tolerance"), pb::arg("max_iterations"),
       pb::arg("max_seconds"), pb::arg("tangential"), pb::arg("step_scale"), pb::arg("progress"),
-      pb::arg("linear_start") = true, pb::arg("refine") = false);
+      pb::arg("linear_start") = true, pb::arg("refine") = false, pb::arg("keep_size") = true);
 
   m.def(
       "regularize",

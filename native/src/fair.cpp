@@ -480,6 +480,12 @@ class Driver {
     for (int v = 0; v < w.topo.n_vertices; ++v)
       if (w.movable[v] && !w.sliding[v]) movable_idx_[v] = nm_++;
     h_ = mean_edge_length(w.P, w.topo);
+    free_comp_.assign(w.topo.n_components, 1);
+    for (int v = 0; v < w.topo.n_vertices; ++v)
+      if (movable_idx_[v] < 0) free_comp_[w.topo.component[v]] = 0;
+    keep_size_ = opt_.keep_size && opt_.method == FairMethod::Willmore &&
+                 std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
+    if (keep_size_) place_and_size(w.P, w.F, w.topo, comp_center_, comp_area_);
     if (opt_.method == FairMethod::Bilaplacian) return run_bilaplacian(w);
     // The linear start is tried on the first level with movable vertices (a fill without inner
     // vertices only gets them by subdivision) and counts as that level's first iteration.
@@ -522,6 +528,57 @@ class Driver {
 #pragma omp parallel for schedule(static) if (n > kParallelMin)
     for (int v = 0; v < n; ++v)
       if (movable_idx_[v] >= 0) w.P.row(v) += eps * tan_.U2.row(v);
+  }
+
+  // Centroid (area-weighted over faces) and area of each component.
+  static void place_and_size(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& center, VecXd& area) {
+    center = MatX3d::Zero(t.n_components, 3);
+    area = VecXd::Zero(t.n_components);
+    for (int f = 0; f < F.rows(); ++f) {
+      const Vec3 a = P.row(F(f, 0)), b = P.row(F(f, 1)), c = P.row(F(f, 2));
+      const double af = 0.5 * (b - a).cross(c - a).norm();
+      const int k = t.component[F(f, 0)];
+      area[k] += af;
+      center.row(k) += (af / 3.0) * (a + b + c).transpose();
+    }
+    for (int k = 0; k < t.n_components; ++k)
+      if (area[k] > 0) center.row(k) /= area[k];
+  }
+  // keep_size: a component without fixed vertices goes back to its centroid and area after each
+  // step. The discrete Willmore energy is invariant under similarities (cotangent weights and
+  // angle deficits are scale-free, H^2 A is too), and the flow is scale-equivariant (F ~ 1/L^3),
+  // so this changes neither the energy nor the shapes the flow goes through, only the size and
+  // place they are seen at: eight.off had shrunk to 0.59 of its area, elephant.off grown to 1.6.
+  void restore_place_and_size(Work& w) {
+    if (!keep_size_) return;
+    place_and_size(w.P, w.F, w.topo, cur_center_, cur_area_);
+    for (int v = 0; v < w.topo.n_vertices; ++v) {
+      const int k = w.topo.component[v];
+      if (!free_comp_[k] || !(cur_area_[k] > 0) || !(comp_area_[k] > 0)) continue;
+      const double scale = std::sqrt(comp_area_[k] / cur_area_[k]);
+      w.P.row(v) = comp_center_.row(k) + scale * (w.P.row(v) - cur_center_.row(k));
+    }
+  }
+
+  // A component without fixed vertices may not drift: its energy is translation invariant, so
+  // the exact gradient has no net translation, but the discrete speed F N sums to a small net
+  // force, and the preconditioner leaves the translation mode (in L's null space) undamped, so the
+  // long semi-implicit steps turned it into a steady drift (eight.off moved 6 bbox diagonals in
+  // 200 steps). Removes the mass-weighted mean of u over each such component.
+  void remove_translation(const Work& w, Eigen::MatrixXd& u) {
+    const int nc = w.topo.n_components;
+    Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(nc, 3);
+    VecXd mass = VecXd::Zero(nc);
+    for (int v = 0; v < w.topo.n_vertices; ++v) {
+      const int c = w.topo.component[v];
+      if (!free_comp_[c]) continue;
+      sum.row(c) += g_.A[v] * u.row(movable_idx_[v]);
+      mass[c] += g_.A[v];
+    }
+    for (int v = 0; v < w.topo.n_vertices; ++v) {
+      const int c = w.topo.component[v];
+      if (free_comp_[c] && mass[c] > 0) u.row(movable_idx_[v]) -= sum.row(c) / mass[c];
+    }
   }
 
   // Flow time over which the slowest shape mode of the movable region relaxes under the leading
@@ -668,6 +725,7 @@ class Driver {
           w.P.row(v) += d;
         }
         if (opt_.boundary == FairBoundary::Sliding) slide_boundary(w, curves_, 0.25);
+        restore_place_and_size(w);
         compute_geometry(w.P, w.F, w.topo, g_);
         e = energy_of(w, g_);
         if (!std::isfinite(e)) throw Error("fair: the explicit flow diverged (try a smaller step_scale)");
@@ -702,6 +760,7 @@ class Driver {
           if (i >= 0) rhs.row(i) = tau * g_.A[v] * speed_[v] * g_.N.row(v);
         }
         Eigen::MatrixXd u = solver.solve(rhs);
+        remove_translation(w, u);
         // Keep each vertex's step below `cap` edges (half an edge at most): scale the whole
         // step so that its 98th percentile length meets the cap (a uniform scaling keeps the
         // preconditioned descent direction), then clamp the few outliers on their own. Scaling
@@ -764,6 +823,7 @@ class Driver {
           }
         }
         if (opt_.boundary == FairBoundary::Sliding) slide_boundary(w, curves_, 0.25);
+        restore_place_and_size(w);
         compute_geometry(w.P, w.F, w.topo, g_);
         e = energy_of(w, g_);
         dt = tau;
@@ -866,6 +926,10 @@ class Driver {
   bool tried_linear_ = false;
   double h_ = 1, t_acc_ = 0, e_mark_ = 0;
   std::vector<int> movable_idx_;
+  std::vector<char> free_comp_;  // components whose every vertex moves (see remove_translation)
+  bool keep_size_ = false;
+  MatX3d comp_center_, cur_center_;  // per component (restore_place_and_size)
+  VecXd comp_area_, cur_area_;
   Geo g_;
   VecXd speed_;
   Tangential tan_;

@@ -278,11 +278,21 @@ def test_object_mode_and_regularize():
     obj.scale = (2.0, 1.0, 1.0)
     bpy.ops.object.transform_apply(scale=True)
     select("Ball")
+    area0 = sum(p.area for p in obj.data.polygons)
     assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
     V = _positions(obj.data)
     ext = V.max(0) - V.min(0)
     assert ext.max() / ext.min() < 1.15  # rounded up (the input is 2:1:1)
+    # Keep Size (default): the closed object keeps its area and place; the flow alone grows it.
+    assert sum(p.area for p in obj.data.polygons) == pytest.approx(area0, rel=1e-3)  # quads: not planar
+    assert np.abs(V.mean(0)).max() < 1e-3
     assert bpy.ops.dgmesh.regularize('EXEC_DEFAULT', True, iterations=20) == {'FINISHED'}
+    obj = _fresh_sphere(segments=24, rings=12)
+    obj.scale = (2.0, 1.0, 1.0)
+    bpy.ops.object.transform_apply(scale=True)
+    select("Ball")
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, keep_size=False) == {'FINISHED'}
+    assert abs(sum(p.area for p in obj.data.polygons) / area0 - 1) > 0.02
 
 
 def test_errors_leave_the_mesh_untouched():
@@ -314,7 +324,7 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
         bl_label = "Fair"
         method, scheme, boundary = 'WILLMORE', 'EXPLICIT', 'FIXED'
         subdivisions, tolerance, max_iterations, tangential, keep_border = 0, 0.0, 100000, True, True
-        linear_start, refine = True, False
+        linear_start, refine, keep_size = True, False, True
         _collect = ops_fair._FairBase._collect
         prepare = ops_fair._FairBase.prepare
         _run = ops_fair.DGMESH_OT_fair._run

@@ -1,5 +1,9 @@
 """dgmesh.fair / dgmesh.regularize: the numpy API over the native Willmore flow."""
 
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -240,22 +244,25 @@ def test_an_exhausted_budget_is_not_reported_as_convergence():
     assert not r.converged and r.iterations == 20
 
 
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _cgal_mesh(name):
+    """A model of Debian's CGAL data (unpacked by scripts/cgal_data.sh), or skip."""
+    out = subprocess.run(["bash", str(ROOT / "scripts" / "cgal_data.sh")], capture_output=True, text=True)
+    path = Path(out.stdout.strip().splitlines()[-1]) / name if out.returncode == 0 and out.stdout.strip() else None
+    if path is None or not path.exists():
+        pytest.skip("CGAL data not available (bash scripts/cgal_data.sh)")
+    return dgmesh.read_mesh(path)
+
+
 def _bunny_fan_hole():
     """Bunny (CGAL data) with a 10% geodesic disk around vertex 32073 removed and the hole filled
     by a fan over its rim (Blender's Fill): the benchmark's bunny00 10% seed-0 hole."""
-    import subprocess
-    import sys
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parents[2]
-    out = subprocess.run(["bash", str(root / "scripts" / "cgal_data.sh")], capture_output=True, text=True)
-    path = Path(out.stdout.strip().splitlines()[-1]) / "bunny00.off" if out.returncode == 0 and out.stdout.strip() else None
-    if path is None or not path.exists():
-        pytest.skip("CGAL data not available (bash scripts/cgal_data.sh)")
-    sys.path.insert(0, str(root))
+    V, F = _cgal_mesh("bunny00.off")
+    sys.path.insert(0, str(ROOT))
     from bench.workloads.fair import cut_hole, fan_fill
 
-    V, F = dgmesh.read_mesh(path)
     hole, inner = cut_hole(V, F, 32073, 0.10)
     F2, fill = fan_fill(V, F, hole, inner)
     return V, F, hole, F2, fill
@@ -353,3 +360,28 @@ def test_a_flow_that_raises_the_energy_keeps_its_lowest_state():
     assert np.ptp(r.vertices, axis=0).min() > 0.5 * np.ptp(V, axis=0).min()
     # The Willmore flow of the same ellipsoid lowers its energy: no such fallback.
     assert not dgmesh.fair(V, F).energy_rose
+
+
+def _area_and_centroid(V, F):
+    a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+    return a.sum(), (a[:, None] * V[F].mean(axis=1)).sum(axis=0) / a.sum()
+
+
+def test_a_closed_object_faired_whole_keeps_its_place_and_size():
+    # eight.off (genus 2, no symmetry the flow keeps): the discrete speed has a small net force,
+    # which the semi-implicit steps turned into a drift of 6 bbox diagonals in 200 steps, and the
+    # flow shrank it to 0.59 of its area; its energy is invariant under similarities either way.
+    V, F = _cgal_mesh("eight.off")
+    diag = np.linalg.norm(V.max(0) - V.min(0))
+    a0, c0 = _area_and_centroid(V, F)
+    r = dgmesh.fair(V, F, max_iterations=100)
+    a1, c1 = _area_and_centroid(r.vertices, F)
+    assert r.energy[-1] < 0.6 * r.energy[0]
+    assert a1 == pytest.approx(a0, rel=1e-9)
+    assert np.linalg.norm(c1 - c0) < 1e-9 * diag
+    # Without keep_size the size changes, but the object still does not drift away.
+    r2 = dgmesh.fair(V, F, max_iterations=100, keep_size=False)
+    a2, c2 = _area_and_centroid(r2.vertices, F)
+    assert abs(a2 / a0 - 1) > 0.05
+    assert np.linalg.norm(c2 - c0) < 0.05 * diag
+    assert r2.energy[-1] == pytest.approx(r.energy[-1], rel=0.05)

@@ -217,6 +217,10 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
     tangential: BoolProperty(
         name="Even Out Triangles", default=True,
         description="Add the tangential drift that keeps triangles regular (thesis eq. 3.8)")
+    keep_size: BoolProperty(
+        name="Keep Size", default=True,
+        description="Willmore: a closed part faired whole keeps its place and surface area (the "
+        "bending energy does not depend on them, so only the shape changes)")
     keep_border: BoolProperty(
         name="Keep Selection Border", default=True,
         description="Edit mode: vertices on the border of the selection stay fixed")
@@ -241,6 +245,8 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential",
                   "linear_start"):
             col.prop(self, p)
+        if self.method == 'WILLMORE':
+            col.prop(self, "keep_size")
         if context.mode == 'EDIT_MESH':
             col.prop(self, "keep_border")
             col.prop(self, "refine")
@@ -250,7 +256,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             t.arrays.V, t.arrays.F, method=self.method.lower(), mask=t.mask, faces=t.faces,
             boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
-            linear_start=self.linear_start, refine=t.refine, progress=progress)
+            linear_start=self.linear_start, refine=t.refine, keep_size=self.keep_size, progress=progress)
 
     def finish(self, context, targets):
         written, failures = [], []
