@@ -547,65 +547,77 @@ def _duplicate(obj):
 
 
 def test_duplicate_of_bound_object_updates():
-    """A duplicated bound object (Shift+D) shares the bind data and the original's helper: both
-    follow the pose, the original alone writes; either can be unbound without breaking the other,
-    and the helper goes with the last one."""
+    """A duplicated bound object (Shift+D) shares the bind data and gets a helper of its own at its
+    first update: both follow the pose, either can be unbound without breaking the other, and each
+    helper goes with its object."""
+    from dgmesh.blender import ops_skeletal
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     h = _helper(obj)
     dup = _duplicate(obj)
-    assert bpy.data.objects.get(dup.name + "_dg_offsets") is None  # no second helper
     _pose_lower(arm, math.pi / 2)
     bpy.context.scene.frame_set(1)
+    hd = ops_skeletal._helper_of(dup, dup["dg_skeletal"])
+    assert hd is not None and hd != h and hd["dg_skeletal_owner"] == dup.name
+    assert dup.modifiers["dg_skeletal"].node_group != obj.modifiers["dg_skeletal"].node_group
+    assert h["dg_skeletal_owner"] == obj.name
     tip = np.argmax(V[:, 0])
     for o in (obj, dup):
         X = _evaluated_co(o)
         assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05, o.name
-    assert h["dg_skeletal_owner"] == obj.name
     # Binding the duplicate again is refused (it is bound).
     with pytest.raises(RuntimeError, match="already bound"):
         _bind()
+    hd_name = hd.name
     bpy.context.view_layer.objects.active = dup
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
-    assert obj.name + "_skeleton" in bpy.data.objects and obj.name + "_dg_offsets" in bpy.data.objects
+    assert obj.name + "_skeleton" in bpy.data.objects and h.name in bpy.data.objects
+    assert hd_name not in bpy.data.objects
     assert [m.type for m in dup.modifiers] == ['ARMATURE'] and "dg_skeletal" not in dup.keys()
     _pose_lower(arm, math.pi / 4)
     bpy.context.scene.frame_set(1)
     X = _evaluated_co(obj)  # the original still updates from the shared bind data
     assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 4) < 0.02
-    # The other way round: unbind the original, the duplicate takes the helper over.
+    # The other way round: unbind the original, the duplicate keeps working.
     dup2 = _duplicate(obj)
+    bpy.context.view_layer.update()
+    h_name = h.name
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
-    assert h.name in bpy.data.objects
+    assert h_name not in bpy.data.objects
     _pose_lower(arm, math.pi / 3)
     bpy.context.scene.frame_set(1)
     X = _evaluated_co(dup2)
     assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 3) < 0.02
-    assert h["dg_skeletal_owner"] == dup2.name
-    # Binding the original again while the duplicate keeps the old helper: a helper of its own.
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in (obj, arm))
-    bpy.context.view_layer.objects.active = obj
-    assert _bind() == {'FINISHED'}
-    from dgmesh.blender import ops_skeletal
-    h2 = ops_skeletal._helper_of(obj, obj["dg_skeletal"])
-    assert h2 is not None and h2 != h and h2["dg_skeletal_owner"] == obj.name
-    h2_name = h2.name
-    _pose_lower(arm, math.pi / 6)
-    bpy.context.scene.frame_set(1)
-    for o in (obj, dup2):
-        X = _evaluated_co(o)
-        assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 6) < 0.02, o.name
-    bpy.context.view_layer.objects.active = obj
-    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
-    assert h2_name not in bpy.data.objects and h.name in bpy.data.objects
     bpy.context.view_layer.objects.active = dup2
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
     assert not [o for o in bpy.data.objects if o.name.endswith("_dg_offsets")]
     assert not [g for g in bpy.data.node_groups if g.name.startswith("dg_skeletal")]
     for o in (obj, dup2):
         assert np.array_equal(_mesh_co(o.data), V.astype(np.float32))
+
+
+def test_mesh_duplicated_with_its_rig_follows_the_copied_rig():
+    """Shift+D of the bound mesh and its rig (a second character): posing the copy of the rig moves
+    the copy of the mesh, and the original stays in the original rig's pose. (The copy had shown
+    the original's deformation, through the original's helper.)"""
+    obj, arm, V = _scene()
+    obj.parent = arm
+    assert _bind() == {'FINISHED'}
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.object.duplicate() == {'FINISHED'}
+    obj2 = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
+    arm2 = next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE')
+    _pose_lower(arm, math.pi / 2)
+    _pose_lower(arm2, -math.pi / 4)
+    bpy.context.scene.frame_set(1)
+    tip = np.argmax(V[:, 0])
+    X = _evaluated_co(obj)
+    X2 = _evaluated_co(obj2)
+    assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 2) < 0.02
+    assert abs(np.arctan2(X2[tip, 1], X2[tip, 0]) + math.pi / 4) < 0.02
 
 
 def test_legacy_attribute_binding():

@@ -22,9 +22,9 @@ vertices). A shape key is slower still: in Blender 3.4 ``ShapeKey.data`` has no 
 (``foreach_set`` 20-40 ms at 178K vertices against ~1 ms here).
 Objects bound by earlier versions keep working through their own target: the point attribute
 ``dg_skeletal_offset`` read by a Named Attribute node, or the shape key ``dg_skeletal``.
-A duplicated bound object (Shift+D) shares the original's helper, so it shows the original's
-deformation; only the helper's owner writes it. Unbinding one of them keeps the helper for the
-other; unbinding the last one removes it.
+A duplicated bound object (Shift+D) shares the bind data; at its first update it gets a helper and
+a node group of its own, since it follows its own armature (the copied rig, when the rig was
+duplicated with it) from its own place.
 The armature is found by a tag custom property bind puts on it (renames keep the binding). Bone
 motions are taken as the Armature modifier applies them in the mesh's current object space, so
 moving either object later behaves as with the modifier; a mesh whose transform relative to the
@@ -216,9 +216,9 @@ def _helper_users(helper, exclude=None):
 
 
 def _writes_helper(obj, helper):
-    """Whether ``obj`` writes the helper it reads. A duplicate (Shift+D) reads the original's helper:
-    the original (the owner) writes it and the duplicate shows the same deformation. The owner is
-    claimed by the first reader when the recorded one is gone, renamed or no longer reads it."""
+    """Whether ``obj`` writes the helper it reads: it is the helper's owner. A duplicate (Shift+D)
+    reads the original's helper until it gets its own (``_own_helper``). The owner is claimed by the
+    first reader when the recorded one is gone, renamed or no longer reads it."""
     owner = helper.get(OWNER)
     if owner == obj.name:
         return True
@@ -227,6 +227,22 @@ def _writes_helper(obj, helper):
         return False
     helper[OWNER] = obj.name
     return True
+
+
+def _own_helper(obj, info, shared):
+    """A duplicate (Shift+D) reads the original's helper through a copy of its modifier: gives it a
+    helper and a node group of its own, as the copy deforms by its own pose (its parent may be the
+    copied rig) and in its own place relative to the rig. None if its modifier is not ours."""
+    mod = obj.modifiers.get(str(info.get("modifier", MOD)))
+    ng = mod.node_group if mod is not None and mod.type == 'NODES' else None
+    if ng is None or ng.nodes.get(HELPER_NODE) is None:
+        return None
+    helper = _helper_object(obj, len(shared.data.vertices))
+    ng = ng.copy()
+    ng.nodes[HELPER_NODE].inputs["Object"].default_value = helper
+    mod.node_group = ng
+    info["helper"], info["node_group"] = helper.name, ng.name
+    return helper
 
 
 def _rest_hash(mesh):
@@ -253,7 +269,9 @@ def _clear_live(obj, info):
     if _last_pose.get(key) == b"edited" or _target(info) != "HELPER":
         return
     h = _helper_of(obj, info)
-    if h is None or not _writes_helper(obj, h):
+    if h is not None and not _writes_helper(obj, h):
+        h = _own_helper(obj, info, h)  # an edited duplicate: the original's offsets are not its own
+    if h is None:
         return
     h.data.vertices.foreach_set("co", np.zeros(3 * len(h.data.vertices), dtype=np.float32))
     h.data.update()
@@ -310,11 +328,12 @@ def _deformed(obj, pose):
     return buf
 
 
-def _live_target(obj, info):
+def _live_target(obj, info, adopt=True):
     """The foreach_set target of the live update: (collection, property, mesh to tag) of the helper's
-    vertices (or a legacy binding's attribute or shape key); Nones when it is missing, when the vertex
-    count changed since bind (mesh edited), or when the object is a duplicate reading the original's
-    helper (the original writes it)."""
+    vertices (or a legacy binding's attribute or shape key); Nones when it is missing or when the
+    vertex count changed since bind (mesh edited). A duplicate still reading the original's helper
+    gets its own first (``adopt``: not while a render evaluates, which must not add objects; it
+    shows the original's deformation until then)."""
     none = None, None, None
     n = _rig(obj).n_vertices
     if len(obj.data.vertices) != n:
@@ -322,7 +341,9 @@ def _live_target(obj, info):
     target = _target(info)
     if target == "HELPER":
         h = _helper_of(obj, info)
-        if h is None or len(h.data.vertices) != n or not _writes_helper(obj, h):
+        if h is not None and not _writes_helper(obj, h):
+            h = _own_helper(obj, info, h) if adopt else None
+        if h is None or len(h.data.vertices) != n:
             return none
         return h.data.vertices, "co", h.data
     if target == "SHAPE_KEY":
@@ -362,7 +383,7 @@ def update_object(obj, force=False, depsgraph=None):
     sig = pose.tobytes()
     if not force and _last_pose.get(_key(obj, info)) == sig:
         return False
-    data, prop, tagged = _live_target(obj, info)
+    data, prop, tagged = _live_target(obj, info, adopt=depsgraph is None or depsgraph.mode != 'RENDER')
     if data is None:
         return False
     _, co, _ = _deformed(obj, pose)
