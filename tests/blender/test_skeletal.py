@@ -725,3 +725,40 @@ def test_errors():
     # unbind / bake of an unbound mesh
     with pytest.raises(RuntimeError, match="not bound"):
         bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT')
+
+
+def test_renaming_removing_or_applying_the_live_modifier():
+    """The live modifier renamed still works; removed, the binding goes and the Armature modifier is
+    back as before bind; applied (the pose frozen into the mesh), the binding goes and the Armature
+    modifier comes back disabled, so the pose is not applied twice. (A removed or applied modifier had
+    left a stale binding: the object still listed as bound, its helper and skeleton kept.)"""
+    obj, arm, V = _scene()
+    tip = int(np.argmax(V[:, 0]))
+    assert _bind() == {'FINISHED'}
+    obj.modifiers["dg_skeletal"].name = "Skin"
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    assert abs(X[tip, 0]) < 0.05 and abs(X[tip, 1] - 3.5) < 0.05
+    obj.modifiers.remove(obj.modifiers["Skin"])
+    bpy.context.view_layer.update()
+    assert "dg_skeletal" not in obj.keys()
+    assert not [o for o in bpy.data.objects if o.name.endswith(("_dg_offsets", "_skeleton"))]
+    m = obj.modifiers["Armature"]
+    assert m.show_viewport and m.show_render and m.object == arm
+    assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        assert bpy.ops.object.modifier_apply(modifier="dg_skeletal") == {'FINISHED'}
+    bpy.context.view_layer.update()
+    assert "dg_skeletal" not in obj.keys()
+    assert not [o for o in bpy.data.objects if o.name.endswith(("_dg_offsets", "_skeleton"))]
+    m = obj.modifiers["Armature"]
+    assert not m.show_viewport and not m.show_render and m.object == arm
+    assert np.abs(_mesh_co(obj.data) - X).max() < 1e-5  # the pose, once
+    assert np.abs(_evaluated_co(obj) - X).max() < 1e-5

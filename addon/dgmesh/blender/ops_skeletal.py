@@ -40,7 +40,8 @@ Bake writes a frame range to a .pc2 point cache played by a Mesh Cache modifier,
 exports need no add-on: each frame as the stack evaluates it up to the live deformation (shape keys
 included), the cache placed after the live and Armature modifiers and before the others (a
 Subdivision Surface still applies). Unbind removes everything bind added and leaves the mesh as it
-was.
+was. Removing the live modifier unbinds as well; applying it does too, and keeps the pose it froze
+into the mesh (the Armature modifiers come back disabled).
 """
 
 import base64
@@ -197,11 +198,24 @@ def _uses_shape_key(info):
     return _target(info) == "SHAPE_KEY"
 
 
+def _live_modifier(obj, info):
+    """The live geometry-nodes modifier: by its stored name, else (renamed) the one whose node group
+    reads a helper (the new name is stored); None when it was removed or applied."""
+    mod = obj.modifiers.get(str(info.get("modifier", MOD)))
+    if mod is not None and mod.type == 'NODES':
+        return mod
+    for m in obj.modifiers:
+        if m.type == 'NODES' and m.node_group is not None and m.node_group.nodes.get(HELPER_NODE) is not None:
+            info["modifier"] = m.name
+            return m
+    return None
+
+
 def _helper_of(obj, info):
     """The helper object of a HELPER binding: the object the modifier's node group reads (follows
     renames), else by the stored name; None if it is gone."""
-    mod = obj.modifiers.get(str(info.get("modifier", MOD)))
-    ng = mod.node_group if mod is not None and mod.type == 'NODES' else None
+    mod = _live_modifier(obj, info)
+    ng = mod.node_group if mod is not None else None
     node = ng.nodes.get(HELPER_NODE) if ng is not None else None
     h = node.inputs["Object"].default_value if node is not None else None
     if h is None:
@@ -233,8 +247,8 @@ def _own_helper(obj, info, shared):
     """A duplicate (Shift+D) reads the original's helper through a copy of its modifier: gives it a
     helper and a node group of its own, as the copy deforms by its own pose (its parent may be the
     copied rig) and in its own place relative to the rig. None if its modifier is not ours."""
-    mod = obj.modifiers.get(str(info.get("modifier", MOD)))
-    ng = mod.node_group if mod is not None and mod.type == 'NODES' else None
+    mod = _live_modifier(obj, info)
+    ng = mod.node_group if mod is not None else None
     if ng is None or ng.nodes.get(HELPER_NODE) is None:
         return None
     helper = _helper_object(obj, len(shared.data.vertices))
@@ -363,6 +377,18 @@ def update_object(obj, force=False, depsgraph=None):
     (only the view layer's depsgraph does), so the original's pose stays at the frame the render
     started from."""
     info = obj[PROP]
+    if _target(info) == "HELPER" and _live_modifier(obj, info) is None:
+        # The user removed or applied the live modifier: nothing shows the binding any more, so it
+        # goes (helper, skeleton, stored data), as with unbind. The Armature modifiers come back, but
+        # disabled when it was applied (the rest positions changed: the mesh holds the pose).
+        if depsgraph is None or depsgraph.mode != 'RENDER':
+            applied = len(obj.data.vertices) != _rig(obj).n_vertices or _rest_hash(obj.data) != info.get(
+                "rest_hash", _rest_hash(obj.data))
+            unbind(obj, enable_armature=not applied)
+            _purge_orphans()
+            print(f"dgmesh skeletal: the live modifier of {obj.name!r} was "
+                  + ("applied: unbound (its Armature modifiers are back, disabled)" if applied else "removed: unbound"))
+        return False
     arm = _armature(obj, info)
     if arm is None:
         return False
@@ -726,7 +752,9 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         return {'FINISHED'}
 
 
-def unbind(obj):
+def unbind(obj, enable_armature=True):
+    """Removes the binding and restores the Armature modifiers bind disabled (left disabled with
+    ``enable_armature`` False: the mesh already holds a pose)."""
     info = obj[PROP].to_dict()  # a copy: the ID property is deleted below
     _last_pose.pop(_key(obj, info), None)
     _buffers.pop(_key(obj, info), None)
@@ -739,9 +767,9 @@ def unbind(obj):
             obj.shape_key_remove(keys.key_blocks[0])
     else:
         helper = _helper_of(obj, info) if _target(info) == "HELPER" else None
-        mod = obj.modifiers.get(str(info["modifier"]))
-        ng = mod.node_group if mod is not None and mod.type == 'NODES' else None
-        if mod is not None and mod.type == 'NODES':
+        mod = _live_modifier(obj, info)
+        ng = mod.node_group if mod is not None else None
+        if mod is not None:
             obj.modifiers.remove(mod)
         if _target(info) == "ATTRIBUTE":
             att = obj.data.attributes.get(ATTR)
@@ -762,7 +790,7 @@ def unbind(obj):
     for name, vp, rd, ob in zip(info["modifiers"], info["modifiers_viewport"], info["modifiers_render"], objects):
         m = obj.modifiers.get(name)
         if m is not None:
-            m.show_viewport, m.show_render = bool(vp), bool(rd)
+            m.show_viewport, m.show_render = bool(vp) and enable_armature, bool(rd) and enable_armature
             if ob and m.object is None:
                 m.object = arm if ob == info["armature"] else bpy.data.objects.get(ob)
     sk = bpy.data.objects.get(info["skeleton"])
@@ -867,7 +895,7 @@ Cache modifier (renders and exports then need no add-on)"""
         # the basis, shape keys, the live offsets and any modifier before the Armature modifiers),
         # with the modifiers after it (and an earlier cache) muted: the cache then replaces exactly
         # that part of the stack.
-        live = obj.modifiers.get(str(info.get("modifier", MOD)))
+        live = _live_modifier(obj, info)
         cut = _cache_index(obj, live)
         others = [m for m in obj.modifiers if m.name != CACHE]
         muted = [m for m in obj.modifiers if m.show_viewport and (m.name == CACHE or others.index(m) >= cut)]
