@@ -419,6 +419,36 @@ def test_edited_mesh_shows_undeformed_instead_of_scrambled(tmp_path):
         bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT', filepath=str(tmp_path / "x.pc2"), frame_start=1, frame_end=2)
 
 
+def test_vertices_reordered_in_edit_mode_show_undeformed_until_undone():
+    """Mesh > Sort Elements keeps the vertex count: the rest positions are checked again when the
+    mesh leaves Edit mode (it had been checked once per load, and the offsets scrambled the mesh).
+    Undoing the sort brings the deformation back."""
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    bpy.ops.ed.undo_push(message="posed")
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)
+    bpy.context.view_layer.objects.active = obj
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+    bpy.ops.mesh.sort_elements(type='REVERSE', elements={'VERT'})
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.ops.ed.undo_push(message="sorted")
+    bpy.context.view_layer.update()
+    assert ops_skeletal.shown_undeformed(obj)
+    assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["Capsule"]
+    bpy.context.view_layer.update()
+    assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
+    assert not ops_skeletal.shown_undeformed(obj)
+    assert np.abs(_evaluated_co(obj) - X).max() < 1e-5
+
+
 def test_deleting_a_bound_mesh_leaves_no_hidden_objects(tmp_path):
     """The helper and skeleton objects are hidden and unselectable: when the bound mesh is deleted
     they go at the next load (or bind / unbind)."""

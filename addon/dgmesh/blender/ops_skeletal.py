@@ -29,8 +29,8 @@ The armature is found by a tag custom property bind puts on it (renames keep the
 motions are taken as the Armature modifier applies them in the mesh's current object space, so
 moving either object later behaves as with the modifier; a mesh whose transform relative to the
 armature is not a similarity (unapplied non-uniform or negative scale) is bound in the armature's
-space, where bone frames stay rigid. A mesh edited after bind (vertex count, or positions as found
-at load) shows undeformed until it is bound again.
+space, where bone frames stay rigid. A mesh edited after bind (vertex count, or positions: checked
+at load, after Edit or Sculpt mode and after undo) shows undeformed until it is bound again.
 The mesh's own Armature modifiers are disabled while bound and restored on unbind; their armature
 is cleared meanwhile too, because a disabled modifier still makes the mesh depend on the pose and
 Blender would re-evaluate the whole mesh once more on every frame (measured: ~30 ms CPU per frame at
@@ -266,8 +266,9 @@ def _rest_hash(mesh):
 
 
 def _edited(obj, info):
-    """The mesh was edited since it was bound: another vertex count, or (checked once per load, as
-    hashing every frame would cost milliseconds) other rest positions. Offsets made for the bound
+    """The mesh was edited since it was bound: another vertex count, or (checked at load, after
+    Edit or Sculpt mode and after undo, as hashing every frame would cost milliseconds) other rest
+    positions (moved or reordered vertices). Offsets made for the bound
     vertices would scramble it."""
     if len(obj.data.vertices) != _rig(obj).n_vertices:
         return True
@@ -428,8 +429,14 @@ def _on_update(scene, depsgraph=None):
     try:
         wrote = False
         for obj in scene.objects:
-            # In Edit mode the edit-mesh owns the data (attribute arrays are empty): wait for Object mode.
-            if is_bound(obj) and obj.mode != 'EDIT':
+            if not is_bound(obj):
+                continue
+            # In Edit mode the edit-mesh owns the data (attribute arrays are empty): wait for Object
+            # mode. Edit and Sculpt mode may move or reorder the vertices (Sort Elements): check the
+            # rest positions again when the object is back.
+            if obj.mode in ('EDIT', 'SCULPT'):
+                _rest_ok.pop(_key(obj, obj[PROP]), None)
+            else:
                 try:
                     wrote |= update_object(obj, depsgraph=depsgraph)
                 except Exception as exc:  # a handler must never take Blender down
@@ -455,8 +462,10 @@ def _on_load(*_args):
 @bpy.app.handlers.persistent
 def _on_undo(*_args):
     # Undo restores the pose and the attribute from one snapshot, but not our cache of the last
-    # pose: forget it so the next update recomputes instead of trusting a stale signature.
+    # pose: forget it so the next update recomputes instead of trusting a stale signature. It may
+    # also undo an edit of a bound mesh: check the rest positions again.
     _last_pose.clear()
+    _rest_ok.clear()
 
 
 _HANDLERS = (("depsgraph_update_post", _on_update), ("frame_change_post", _on_update),
