@@ -13,12 +13,16 @@ An operator that mixes in :class:`NativeJobOperator` splits its work in three:
 ``execute`` (redo panel, scripts, --background) runs them in a row with the window manager's
 progress indicator. ``invoke`` with a window runs ``work`` in a thread and polls it from a modal
 timer, so the UI stays responsive, the status bar shows the progress and Esc cancels with the
-mesh unchanged (nothing is written before ``finish``).
+mesh unchanged (nothing is written before ``finish``). The UI stays usable meanwhile, so a mesh
+selected when the job started and edited before it ended (moved vertices, other topology, deleted)
+is not written over: the result is dropped with an error.
 """
 
+import hashlib
 import threading
 
 import bpy
+import numpy as np
 
 from .prefs import api
 
@@ -55,6 +59,35 @@ class Job:
     @property
     def done(self):
         return not self._thread.is_alive()
+
+
+def _signature(obj):
+    """Counts and a hash of the vertex positions (an object in Edit mode synced from its edit-mesh)."""
+    if obj.mode == 'EDIT':
+        obj.update_from_editmode()
+    me = obj.data
+    co = np.empty(3 * len(me.vertices), dtype=np.float32)
+    me.vertices.foreach_get("co", co)
+    return (len(me.vertices), len(me.edges), len(me.loops), len(me.polygons),
+            hashlib.blake2b(co.tobytes(), digest_size=16).digest())
+
+
+def mesh_signatures(context):
+    """{object name: signature} of the selected and active mesh objects."""
+    objs = {o for o in context.selected_objects if o.type == 'MESH'}
+    if context.active_object is not None and context.active_object.type == 'MESH':
+        objs.add(context.active_object)
+    return {o.name: _signature(o) for o in objs}
+
+
+def changed_meshes(before):
+    """Names of the objects of ``before`` (mesh_signatures) deleted or edited since."""
+    out = []
+    for name, sig in before.items():
+        o = bpy.data.objects.get(name)
+        if o is None or o.type != 'MESH' or _signature(o) != sig:
+            out.append(name)
+    return out
 
 
 class NativeJobOperator:
@@ -97,6 +130,7 @@ class NativeJobOperator:
         if work is None:
             return {'CANCELLED'}
         wm = context.window_manager
+        self._meshes = mesh_signatures(context)
         self._job = Job(work).start()
         self._timer = wm.event_timer_add(0.1, window=context.window)
         wm.progress_begin(0, 1000)
@@ -119,4 +153,9 @@ class NativeJobOperator:
         context.workspace.status_text_set(None)
         if job.error is not None:
             return self._failed(job.error)
+        changed = changed_meshes(self._meshes)
+        if changed:
+            self.report({'ERROR'}, f"{self.bl_label}: {', '.join(map(repr, changed[:3]))} changed while it was "
+                        "running (edited, undone or deleted): nothing was written; run it again")
+            return {'CANCELLED'}
         return self.finish(context, job.result)
