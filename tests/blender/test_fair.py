@@ -327,6 +327,7 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
         linear_start, refine, keep_size = True, False, True
         _collect = ops_fair._FairBase._collect
         prepare = ops_fair._FairBase.prepare
+        _run_mirrored = ops_fair._FairBase._run_mirrored
         _run = ops_fair.DGMESH_OT_fair._run
         _failed = jobs.NativeJobOperator._failed
 
@@ -395,3 +396,57 @@ def test_vertices_only_selection_explains_what_to_select():
     bpy.ops.object.mode_set(mode='EDIT')
     with pytest.raises(RuntimeError, match="select the faces"):
         bpy.ops.dgmesh.fair('EXEC_DEFAULT')
+
+
+def _mirrored_half_ellipsoid():
+    """The x >= 0 half of a 1:2:1 ellipsoid (UV sphere) with a Mirror modifier (X, Merge on)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=R)
+    obj = bpy.context.object
+    obj.name = "Half"
+    obj.scale = (1.0, 2.0, 1.0)
+    bpy.ops.object.transform_apply(scale=True)
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    obj.modifiers.new("Mirror", 'MIRROR')
+    return obj, _positions(obj.data)
+
+
+def test_a_mirrored_half_is_faired_as_the_whole_it_shows():
+    """A half modelled with a Mirror modifier (Merge on): Fair works on both halves welded at the
+    plane, so the 1:2:1 ellipsoid rounds into a sphere whose seam stays on the plane, as the whole
+    would; the base half alone had its rim held fixed (its ellipse stays, the half cannot round)."""
+    obj, H0 = _mirrored_half_ellipsoid()
+    seam = np.abs(H0[:, 0]) < 1e-6
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    V = _positions(obj.data)
+    assert np.abs(V[seam, 0]).max() < 1e-6
+    c = np.array([0.0, *V[:, 1:].mean(0)])
+    d = np.linalg.norm(V - c, axis=1)
+    assert d.std() / d.mean() < 0.01  # a (hemi)sphere centred on the plane
+    assert np.abs(V[seam] - H0[seam]).max() > 0.3  # the rim moved
+    obj.modifiers.clear()
+    obj.data.vertices.foreach_set("co", H0.astype(np.float32).ravel())
+    obj.data.update()
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    V = _positions(obj.data)
+    assert np.abs(V[seam] - H0[seam]).max() == 0.0  # without the Mirror: a fixed rim
+    d = np.linalg.norm(V - np.array([0.0, *V[:, 1:].mean(0)]), axis=1)
+    assert d.std() / d.mean() > 0.05
+
+
+def test_a_mirrored_half_is_regularized_across_the_plane():
+    """Regularize on a Mirror half: seam vertices slide along the plane (they stay on it and on the
+    surface); the base half alone keeps its rim."""
+    obj, H0 = _mirrored_half_ellipsoid()
+    seam = np.abs(H0[:, 0]) < 1e-6
+    assert bpy.ops.dgmesh.regularize('EXEC_DEFAULT', True, iterations=30) == {'FINISHED'}
+    V = _positions(obj.data)
+    assert np.abs(V[seam, 0]).max() < 1e-6
+    assert np.abs(V[seam] - H0[seam]).max() > 1e-3
+    on = V[:, 0] ** 2 + V[:, 1] ** 2 / 4 + V[:, 2] ** 2  # 1 on the ellipsoid (chords: a bit less)
+    assert np.abs(on - 1).max() < 0.02

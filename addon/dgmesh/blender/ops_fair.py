@@ -13,6 +13,10 @@ replaced by triangles through bmesh; every other face keeps its data (UVs, colou
 the new faces copy material and smoothing from the polygon they replace and interpolate its
 corner data.
 
+A half modelled with a Mirror modifier (first in the stack, Merge on) is faired or regularized as
+the whole it shows: both halves welded at the plane, the base half's part written back with its
+seam on the plane (not with Subdivisions or Refine Fill, which fair the base mesh as it is).
+
 Nothing is written before the native run ends: errors and Esc leave the mesh untouched.
 """
 
@@ -60,7 +64,59 @@ class _Target:
         self.mask = mask  # movable vertices or None
         self.faces = faces  # region triangles or None
         self.refine = False  # Refine Fill for this object (asked for, or a fill without inner vertices)
+        self.mirror = _mirror_axes(obj, arrays.V)  # [(axis, merge distance)] of a Mirror modifier, or []
         self.result = None
+
+
+def _mirror_axes(obj, V):
+    """The axes of a Mirror modifier that closes the base mesh into what the user sees: the first
+    modifier shown, mirroring in the object's own space (no mirror object) with Merge on, without
+    Bisect, the mesh on one side of each plane. [] otherwise (the base mesh is faired as it is)."""
+    mods = [m for m in obj.modifiers if m.show_viewport]
+    if not mods or mods[0].type != 'MIRROR':
+        return []
+    m = mods[0]
+    if m.mirror_object is not None or not m.use_mirror_merge or any(m.use_bisect_axis):
+        return []
+    axes = []
+    for k in range(3):
+        if not m.use_axis[k]:
+            continue
+        x = V[:, k]
+        tol = 0.5 * m.merge_threshold  # Blender merges a vertex with its mirror image within the threshold
+        if not ((x >= -tol).all() or (x <= tol).all()):
+            return []
+        axes.append((k, tol))
+    return axes
+
+
+def _mirrored(V, F, masks, axes):
+    """The base mesh reflected across each mirror plane and welded at the plane, as the Mirror
+    modifier shows it: (V, F, masks) with the base mesh's vertices first; vertices on a plane are
+    shared by both halves; per-vertex and per-face masks are repeated. None when a face lies in a
+    plane (it would be doubled)."""
+    vmask, fmask = masks
+    for k, tol in axes:
+        seam = np.abs(V[:, k]) <= tol
+        if seam[F].all(axis=1).any():
+            return None
+        n = len(V)
+        image = np.where(seam, np.arange(n), n + np.cumsum(~seam) - 1)
+        R = V[~seam].copy()
+        R[:, k] = -R[:, k]
+        V = np.concatenate([V, R])
+        F = np.concatenate([F, image[F][:, ::-1]])  # a reflection turns the orientation
+        vmask = None if vmask is None else np.concatenate([vmask, vmask[~seam]])
+        fmask = None if fmask is None else np.concatenate([fmask, fmask])
+    return V, F, (vmask, fmask)
+
+
+def _on_planes(V, V0, axes):
+    """Vertices of the base mesh that were on a mirror plane stay exactly there (Clipping)."""
+    for k, tol in axes:
+        seam = np.abs(V0[:, k]) <= tol
+        V[seam, k] = V0[seam, k]
+    return V
 
 
 def _read_target(obj, edit_mode, keep_border):
@@ -184,12 +240,31 @@ class _FairBase(NativeJobOperator):
                 def sub(f, i=i):
                     return progress((i + f) / n)
                 try:
-                    t.result = self._run(t, sub)
+                    t.result = self._run_mirrored(t, sub)
                 except api().MeshError as exc:  # name the object: several may be selected
                     raise api().MeshError(f"'{t.name}': {exc}") from None
             return targets
 
         return work
+
+
+    def _run_mirrored(self, t, progress):
+        """_run on the mesh the Mirror modifier shows (both halves welded), so the halves meet
+        smoothly at the plane instead of the base half's rim being held fixed (flat into it); the
+        base half's part of the result. Not with Subdivisions or Refine Fill (new vertices on the
+        plane), where the base mesh is faired as it is."""
+        mirror = t.mirror if not (t.refine or getattr(self, "subdivisions", 0)) else []
+        m = _mirrored(t.arrays.V, t.arrays.F, (t.mask, t.faces), mirror) if mirror else None
+        t.mirrored = m is not None
+        if m is None:
+            return self._run(t, t.arrays.V, t.arrays.F, t.mask, t.faces, progress)
+        V, F, (mask, faces) = m
+        r = self._run(t, V, F, mask, faces, progress)
+        n, V0 = len(t.arrays.V), t.arrays.V
+        if isinstance(r, np.ndarray):  # Regularize: positions
+            return _on_planes(r[:n].copy(), V0, mirror)
+        return dataclasses.replace(r, vertices=_on_planes(r.vertices[:n].copy(), V0, mirror), faces=t.arrays.F,
+                                   face_origin=np.arange(len(t.arrays.F)), moved=r.moved[:n])
 
 
 class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
@@ -251,9 +326,9 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             col.prop(self, "keep_border")
             col.prop(self, "refine")
 
-    def _run(self, t, progress):
+    def _run(self, t, V, F, mask, faces, progress):
         return api().fair(
-            t.arrays.V, t.arrays.F, method=self.method.lower(), mask=t.mask, faces=t.faces,
+            V, F, method=self.method.lower(), mask=mask, faces=faces,
             boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
             linear_start=self.linear_start, refine=t.refine, keep_size=self.keep_size, progress=progress)
@@ -293,7 +368,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
                 status = " (iteration budget reached)"
             else:
                 status = " (stopped before the tolerance: the flow stalled)"
-            mods = _modifier_note(t.obj)
+            mods = _modifier_note(t)
             parts.append(
                 f"'{t.name}'{mods}: {moved} vertices moved"
                 + (f", {len(r.vertices) - n} added" if r.subdivided else "")
@@ -311,9 +386,12 @@ def _moved_count(V, V0):
     return int((np.abs(V - V0).max(axis=1) > 1e-9 * max(size, 1e-300)).sum())
 
 
-def _modifier_note(obj):
-    """' (its base mesh, before Mirror, Subdivision)' when modifiers change what the user sees."""
-    names = [m.type.title().replace("_", " ") for m in obj.modifiers if m.show_viewport]
+def _modifier_note(t):
+    """' (its base mesh, before Mirror, Subdivision)' when modifiers change what the user sees
+    (' (both halves of its Mirror)' when the mirrored mesh was faired)."""
+    names = [m.type.title().replace("_", " ") for m in t.obj.modifiers if m.show_viewport]
+    if getattr(t, "mirrored", False):
+        return " (both halves of its Mirror" + (f"; before {', '.join(names[1:4])})" if names[1:] else ")")
     return f" (its base mesh, before {', '.join(names[:3])})" if names else ""
 
 
@@ -454,8 +532,8 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         name="Keep Selection Border", default=False,
         description="Edit mode: vertices on the border of the selection stay fixed")
 
-    def _run(self, t, progress):
-        V = api().regularize(t.arrays.V, t.arrays.F, iterations=self.iterations, mask=t.mask,
+    def _run(self, t, V, F, mask, faces, progress):
+        V = api().regularize(V, F, iterations=self.iterations, mask=mask,
                              boundary=self.boundary.lower(), step_scale=self.strength,
                              project=self.keep_on_surface, progress=progress)
         return V
@@ -466,7 +544,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
                 bridge.write_positions(t.obj.data, t.result)
         moved = sum(_moved_count(t.result, t.arrays.V) for t in targets)
         secs = time.perf_counter() - self._t0
-        mods = "".join(_modifier_note(t.obj) for t in targets[:1])
+        mods = "".join(_modifier_note(t) for t in targets[:1])
         self.report({'INFO'}, f"Regularize: {moved} vertices moved on {len(targets)} object(s){mods}, "
                               f"{self.iterations} iterations in {secs:.2f} s")
         return {'FINISHED'}
