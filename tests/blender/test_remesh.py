@@ -273,3 +273,39 @@ def test_new_vertices_carry_uvs_and_vertex_weights():
     c = np.empty(4 * len(me.loops), np.float32)
     me.color_attributes["Col"].data.foreach_get("color_srgb", c)
     assert np.abs(c.reshape(-1, 4) - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255  # not darkened
+
+
+def test_triangles_across_a_uv_seam_take_one_side_of_it():
+    """A UV seam inside the remeshed disk (Add > Grid whose halves x < 0 and x > 0 are two UV
+    islands): every new triangle takes its three corners from one island's map, extended past the
+    seam where a corner lies beyond it. (Each corner had been blended on its own side, so triangles
+    across the seam were stretched over the gap between the islands.)"""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=12, y_subdivisions=12, size=2)
+    obj = bpy.context.object
+    me = obj.data
+    lv = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    co = coords(me)
+    right = np.zeros(len(me.loops), bool)
+    for p in me.polygons:
+        right[list(p.loop_indices)] = np.mean(co[list(p.vertices), 0]) > 0
+    x, y = co[lv, 0], co[lv, 1]
+    uv = np.stack([(x + 1) / 4 + 0.5 * right, (y + 1) / 2], 1).astype(np.float32)
+    me.uv_layers.active.data.foreach_set("uv", uv.ravel())
+    select(obj.name)
+    assert remesh(target_vertices=600) == {'FINISHED'}
+    me = obj.data
+    co = coords(me)
+    lv = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    uv = np.empty(2 * len(me.loops), np.float32)
+    me.uv_layers.active.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    x = co[lv, 0]
+    island = np.round((uv[:, 0] - (x + 1) / 4) / 0.5)  # 0 left map, 1 right map
+    assert np.abs(uv[:, 0] - ((x + 1) / 4 + 0.5 * island)).max() < 1e-4  # one of the two affine maps
+    assert set(np.unique(island)) == {0.0, 1.0}
+    tri = island.reshape(-1, 3)  # all triangles
+    assert (tri == tri[:, :1]).all()
+    assert np.abs(uv[:, 1] - (co[lv, 1] + 1) / 2).max() < 1e-4

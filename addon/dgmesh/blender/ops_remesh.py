@@ -8,7 +8,8 @@ the result is as watertight as the input. Non-disk input is an error and nothing
 nothing over the objects). The new faces take the material and smooth flag of the chart's first face
 and, in Edit mode, are left selected. The new corners take the UV maps and corner colours, the new
 vertices the vertex-group weights and point attributes, of the input point each lies on (blended
-over its input triangle); a UV seam inside the region is not kept (each vertex gets one UV). Long
+over its input triangle); a triangle across a UV seam inside the region takes its corners from
+one side's map (the seam then runs along new edges, zig-zagging at the new spacing). Long
 runs show progress and Esc cancels (jobs.NativeJobOperator); the mesh is written only when the
 computation has finished.
 """
@@ -18,6 +19,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
+from ..unwrap import chart_labels
 from . import bridge
 from .common import plural, poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
@@ -228,16 +230,17 @@ def _replace_region(mesh, it, select_new):
                     e.select_set(False)
         vmap = kept + new
         corner = [(getattr(bm.loops.layers, kind)[name], values) for (kind, name), values in corner]
-        for a, b, c in r.F.tolist():
+        corner = [(layer, values.tolist()) for layer, values in corner]
+        for t, (a, b, c) in enumerate(r.F.tolist()):
             f = bm.faces.new((vmap[a], vmap[b], vmap[c]))
             f.material_index = material
             f.smooth = smooth
-            for loop, j in zip(f.loops, (a, b, c)):
+            for j, loop in enumerate(f.loops):
                 for layer, values in corner:
                     if hasattr(loop[layer], "uv"):
-                        loop[layer].uv = values[j]
+                        loop[layer].uv = values[t][j]
                     else:
-                        loop[layer] = values[j]
+                        loop[layer] = values[t][j]
             if select_new:
                 f.select_set(True)
         # Old chords of the region (edges between two boundary vertices) that no face uses now.
@@ -251,22 +254,73 @@ def _replace_region(mesh, it, select_new):
 
 
 def _corner_values(mesh, it, r):
-    """(bmesh loop layer name, per-output-vertex values) for each UV map and corner colour."""
-    L = it["tri_loops"][r.source_face]  # (n_out, 3) mesh loops of each source face
-    w = r.source_bary[:, :, None]
+    """(bmesh loop layer name, (m_out, 3, k) values of each output triangle's corners) for each UV
+    map and corner colour."""
+    L = it["tri_loops"]  # (nf, 3) mesh loops of the chart's triangles
     out = []
     for uv in mesh.uv_layers:
         a = np.empty(2 * len(mesh.loops), np.float32)
         uv.data.foreach_get("uv", a)
-        out.append((("uv", uv.name), (w * a.reshape(-1, 2)[L]).sum(1).tolist()))
+        out.append((("uv", uv.name), _island_corners(it["V"], it["F"], a.reshape(-1, 2)[L], r)))
     for att in mesh.color_attributes:
         if att.domain == 'CORNER':
             a = np.empty(4 * len(mesh.loops), np.float32)
             # bmesh's byte-colour layers hold the stored (sRGB) values; `color` is linear.
             att.data.foreach_get("color_srgb" if att.data_type == 'BYTE_COLOR' else "color", a)
             kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
-            out.append(((kind, att.name), (w * a.reshape(-1, 4)[L]).sum(1).tolist()))
+            out.append(((kind, att.name), _island_corners(it["V"], it["F"], a.reshape(-1, 4)[L], r)))
     return out
+
+
+def _island_corners(V, F, C, r):
+    """Corner values of the output triangles from the input's corner values C (nf, 3, k).
+
+    Each output vertex lies on an input triangle (source_face / source_bary). Where the input's
+    corner values jump across an edge (a UV seam: the islands on either side), an output triangle
+    whose corners lie on different islands takes all three from one island, its home (the island of
+    two of its corners, else the first's): a corner elsewhere gets the home triangle's affine map
+    extended to its position. Blending each corner in its own island gave such triangles corners
+    on both islands (a triangle stretched across the UV map)."""
+    nf = len(F)
+    # Islands: triangles joined across edges whose two shared corners carry the same values.
+    e_f = np.repeat(np.arange(nf), 3)
+    e_i = np.tile(np.arange(3), nf)
+    u, v = F[e_f, e_i], F[e_f, (e_i + 1) % 3]
+    key = np.minimum(u, v).astype(np.int64) * (F.max() + 1) + np.maximum(u, v)
+    order = np.argsort(key, kind="stable")
+    same = np.flatnonzero(key[order[1:]] == key[order[:-1]])
+    a, b = order[same], order[same + 1]  # half-edges of the same edge in faces fa, fb
+    fa, fb = e_f[a], e_f[b]
+    ua, va = u[a], v[a]
+
+    def corner_of(f, x):
+        return np.argmax(F[f] == x[:, None], axis=1)
+
+    tol = 1e-6 * max(1.0, float(np.abs(C).max(initial=0.0)))
+    cont = (np.abs(C[fa, corner_of(fa, ua)] - C[fb, corner_of(fb, ua)]).max(-1) <= tol) & \
+           (np.abs(C[fa, corner_of(fa, va)] - C[fb, corner_of(fb, va)]).max(-1) <= tol)
+    lab = chart_labels(nf, np.stack([fa[cont], fb[cont]], 1))
+    T = r.F
+    s = r.source_face[T]  # (m, 3) source triangle of each corner
+    val = (r.source_bary[T][..., None] * C[s]).sum(2)  # (m, 3, k): each corner in its own island
+    isl = lab[s]
+    home = np.where((isl[:, 1] == isl[:, 2]) & (isl[:, 0] != isl[:, 1]), s[:, 1], s[:, 0])
+    off = isl != lab[home][:, None]
+    if off.any():
+        t, j = np.nonzero(off)
+        h = home[t]
+        P = r.V[T[t, j]]
+        A, B, D = V[F[h, 0]], V[F[h, 1]], V[F[h, 2]]
+        # Barycentric coordinates of P's projection on the home triangle's plane (may be negative).
+        e0, e1, d = B - A, D - A, P - A
+        d00, d01, d11 = (e0 * e0).sum(1), (e0 * e1).sum(1), (e1 * e1).sum(1)
+        d20, d21 = (d * e0).sum(1), (d * e1).sum(1)
+        den = np.where(np.abs(d00 * d11 - d01 ** 2) > 0, d00 * d11 - d01 ** 2, 1.0)
+        wb = (d11 * d20 - d01 * d21) / den
+        wc = (d00 * d21 - d01 * d20) / den
+        w = np.stack([1 - wb - wc, wb, wc], 1)
+        val[t, j] = (w[..., None] * C[h]).sum(1)
+    return val
 
 
 classes = (DGMESH_OT_remesh,)
