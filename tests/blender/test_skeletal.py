@@ -792,3 +792,37 @@ def test_renaming_removing_or_applying_the_live_modifier():
     assert not m.show_viewport and not m.show_render and m.object == arm
     assert np.abs(_mesh_co(obj.data) - X).max() < 1e-5  # the pose, once
     assert np.abs(_evaluated_co(obj) - X).max() < 1e-5
+
+
+def test_rebind_after_editing_the_mesh_and_its_weights():
+    """Skeletal Rebind binds the edited mesh again with its new positions and weights, with the
+    settings and armature it had (the sidebar offers it next to 'edited since bound')."""
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind(fairing_steps=1, bone_clearance=0.5) == {'FINISHED'}
+    tip = int(np.argmax(V[:, 0]))
+    obj.data.vertices[tip].co.z += 0.2
+    obj.data.update()
+    # Weights painted after bind: the far end follows the upper bone only.
+    far = [v.index for v in obj.data.vertices if v.co.x > 2.0]
+    obj.vertex_groups["Lower"].add(far, 0.0, 'REPLACE')
+    obj.vertex_groups["Upper"].add(far, 1.0, 'REPLACE')
+    bpy.ops.ed.undo_push(message="edited")
+    ops_skeletal._on_undo()  # as after undo: the rest positions are checked again
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    assert ops_skeletal.shown_undeformed(obj)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj)  # the armature is not selected: the binding knows it
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
+    info = obj["dg_skeletal"]
+    assert info["fairing_steps"] == 1 and abs(info["bone_clearance"] - 0.5) < 1e-6
+    assert not ops_skeletal.shown_undeformed(obj)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    # The edited tip follows the upper bone (its new weights): it stays put despite the bend.
+    assert np.abs(X[tip] - (V[tip] + (0.0, 0.0, 0.2))).max() < 0.05
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    with pytest.raises(RuntimeError, match="not bound"):
+        bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT')

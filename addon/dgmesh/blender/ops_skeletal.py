@@ -1,4 +1,4 @@
-"""Operators dgmesh.skeletal_bind / skeletal_unbind / skeletal_bake (thesis chapter 6).
+"""Operators dgmesh.skeletal_bind / skeletal_rebind / skeletal_unbind / skeletal_bake (thesis chapter 6).
 
 Bind (a mesh and an armature selected, the mesh active): the mesh is bound to the armature's
 deform bones with the weights of its vertex groups named after them (distance-based Gaussian
@@ -30,7 +30,8 @@ motions are taken as the Armature modifier applies them in the mesh's current ob
 moving either object later behaves as with the modifier; a mesh whose transform relative to the
 armature is not a similarity (unapplied non-uniform or negative scale) is bound in the armature's
 space, where bone frames stay rigid. A mesh edited after bind (vertex count, or positions: checked
-at load, after Edit or Sculpt mode and after undo) shows undeformed until it is bound again.
+at load, after Edit or Sculpt mode and after undo) shows undeformed until it is bound again;
+Rebind does that with the armature and settings it had (weights painted after bind need it too).
 The mesh's own Armature modifiers are disabled while bound and restored on unbind; their armature
 is cleared meanwhile too, because a disabled modifier still makes the mesh depend on the pose and
 Blender would re-evaluate the whole mesh once more on every frame (measured: ~30 ms CPU per frame at
@@ -741,7 +742,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
             "bones": names, "data": _encode(rig.to_arrays()),
             "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
-            "target": "HELPER",
+            "control_faces": self.control_faces, "target": "HELPER",
             "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
             "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
             "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
@@ -814,6 +815,49 @@ def unbind(obj, enable_armature=True):
         del arm[ARM_TAG]  # the last binding to this armature
     if not any(is_bound(o) and o[PROP]["id"] == info["id"] for o in bpy.data.objects):
         _rigs.pop(info["id"], None)  # no duplicate left using this bind data
+
+
+class DGMESH_OT_skeletal_rebind(bpy.types.Operator):
+    """Bind the active mesh again to its armature with the same settings: after editing the mesh or \
+painting its weights (the binding keeps what it read at bind)"""
+
+    bl_idname = "dgmesh.skeletal_rebind"
+    bl_label = "Skeletal Rebind"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    object_name: StringProperty(name="Object", default="", options={'HIDDEN', 'SKIP_SAVE'},
+                                description="The bound object (empty: the active object)")
+
+    @classmethod
+    def poll(cls, context):
+        if context.mode != 'OBJECT':
+            return _poll_fail(cls, "Only available in Object mode")
+        return True
+
+    def execute(self, context):
+        obj = bpy.data.objects.get(self.object_name) if self.object_name else context.active_object
+        if obj is None or not is_bound(obj):
+            self.report({'ERROR'}, f"{self.object_name or 'The active object'!r} is not bound (DG Mesh > Skeletal Bind)")
+            return {'CANCELLED'}
+        info = obj[PROP]
+        arm = _armature(obj, info)
+        if arm is None:
+            self.report({'ERROR'}, f"The armature {str(info['armature'])!r} of {obj.name!r} is gone: select an "
+                        "armature and use Skeletal Unbind, then Skeletal Bind")
+            return {'CANCELLED'}
+        settings = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]),
+                        bone_clearance=float(info.get("bone_clearance", 0.95)),
+                        control_faces=int(info.get("control_faces", 5000)))
+        unbind(obj)
+        with context.temp_override(selected_objects=[obj, arm], active_object=obj, object=obj):
+            try:
+                bpy.ops.dgmesh.skeletal_bind('EXEC_DEFAULT', **settings)
+            except RuntimeError as exc:  # the bind's own report, e.g. the edit opened the mesh
+                self.report({'ERROR'}, f"{obj.name!r} is unbound now; binding it again failed: "
+                            + str(exc).replace("Error: ", "").strip())
+                return {'CANCELLED'}
+        self.report({'INFO'}, f"Rebound {obj.name!r} to {arm.name!r}")
+        return {'FINISHED'}
 
 
 class DGMESH_OT_skeletal_unbind(bpy.types.Operator):
@@ -963,4 +1007,4 @@ def _cache_index(obj, live):
     return max(after) + 1 if after else 0
 
 
-classes = (DGMESH_OT_skeletal_bind, DGMESH_OT_skeletal_unbind, DGMESH_OT_skeletal_bake)
+classes = (DGMESH_OT_skeletal_bind, DGMESH_OT_skeletal_rebind, DGMESH_OT_skeletal_unbind, DGMESH_OT_skeletal_bake)

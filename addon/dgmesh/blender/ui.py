@@ -24,6 +24,7 @@ OPERATORS = [
     # Deformation
     ("dgmesh.multires_preview", "Multires Preview", 'MOD_MULTIRES'),
     ("dgmesh.skeletal_bind", "Skeletal Bind", 'ARMATURE_DATA'),
+    ("dgmesh.skeletal_rebind", "Skeletal Rebind", 'FILE_REFRESH'),
     ("dgmesh.skeletal_bake", "Skeletal Bake", 'FILE_CACHE'),
     ("dgmesh.skeletal_unbind", "Skeletal Unbind", 'UNLINKED'),
 ]
@@ -49,6 +50,7 @@ class DGMESH_PT_main(bpy.types.Panel):
         for obj in context.scene.objects:
             if ops_skeletal.shown_undeformed(obj):
                 layout.label(text=f"{obj.name}: edited since bound, rebind it", icon='ERROR')
+                layout.operator("dgmesh.skeletal_rebind", icon='FILE_REFRESH').object_name = obj.name
         # Colour attributes only show in Solid shading with Color = Attribute.
         space = context.space_data
         if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':
