@@ -247,7 +247,6 @@ class _FairBase(NativeJobOperator):
 
         return work
 
-
     def _run_mirrored(self, t, progress):
         """_run on the mesh the Mirror modifier shows (both halves welded), so the halves meet
         smoothly at the plane instead of the base half's rim being held fixed (flat into it); the

@@ -269,8 +269,7 @@ def _rest_hash(mesh):
 def _edited(obj, info):
     """The mesh was edited since it was bound: another vertex count, or (checked at load, after
     Edit or Sculpt mode and after undo, as hashing every frame would cost milliseconds) other rest
-    positions (moved or reordered vertices). Offsets made for the bound
-    vertices would scramble it."""
+    positions (moved or reordered vertices). Offsets made for the bound vertices would scramble it."""
     if len(obj.data.vertices) != _rig(obj).n_vertices:
         return True
     key = _key(obj, info)
