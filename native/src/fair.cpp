@@ -665,7 +665,7 @@ class Driver {
   // meshes a flow cannot improve (a cylinder whose caps are triangle fans, slivers) the unjudged
   // tangential sub-steps or the explicit scheme's instability can raise the energy step after step
   // and inflate the mesh, and the bi-umbrella flow shrinks a closed mesh without fixed vertices
-  // towards a point. (Only then: a level that ends below its start keeps its last state, whose slow
+  // towards a point (the only case where it applies to that flow, see run_bilaplacian). (Only then: a level that ends below its start keeps its last state, whose slow
   // energy creep goes with real progress of the mesh; see the report.)
   struct Lowest {
     double start, best;
@@ -912,7 +912,10 @@ class Driver {
         break;
       }
     }
-    keep_lowest(w, e, lowest, rep);
+    // Only a component without fixed vertices collapses. With fixed vertices the flow converges to
+    // its own steady state (U0^2 P = 0), whose Willmore energy may well exceed the start's: a tube's
+    // band narrows into a neck, a removed protrusion's fill bulges back (closer to it than the fill).
+    if (std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end()) keep_lowest(w, e, lowest, rep);
     rep.iterations = it;
     return rep;
   }

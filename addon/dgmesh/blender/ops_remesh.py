@@ -229,8 +229,7 @@ def _replace_region(mesh, it, select_new):
                 for e in coll:
                     e.select_set(False)
         vmap = kept + new
-        corner = [(getattr(bm.loops.layers, kind)[name], values) for (kind, name), values in corner]
-        corner = [(layer, values.tolist()) for layer, values in corner]
+        corner = [(getattr(bm.loops.layers, kind)[name], values.tolist()) for (kind, name), values in corner]
         for t, (a, b, c) in enumerate(r.F.tolist()):
             f = bm.faces.new((vmap[a], vmap[b], vmap[c]))
             f.material_index = material
