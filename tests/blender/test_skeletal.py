@@ -338,7 +338,7 @@ def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path):
 
 def test_renamed_armature_stays_bound_and_unbind_restores_it():
     """The armature is kept by reference: renaming it keeps the live update, bake and the restored
-    Armature modifier's link; deleting it freezes the mesh without errors."""
+    Armature modifier's link; deleting it shows the mesh at rest without errors."""
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     arm.name = "CharacterRig"
@@ -353,13 +353,15 @@ def test_renamed_armature_stays_bound_and_unbind_restores_it():
         o.select_set(o in (obj, arm))
     bpy.context.view_layer.objects.active = obj
     assert _bind() == {'FINISHED'}
-    before = _evaluated_co(obj)
     for o in bpy.context.view_layer.objects:
         o.select_set(o == arm)
     assert bpy.ops.object.delete() == {'FINISHED'}
-    assert "CharacterRig" not in bpy.data.objects
+    gone = bpy.data.objects.get("CharacterRig")
+    assert gone is None or not gone.users_scene  # the mesh's pointer may keep it as data
     bpy.context.view_layer.update()
-    assert np.abs(_evaluated_co(obj) - before).max() < 1e-6
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-5
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert "dg_skeletal_armature" not in obj.keys()
 
 
 @pytest.mark.parametrize("scale", [(1.0, 1.6, 0.7), (-1.0, 1.0, 1.0)], ids=["non_uniform", "mirror"])
@@ -826,3 +828,61 @@ def test_rebind_after_editing_the_mesh_and_its_weights():
     assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
     with pytest.raises(RuntimeError, match="not bound"):
         bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT')
+
+
+def test_mesh_with_an_armature_modifier_duplicated_with_its_rig_follows_the_copy():
+    """Not parented, only an Armature modifier (which bind clears): Shift+D of mesh and rig. The copy
+    follows the copied rig, as Blender remaps the Armature modifier of such a copy; rebind and unbind
+    of the copy use the copied rig; unbinding both leaves no tag on either rig. (The copy had followed
+    the original rig.)"""
+    obj, arm, V = _scene()
+    assert obj.parent is None
+    assert _bind() == {'FINISHED'}
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.object.duplicate() == {'FINISHED'}
+    obj2 = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
+    arm2 = next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE')
+    _pose_lower(arm, math.pi / 2)
+    _pose_lower(arm2, -math.pi / 4)
+    bpy.context.view_layer.update()
+    tip = np.argmax(V[:, 0])
+    X, X2 = _evaluated_co(obj), _evaluated_co(obj2)
+    assert abs(np.arctan2(X[tip, 1], X[tip, 0]) - math.pi / 2) < 0.02
+    assert abs(np.arctan2(X2[tip, 1], X2[tip, 0]) + math.pi / 4) < 0.02
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == obj2)
+    bpy.context.view_layer.objects.active = obj2
+    assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT') == {'FINISHED'}
+    bpy.context.view_layer.update()
+    X2 = _evaluated_co(obj2)
+    assert abs(np.arctan2(X2[tip, 1], X2[tip, 0]) + math.pi / 4) < 0.02
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert obj2.modifiers["Armature"].object == arm2
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert obj.modifiers["Armature"].object == arm
+    assert "dg_skeletal_rig" not in arm.keys() and "dg_skeletal_rig" not in arm2.keys()
+
+
+def test_deleting_the_armature_shows_the_mesh_at_rest():
+    """As with an Armature modifier whose armature is deleted: the mesh goes back to rest (it had
+    stayed in the last pose); undoing the deletion brings the pose back."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() > 1.0
+    bpy.ops.ed.undo_push(message="posed")
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == arm)
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.object.delete() == {'FINISHED'}
+    bpy.ops.ed.undo_push(message="deleted")
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-5
+    bpy.ops.ed.undo()
+    obj = bpy.data.objects["Capsule"]
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() > 1.0

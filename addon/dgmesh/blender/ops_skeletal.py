@@ -29,7 +29,9 @@ The armature is found by a tag custom property bind puts on it (renames keep the
 motions are taken as the Armature modifier applies them in the mesh's current object space, so
 moving either object later behaves as with the modifier; a mesh whose transform relative to the
 armature is not a similarity (unapplied non-uniform or negative scale) is bound in the armature's
-space, where bone frames stay rigid. A mesh edited after bind (vertex count, or positions: checked
+space, where bone frames stay rigid. The mesh also points at the armature (a custom property that
+Blender remaps when mesh and rig are duplicated together); with the armature deleted, the mesh shows
+at rest. A mesh edited after bind (vertex count, or positions: checked
 at load, after Edit or Sculpt mode and after undo) shows undeformed until it is bound again;
 Rebind does that with the armature and settings it had (weights painted after bind need it too).
 The mesh's own Armature modifiers are disabled while bound and restored on unbind; their armature
@@ -68,6 +70,8 @@ HELPER_SUFFIX = "_dg_offsets"   # helper object: its vertex positions are deform
 OWNER = "dg_skeletal_owner"     # custom property of the helper: the object that writes it
 SKELETON_OF = "dg_skeleton_of"  # custom property of the skeleton object: the mesh it belongs to
 ARM_TAG = "dg_skeletal_rig"     # custom property of a bound armature: finds it after a rename
+ARM_PTR = "dg_skeletal_armature"  # custom property of the mesh object: the armature (an ID pointer,
+                                  # which Blender remaps when mesh and rig are duplicated together)
 HELPER_NODE = "dg_helper"       # the Object Info node of the node group (finds the helper after renames)
 MOD = "dg_skeletal"             # geometry-nodes modifier adding the offsets to the positions
 CACHE = "dg_skeletal_cache"     # the Mesh Cache modifier skeletal_bake adds
@@ -148,13 +152,20 @@ def _decode(text):
 
 
 def _armature(obj, info):
-    """The bound armature, found by the tag bind put on it (a custom property; an ID pointer would
-    keep a deleted armature alive as a user): the mesh's parent if it carries the tag (a mesh
-    duplicated with its rig follows the copy), else the object of the stored name, else after a
-    rename the one armature with the tag and the bound armature data (a copy of the rig, Shift+D,
-    carries the tag but has its own data). Files bound before the tag: by name only."""
-    arm = bpy.data.objects.get(info["armature"])
+    """The bound armature: the mesh's armature pointer (Blender points a copy of the mesh duplicated
+    with its rig at the copied rig, parented or not) while that armature is in a scene (the pointer
+    keeps a deleted armature alive as a user); else by the tag bind put on it: the mesh's parent if
+    it carries the tag, else the object of the stored name, else after a rename the one armature
+    with the tag and the bound armature data (a copy of the rig carries the tag but has its own
+    data). Files bound before the tag: by name only."""
     tag = info.get("armature_tag")
+    ptr = obj.get(ARM_PTR)
+    if isinstance(ptr, bpy.types.Object) and ptr.type == 'ARMATURE' and ptr.users_scene and (
+            tag is None or ptr.get(ARM_TAG) == tag):
+        return ptr
+    arm = bpy.data.objects.get(info["armature"])
+    if arm is not None and arm.type == 'ARMATURE' and not arm.users_scene:
+        arm = None  # deleted, kept alive by a pointer
     if tag is None:
         return arm if arm is not None and arm.type == 'ARMATURE' else None
     p = obj.parent
@@ -163,8 +174,8 @@ def _armature(obj, info):
     if arm is not None and arm.type == 'ARMATURE' and arm.get(ARM_TAG) == tag:
         return arm
     data = info.get("armature_data")
-    found = [o for o in bpy.data.objects
-             if o.type == 'ARMATURE' and o.get(ARM_TAG) == tag and (data is None or o.data.name == data)]
+    found = [o for o in bpy.data.objects if o.type == 'ARMATURE' and o.users_scene and o.get(ARM_TAG) == tag
+             and (data is None or o.data.name == data)]
     return found[0] if len(found) == 1 else None
 
 
@@ -278,10 +289,11 @@ def _edited(obj, info):
     return not _rest_ok[key]
 
 
-def _clear_live(obj, info):
-    """Zero offsets (the mesh shows undeformed) for an edited mesh, once, with a console note."""
+def _clear_live(obj, info, why, note):
+    """Zero offsets (the mesh shows undeformed) for an edited mesh or a deleted armature (``why``),
+    once, with a console note."""
     key = _key(obj, info)
-    if _last_pose.get(key) == b"edited" or _target(info) != "HELPER":
+    if _last_pose.get(key) == why or _target(info) != "HELPER":
         return
     h = _helper_of(obj, info)
     if h is not None and not _writes_helper(obj, h):
@@ -290,9 +302,8 @@ def _clear_live(obj, info):
         return
     h.data.vertices.foreach_set("co", np.zeros(3 * len(h.data.vertices), dtype=np.float32))
     h.data.update()
-    _last_pose[key] = b"edited"
-    print(f"dgmesh skeletal: {obj.name!r} was edited since it was bound (vertex count or positions): "
-          "shown undeformed; unbind and bind it again")
+    _last_pose[key] = why
+    print(f"dgmesh skeletal: {obj.name!r} {note}")
 
 
 def shown_undeformed(obj):
@@ -392,12 +403,15 @@ def update_object(obj, force=False, depsgraph=None):
         return False
     arm = _armature(obj, info)
     if arm is None:
+        _clear_live(obj, info, b"no armature", "its armature is gone: shown at rest (Skeletal Unbind restores "
+                    "its modifiers)")
         return False
     names = list(info["bones"])
     if any(n not in arm.pose.bones for n in names):
         return False
     if _edited(obj, info):
-        _clear_live(obj, info)
+        _clear_live(obj, info, b"edited", "was edited since it was bound (vertex count or positions): shown "
+                    "undeformed; Skeletal Rebind binds it again")
         return False
     space = _space(info)
     bind = info.get("bind_to_mesh")
@@ -749,6 +763,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         }
         if space is not None:
             obj[PROP]["space"] = [float(x) for x in space.ravel()]
+        obj[ARM_PTR] = arm
         _rigs[bid] = rig
         _purge_orphans()
         update_object(obj, force=True)
@@ -809,9 +824,13 @@ def unbind(obj, enable_armature=True):
         if me.users == 0:
             bpy.data.meshes.remove(me)
     del obj[PROP]
+    if ARM_PTR in obj.keys():
+        del obj[ARM_PTR]
     tag = info.get("armature_tag")
-    if arm is not None and tag and not any(is_bound(o) and o[PROP].get("armature_tag") == tag for o in bpy.data.objects):
-        del arm[ARM_TAG]  # the last binding to this armature
+    if tag and not any(is_bound(o) and o[PROP].get("armature_tag") == tag for o in bpy.data.objects):
+        for a in bpy.data.objects:  # the last binding to this armature (and its copies, Shift+D)
+            if a.type == 'ARMATURE' and a.get(ARM_TAG) == tag:
+                del a[ARM_TAG]
     if not any(is_bound(o) and o[PROP]["id"] == info["id"] for o in bpy.data.objects):
         _rigs.pop(info["id"], None)  # no duplicate left using this bind data
 
