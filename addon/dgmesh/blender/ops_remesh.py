@@ -278,8 +278,10 @@ def _island_corners(V, F, C, r):
     corner values jump across an edge (a UV seam: the islands on either side), an output triangle
     whose corners lie on different islands takes all three from one island, its home (the island of
     two of its corners, else the first's): a corner elsewhere gets the home triangle's affine map
-    extended to its position. Blending each corner in its own island gave such triangles corners
-    on both islands (a triangle stretched across the UV map)."""
+    extended to its position. So does a corner whose own value is farther from that extension than
+    the triangle's extent in the map (across a seam that ends inside the region, whose two sides
+    are one island). Blending each corner on its own side gave such triangles corners on both sides
+    of the seam (a triangle stretched across the UV map)."""
     nf = len(F)
     # Islands: triangles joined across edges whose two shared corners carry the same values.
     e_f = np.repeat(np.arange(nf), 3)
@@ -304,21 +306,25 @@ def _island_corners(V, F, C, r):
     val = (r.source_bary[T][..., None] * C[s]).sum(2)  # (m, 3, k): each corner in its own island
     isl = lab[s]
     home = np.where((isl[:, 1] == isl[:, 2]) & (isl[:, 0] != isl[:, 1]), s[:, 1], s[:, 0])
-    off = isl != lab[home][:, None]
-    if off.any():
-        t, j = np.nonzero(off)
-        h = home[t]
-        P = r.V[T[t, j]]
-        A, B, D = V[F[h, 0]], V[F[h, 1]], V[F[h, 2]]
-        # Barycentric coordinates of P's projection on the home triangle's plane (may be negative).
-        e0, e1, d = B - A, D - A, P - A
-        d00, d01, d11 = (e0 * e0).sum(1), (e0 * e1).sum(1), (e1 * e1).sum(1)
-        d20, d21 = (d * e0).sum(1), (d * e1).sum(1)
-        den = np.where(np.abs(d00 * d11 - d01 ** 2) > 0, d00 * d11 - d01 ** 2, 1.0)
-        wb = (d11 * d20 - d01 * d21) / den
-        wc = (d00 * d21 - d01 * d20) / den
-        w = np.stack([1 - wb - wc, wb, wc], 1)
-        val[t, j] = (w[..., None] * C[h]).sum(1)
+    # Every corner through the home triangle's affine map (barycentric coordinates of its position
+    # projected on that triangle's plane, possibly negative).
+    h = np.repeat(home, 3)
+    P = r.V[T.ravel()]
+    A, B, D = V[F[h, 0]], V[F[h, 1]], V[F[h, 2]]
+    e0, e1, d = B - A, D - A, P - A
+    d00, d01, d11 = (e0 * e0).sum(1), (e0 * e1).sum(1), (e1 * e1).sum(1)
+    d20, d21 = (d * e0).sum(1), (d * e1).sum(1)
+    det = d00 * d11 - d01 ** 2
+    den = np.where(np.abs(det) > 0, det, 1.0)
+    wb = (d11 * d20 - d01 * d21) / den
+    wc = (d00 * d21 - d01 * d20) / den
+    ext = (np.stack([1 - wb - wc, wb, wc], 1)[..., None] * C[h]).sum(1).reshape(val.shape)
+    # Another island, or (a seam that ends inside the region joins its sides into one island) a
+    # jump larger than the triangle's own extent in the map: the corner is across a seam.
+    size = np.linalg.norm(ext[:, [0, 1, 2]] - ext[:, [1, 2, 0]], axis=2).max(1, keepdims=True)
+    jump = np.linalg.norm(val - ext, axis=2) > size + 1e-12
+    off = (isl != lab[home][:, None]) | jump
+    val[off] = ext[off]
     return val
 
 
