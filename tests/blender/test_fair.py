@@ -450,3 +450,57 @@ def test_a_mirrored_half_is_regularized_across_the_plane():
     assert np.abs(V[seam] - H0[seam]).max() > 1e-3
     on = V[:, 0] ** 2 + V[:, 1] ** 2 / 4 + V[:, 2] ** 2  # 1 on the ellipsoid (chords: a bit less)
     assert np.abs(on - 1).max() < 0.02
+
+
+@pytest.mark.parametrize("subdivisions", [0, 1])
+def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisions):
+    """The hole workflow on a Mirror half, next to the plane: in the half the hole is a notch whose
+    fill (F) closes along the plane. Refine Fill (on by itself) and Subdivisions work on both halves
+    welded, so the patch stays on the sphere and meets its mirror image without a crease. (Refine Fill
+    had made the half be faired alone, its rim fixed: a dent and a 25-29 degree crease at the plane.)"""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=R)
+    obj = bpy.context.object
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    obj.modifiers.new("Mirror", 'MIRROR')
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = False
+    for e in bm.edges:
+        e.select = False
+    for f in bm.faces:
+        c = f.calc_center_median()
+        f.select = c.x < 0.45 and abs(c.z) < 0.45 and c.y > 0
+    bm.select_flush_mode()
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.delete(type='FACE')
+    bm = bmesh.from_edit_mesh(obj.data)
+    for v in bm.verts:
+        v.select = False
+    for e in bm.edges:
+        e.select = False
+    for e in [e for e in bm.edges if e.is_boundary and not all(abs(v.co.x) < 1e-6 for v in e.verts)]:
+        e.select = True
+    bm.select_flush_mode()
+    bmesh.update_edit_mesh(obj.data)
+    bpy.ops.mesh.edge_face_add()  # F: one n-gon closing along the plane
+    bpy.ops.object.mode_set(mode='OBJECT')
+    n0 = len(obj.data.vertices)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, subdivisions=subdivisions) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    me = obj.data
+    V = _positions(me)
+    assert len(V) > n0 and V[:, 0].min() > -1e-6
+    r = np.linalg.norm(V, axis=1)
+    assert np.abs(r - 1).max() < 0.02
+    # The crease with the mirror image: twice the angle of a seam face's normal to the plane.
+    crease = max(np.degrees(2 * np.arcsin(min(1.0, abs(p.normal[0])))) for p in me.polygons
+                 if sum(abs(V[i, 0]) < 1e-5 for i in p.vertices) >= 2)
+    assert crease < 12

@@ -15,7 +15,7 @@ corner data.
 
 A half modelled with a Mirror modifier (first in the stack, Merge on) is faired or regularized as
 the whole it shows: both halves welded at the plane, the base half's part written back with its
-seam on the plane (not with Subdivisions or Refine Fill, which fair the base mesh as it is).
+seam on the plane (also with Refine Fill and Subdivisions: a hole at the seam blends across it).
 
 Nothing is written before the native run ends: errors and Esc leave the mesh untouched.
 """
@@ -28,6 +28,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
+from ..fair import refine_region
 from . import bridge
 from .common import poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
@@ -111,10 +112,47 @@ def _mirrored(V, F, masks, axes):
     return V, F, (vmask, fmask)
 
 
-def _on_planes(V, V0, axes):
-    """Vertices of the base mesh that were on a mirror plane stay exactly there (Clipping)."""
+def _split_seam_edges(V, F, region, axes):
+    """Edges of the region lying on a mirror plane that the half alone holds (a hole next to the
+    plane, filled: its closing edge runs along the plane) split into pieces as long as the region's
+    other border edges, their triangles into fans. In the welded whole such an edge is inside the
+    patch, and the refinement, which never splits the region's border, would keep it whole (a
+    crease along the plane). Returns (V, F, region, face_origin); new vertices and rows follow."""
+    key = np.sort(np.stack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], 1).reshape(-1, 2), axis=1)
+    uniq, count = np.unique(key, axis=0, return_counts=True)
+    boundary = {tuple(e) for e in uniq[count == 1].tolist()}
+    on = np.zeros(len(V), bool)
     for k, tol in axes:
-        seam = np.abs(V0[:, k]) <= tol
+        on |= np.abs(V[:, k]) <= tol
+    border = [tuple(e) for e in key.reshape(-1, 3, 2)[region].reshape(-1, 2).tolist()]
+    other = [e for e in border if not (on[e[0]] and on[e[1]])]
+    if not other:
+        return V, F, region, np.arange(len(F))
+    h = float(np.mean([np.linalg.norm(V[a] - V[b]) for a, b in other]))
+    V, rows, origin, reg = list(V), list(F.tolist()), list(range(len(F))), list(region)
+    for f in np.flatnonzero(region):
+        a, b, c = rows[f]
+        for (u, v, w) in ((a, b, c), (b, c, a), (c, a, b)):
+            if not (on[u] and on[v] and (min(u, v), max(u, v)) in boundary):
+                continue
+            pieces = int(round(np.linalg.norm(V[u] - V[v]) / h))
+            if pieces < 2:
+                break
+            ids = [u] + [len(V) + i for i in range(pieces - 1)] + [v]
+            V += [V[u] + (V[v] - V[u]) * (i / pieces) for i in range(1, pieces)]
+            fan = [[ids[i], ids[i + 1], w] for i in range(pieces)]
+            rows[f] = fan[0]
+            rows += fan[1:]
+            origin += [f] * (pieces - 1)
+            reg += [True] * (pieces - 1)
+            break  # a fill triangle has at most one edge along the plane worth splitting
+    return np.array(V), np.array(rows, dtype=F.dtype), np.array(reg, bool), np.array(origin)
+
+
+def _on_planes(V, V0, axes):
+    """Vertices of the base mesh (V's first rows) that were on a mirror plane stay exactly there."""
+    for k, tol in axes:
+        seam = np.flatnonzero(np.abs(V0[:, k]) <= tol)
         V[seam, k] = V0[seam, k]
     return V
 
@@ -250,20 +288,45 @@ class _FairBase(NativeJobOperator):
     def _run_mirrored(self, t, progress):
         """_run on the mesh the Mirror modifier shows (both halves welded), so the halves meet
         smoothly at the plane instead of the base half's rim being held fixed (flat into it); the
-        base half's part of the result. Not with Subdivisions or Refine Fill (new vertices on the
-        plane), where the base mesh is faired as it is."""
-        mirror = t.mirror if not (t.refine or getattr(self, "subdivisions", 0)) else []
-        m = _mirrored(t.arrays.V, t.arrays.F, (t.mask, t.faces), mirror) if mirror else None
+        base half's part of the result. Refine Fill refines the half first (the welded whole's
+        refinement would not be symmetric); Subdivisions split the welded whole, whose seam edges'
+        midpoints both halves share."""
+        V0, F0, n0 = t.arrays.V, t.arrays.F, len(t.arrays.V)
+        V1, F1, mask1, faces1, origin1 = V0, F0, t.mask, t.faces, None
+        if t.mirror and t.refine:
+            Vs, Fs, faces_s, origin_s = _split_seam_edges(V0, F0, t.faces, t.mirror)
+            V1, F1, origin1 = refine_region(Vs, Fs, faces_s)
+            mask1 = np.concatenate([t.mask, np.ones(len(V1) - n0, bool)])
+            faces1 = faces_s[origin1]
+            origin1 = origin_s[origin1]
+        m = _mirrored(V1, F1, (mask1, faces1), t.mirror) if t.mirror else None
         t.mirrored = m is not None
         if m is None:
-            return self._run(t, t.arrays.V, t.arrays.F, t.mask, t.faces, progress)
+            return self._run(t, V0, F0, t.mask, t.faces, t.refine, progress)
         V, F, (mask, faces) = m
-        r = self._run(t, V, F, mask, faces, progress)
-        n, V0 = len(t.arrays.V), t.arrays.V
+        r = self._run(t, V, F, mask, faces, False, progress)
+        n1, m1 = len(V1), len(F1)
         if isinstance(r, np.ndarray):  # Regularize: positions
-            return _on_planes(r[:n].copy(), V0, mirror)
-        return dataclasses.replace(r, vertices=_on_planes(r.vertices[:n].copy(), V0, mirror), faces=t.arrays.F,
-                                   face_origin=np.arange(len(t.arrays.F)), moved=r.moved[:n])
+            return _on_planes(r[:n1].copy(), V0, t.mirror)
+        # The half's faces: its rows (row f holds a child of input face f) and the extra children of
+        # its faces; its vertices: its own, then the new ones its faces use (never a mirror copy).
+        rows = np.flatnonzero(r.face_origin < m1)
+        Fh = r.faces[rows]
+        new = np.unique(Fh[Fh >= len(V)])
+        index = np.full(len(r.vertices), -1)
+        index[:n1] = np.arange(n1)
+        index[new] = n1 + np.arange(len(new))
+        Fh = index[Fh]
+        if (Fh < 0).any():  # cannot happen: the flow neither flips nor joins faces across the plane
+            raise api().MeshError("the mirrored result could not be split into its halves")
+        Vh = _on_planes(np.concatenate([r.vertices[:n1], r.vertices[new]]), V1, t.mirror)
+        size = float(np.ptp(V0, axis=0).max())
+        for k, _tol in t.mirror:  # a seam edge's midpoint is on the plane up to rounding
+            near = np.abs(Vh[n1:, k]) <= 1e-9 * size
+            Vh[n1:, k][near] = 0.0
+        origin = r.face_origin[rows] if origin1 is None else origin1[r.face_origin[rows]]
+        return dataclasses.replace(r, vertices=Vh, faces=Fh, face_origin=origin,
+                                   moved=np.concatenate([r.moved[:n1], r.moved[new]]))
 
 
 class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
@@ -325,12 +388,12 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             col.prop(self, "keep_border")
             col.prop(self, "refine")
 
-    def _run(self, t, V, F, mask, faces, progress):
+    def _run(self, t, V, F, mask, faces, refine, progress):
         return api().fair(
             V, F, method=self.method.lower(), mask=mask, faces=faces,
             boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
-            linear_start=self.linear_start, refine=t.refine, keep_size=self.keep_size, progress=progress)
+            linear_start=self.linear_start, refine=refine, keep_size=self.keep_size, progress=progress)
 
     def finish(self, context, targets):
         written, failures = [], []
@@ -531,7 +594,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         name="Keep Selection Border", default=False,
         description="Edit mode: vertices on the border of the selection stay fixed")
 
-    def _run(self, t, V, F, mask, faces, progress):
+    def _run(self, t, V, F, mask, faces, refine, progress):
         V = api().regularize(V, F, iterations=self.iterations, mask=mask,
                              boundary=self.boundary.lower(), step_scale=self.strength,
                              project=self.keep_on_surface, progress=progress)
