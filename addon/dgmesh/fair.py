@@ -113,10 +113,12 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         edge flips inside the region, until the patch's triangles match the border's edge
         lengths). For a coarse fill (Fill, a fan, a grid with few vertices); the region's border
         edges are never split, the new vertices move.
-    keep_size: "willmore" only: a connected component without fixed vertices (a closed object
-        faired whole) keeps its centroid and surface area. The energy is invariant under
-        similarities, so this changes neither the energy nor the shape, only where and how large
-        the result is (without it the flow also shrinks, grows or moves a closed object).
+    keep_size: "willmore" and "laplacian_of_h": a connected component without fixed vertices (a
+        closed object faired whole) keeps its centroid and surface area. Both flows are
+        scale-equivariant and the energy is invariant under similarities, so this changes neither
+        the energy nor the shape, only where and how large the result is (without it the flow also
+        shrinks, grows or moves a closed object). The bilaplacian flow shrinks a closed object
+        towards a point either way.
     progress: callable(fraction) -> bool/None; returning False cancels (raises Cancelled).
 
     Returns a :class:`FairResult`.

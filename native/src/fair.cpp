@@ -483,7 +483,7 @@ class Driver {
     free_comp_.assign(w.topo.n_components, 1);
     for (int v = 0; v < w.topo.n_vertices; ++v)
       if (movable_idx_[v] < 0) free_comp_[w.topo.component[v]] = 0;
-    keep_size_ = opt_.keep_size && opt_.method == FairMethod::Willmore &&
+    keep_size_ = opt_.keep_size && opt_.method != FairMethod::Bilaplacian &&
                  std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
     if (keep_size_) place_and_size(w.P, w.F, w.topo, comp_center_, comp_area_);
     if (opt_.method == FairMethod::Bilaplacian) return run_bilaplacian(w);
@@ -546,9 +546,11 @@ class Driver {
   }
   // keep_size: a component without fixed vertices goes back to its centroid and area after each
   // step. The discrete Willmore energy is invariant under similarities (cotangent weights and
-  // angle deficits are scale-free, H^2 A is too), and the flow is scale-equivariant (F ~ 1/L^3),
-  // so this changes neither the energy nor the shapes the flow goes through, only the size and
-  // place they are seen at: eight.off had shrunk to 0.59 of its area, elephant.off grown to 1.6.
+  // angle deficits are scale-free, H^2 A is too), and the Willmore and Laplacian-of-H flows are
+  // scale-equivariant (F ~ 1/L^3), so this changes neither the energy nor the shapes the flow goes
+  // through, only the size and place they are seen at: eight.off had shrunk to 0.59 of its area,
+  // elephant.off grown to 1.6. (Not for the bilaplacian flow: rescaled, its collapse towards a
+  // point would instead converge to its slowest mode, a needle or a disk.)
   void restore_place_and_size(Work& w) {
     if (!keep_size_) return;
     place_and_size(w.P, w.F, w.topo, cur_center_, cur_area_);

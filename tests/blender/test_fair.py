@@ -295,6 +295,18 @@ def test_object_mode_and_regularize():
     assert abs(sum(p.area for p in obj.data.polygons) / area0 - 1) > 0.02
 
 
+def test_bilaplacian_on_a_closed_object_says_why_it_kept_an_earlier_state(capsys):
+    """The bilaplacian flow shrinks a closed object towards a point: the operator keeps its
+    lowest-energy state and says so (it had said the flow could not lower the energy, while the
+    reported energy had fallen)."""
+    obj = _fresh_sphere(segments=24, rings=12)
+    obj.scale = (2.0, 1.0, 1.0)
+    bpy.ops.object.transform_apply(scale=True)
+    select("Ball")
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, method='BILAPLACIAN') == {'FINISHED'}
+    assert "shrinks a closed part towards a point" in capsys.readouterr().out
+
+
 def test_errors_leave_the_mesh_untouched():
     obj = _fresh_sphere()
     bpy.ops.object.mode_set(mode='EDIT')

@@ -356,8 +356,8 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         description="Add the tangential drift that keeps triangles regular (thesis eq. 3.8)")
     keep_size: BoolProperty(
         name="Keep Size", default=True,
-        description="Willmore: a closed part faired whole keeps its place and surface area (the "
-        "bending energy does not depend on them, so only the shape changes)")
+        description="Willmore, Laplacian of H: a closed part faired whole keeps its place and surface area "
+        "(the bending energy does not depend on them, so only the shape changes)")
     keep_border: BoolProperty(
         name="Keep Selection Border", default=True,
         description="Edit mode: vertices on the border of the selection stay fixed")
@@ -382,7 +382,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential",
                   "linear_start"):
             col.prop(self, p)
-        if self.method == 'WILLMORE':
+        if self.method != 'BILAPLACIAN':
             col.prop(self, "keep_size")
         if context.mode == 'EDIT_MESH':
             col.prop(self, "keep_border")
@@ -420,10 +420,14 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             e0, e1 = float(r.energy[0]), float(r.energy[-1])
             n = len(t.arrays.V)
             moved = _moved_count(r.vertices[:n], t.arrays.V)
-            if r.energy_rose:
+            if r.energy_rose and self.method == 'BILAPLACIAN':
                 level = 'WARNING'
-                status = (" (the flow could not lower the bending energy and kept its lowest-energy state: already "
-                          "faired, or slivers / fan-triangulated n-gons? Triangulate with Beauty or Regularize first)")
+                status = (" (the bilaplacian flow shrinks a closed part towards a point: its lowest-energy state "
+                          "was kept; use Willmore to fair closed parts)")
+            elif r.energy_rose:
+                level = 'WARNING'
+                status = (" (the flow raised the bending energy and kept its lowest-energy state: already faired, "
+                          "or slivers / fan-triangulated n-gons? Triangulate with Beauty or Regularize first)")
             elif r.converged:
                 status = ""
             elif r.level_iterations and r.level_iterations[-1] >= self.max_iterations:

@@ -59,9 +59,9 @@ struct FairOptions {
   // fill (Blender's Fill, a fan, an n-gon) gets triangles sized like the mesh around the hole.
   // The new vertices move; the region's border edges are never split.
   bool refine = false;
-  // Willmore: a connected component without fixed vertices (a closed object faired whole) keeps
-  // its centroid and area. The energy is invariant under similarities, so this only keeps the
-  // flow from also moving and resizing the object.
+  // Willmore and Laplacian of H: a connected component without fixed vertices (a closed object
+  // faired whole) keeps its centroid and area. Both flows are scale-equivariant, so this only keeps
+  // them from also moving and resizing the object.
   bool keep_size = true;
 };
 
