@@ -886,3 +886,29 @@ def test_deleting_the_armature_shows_the_mesh_at_rest():
     obj = bpy.data.objects["Capsule"]
     bpy.context.view_layer.update()
     assert np.abs(_evaluated_co(obj) - V).max() > 1.0
+
+
+def test_live_modifier_moved_below_a_subdivision_shows_the_mesh_undeformed():
+    """The offsets are per vertex of the base mesh: below a Subdivision Surface they scrambled the
+    mesh. The live modifier now leaves a geometry with another point count as it is, and the
+    sidebar panel asks to move it back to the top."""
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    sub = obj.modifiers.new("Sub", 'SUBSURF')
+    sub.levels = 1
+    rest = _evaluated_co(obj)
+    assert not ops_skeletal.live_modifier_misplaced(obj)
+    ops_skeletal._move_to(obj, sub, 0)
+    assert ops_skeletal.live_modifier_misplaced(obj)
+    bpy.context.view_layer.update()
+    below = _evaluated_co(obj)
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    assert len(X) > len(V) and np.abs(X - below).max() < 1e-6  # not scrambled: undeformed
+    ops_skeletal._move_to(obj, obj.modifiers["dg_skeletal"], 0)
+    bpy.context.view_layer.update()
+    X = _evaluated_co(obj)
+    tip = np.argmax(rest[:, 0])
+    assert abs(X[tip, 0]) < 0.1 and abs(X[tip, 1] - 3.5) < 0.1  # posed again, then subdivided

@@ -527,7 +527,10 @@ def _enabled(sockets, name, kind='VECTOR'):
 
 
 def _helper_node_group(helper):
-    """Set Position (Offset = Sample Index(Object Info(helper, Original).Geometry, Position, Index))."""
+    """Set Position (Offset = Sample Index(Object Info(helper, Original).Geometry, Position, Index)),
+    on all points only when the geometry has as many points as the helper: moved below a modifier
+    that changes the vertices (a Subdivision Surface), the offsets would scramble the mesh (Blender's
+    Armature modifier keeps working there; ours shows the mesh undeformed and the panel says why)."""
     ng, sp = _set_position_group()
     nodes = ng.nodes
     oi = nodes.new('GeometryNodeObjectInfo')
@@ -541,8 +544,30 @@ def _helper_node_group(helper):
     ng.links.new(pos.outputs[0], _enabled(si.inputs, "Value"))
     ng.links.new(idx.outputs[0], si.inputs["Index"])
     ng.links.new(_enabled(si.outputs, "Value"), sp.inputs["Offset"])
+    gi = next(n for n in nodes if n.type == 'GROUP_INPUT')
+    size_in, size_helper = nodes.new('GeometryNodeAttributeDomainSize'), nodes.new('GeometryNodeAttributeDomainSize')
+    same = nodes.new('FunctionNodeCompare')
+    same.data_type, same.operation = 'INT', 'EQUAL'
+    ng.links.new(gi.outputs[0], size_in.inputs["Geometry"])
+    ng.links.new(oi.outputs["Geometry"], size_helper.inputs["Geometry"])
+    ng.links.new(size_in.outputs["Point Count"], _enabled(same.inputs, "A", 'INT'))
+    ng.links.new(size_helper.outputs["Point Count"], _enabled(same.inputs, "B", 'INT'))
+    ng.links.new(same.outputs[0], sp.inputs["Selection"])
     oi.location, pos.location, idx.location, si.location = (-650, -150), (-650, -350), (-650, -450), (-400, -150)
+    size_in.location, size_helper.location, same.location = (-650, 200), (-650, 50), (-400, 150)
     return ng
+
+
+def live_modifier_misplaced(obj):
+    """Whether a bound object's live modifier comes after another modifier shown (its offsets are
+    per vertex of the base mesh: the sidebar panel asks to move it back to the top)."""
+    if not is_bound(obj) or _target(obj[PROP]) != "HELPER":
+        return False
+    mod = _live_modifier(obj, obj[PROP])
+    if mod is None:
+        return False
+    shown = [m for m in obj.modifiers if m.show_viewport or m == mod]
+    return shown[0] != mod
 
 
 def _remove_object(o):

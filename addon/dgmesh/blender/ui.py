@@ -48,6 +48,8 @@ class DGMESH_PT_main(bpy.types.Panel):
         _draw_operators(col)
         from . import ops_skeletal
         for obj in context.scene.objects:
+            if ops_skeletal.live_modifier_misplaced(obj):
+                layout.label(text=f"{obj.name}: move dg_skeletal to the top of the modifiers", icon='ERROR')
             if ops_skeletal.shown_undeformed(obj):
                 layout.label(text=f"{obj.name}: edited since bound, rebind it", icon='ERROR')
                 layout.operator("dgmesh.skeletal_rebind", icon='FILE_REFRESH').object_name = obj.name
