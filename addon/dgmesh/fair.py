@@ -112,7 +112,8 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         filling (split triangles larger than the mesh around the hole at their centroid, Delaunay
         edge flips inside the region, until the patch's triangles match the border's edge
         lengths). For a coarse fill (Fill, a fan, a grid with few vertices); the region's border
-        edges are never split, the new vertices move.
+        edges are never split, the new vertices move. A fill already as fine as the mesh around it
+        (a small hole) is subdivided once instead, when ``subdivisions`` is 0.
     keep_size: "willmore" and "laplacian_of_h": a connected component without fixed vertices (a
         closed object faired whole) keeps its centroid and surface area. Both flows are
         scale-equivariant and the energy is invariant under similarities, so this changes neither

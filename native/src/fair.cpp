@@ -1585,7 +1585,12 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
     w.topo = validated_topology(w, whole);
     w.movable.resize(w.topo.n_vertices, 1);
   }
-  for (int level = 0; level <= opt.subdivisions; ++level) {
+  // A fill already as fine as the mesh around it (a small hole closed by one n-gon) gets no vertex
+  // from the refinement: one 1-to-4 subdivision gives it some to move.
+  int levels = opt.subdivisions;
+  if (opt.refine && !whole && levels == 0 && std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; }))
+    levels = 1;
+  for (int level = 0; level <= levels; ++level) {
     if (level > 0) {
       RegionSubdivision rs = subdivide_region(w.P, w.F, w.region);
       const int nold = w.topo.n_vertices;
@@ -1610,14 +1615,14 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
       res.level_iterations.push_back(0);
       continue;
     }
-    const LevelReport rep = driver.run(w, level, opt.subdivisions);
+    const LevelReport rep = driver.run(w, level, levels);
     res.level_iterations.push_back(rep.iterations);
     res.iterations += rep.iterations;
     res.converged = rep.converged;
     res.lambda = rep.lambda;
     res.linear_start = res.linear_start || rep.linear_start;
     res.energy_rose = res.energy_rose || rep.energy_rose;
-    if (opt.max_seconds > 0 && clock.seconds() > opt.max_seconds && level < opt.subdivisions) {
+    if (opt.max_seconds > 0 && clock.seconds() > opt.max_seconds && level < levels) {
       // Out of time: still refine (so the output has the requested resolution), without flow.
       continue;
     }

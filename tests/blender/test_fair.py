@@ -408,6 +408,16 @@ def test_vertices_only_selection_explains_what_to_select():
     bpy.ops.object.mode_set(mode='EDIT')
     with pytest.raises(RuntimeError, match="select the faces"):
         bpy.ops.dgmesh.fair('EXEC_DEFAULT')
+    # Only a loose vertex selected (left by a failed Grid Fill, say): it had said "mesh is empty".
+    bpy.ops.mesh.select_all(action='DESELECT')
+    bpy.ops.object.mode_set(mode='OBJECT')
+    obj.data.vertices.add(1)
+    obj.data.vertices[-1].co = (3.0, 0.0, 0.0)
+    obj.data.vertices[-1].select = True
+    bpy.ops.object.mode_set(mode='EDIT')
+    for op in (bpy.ops.dgmesh.fair, bpy.ops.dgmesh.regularize):
+        with pytest.raises(RuntimeError, match="in no face"):
+            op('EXEC_DEFAULT')
 
 
 def _mirrored_half_ellipsoid():
@@ -516,3 +526,24 @@ def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisi
     crease = max(np.degrees(2 * np.arcsin(min(1.0, abs(p.normal[0])))) for p in me.polygons
                  if sum(abs(V[i, 0]) < 1e-5 for i in p.vertices) >= 2)
     assert crease < 12
+
+
+def test_a_small_hole_filled_with_one_ngon_is_faired_with_the_defaults():
+    """Deleting one vertex of a sphere (its 4 quads) and F leaves an n-gon already as fine as the mesh:
+    Refine Fill adds no vertex there, so the fill is subdivided once and faired (it had failed with
+    'nothing to fair')."""
+    obj = _fresh_sphere()
+    V0 = _positions(obj.data)
+    k = int(np.argmin(np.abs(V0[:, 2]) + np.abs(V0[:, 1]) + (V0[:, 0] < 0)))  # a vertex on the equator
+    target = V0[k].copy()
+    _cut(obj, lambda co: bool((np.array(co) - target).dot(np.array(co) - target) < 1e-10))
+    bpy.ops.mesh.edge_face_add()
+    bpy.ops.object.mode_set(mode='OBJECT')
+    n = len(obj.data.vertices)
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    V = _positions(obj.data)
+    assert len(V) > n
+    r = np.linalg.norm(V[n:], axis=1)
+    assert np.abs(r - R).max() < 0.003 * R  # on the sphere, not left flat (a chord's midpoint: ~0.02 in)

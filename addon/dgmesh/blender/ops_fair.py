@@ -177,6 +177,11 @@ def _read_target(obj, edit_mode, keep_border):
     vsel = _flags(mesh.vertices)
     if not vsel.any():
         return None
+    in_face = np.zeros(len(vsel), dtype=bool)
+    in_face[arrays.F.ravel()] = True
+    if not (vsel & in_face).any():
+        raise dg.MeshError("the selected vertices are in no face (loose vertices or wire edges): select the faces "
+                           "to fair")
     psel = _flags(mesh.polygons)
     tri_sel = psel[arrays.tri_poly]
     movable = vsel.copy()
@@ -304,7 +309,10 @@ class _FairBase(NativeJobOperator):
         if m is None:
             return self._run(t, V0, F0, t.mask, t.faces, t.refine, progress)
         V, F, (mask, faces) = m
-        r = self._run(t, V, F, mask, faces, False, progress)
+        # As the native Refine Fill does: a fill the refinement left without vertices to move is
+        # subdivided once.
+        levels = 1 if t.refine and not mask.any() else None
+        r = self._run(t, V, F, mask, faces, False, progress, levels)
         n1, m1 = len(V1), len(F1)
         if isinstance(r, np.ndarray):  # Regularize: positions
             return _on_planes(r[:n1].copy(), V0, t.mirror)
@@ -388,10 +396,10 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             col.prop(self, "keep_border")
             col.prop(self, "refine")
 
-    def _run(self, t, V, F, mask, faces, refine, progress):
+    def _run(self, t, V, F, mask, faces, refine, progress, levels=None):
         return api().fair(
             V, F, method=self.method.lower(), mask=mask, faces=faces,
-            boundary=self.boundary.lower(), subdivisions=self.subdivisions, tolerance=self.tolerance,
+            boundary=self.boundary.lower(), subdivisions=max(self.subdivisions, levels or 0), tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
             linear_start=self.linear_start, refine=refine, keep_size=self.keep_size, progress=progress)
 
@@ -598,7 +606,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         name="Keep Selection Border", default=False,
         description="Edit mode: vertices on the border of the selection stay fixed")
 
-    def _run(self, t, V, F, mask, faces, refine, progress):
+    def _run(self, t, V, F, mask, faces, refine, progress, levels=None):
         V = api().regularize(V, F, iterations=self.iterations, mask=mask,
                              boundary=self.boundary.lower(), step_scale=self.strength,
                              project=self.keep_on_surface, progress=progress)

@@ -57,7 +57,8 @@ struct FairOptions {
   bool linear_start = true;
   // Before the flow, refine the region like Liepa's hole filling (see refine_region): a coarse
   // fill (Blender's Fill, a fan, an n-gon) gets triangles sized like the mesh around the hole.
-  // The new vertices move; the region's border edges are never split.
+  // The new vertices move; the region's border edges are never split. A fill that gets no new
+  // vertex (already as fine as the mesh around it) is subdivided once when subdivisions is 0.
   bool refine = false;
   // Willmore and Laplacian of H: a connected component without fixed vertices (a closed object
   // faired whole) keeps its centroid and area. Both flows are scale-equivariant, so this only keeps
