@@ -124,11 +124,12 @@ def _split_seam_edges(V, F, region, axes):
     on = np.zeros(len(V), bool)
     for k, tol in axes:
         on |= np.abs(V[:, k]) <= tol
-    border = [tuple(e) for e in key.reshape(-1, 3, 2)[region].reshape(-1, 2).tolist()]
-    other = [e for e in border if not (on[e[0]] and on[e[1]])]
-    if not other:
+    # The region's border: edges of one region face only (the fill's diagonals are longer).
+    rkey, rcount = np.unique(key.reshape(-1, 3, 2)[region].reshape(-1, 2), axis=0, return_counts=True)
+    other = rkey[(rcount == 1) & ~(on[rkey[:, 0]] & on[rkey[:, 1]])]
+    if not len(other):
         return V, F, region, np.arange(len(F))
-    h = float(np.mean([np.linalg.norm(V[a] - V[b]) for a, b in other]))
+    h = float(np.linalg.norm(V[other[:, 0]] - V[other[:, 1]], axis=1).mean())
     V, rows, origin, reg = list(V), list(F.tolist()), list(range(len(F))), list(region)
     for f in np.flatnonzero(region):
         a, b, c = rows[f]
