@@ -420,6 +420,17 @@ def test_vertices_only_selection_explains_what_to_select():
             op('EXEC_DEFAULT')
 
 
+def _keep_mirror_half(obj):
+    """Deletes the x < 0 half and adds a Mirror modifier (X, Merge on), as a user models a half."""
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    obj.modifiers.new("Mirror", 'MIRROR')
+
+
 def _mirrored_half_ellipsoid():
     """The x >= 0 half of a 1:2:1 ellipsoid (UV sphere) with a Mirror modifier (X, Merge on)."""
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -428,13 +439,7 @@ def _mirrored_half_ellipsoid():
     obj.name = "Half"
     obj.scale = (1.0, 2.0, 1.0)
     bpy.ops.object.transform_apply(scale=True)
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.data.update()
-    obj.modifiers.new("Mirror", 'MIRROR')
+    _keep_mirror_half(obj)
     return obj, _positions(obj.data)
 
 
@@ -483,13 +488,7 @@ def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisi
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=R)
     obj = bpy.context.object
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.data.update()
-    obj.modifiers.new("Mirror", 'MIRROR')
+    _keep_mirror_half(obj)
     bpy.ops.object.mode_set(mode='EDIT')
     bm = bmesh.from_edit_mesh(obj.data)
     for v in bm.verts:

@@ -860,6 +860,12 @@ def unbind(obj, enable_armature=True):
         _rigs.pop(info["id"], None)  # no duplicate left using this bind data
 
 
+def _poll_object_mode(cls, context):
+    if context.mode != 'OBJECT':
+        return _poll_fail(cls, "Only available in Object mode")
+    return True
+
+
 class DGMESH_OT_skeletal_rebind(bpy.types.Operator):
     """Bind the active mesh again to its armature with the same settings: after editing the mesh or \
 painting its weights (the binding keeps what it read at bind)"""
@@ -873,9 +879,7 @@ painting its weights (the binding keeps what it read at bind)"""
 
     @classmethod
     def poll(cls, context):
-        if context.mode != 'OBJECT':
-            return _poll_fail(cls, "Only available in Object mode")
-        return True
+        return _poll_object_mode(cls, context)
 
     def execute(self, context):
         obj = bpy.data.objects.get(self.object_name) if self.object_name else context.active_object
@@ -913,9 +917,7 @@ object and the stored data; the Armature modifiers are restored"""
 
     @classmethod
     def poll(cls, context):
-        if context.mode != 'OBJECT':
-            return _poll_fail(cls, "Only available in Object mode")
-        return True
+        return _poll_object_mode(cls, context)
 
     def execute(self, context):
         obj = context.active_object
