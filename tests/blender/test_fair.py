@@ -546,3 +546,16 @@ def test_a_small_hole_filled_with_one_ngon_is_faired_with_the_defaults():
     assert len(V) > n
     r = np.linalg.norm(V[n:], axis=1)
     assert np.abs(r - R).max() < 0.003 * R  # on the sphere, not left flat (a chord's midpoint: ~0.02 in)
+
+
+def test_the_report_says_why_a_mirror_was_not_used(capsys):
+    """Bisect on (or a mirror object, Merge off, another modifier first): the base half is faired as
+    it is, and the report says why the Mirror was not used."""
+    obj, H0 = _mirrored_half_ellipsoid()
+    obj.modifiers["Mirror"].use_bisect_axis[0] = True
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    assert "the Mirror is not used: Bisect is on" in capsys.readouterr().out
+    obj.modifiers["Mirror"].use_bisect_axis[0] = False
+    obj.modifiers["Mirror"].use_mirror_merge = False
+    assert bpy.ops.dgmesh.regularize('EXEC_DEFAULT', True, iterations=5) == {'FINISHED'}
+    assert "the Mirror is not used: Merge is off" in capsys.readouterr().out

@@ -65,20 +65,25 @@ class _Target:
         self.mask = mask  # movable vertices or None
         self.faces = faces  # region triangles or None
         self.refine = False  # Refine Fill for this object (asked for, or a fill without inner vertices)
-        self.mirror = _mirror_axes(obj, arrays.V)  # [(axis, merge distance)] of a Mirror modifier, or []
+        # [(axis, merge distance)] of a Mirror modifier, or [] and why it is not used
+        self.mirror, self.mirror_unused = _mirror_axes(obj, arrays.V)
         self.result = None
 
 
 def _mirror_axes(obj, V):
     """The axes of a Mirror modifier that closes the base mesh into what the user sees: the first
     modifier shown, mirroring in the object's own space (no mirror object) with Merge on, without
-    Bisect, the mesh on one side of each plane. [] otherwise (the base mesh is faired as it is)."""
+    Bisect, the mesh on one side of each plane. ([(axis, merge distance)], None), or ([], why not)
+    (the base mesh is faired as it is; '' without a Mirror)."""
     mods = [m for m in obj.modifiers if m.show_viewport]
-    if not mods or mods[0].type != 'MIRROR':
-        return []
-    m = mods[0]
-    if m.mirror_object is not None or not m.use_mirror_merge or any(m.use_bisect_axis):
-        return []
+    mirrors = [m for m in mods if m.type == 'MIRROR']
+    if not mirrors:
+        return [], ""
+    m = mirrors[0]
+    why = ("it is not the first modifier" if mods[0] != m else "it has a mirror object" if m.mirror_object
+           else "Merge is off" if not m.use_mirror_merge else "Bisect is on" if any(m.use_bisect_axis) else None)
+    if why:
+        return [], why
     axes = []
     for k in range(3):
         if not m.use_axis[k]:
@@ -86,9 +91,9 @@ def _mirror_axes(obj, V):
         x = V[:, k]
         tol = 0.5 * m.merge_threshold  # Blender merges a vertex with its mirror image within the threshold
         if not ((x >= -tol).all() or (x <= tol).all()):
-            return []
+            return [], "the mesh is on both sides of its plane"
         axes.append((k, tol))
-    return axes
+    return axes, None
 
 
 def _mirrored(V, F, masks, axes):
@@ -467,7 +472,11 @@ def _modifier_note(t):
     names = [m.type.title().replace("_", " ") for m in t.obj.modifiers if m.show_viewport]
     if getattr(t, "mirrored", False):
         return " (both halves of its Mirror" + (f"; before {', '.join(names[1:4])})" if names[1:] else ")")
-    return f" (its base mesh, before {', '.join(names[:3])})" if names else ""
+    why = getattr(t, "mirror_unused", "")
+    if why is None:  # usable, but not used: a fill face lies in the plane
+        why = "a face lies in its plane"
+    return (f" (its base mesh, before {', '.join(names[:3])}" + (f"; the Mirror is not used: {why}" if why else "")
+            + ")") if names else ""
 
 
 def _corner_layers(bm):
