@@ -19,7 +19,7 @@ from typing import List
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import Error, MeshError, _native, as_faces, as_vertices
 
 __all__ = ["RemeshResult", "remesh", "remesh_full", "point_mesh_distance", "MODES"]
 
@@ -116,12 +116,26 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         raise MeshError(f"target_vertices must be an integer, got {target_vertices!r}")
     if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
         raise MeshError(f"resolution must be an integer, got {resolution!r}")
-    r = _native.remesh(V, F, int(target_vertices), adaptivity=float(adaptivity), resolution=int(resolution),
-                       mode=mode, boundary=boundary, domain=domain,
-                       boundary_clearance=float(boundary_clearance), flip_3d=bool(flip_3d),
-                       eta=float(eta), uopt_steps=int(uopt_steps), lloyd_iterations=int(lloyd_iterations),
-                       relax_metric=str(relax_metric), min_separation=float(min_separation),
-                       smooth_iterations=int(smooth_iterations), progress=progress)
+    def run(clearance):
+        return _native.remesh(V, F, int(target_vertices), adaptivity=float(adaptivity), resolution=int(resolution),
+                              mode=mode, boundary=boundary, domain=domain,
+                              boundary_clearance=float(clearance), flip_3d=bool(flip_3d),
+                              eta=float(eta), uopt_steps=int(uopt_steps), lloyd_iterations=int(lloyd_iterations),
+                              relax_metric=str(relax_metric), min_separation=float(min_separation),
+                              smooth_iterations=int(smooth_iterations), progress=progress)
+
+    try:
+        r = run(boundary_clearance)
+        retried = None
+    except Error as exc:
+        # Lloyd steps can bring samples so close to the kept boundary that the Delaunay triangulation
+        # of the map no longer meets it (Add > Grid 60x60 at 30000 vertices on 256^2): once more with
+        # the boundary samples' full clearance.
+        if "triangulation is invalid" not in str(exc) or boundary_clearance >= 1.0:
+            raise
+        r = run(1.0)
+        retried = (f"boundary_clearance raised from {boundary_clearance:g} to 1 (the first triangulation did not "
+                   "meet the boundary)")
     return RemeshResult(
         V=np.asarray(r["V"]), F=np.asarray(r["F"]), n_boundary=int(r["n_boundary"]),
         boundary_source=np.asarray(r["boundary_source"], dtype=np.int64), uv=np.asarray(r["uv"]),
@@ -131,7 +145,7 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         sampling_rounds=int(r["sampling_rounds"]), smooth_moves=int(r["smooth_moves"]), n_removed=int(r["n_removed"]),
         seconds=dict(parameterize=r["seconds_parameterize"], sample=r["seconds_sample"],
                      relax=r["seconds_relax"], triangulate=r["seconds_triangulate"]),
-        warnings=list(r["warnings"]),
+        warnings=list(r["warnings"]) + ([retried] if retried else []),
         source_face=np.asarray(r["source_face"], dtype=np.int64), source_bary=np.asarray(r["source_bary"]))
 
 

@@ -341,3 +341,20 @@ def test_huge_coordinates_are_refused():
     V, F = polar_disk()
     with pytest.raises(dgmesh.MeshError, match="1e15"):
         dgmesh.remesh(V * 1e39, F, target_vertices=500)
+
+
+def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance():
+    """Blender's Add > Grid 60x60 (its diagonal pattern) at 30000 vertices on 256^2: the Lloyd steps
+    brought samples so close to the kept boundary that the map's Delaunay triangulation left a
+    non-manifold vertex there ('internal error'). The run is repeated with the boundary samples' full
+    clearance, and says so."""
+    n = 61
+    x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
+    V = np.stack([x.ravel(), y.ravel(), 0 * x.ravel()], 1)
+    i = (np.arange(n - 1)[None, :] + n * np.arange(n - 1)[:, None]).ravel()
+    F = np.stack([np.stack([i, i + 1, i + n + 1], 1), np.stack([i, i + n + 1, i + n], 1)], 1).reshape(-1, 3)
+    r = dgmesh.remesh_full(V, F, target_vertices=30000, resolution=256)
+    assert abs(len(r.V) - 30000) < 300
+    assert any("boundary_clearance raised" in w for w in r.warnings)
+    t = dgmesh.topology(r.V, r.F)
+    assert t["n_components"] == 1 and len(t["boundary_loops"]) == 1
