@@ -780,6 +780,15 @@ def test_renaming_removing_or_applying_the_live_modifier():
     assert m.show_viewport and m.show_render and m.object == arm
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
 
+    # Applied at rest: nothing was frozen (the offsets are rounding), the Armature modifier is back on.
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    bpy.context.view_layer.update()
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        assert bpy.ops.object.modifier_apply(modifier="dg_skeletal") == {'FINISHED'}
+    bpy.context.view_layer.update()
+    assert "dg_skeletal" not in obj.keys() and obj.modifiers["Armature"].show_viewport
+
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     _pose_lower(arm, math.pi / 2)

@@ -392,10 +392,19 @@ def update_object(obj, force=False, depsgraph=None):
     if _target(info) == "HELPER" and _live_modifier(obj, info) is None:
         # The user removed or applied the live modifier: nothing shows the binding any more, so it
         # goes (helper, skeleton, stored data), as with unbind. The Armature modifiers come back, but
-        # disabled when it was applied (the rest positions changed: the mesh holds the pose).
+        # disabled when it was applied in a pose (the rest positions changed by the helper's offsets:
+        # the mesh holds the pose; at rest the offsets are rounding and the positions barely move).
         if depsgraph is None or depsgraph.mode != 'RENDER':
-            applied = len(obj.data.vertices) != _rig(obj).n_vertices or _rest_hash(obj.data) != info.get(
-                "rest_hash", _rest_hash(obj.data))
+            h = _helper_of(obj, info)
+            co = np.empty(3 * len(obj.data.vertices), dtype=np.float32)
+            obj.data.vertices.foreach_get("co", co)
+            posed = True
+            if h is not None and len(h.data.vertices) and len(co):
+                off = np.empty(3 * len(h.data.vertices), dtype=np.float32)
+                h.data.vertices.foreach_get("co", off)
+                posed = float(np.abs(off).max()) > 1e-5 * float(np.ptp(co.reshape(-1, 3), axis=0).max())
+            applied = len(obj.data.vertices) != _rig(obj).n_vertices or (posed and _rest_hash(obj.data) != info.get(
+                "rest_hash", _rest_hash(obj.data)))
             unbind(obj, enable_armature=not applied)
             _purge_orphans()
             print(f"dgmesh skeletal: the live modifier of {obj.name!r} was "
