@@ -562,6 +562,13 @@ class Driver {
     }
   }
 
+  // Willmore energy of each component (over the energy set).
+  void component_energy(const Work& w, VecXd& e) const {
+    e = VecXd::Zero(w.topo.n_components);
+    for (int v = 0; v < w.topo.n_vertices; ++v)
+      if (w.energy_set[v]) e[w.topo.component[v]] += g_.H[v] * g_.H[v] * g_.A[v];
+  }
+
   // A component without fixed vertices may not drift: its energy is translation invariant, so
   // the exact gradient has no net translation, but the discrete speed F N sums to a small net
   // force, and the preconditioner leaves the translation mode (in L's null space) undamped, so the
@@ -857,7 +864,17 @@ class Driver {
     double e = energy_of(w, g_);
     e_mark_ = e;
     t_acc_ = 0;
-    Lowest lowest{e, e, w.P};
+    // The flow shrinks a component without fixed vertices towards a point: each such component's
+    // lowest-energy state is tracked on its own (an object may hold a closed part and an open one,
+    // whose falling energy hid the closed part's collapse in the total).
+    const bool any_free = std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
+    VecXd ec, e_start, e_best;
+    MatX3d P_best;
+    if (any_free) {
+      component_energy(w, e_start);
+      e_best = e_start;
+      P_best = w.P;
+    }
     const bool semi = opt_.scheme == FairScheme::SemiImplicit;
     double tau = semi ? 1.0 : 0.2 * opt_.step_scale;  // explicit: stable below 0.5
     SparseSolver solver;
@@ -904,7 +921,15 @@ class Driver {
         break;
       }
       e = e_new;
-      lowest.track(e, w.P);
+      if (any_free) {
+        component_energy(w, ec);
+        for (int v = 0; v < n; ++v) {
+          const int c = w.topo.component[v];
+          if (free_comp_[c] && ec[c] < e_best[c]) P_best.row(v) = w.P.row(v);
+        }
+        for (int c = 0; c < ec.size(); ++c)
+          if (free_comp_[c]) e_best[c] = std::min(e_best[c], ec[c]);
+      }
       energy_.push_back(e);
       ++it;
       const double dt = tau;
@@ -917,7 +942,23 @@ class Driver {
     // Only a component without fixed vertices collapses. With fixed vertices the flow converges to
     // its own steady state (U0^2 P = 0), whose Willmore energy may well exceed the start's: a tube's
     // band narrows into a neck, a removed protrusion's fill bulges back (closer to it than the fill).
-    if (std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end()) keep_lowest(w, e, lowest, rep);
+    if (any_free) {
+      component_energy(w, ec);
+      bool restored = false;
+      for (int v = 0; v < n; ++v) {
+        const int c = w.topo.component[v];
+        if (free_comp_[c] && ec[c] > e_start[c] * (1 + 10 * opt_.tolerance) + 1e-12) {
+          w.P.row(v) = P_best.row(v);
+          restored = true;
+        }
+      }
+      if (restored) {
+        compute_geometry(w.P, w.F, w.topo, g_);
+        energy_.push_back(energy_of(w, g_));
+        rep.energy_rose = true;
+        rep.converged = false;
+      }
+    }
     rep.iterations = it;
     return rep;
   }

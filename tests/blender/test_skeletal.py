@@ -875,10 +875,14 @@ def test_mesh_with_an_armature_modifier_duplicated_with_its_rig_follows_the_copy
     assert "dg_skeletal_rig" not in arm.keys() and "dg_skeletal_rig" not in arm2.keys()
 
 
-def test_deleting_the_armature_shows_the_mesh_at_rest():
+@pytest.mark.parametrize("parented", [False, True])
+def test_deleting_the_armature_shows_the_mesh_at_rest(parented):
     """As with an Armature modifier whose armature is deleted: the mesh goes back to rest (it had
-    stayed in the last pose); undoing the deletion brings the pose back."""
+    stayed in the last pose), and the deleted armature is freed, so a parented mesh loses its parent
+    as in plain Blender (the mesh's pointer had kept the rig alive as its parent); undoing the
+    deletion brings the pose back."""
     obj, arm, V = _scene()
+    obj.parent = arm if parented else None
     assert _bind() == {'FINISHED'}
     _pose_lower(arm, math.pi / 2)
     bpy.context.view_layer.update()
@@ -891,6 +895,9 @@ def test_deleting_the_armature_shows_the_mesh_at_rest():
     bpy.ops.ed.undo_push(message="deleted")
     bpy.context.view_layer.update()
     assert np.abs(_evaluated_co(obj) - V).max() < 1e-5
+    assert "Rig" not in bpy.data.objects and obj.parent is None
+    with pytest.raises(RuntimeError, match="is gone"):
+        bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name)
     bpy.ops.ed.undo()
     obj = bpy.data.objects["Capsule"]
     bpy.context.view_layer.update()

@@ -169,7 +169,7 @@ def _armature(obj, info):
     if tag is None:
         return arm if arm is not None and arm.type == 'ARMATURE' else None
     p = obj.parent
-    if p is not None and p.type == 'ARMATURE' and p.get(ARM_TAG) == tag:
+    if p is not None and p.type == 'ARMATURE' and p.users_scene and p.get(ARM_TAG) == tag:
         return p
     if arm is not None and arm.type == 'ARMATURE' and arm.get(ARM_TAG) == tag:
         return arm
@@ -177,6 +177,18 @@ def _armature(obj, info):
     found = [o for o in bpy.data.objects if o.type == 'ARMATURE' and o.users_scene and o.get(ARM_TAG) == tag
              and (data is None or o.data.name == data)]
     return found[0] if len(found) == 1 else None
+
+
+def _release_deleted_armature(obj):
+    """The armature pointer keeps a deleted armature alive (in no scene): let it go, and free the
+    armature once nothing else uses it, so Blender clears the links to it (the mesh's parent, an
+    Armature modifier's object) as when deleting an armature nothing points at. Undo restores both."""
+    ptr = obj.get(ARM_PTR)
+    if not isinstance(ptr, bpy.types.Object) or ptr.users_scene:
+        return
+    del obj[ARM_PTR]
+    if ptr.users == 0:
+        bpy.data.objects.remove(ptr)
 
 
 def is_bound(obj):
@@ -414,6 +426,8 @@ def update_object(obj, force=False, depsgraph=None):
     if arm is None:
         _clear_live(obj, info, b"no armature", "its armature is gone: shown at rest (Skeletal Unbind restores "
                     "its modifiers)")
+        if depsgraph is None or depsgraph.mode != 'RENDER':
+            _release_deleted_armature(obj)
         return False
     names = list(info["bones"])
     if any(n not in arm.pose.bones for n in names):
