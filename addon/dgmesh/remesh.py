@@ -134,8 +134,8 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         if "triangulation is invalid" not in str(exc) or boundary_clearance >= 1.0:
             raise
         r = run(1.0)
-        retried = (f"boundary_clearance raised from {boundary_clearance:g} to 1 (the first triangulation did not "
-                   "meet the boundary)")
+        retried = ("the first triangulation missed the kept boundary: remeshed again with more room between the "
+                   f"boundary and the inner vertices (boundary_clearance {boundary_clearance:g} -> 1)")
     return RemeshResult(
         V=np.asarray(r["V"]), F=np.asarray(r["F"]), n_boundary=int(r["n_boundary"]),
         boundary_source=np.asarray(r["boundary_source"], dtype=np.int64), uv=np.asarray(r["uv"]),

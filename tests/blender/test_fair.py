@@ -418,6 +418,12 @@ def test_vertices_only_selection_explains_what_to_select():
     for op in (bpy.ops.dgmesh.fair, bpy.ops.dgmesh.regularize):
         with pytest.raises(RuntimeError, match="in no face"):
             op('EXEC_DEFAULT')
+    # With a mesh vertex too (an extruded wire edge): it had said "mesh is empty".
+    bpy.ops.object.mode_set(mode='OBJECT')
+    obj.data.vertices[40].select = True
+    bpy.ops.object.mode_set(mode='EDIT')
+    with pytest.raises(RuntimeError, match="select the faces"):
+        bpy.ops.dgmesh.fair('EXEC_DEFAULT')
 
 
 def _keep_mirror_half(obj):

@@ -190,7 +190,7 @@ def _read_target(obj, edit_mode, keep_border):
                            "to fair")
     psel = _flags(mesh.polygons)
     tri_sel = psel[arrays.tri_poly]
-    movable = vsel.copy()
+    movable = vsel & in_face  # a loose vertex has nothing to be faired with
     if keep_border:
         # Vertices of unselected faces are the border: they stay, with the ring beyond them.
         touched = np.zeros(len(vsel), dtype=bool)
@@ -304,9 +304,11 @@ class _FairBase(NativeJobOperator):
         midpoints both halves share."""
         V0, F0, n0 = t.arrays.V, t.arrays.F, len(t.arrays.V)
         V1, F1, mask1, faces1, origin1 = V0, F0, t.mask, t.faces, None
+        refined = False
         if t.mirror and t.refine:
             Vs, Fs, faces_s, origin_s = _split_seam_edges(V0, F0, t.faces, t.mirror)
             V1, F1, origin1 = refine_region(Vs, Fs, faces_s)
+            refined = len(V1) > len(Vs)
             mask1 = np.concatenate([t.mask, np.ones(len(V1) - n0, bool)])
             faces1 = faces_s[origin1]
             origin1 = origin_s[origin1]
@@ -315,9 +317,9 @@ class _FairBase(NativeJobOperator):
         if m is None:
             return self._run(t, V0, F0, t.mask, t.faces, t.refine, progress)
         V, F, (mask, faces) = m
-        # As the native Refine Fill does: a fill the refinement left without vertices to move is
-        # subdivided once.
-        levels = 1 if t.refine and not mask.any() else None
+        # As the native Refine Fill does: a fill the refinement gave no inner vertex (a small hole; at
+        # most the plane's edge was split) is subdivided once.
+        levels = 1 if t.refine and not refined else None
         r = self._run(t, V, F, mask, faces, False, progress, levels)
         n1, m1 = len(V1), len(F1)
         if isinstance(r, np.ndarray):  # Regularize: positions
