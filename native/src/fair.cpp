@@ -1646,15 +1646,17 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
       (void)nold;
     }
     prepare_level(w, opt.boundary);
+    if (std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; })) {
+      res.level_iterations.push_back(0);
+      continue;
+    }
+    // energy[0]: the first level with vertices to move (a fill without inner vertices has none
+    // before its subdivision, and an empty energy set would report 0 as the input's energy).
     if (first_energy) {
       Geo g;
       compute_geometry(w.P, w.F, w.topo, g);
       res.energy.push_back(energy_of(w, g));
       first_energy = false;
-    }
-    if (std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; })) {
-      res.level_iterations.push_back(0);
-      continue;
     }
     const LevelReport rep = driver.run(w, level, levels);
     res.level_iterations.push_back(rep.iterations);
@@ -1671,6 +1673,11 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
   if (std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; }) && !whole)
     throw MeshError("nothing to fair: every selected vertex is on the border of the selection or the mesh boundary; "
                     "select the region's interior or add subdivisions");
+  if (res.energy.empty()) {  // a whole mesh with nothing to move (every vertex on a fixed boundary)
+    Geo g;
+    compute_geometry(w.P, w.F, w.topo, g);
+    res.energy.push_back(energy_of(w, g));
+  }
 
   // Back to the caller's coordinates and indices.
   const int ns = w.topo.n_vertices, ms = static_cast<int>(w.F.rows());

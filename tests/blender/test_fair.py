@@ -533,7 +533,7 @@ def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisi
     assert crease < 12
 
 
-def test_a_small_hole_filled_with_one_ngon_is_faired_with_the_defaults():
+def test_a_small_hole_filled_with_one_ngon_is_faired_with_the_defaults(capsys):
     """Deleting one vertex of a sphere (its 4 quads) and F leaves an n-gon already as fine as the mesh:
     Refine Fill adds no vertex there, so the fill is subdivided once and faired (it had failed with
     'nothing to fair')."""
@@ -552,6 +552,10 @@ def test_a_small_hole_filled_with_one_ngon_is_faired_with_the_defaults():
     assert len(V) > n
     r = np.linalg.norm(V[n:], axis=1)
     assert np.abs(r - R).max() < 0.003 * R  # on the sphere, not left flat (a chord's midpoint: ~0.02 in)
+    # The report's energies are those of the subdivided fill: it had said "bending energy 0 -> 0.34".
+    out = capsys.readouterr().out
+    e0, e1 = (float(x) for x in out.split("bending energy ")[1].split(" (")[0].split(" \u2192 "))
+    assert e0 > e1 > 0
 
 
 def test_the_report_says_why_a_mirror_was_not_used(capsys):
