@@ -483,8 +483,8 @@ class Driver {
     free_comp_.assign(w.topo.n_components, 1);
     for (int v = 0; v < w.topo.n_vertices; ++v)
       if (movable_idx_[v] < 0) free_comp_[w.topo.component[v]] = 0;
-    keep_size_ = opt_.keep_size && opt_.method != FairMethod::Bilaplacian &&
-                 std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
+    any_free_ = std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
+    keep_size_ = opt_.keep_size && opt_.method != FairMethod::Bilaplacian && any_free_;
     if (keep_size_) place_and_size(w.P, w.F, w.topo, comp_center_, comp_area_);
     if (opt_.method == FairMethod::Bilaplacian) return run_bilaplacian(w);
     // The linear start is tried on the first level with movable vertices (a fill without inner
@@ -867,10 +867,9 @@ class Driver {
     // The flow shrinks a component without fixed vertices towards a point: each such component's
     // lowest-energy state is tracked on its own (an object may hold a closed part and an open one,
     // whose falling energy hid the closed part's collapse in the total).
-    const bool any_free = std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
     VecXd ec, e_start, e_best;
     MatX3d P_best;
-    if (any_free) {
+    if (any_free_) {
       component_energy(w, e_start);
       e_best = e_start;
       P_best = w.P;
@@ -921,7 +920,7 @@ class Driver {
         break;
       }
       e = e_new;
-      if (any_free) {
+      if (any_free_) {
         component_energy(w, ec);
         for (int v = 0; v < n; ++v) {
           const int c = w.topo.component[v];
@@ -942,7 +941,7 @@ class Driver {
     // Only a component without fixed vertices collapses. With fixed vertices the flow converges to
     // its own steady state (U0^2 P = 0), whose Willmore energy may well exceed the start's: a tube's
     // band narrows into a neck, a removed protrusion's fill bulges back (closer to it than the fill).
-    if (any_free) {
+    if (any_free_) {
       component_energy(w, ec);
       bool restored = false;
       for (int v = 0; v < n; ++v) {
@@ -973,6 +972,7 @@ class Driver {
   double h_ = 1, t_acc_ = 0, e_mark_ = 0;
   std::vector<int> movable_idx_;
   std::vector<char> free_comp_;  // components whose every vertex moves (see remove_translation)
+  bool any_free_ = false;   // some component has no fixed vertex
   bool keep_size_ = false;
   MatX3d comp_center_, cur_center_;  // per component (restore_place_and_size)
   VecXd comp_area_, cur_area_;

@@ -426,6 +426,13 @@ def test_vertices_only_selection_explains_what_to_select():
         bpy.ops.dgmesh.fair('EXEC_DEFAULT')
 
 
+def _deselect(bm):
+    """Vertices and edges unselected (faces follow from them at the flush)."""
+    for seq in (bm.verts, bm.edges):
+        for x in seq:
+            x.select = False
+
+
 def _keep_mirror_half(obj):
     """Deletes the x < 0 half and adds a Mirror modifier (X, Merge on), as a user models a half."""
     bm = bmesh.new()
@@ -497,10 +504,7 @@ def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisi
     _keep_mirror_half(obj)
     bpy.ops.object.mode_set(mode='EDIT')
     bm = bmesh.from_edit_mesh(obj.data)
-    for v in bm.verts:
-        v.select = False
-    for e in bm.edges:
-        e.select = False
+    _deselect(bm)
     for f in bm.faces:
         c = f.calc_center_median()
         f.select = c.x < 0.45 and abs(c.z) < 0.45 and c.y > 0
@@ -508,10 +512,7 @@ def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisi
     bmesh.update_edit_mesh(obj.data)
     bpy.ops.mesh.delete(type='FACE')
     bm = bmesh.from_edit_mesh(obj.data)
-    for v in bm.verts:
-        v.select = False
-    for e in bm.edges:
-        e.select = False
+    _deselect(bm)
     for e in [e for e in bm.edges if e.is_boundary and not all(abs(v.co.x) < 1e-6 for v in e.verts)]:
         e.select = True
     bm.select_flush_mode()

@@ -489,12 +489,7 @@ def test_mesh_duplicated_with_its_rig_unbinds_to_the_copy():
     obj, arm, V = _scene()
     obj.parent = arm
     assert _bind() == {'FINISHED'}
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in (obj, arm))
-    bpy.context.view_layer.objects.active = arm
-    assert bpy.ops.object.duplicate() == {'FINISHED'}
-    obj2 = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
-    arm2 = next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE')
+    obj2, arm2 = _duplicate_with_rig(obj, arm)
     assert obj2.parent == arm2
     for o in bpy.context.view_layer.objects:
         o.select_set(o == obj2)
@@ -567,6 +562,16 @@ def test_modifier_first_and_shape_keys_add():
     assert [m.name for m in obj.modifiers] == ["Armature", "Sub"]
 
 
+def _duplicate_with_rig(obj, arm):
+    """Shift+D of the mesh and its rig together (a second character): (mesh copy, rig copy)."""
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.object.duplicate() == {'FINISHED'}
+    return (next(o for o in bpy.context.selected_objects if o.type == 'MESH'),
+            next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE'))
+
+
 def _duplicate(obj):
     """Shift+D of the object alone."""
     for o in bpy.context.view_layer.objects:
@@ -636,12 +641,7 @@ def test_mesh_duplicated_with_its_rig_follows_the_copied_rig():
     obj, arm, V = _scene()
     obj.parent = arm
     assert _bind() == {'FINISHED'}
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in (obj, arm))
-    bpy.context.view_layer.objects.active = arm
-    assert bpy.ops.object.duplicate() == {'FINISHED'}
-    obj2 = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
-    arm2 = next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE')
+    obj2, arm2 = _duplicate_with_rig(obj, arm)
     _pose_lower(arm, math.pi / 2)
     _pose_lower(arm2, -math.pi / 4)
     bpy.context.scene.frame_set(1)
@@ -847,12 +847,7 @@ def test_mesh_with_an_armature_modifier_duplicated_with_its_rig_follows_the_copy
     obj, arm, V = _scene()
     assert obj.parent is None
     assert _bind() == {'FINISHED'}
-    for o in bpy.context.view_layer.objects:
-        o.select_set(o in (obj, arm))
-    bpy.context.view_layer.objects.active = obj
-    assert bpy.ops.object.duplicate() == {'FINISHED'}
-    obj2 = next(o for o in bpy.context.selected_objects if o.type == 'MESH')
-    arm2 = next(o for o in bpy.context.selected_objects if o.type == 'ARMATURE')
+    obj2, arm2 = _duplicate_with_rig(obj, arm)
     _pose_lower(arm, math.pi / 2)
     _pose_lower(arm2, -math.pi / 4)
     bpy.context.view_layer.update()
