@@ -65,6 +65,14 @@ for name, w in (("Upper", 1 - t), ("Lower", t)):
         g.add([i], float(w[i]), 'REPLACE')
 mod = obj.modifiers.new("Armature", 'ARMATURE')
 mod.object = arm
+# The reference for the interleaved whole-frame blocks below: a copy of the mesh (vertex groups
+# included) deformed by Blender's own Armature modifier (linear blend), disabled in viewports
+# (out of the depsgraph) except during its own blocks.
+ref_obj = obj.copy()
+ref_obj.data = me.copy()
+ref_obj.name = "Reference"
+bpy.context.scene.collection.objects.link(ref_obj)
+ref_obj.hide_viewport = True
 for o in bpy.context.view_layer.objects:
     o.select_set(o in (obj, arm))
 bpy.context.view_layer.objects.active = obj
@@ -145,14 +153,44 @@ for rep in range(3):
         blocks[target][0].append(w)
         blocks[target][1].append(c)
 
+
+def show(bound):
+    """Blocks of our bound mesh (bound=True) or of the reference copy with Blender's Armature
+    modifier; the other object is out of the depsgraph and, for the reference, our handlers are off.
+    The first frames after a switch (relations rebuilt) are not timed."""
+    obj.hide_viewport, ref_obj.hide_viewport = not bound, bound
+    (ops_skeletal._add_handlers if bound else ops_skeletal._remove_handlers)()
+    ops_skeletal._last_pose.clear()
+    lens = {k: len(v) for k, v in parts.items()}
+    sc.frame_set(NFRAMES + 20)
+    sc.frame_set(1)
+    for k, v in parts.items():  # the handler's parts are timed in the blocks only
+        del v[lens[k]:]
+        del parts_cpu[k][lens[k]:]
+
+
+# Whole frames: ours and Blender's Armature modifier (linear blend) on the same mesh, vertex groups and
+# frames, in interleaved blocks, so that both see the same state of a shared host.
 for k in parts:
     parts[k].clear()
     parts_cpu[k].clear()
-frame_ms, frame_cpu_ms = play()
-n_updates = len(parts["update"])
+n_blocks = 5
+frames = {True: ([], []), False: ([], [])}
+n_updates = n_deform = 0
+for rep in range(n_blocks):
+    for bound in (True, False):
+        show(bound)
+        n0, d0 = len(parts["update"]), len(parts["deform"])
+        w, c = play()
+        if bound:  # per block: the handler's calls and deforms in the timed frames (play() ends at frame 1)
+            n_updates += len(parts["update"]) - n0 - 1
+            n_deform += len(parts["deform"]) - d0 - 1
+        frames[bound][0].append(w)
+        frames[bound][1].append(c)
+show(True)
+frame_ms, frame_cpu_ms = float(np.median(frames[True][0])), float(np.median(frames[True][1]))
 med = {k: 1e3 * float(np.median(v)) for k, v in parts.items()}
 med_cpu = {k: 1e3 * float(np.median(v)) for k, v in parts_cpu.items()}
-n_deform = len(parts["deform"]) - 1  # the last one is frame 1 after play()
 for k, fn in orig.items():
     setattr(ops_skeletal, k, fn)
 # OpenMP inside Blender: the same native deform with 1 thread and with all, interleaved (wall and
@@ -285,8 +323,12 @@ for _ in range(5):
 
 out = {
     "V": n, "F": len(F), "blender": bpy.app.version_string, "bind_s": tb, "bind_result": sorted(r),
-    "n_frames": NFRAMES, "n_deform": n_deform, "n_updates": n_updates,
+    "n_frames": NFRAMES, "n_deform": n_deform // n_blocks, "n_updates_per_block": n_updates // n_blocks, "n_updates": n_updates,
     "frame_ms": frame_ms, "frame_cpu_ms": frame_cpu_ms, "fps": 1e3 / frame_ms,
+    "n_blocks": n_blocks, "frame_blocks": frames[True][0], "frame_blocks_cpu": frames[True][1],
+    "reference_frame_blocks": frames[False][0], "reference_frame_blocks_cpu": frames[False][1],
+    "reference_frame_ms": float(np.median(frames[False][0])),
+    "reference_frame_cpu_ms": float(np.median(frames[False][1])),
     "no_handler_frame_ms": idle_ms, "no_handler_frame_cpu_ms": idle_cpu_ms,
     "pose_read_ms": med["pose"], "deform_ms": med["deform"], "handler_ms": med["update"],
     "write_ms": med["update"] - med["deform"] - med["pose"],

@@ -397,6 +397,29 @@ def test_unapplied_object_scale_deforms_like_applied(scale):
     assert np.median(d) < 1e-3 and d.max() < 0.1
 
 
+@pytest.mark.parametrize("scale", [(1.0, 1.0, 1.0), (1.0, 1.6, 0.7)], ids=["similarity", "non_uniform"])
+def test_live_update_calls_no_numpy_linalg(scale, monkeypatch):
+    """The frame update calls no numpy.linalg: Debian's numpy runs it on OpenBLAS, which threads even
+    a 4x4 inverse and then spin-waits for ~0.1 s on the cores the native deform needs (measured: the
+    deform in the frame handler at twice its time). The non-uniform scale takes the rig-space path."""
+    obj, arm, V = _scene()
+    obj.scale = scale
+    bpy.context.view_layer.update()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, 0.0, frame=1)
+    _pose_lower(arm, math.pi / 2, frame=10)
+    calls = []
+    for name in ("inv", "solve", "det", "pinv", "lstsq", "svd", "eig", "eigh", "qr", "cholesky", "slogdet"):
+        fn = getattr(np.linalg, name)
+        monkeypatch.setattr(np.linalg, name, lambda *a, _n=name, _f=fn, **k: calls.append(_n) or _f(*a, **k))
+    bpy.context.scene.frame_set(10)
+    X = _evaluated_co(obj)
+    bpy.context.scene.frame_set(5)
+    monkeypatch.undo()
+    assert np.abs(X - V).max() > 1.0  # not vacuous: the frames were deformed
+    assert calls == []
+
+
 def test_edited_mesh_shows_undeformed_instead_of_scrambled(tmp_path):
     """Deleting vertices of a bound mesh (Edit mode) leaves offsets made for the bound vertices: the
     mesh then shows undeformed (and the console says to rebind) instead of scrambled."""

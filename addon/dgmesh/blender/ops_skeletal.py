@@ -54,6 +54,7 @@ import struct
 import uuid
 
 import bpy
+import mathutils
 import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 
@@ -97,6 +98,25 @@ def _armature_of(context, mesh_obj):
     return None
 
 
+# The per-frame path calls no numpy.linalg and no large matrix product: Debian's numpy runs them on
+# OpenBLAS, which threads even a 4x4 inverse (dgetrs) and whose worker then spin-waits (sched_yield)
+# for ~0.1 s on the cores the native deform's OpenMP loops need (measured: the deform in the frame
+# handler at 30-40 ms instead of 15-19 ms). Blender's mathutils and numpy's elementwise loops do not.
+def _inverse(M):
+    """Inverse of a 4x4 matrix (array), without LAPACK."""
+    return np.array(mathutils.Matrix(M.tolist()).inverted())
+
+
+def _transformed(P, M, out=None):
+    """Points (n, 3) mapped by the 4x4 affine matrix M, in P's dtype, without BLAS."""
+    M = M.astype(P.dtype)
+    out = np.multiply(P[:, :1], M[:3, 0], out=out)
+    out += P[:, 1:2] * M[:3, 1]
+    out += P[:, 2:3] * M[:3, 2]
+    out += M[:3, 3]
+    return out
+
+
 def _pose_matrices(mesh_obj, arm, names, rest=False, space=None, bind=None):
     """Bone frames in the rig's space (the mesh's object space, or ``space`` (4x4) times it).
 
@@ -110,14 +130,16 @@ def _pose_matrices(mesh_obj, arm, names, rest=False, space=None, bind=None):
     S = np.eye(4) if space is None else space
     T = S @ np.array(mesh_obj.matrix_world.inverted() @ arm.matrix_world)  # armature -> rig space now
     T_bind = T if bind is None else S @ bind
-    T_inv = np.linalg.inv(T)
+    T_inv = _inverse(T)
     out = np.empty((len(names), 4, 4))
     for j, name in enumerate(names):
-        R = np.array(arm.data.bones[name].matrix_local)
+        bone = arm.data.bones[name]
+        R = np.array(bone.matrix_local)
         if rest:
             out[j] = T @ R
         else:
-            out[j] = T @ np.array(arm.pose.bones[name].matrix) @ np.linalg.inv(R) @ T_inv @ T_bind @ R
+            R_inv = np.array(bone.matrix_local.inverted())
+            out[j] = T @ np.array(arm.pose.bones[name].matrix) @ R_inv @ T_inv @ T_bind @ R
     return out
 
 
@@ -357,8 +379,7 @@ def _deformed(obj, pose):
         rig.deform(pose, out=pos, **kw)
     space = _space(info)
     if space is not None:  # rig space -> the mesh's object space
-        inv = np.linalg.inv(space)
-        pos[:] = pos @ inv[:3, :3].T.astype(pos.dtype) + inv[:3, 3].astype(pos.dtype)
+        pos[:] = _transformed(pos, _inverse(space))
     if _uses_shape_key(info):
         np.copyto(out, pos.ravel())
     else:
