@@ -229,6 +229,11 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
 
 PANELS = ("Blender Armature, linear blend", "Blender Armature, Preserve Volume (DQS)", "ours (2 fairing steps + projection)")
 
+ARMADILLO_BONES = (  # the right leg (x > 0): hip (inside the body), thigh, shin
+    np.array([[12.0, 18.0, 8.0], [23.0, 5.0, 11.0], [24.0, -22.0, 14.0]]),
+    np.array([[23.0, 5.0, 11.0], [24.0, -22.0, 14.0], [23.0, -47.0, 17.0]]),
+)
+
 CAMEL_BONES = (  # the front leg at x > 0: shoulder (inside the body), upper leg, lower leg
     np.array([[0.06, 0.16, 0.06], [0.06, -0.01, 0.05], [0.026, -0.225, 0.021]]),
     np.array([[0.06, -0.01, 0.05], [0.026, -0.225, 0.021], [0.055, -0.45, 0.052]]),
@@ -261,6 +266,20 @@ def limb_quality(quick):
         rows, images = rows + r, images + i
         data.update(d)
         metas["camel leg"] = m
+        # A second scanned limb, thick and short: the knee's blend spans most of the shin.
+        V, F = cgal_mesh("armadillo")  # y up, tail towards +z, 26002 vertices
+        heads, tails = ARMADILLO_BONES
+        axis = tails[2] - heads[2]
+        poses = {"bend 90": (2, (-1, 0, 0), np.pi / 2),  # the shin folds backwards at the knee
+                 "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
+        C = V[F].mean(1)
+        r, d, i, m = limb_case("armadillo leg", V, F, heads, tails, poses, quick,
+                               render={"faces": (C[:, 0] > 5) & (C[:, 1] < 12),
+                                       "meta": dict(up="Y", spin=-90.0, size=(900, 420), samples=16,
+                                                    view=(0.0, -1.0, 0.15))})
+        rows, images = rows + r, images + i
+        data.update(d)
+        metas["armadillo leg"] = m
     data["meta"] = metas
     mc = metas["capsule"]
     md = ["### Limb quality against Blender's Armature modifier (automatic weights)", "",
@@ -278,10 +297,17 @@ def limb_quality(quick):
                "(0.055,-0.45,0.052); the lower-leg bone turned 90 degrees about x (the lower leg folds backwards "
                "at the knee, away from the other front leg, which touches this one near the knee) or 180 "
                "degrees about its own axis. Chosen over the hand (1197 vertices: a finger is a few triangles "
-               "across, too coarse for a skeletal mesh of its own) and the armadillo (its waist is the "
-               "skeletal_blender case); %d vertices carry weight of the moving bone; %d vertices had no "
-               "automatic weight and went to the shoulder bone, which never moves (so Blender's result is "
-               "unchanged)." % (mm["V"], mm["n_affected"], mm["n_unweighted"]), ""]
+               "across, too coarse for a skeletal mesh of its own); %d vertices carry weight of the moving bone; "
+               "%d vertices had no automatic weight and went to the shoulder bone, which never moves (so "
+               "Blender's result is unchanged)." % (mm["V"], mm["n_affected"], mm["n_unweighted"]), ""]
+    if "armadillo leg" in metas:
+        ma = metas["armadillo leg"]
+        md += ["Armadillo (CGAL data `armadillo.off`, %d vertices, closed; its waist is the skeletal_blender "
+               "case): the right leg at x > 0 on a three-bone chain hip (12,18,8) - (23,5,11) - knee (24,-22,14) "
+               "- ankle (23,-47,17); the shin bone turned 90 degrees about -x (the shin folds backwards at the "
+               "knee) or 180 degrees about its own axis. A thick, short leg (automatic weights blend the knee over "
+               "most of the shin); %d vertices carry weight of the moving bone, %d had no automatic weight."
+               % (ma["V"], ma["n_affected"], ma["n_unweighted"]), ""]
     md += ["Thickness error: sum over all vertices of f^2, f the signed distance to the union of medial balls "
            "(eq. 6.13) around our SSD-deformed skeletal mesh (thesis fig. 6.29), and sum (f - f_rest)^2, its change "
            "from the rest pose (the rest mesh itself is not exactly on the union, so sum f^2 has a floor). Ratios: "
