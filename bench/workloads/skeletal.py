@@ -310,9 +310,10 @@ def blender_quality(quick):
           table(["mesh", "pose", "method", "sum f^2", "sum (f-f_rest)^2", "min ratio", "mean ratio", "volume"], rows),
           "", "Does the pose drive the moved part into the still one? Vertices of the still part (all weight on "
           "the first bone) inside the medial balls of the moved part (all weight on the last bone) posed rigidly, "
-          "which no deformer changes; depth over the median medial radius. Where it is not 0 the parts collide "
-          "and every deformer's minimum ratio measures the collision, not a thinning (the armadillo's 90-degree "
-          "bend swings the torso sideways into the hip and thigh):", "",
+          "which no deformer changes; depth over the median medial radius. A few vertices at a negligible depth "
+          "are the joint itself; where many lie deep inside, the parts collide and every deformer's minimum "
+          "ratio measures the collision, not a thinning (the armadillo's 90-degree bend swings the torso "
+          "sideways into the hip and thigh):", "",
           table(["mesh", "pose", "still-part vertices inside the posed moved part", "still-part vertices",
                  "deepest / median radius"], collisions), ""]
     for name in images:
