@@ -862,6 +862,27 @@ def test_rebind_after_editing_the_mesh_and_its_weights():
         bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT')
 
 
+def test_skeleton_blend_dual_quaternion_is_stored_used_live_and_kept_by_rebind():
+    """Skeleton Blend = Dual Quaternion: the live deformation is the API's deform(...,
+    dual_quaternion=True), not the linear blend's; rebind keeps the setting."""
+    from dgmesh.blender import ops_skeletal
+    results = {}
+    for blend in ('LINEAR', 'DUAL_QUATERNION'):
+        obj, arm, V = _scene()
+        assert _bind(skeleton_blend=blend) == {'FINISHED'}
+        assert obj["dg_skeletal"]["skeleton_blend"] == blend
+        _pose_lower(arm, math.pi / 2)  # a bend: the blends differ on the skeleton at the joint
+        bpy.context.view_layer.update()
+        results[blend] = _evaluated_co(obj)
+        pose = ops_skeletal._pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
+        expect = ops_skeletal._rig(obj).deform(pose, fairing_steps=2, bone_clearance=0.95,
+                                               dual_quaternion=blend == 'DUAL_QUATERNION')
+        assert np.abs(results[blend] - expect).max() < 1e-4
+    assert np.abs(results['LINEAR'] - results['DUAL_QUATERNION']).max() > 1e-3  # not vacuous
+    assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
+    assert obj["dg_skeletal"]["skeleton_blend"] == 'DUAL_QUATERNION'
+
+
 def test_mesh_with_an_armature_modifier_duplicated_with_its_rig_follows_the_copy():
     """Not parented, only an Armature modifier (which bind clears): Shift+D of mesh and rig. The copy
     follows the copied rig, as Blender remaps the Armature modifier of such a copy; rebind and unbind

@@ -81,6 +81,12 @@ METHODS = (
     ('VARIATIONAL', "Variational", "Thesis 6.5: stitched per-triangle frames plus shape-preserving fairing"),
     ('BASIC', "Basic", "Thesis 6.3: homotopy reconstruction with fold and self-intersection fairing (comparison)"),
 )
+SKELETON_BLENDS = (
+    ('LINEAR', "Linear", "Skeletal subspace deformation (eq. 6.2), as the thesis"),
+    ('DUAL_QUATERNION', "Dual Quaternion", "Rigid per skeletal vertex, as Preserve Volume: fewer "
+     "self-intersections where a thick limb twists far (a leg turned about itself); in bends the "
+     "thickness is kept a little less exactly"),
+)
 
 _rigs = {}          # bind id -> SkeletalRig (rebuilt from the stored data after a reload)
 _last_pose = {}     # (bind id, object name) -> bytes of the last pose matrices; per object, since a
@@ -367,7 +373,8 @@ def _deformed(obj, pose):
         buf = _buffers[key] = _new_buffers(obj, rig)
     pos, out, rest = buf
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
-              bone_clearance=float(info.get("bone_clearance", 0.95)))  # files bound before the option: 0.95
+              bone_clearance=float(info.get("bone_clearance", 0.95)),  # files bound before the option: 0.95
+              dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')
     try:
         rig.deform(pose, out=pos, **kw)
     except (MeshError, TypeError):
@@ -726,6 +733,9 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                   description="Keep each vertex at least this fraction of its rest distance from "
                                   "the bones it follows (a joint's inner crease); 0 = off, 1 = every rest distance "
                                   "(costs thickness under twists)")
+    skeleton_blend: EnumProperty(
+        name="Skeleton Blend", items=SKELETON_BLENDS, default='LINEAR',
+        description="How the bone motions are blended on the skeletal mesh where a vertex follows several bones")
 
     @classmethod
     def register(cls):
@@ -824,6 +834,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
             "bones": names, "data": _encode(rig.to_arrays()),
             "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
+            "skeleton_blend": self.skeleton_blend,
             "control_faces": self.control_faces, "target": "HELPER",
             "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
             "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -938,6 +949,7 @@ painting its weights (the binding keeps what it read at bind)"""
             return {'CANCELLED'}
         settings = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]),
                         bone_clearance=float(info.get("bone_clearance", 0.95)),
+                        skeleton_blend=str(info.get("skeleton_blend", "LINEAR")),
                         control_faces=int(info.get("control_faces", 5000)))
         unbind(obj)
         with context.temp_override(selected_objects=[obj, arm], active_object=obj, object=obj):
