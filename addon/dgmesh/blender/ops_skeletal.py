@@ -113,10 +113,10 @@ def _inverse(M):
     return np.array(mathutils.Matrix(M.tolist()).inverted())
 
 
-def _transformed(P, M, out=None):
+def _transformed(P, M):
     """Points (n, 3) mapped by the 4x4 affine matrix M, in P's dtype, without BLAS."""
     M = M.astype(P.dtype)
-    out = np.multiply(P[:, :1], M[:3, 0], out=out)
+    out = P[:, :1] * M[:3, 0]
     out += P[:, 1:2] * M[:3, 1]
     out += P[:, 2:3] * M[:3, 2]
     out += M[:3, 3]
