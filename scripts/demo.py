@@ -159,6 +159,7 @@ def crest_lines(demo):
         bpy.ops.render.render(write_still=True)
     if previous is not None:
         slots[0].material = previous
+    curve.hide_render = True  # the later steps' renders are not about crest lines (it stays in the viewport)
 
 
 @step

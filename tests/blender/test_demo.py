@@ -32,6 +32,9 @@ def test_demo(tmp_path):
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     for name in ("curvature_mean.png", "curvature_gaussian.png"):
         assert _coloured_fraction(tmp_path / name) > 0.01, name
+    # Greyscale renders of later steps: the crest lines' coloured curves are hidden from them.
+    for name in ("unwrap_checker.png", "skeletal_bend_twist.png"):
+        assert _coloured_fraction(tmp_path / name) < 0.001, name
     assert (tmp_path / "demo.blend").stat().st_size > 0
     summary = (tmp_path / "summary.md").read_text()
     assert summary.count("\n") == 1 and "elephant" in summary and "2775 vertices" in summary
