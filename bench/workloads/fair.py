@@ -214,14 +214,9 @@ def rim_crease(V, F, region):
     sharply a patch meets the surface around it (on the original mesh: the scan's own bend there)."""
     n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    e = np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1)
-    face = np.tile(np.arange(len(F)), 3)
-    order = np.lexsort((e[:, 1], e[:, 0]))
-    e, face = e[order], face[order]
-    i = np.flatnonzero((e[1:] == e[:-1]).all(axis=1))
-    a, b = face[i], face[i + 1]
-    cross = region[a] != region[b]
-    cos = np.clip((n[a[cross]] * n[b[cross]]).sum(axis=1), -1.0, 1.0)
+    a, b = dgmesh.topology(V, F)["edge_faces"].T
+    rim = (b >= 0) & (region[a] != region[np.maximum(b, 0)])
+    cos = np.clip((n[a[rim]] * n[b[rim]]).sum(axis=1), -1.0, 1.0)
     return float(np.degrees(np.arccos(cos)).mean())
 
 
