@@ -104,7 +104,7 @@ def _armature_of(context, mesh_obj):
     return None
 
 
-# The per-frame path calls no numpy.linalg and no large matrix product: Debian's numpy runs them on
+# The rig-space maps call no numpy.linalg and no large matrix product: Debian's numpy runs them on
 # OpenBLAS, which threads even a 4x4 inverse (dgetrs) and whose worker then spin-waits (sched_yield)
 # for ~0.1 s on the cores the native deform's OpenMP loops need (measured: the deform in the frame
 # handler at 30-40 ms instead of 15-19 ms). Blender's mathutils and numpy's elementwise loops do not.
@@ -698,8 +698,7 @@ def _skeleton_object(context, obj, rig, space=None):
     me = bpy.data.meshes.new(name)
     S = rig.skeleton_vertices
     if space is not None:  # rig space -> the mesh's object space (the skeleton is parented to it)
-        inv = np.linalg.inv(space)
-        S = S @ inv[:3, :3].T + inv[:3, 3]
+        S = _transformed(S, _inverse(space))
     me.from_pydata([tuple(p) for p in S], [], [tuple(int(i) for i in f) for f in rig.control_faces])
     me.update()
     rgba = colors.sequential(rig.radii)
@@ -785,7 +784,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         heads = np.array([tuple(to_mesh @ arm.data.bones[n].head_local) for n in names])
         tails = np.array([tuple(to_mesh @ arm.data.bones[n].tail_local) for n in names])
         if space is not None:
-            V, heads, tails = (P @ space[:3, :3].T + space[:3, 3] for P in (V, heads, tails))
+            V, heads, tails = (_transformed(P, space) for P in (V, heads, tails))
             if np.linalg.det(space[:3, :3]) < 0:  # a mirror turns the surface inside out: re-orient
                 F = F[:, ::-1].copy()
         wm = context.window_manager
