@@ -253,33 +253,24 @@ def limb_quality(quick):
     data.update(d)
     metas["capsule"] = m
     if not quick:
-        V, F = cgal_mesh("camel")  # y up, head towards +z, 9770 vertices
-        heads, tails = CAMEL_BONES
-        axis = tails[2] - heads[2]
-        poses = {"bend 90": (2, (1, 0, 0), np.pi / 2),  # lower leg folds backwards (knee)
-                 "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
-        C = V[F].mean(1)
-        box = (C[:, 0] > -0.01) & (C[:, 1] < 0.09) & (C[:, 2] > -0.14) & (C[:, 2] < 0.24)
-        r, d, i, m = limb_case("camel leg", V, F, heads, tails, poses, quick,
-                               render={"faces": box, "meta": dict(up="Y", spin=-90.0, size=(900, 420), samples=16,
-                                                                  view=(0.0, -1.0, 0.15))})
-        rows, images = rows + r, images + i
-        data.update(d)
-        metas["camel leg"] = m
-        # A second scanned limb, thick and short: the knee's blend spans most of the shin.
-        V, F = cgal_mesh("armadillo")  # y up, tail towards +z, 26002 vertices
-        heads, tails = ARMADILLO_BONES
-        axis = tails[2] - heads[2]
-        poses = {"bend 90": (2, (-1, 0, 0), np.pi / 2),  # the shin folds backwards at the knee
-                 "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
-        C = V[F].mean(1)
-        r, d, i, m = limb_case("armadillo leg", V, F, heads, tails, poses, quick,
-                               render={"faces": (C[:, 0] > 5) & (C[:, 1] < 12),
-                                       "meta": dict(up="Y", spin=-90.0, size=(900, 420), samples=16,
-                                                    view=(0.0, -1.0, 0.15))})
-        rows, images = rows + r, images + i
-        data.update(d)
-        metas["armadillo leg"] = m
+        # The camel's front leg, and a second scanned limb, thick and short: the armadillo's leg,
+        # whose knee blend spans most of the shin. Each: (model, mesh, bones, the lower bone's bend
+        # axis (folds backwards at the knee), the rendered faces' centroids test).
+        limbs = (("camel leg", "camel", CAMEL_BONES, (1, 0, 0),  # y up, head towards +z, 9770 vertices
+                  lambda C: (C[:, 0] > -0.01) & (C[:, 1] < 0.09) & (C[:, 2] > -0.14) & (C[:, 2] < 0.24)),
+                 ("armadillo leg", "armadillo", ARMADILLO_BONES, (-1, 0, 0),  # y up, tail towards +z
+                  lambda C: (C[:, 0] > 5) & (C[:, 1] < 12)))
+        for model, mesh, (heads, tails), bend_axis, shown in limbs:
+            V, F = cgal_mesh(mesh)
+            axis = tails[2] - heads[2]
+            poses = {"bend 90": (2, bend_axis, np.pi / 2), "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
+            r, d, i, m = limb_case(model, V, F, heads, tails, poses, quick,
+                                   render={"faces": shown(V[F].mean(1)),
+                                           "meta": dict(up="Y", spin=-90.0, size=(900, 420), samples=16,
+                                                        view=(0.0, -1.0, 0.15))})
+            rows, images = rows + r, images + i
+            data.update(d)
+            metas[model] = m
     data["meta"] = metas
     mc = metas["capsule"]
     md = ["### Limb quality against Blender's Armature modifier (automatic weights)", "",
