@@ -318,6 +318,35 @@ def test_stretch_map_without_uvs_is_an_error():
     assert mesh_snapshot(bpy.data.objects["QuadSphere"].data) == before
 
 
+@pytest.mark.parametrize("uv_value", [0.0, float("nan")], ids=["collapsed", "nan"])
+def test_stretch_map_of_a_broken_uv_map_is_an_error_and_writes_nothing(uv_value):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    mesh = bpy.context.object.data
+    uv = mesh.uv_layers.active.data
+    uv.foreach_set("uv", np.full(2 * len(uv), uv_value, np.float32))
+    before = mesh_snapshot(mesh)
+    with pytest.raises(RuntimeError, match="UV stretch map failed on 'Sphere'") as exc:
+        stretch_map()
+    assert "Traceback" not in str(exc.value)
+    assert mesh_snapshot(mesh) == before
+
+
+def test_stretch_map_in_edit_mode(dg):
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    obj = bpy.context.object
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert stretch_map() == {'FINISHED'}
+    assert obj.mode == 'EDIT'
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    arrays = bridge.read_mesh(mesh)
+    ref = dg.uv_stretch(arrays.V, arrays.F, layer_uv(mesh).astype(np.float64)[arrays.tri_loops])
+    got = attribute_array(mesh.attributes["dg_uv_stretch"]).ravel()
+    np.testing.assert_allclose(got, np.nan_to_num(ref, nan=0.0), rtol=1e-5, atol=1e-6)
+
+
 def _relative_uv_areas(UV, F):
     a, b, c = UV[F[:, 0]], UV[F[:, 1]], UV[F[:, 2]]
     area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1]))

@@ -397,27 +397,45 @@ class DGMESH_OT_stretch_map(bpy.types.Operator):
 
     def execute(self, context):
         dg = api()
-        done = []
-        for obj in target_objects(context):
-            mesh = obj.data
-            if mesh.uv_layers.active is None:
-                self.report({'ERROR'}, f"'{obj.name}' has no UV map")
-                continue
-            arrays = bridge.read_object(obj)
-            uv = np.empty(2 * len(mesh.loops), np.float32)
-            mesh.uv_layers.active.data.foreach_get("uv", uv)
-            uv = uv.reshape(-1, 2).astype(np.float64)
-            s = dg.uv_stretch(arrays.V, arrays.F, uv[arrays.tri_loops])
-            done.append((obj, np.where(np.isfinite(s), s, np.nan)))
-        if not done:
-            return {'CANCELLED'}
+        targets = target_objects(context)
+        done, failures = [], []
+        # Outside Edit mode: an edit-mesh's UV map is only in the datablock once Edit mode is left.
         with bridge.object_mode(context):
+            # 1. Compute everything before writing anything.
+            for obj in targets:
+                mesh = obj.data
+                if mesh.uv_layers.active is None:
+                    failures.append((obj.name, "it has no UV map"))
+                    continue
+                try:
+                    arrays = bridge.read_object(obj)
+                    uv = np.empty(2 * len(mesh.loops), np.float32)
+                    mesh.uv_layers.active.data.foreach_get("uv", uv)
+                    uv = uv.reshape(-1, 2).astype(np.float64)
+                    s = np.asarray(dg.uv_stretch(arrays.V, arrays.F, uv[arrays.tri_loops]), dtype=np.float64)
+                except dg.MeshError as exc:
+                    failures.append((obj.name, str(exc)))
+                    continue
+                except Exception as exc:  # anything else from the native side: report, don't crash
+                    failures.append((obj.name, f"internal error: {type(exc).__name__}: {exc}"))
+                    continue
+                s = np.where(np.isfinite(s), s, np.nan)
+                if not np.isfinite(s).any():
+                    failures.append((obj.name, f"every face of UV map '{mesh.uv_layers.active.name}' has zero area "
+                                               "(no stretch to measure)"))
+                    continue
+                done.append((obj, s))
+            # 2. Write the valid ones.
             for obj, s in done:
                 bridge.write_point_float(obj.data, ATTR_STRETCH, np.nan_to_num(s, nan=0.0))
                 rgba = colors.sequential(s, vmin=1.0, percentile=self.percentile)
                 bridge.write_point_color(obj.data, ATTR_STRETCH_COLOR, rgba)
                 if self.checker:
                     _assign_checker(obj)
+        for name, message in failures:
+            self.report({'ERROR'}, f"UV stretch map failed on '{name}': {message}")
+        if not done:
+            return {'CANCELLED'}
         vals = np.concatenate([s for _, s in done])
         vals = vals[np.isfinite(vals)]
         self.report({'INFO'}, f"Stretch map: vertex stretch {vals.min():.3g} .. {vals.max():.3g}")
