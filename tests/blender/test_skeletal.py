@@ -740,6 +740,67 @@ def test_legacy_shape_key_binding():
     assert obj.data.shape_keys is None and [m.name for m in obj.modifiers] == ["Armature"]
 
 
+def test_renamed_bone_is_followed_and_its_vertex_group_renamed():
+    """Renaming a bone while bound renames the mesh's vertex group as Blender does for a mesh its
+    Armature modifier deforms (ours is cleared while bound): the live update goes on, and after
+    unbind the restored Armature modifier still moves the part. A deleted bone shows the mesh at
+    rest instead of freezing it in its last pose."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    bent = _evaluated_co(obj)
+    arm.data.bones["Lower"].name = "Forearm"
+    assert [g.name for g in arm.data.bones] == ["Upper", "Forearm"]
+    pb = arm.pose.bones["Forearm"]
+    pb.rotation_euler = (0.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    assert [g.name for g in obj.vertex_groups] == ["Upper", "Forearm"]
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-4  # follows the renamed bone back to rest
+    pb.rotation_euler = (0.0, 0.0, math.pi / 2)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - bent).max() < 1e-4
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    tip = int(np.argmax(V[:, 0]))
+    assert _evaluated_co(obj)[tip, 1] > 3.0  # Blender's modifier bends the renamed bone's part
+    # A bone deleted while bound: shown at rest.
+    pb.rotation_euler = (0.0, 0.0, 0.0)
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = obj
+    assert _bind() == {'FINISHED'}
+    pb.rotation_euler = (0.0, 0.0, math.pi / 2)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() > 1.0
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    arm.data.edit_bones.remove(arm.data.edit_bones["Forearm"])
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-5
+
+
+def test_unbind_restores_a_renamed_armature_modifier():
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    obj.modifiers["Armature"].name = "Body Armature"
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    m = obj.modifiers["Body Armature"]
+    assert m.show_viewport and m.show_render and m.object == arm
+
+
+@pytest.mark.parametrize("which", ["armature", "mesh"])
+def test_zero_scale_is_refused_cleanly(which):
+    obj, arm, V = _scene()
+    (arm if which == "armature" else obj).scale = (0.0, 0.0, 0.0)
+    bpy.context.view_layer.update()
+    before = _mesh_state(obj)
+    with pytest.raises(RuntimeError, match="zero scale") as exc:
+        _bind()
+    assert "Traceback" not in str(exc.value)
+    assert _mesh_state(obj) == before and "dg_skeletal" not in obj.keys()
+
+
 def test_errors():
     obj, arm, V = _scene()
     # no armature

@@ -329,6 +329,37 @@ def _edited(obj, info):
     return not _rest_ok[key]
 
 
+def _follow_renamed_bones(obj, arm, info, names):
+    """The bound bone names, following bones renamed since bind: a bone is found by its rest frame
+    (``bones_local``, stored at bind) and the mesh's vertex group of the old name takes the new one,
+    as Blender does for meshes its Armature modifier deforms (ours is cleared while bound, so Blender
+    does not). Bones that are gone stay missing."""
+    stored = info.get("bones_local")
+    if stored is None or len(stored) != 16 * len(names):
+        return names
+    stored = np.array(stored, dtype=float).reshape(-1, 4, 4)
+    free = [b for b in arm.data.bones if b.name not in names]
+    new = list(names)
+    for j, name in enumerate(names):
+        if name in arm.pose.bones:
+            continue
+        tol = 1e-5 * max(1.0, float(np.abs(stored[j]).max()))
+        match = [b for b in free if float(np.abs(np.array(b.matrix_local) - stored[j]).max()) <= tol]
+        if len(match) != 1:
+            continue
+        bone = match[0]
+        free.remove(bone)
+        new[j] = bone.name
+        group = obj.vertex_groups.get(name)
+        if group is not None and obj.vertex_groups.get(bone.name) is None:
+            group.name = bone.name
+    if new != names:
+        info["bones"] = new
+        print(f"dgmesh skeletal: {obj.name!r} follows renamed bones: "
+              + ", ".join(f"{a} -> {b}" for a, b in zip(names, new) if a != b))
+    return new
+
+
 def _clear_live(obj, info, why, note):
     """Zero offsets (the mesh shows undeformed) for an edited mesh or a deleted armature (``why``),
     once, with a console note."""
@@ -458,7 +489,12 @@ def update_object(obj, force=False, depsgraph=None):
             _release_deleted_armature(obj)
         return False
     names = list(info["bones"])
-    if any(n not in arm.pose.bones for n in names):
+    if any(n not in arm.pose.bones for n in names) and (depsgraph is None or depsgraph.mode != 'RENDER'):
+        names = _follow_renamed_bones(obj, arm, info, names)
+    missing = [n for n in names if n not in arm.pose.bones]
+    if missing:
+        _clear_live(obj, info, b"bones", f"has bones missing from {arm.name!r} ({', '.join(missing[:4])}): shown "
+                    "at rest; name them back, or Skeletal Rebind")
         return False
     if _edited(obj, info):
         _clear_live(obj, info, b"edited", "was edited since it was bound (vertex count or positions): shown "
@@ -778,6 +814,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                     j = col.get(g.group)
                     if j is not None:
                         W[v.index, j] = g.weight
+        for o in (obj, arm):
+            if abs(o.matrix_world.determinant()) < 1e-12:
+                self.report({'ERROR'}, f"{o.name!r} has zero scale (its transform cannot be inverted); give it a "
+                            "non-zero scale first")
+                return {'CANCELLED'}
         space = _rig_space(obj, arm)
         rest = _pose_matrices(obj, arm, names, rest=True, space=space)
         to_mesh = obj.matrix_world.inverted() @ arm.matrix_world
@@ -832,6 +873,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             "id": bid, "armature": arm.name, "armature_tag": tag, "armature_data": arm.data.name,
             "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
             "bones": names, "data": _encode(rig.to_arrays()),
+            "bones_local": [float(x) for n in names for x in np.array(arm.data.bones[n].matrix_local).ravel()],
             "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
             "skeleton_blend": self.skeleton_blend,
             "control_faces": self.control_faces, "target": "HELPER",
@@ -892,6 +934,9 @@ def unbind(obj, enable_armature=True):
     arm = _armature(obj, info)  # renamed since bind: found by its tag
     for name, vp, rd, ob in zip(info["modifiers"], info["modifiers_viewport"], info["modifiers_render"], objects):
         m = obj.modifiers.get(name)
+        if m is None:  # renamed while bound: an Armature modifier still as bind left it (off, no object)
+            m = next((x for x in obj.modifiers if x.type == 'ARMATURE' and x.object is None and not x.show_viewport
+                      and not x.show_render and x.name not in info["modifiers"]), None)
         if m is not None:
             m.show_viewport, m.show_render = bool(vp) and enable_armature, bool(rd) and enable_armature
             if ob and m.object is None:
