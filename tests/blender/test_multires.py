@@ -44,8 +44,13 @@ def test_preview_adds_control_object_and_colours(dg, capsys):
 
     # A second run replaces the control object instead of adding another.
     assert _run(control_faces=100) == {'FINISHED'}
-    controls = [o for o in bpy.data.objects if o.get("dgmesh_multires_control_of") == "Torus"]
+    controls = [o for o in bpy.data.objects if o.get("dgmesh_multires_control_of") == obj]
     assert len(controls) == 1 and len(controls[0].data.polygons) <= 120
+    # Also after the mesh object is renamed (the control object points at it, not at its name).
+    obj.name = "Ring"
+    assert _run(control_faces=100) == {'FINISHED'}
+    controls = [o for o in bpy.data.objects if o.get("dgmesh_multires_control_of") == obj]
+    assert len(controls) == 1 and len([o for o in bpy.data.objects if o.name.endswith("_control")]) == 1
 
 
 def test_bad_mesh_reports_error_and_changes_nothing():

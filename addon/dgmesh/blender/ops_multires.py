@@ -58,7 +58,9 @@ def make_work(V, F, control_faces=5000, level=2, min_quality=0.2, fit_iterations
 def _control_object(context, obj, V, F):
     """Creates or replaces the wireframe control object of `obj`."""
     name = f"{obj.name}_control"
-    ctrl = next((o for o in bpy.data.objects if o.get(CONTROL_KEY) == obj.name and o.type == 'MESH'), None)
+    # The control object points at its mesh object (an ID pointer follows renames; files from
+    # before hold the name).
+    ctrl = next((o for o in bpy.data.objects if o.type == 'MESH' and o.get(CONTROL_KEY) in (obj, obj.name)), None)
     mesh = bpy.data.meshes.new(name)
     mesh.from_pydata(np.asarray(V, dtype=np.float64).tolist(), [], np.asarray(F).tolist())  # small
     mesh.update(calc_edges=True)
@@ -67,7 +69,7 @@ def _control_object(context, obj, V, F):
         collections = obj.users_collection or (context.scene.collection,)
         for col in collections:
             col.objects.link(ctrl)
-        ctrl[CONTROL_KEY] = obj.name
+        ctrl[CONTROL_KEY] = obj
     else:
         old = ctrl.data
         ctrl.data = mesh
