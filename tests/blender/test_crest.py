@@ -388,3 +388,33 @@ def test_repair_ngon_triangles_gives_valid_consistent_triangles():
     assert len(np.unique(fixed.tri_loops)) == len(obj.data.loops)
     # A clean mesh is returned as is.
     assert bridge.repair_ngon_triangles(fixed) is fixed
+
+
+def test_decimate_refuses_shape_keys_and_partial_edit_selections():
+    """Decimation rebuilds the whole mesh: shape keys (which cannot follow the new vertex count) and,
+    in Edit mode, hidden or unselected faces (which would be decimated and revealed) are refused
+    with the mesh unchanged."""
+    obj = _uv_cube_with_materials()
+    obj.shape_key_add(name="Basis")
+    obj.shape_key_add(name="Lift").value = 1.0
+    before = helpers.mesh_snapshot(obj.data)
+    with pytest.raises(RuntimeError, match="shape keys"):
+        bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.5)
+    assert helpers.mesh_snapshot(obj.data) == before
+    obj.shape_key_clear()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+    bpy.ops.mesh.hide(unselected=False)
+    bpy.ops.mesh.reveal(select=False)  # all shown again, none selected
+    bpy.ops.object.mode_set(mode='OBJECT')
+    for p in obj.data.polygons:
+        p.select = p.center.z > 0
+        p.hide = p.center.x > 0.5 and not p.select
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.object.mode_set(mode='OBJECT')
+    before = helpers.mesh_snapshot(obj.data)  # after an Edit-mode round trip (UV data is there in Object mode)
+    bpy.ops.object.mode_set(mode='EDIT')
+    with pytest.raises(RuntimeError, match="whole meshes"):
+        bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.5)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert helpers.mesh_snapshot(obj.data) == before

@@ -524,11 +524,26 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
                              min=0.0, soft_max=100.0)
 
     def read(self, obj):
+        dg = api()
+        mesh = obj.data
+        if mesh.shape_keys is not None:
+            raise dg.MeshError("the mesh has shape keys, which cannot follow a new vertex count (apply or remove "
+                               "them first)")
+        if self._edit_mode:
+            # The whole mesh is rebuilt: in Edit mode only when all of it is shown and selected.
+            hide = np.empty(len(mesh.polygons), bool)
+            select = np.empty(len(mesh.polygons), bool)
+            mesh.polygons.foreach_get("hide", hide)
+            mesh.polygons.foreach_get("select", select)
+            if hide.any() or not select.all():
+                raise dg.MeshError("Feature Decimate works on whole meshes: reveal and select all (Alt+H, A) "
+                                   "or use it in Object mode")
         return _read_for_decimation(obj)
 
     def prepare(self, context):
         # UV layer data cannot be read from a mesh in Edit mode (3.4 has no loop data there): leave
         # Edit mode for the reads (that writes the edit-mesh to the mesh) and re-enter it.
+        self._edit_mode = context.mode == 'EDIT_MESH'
         with bridge.object_mode(context):
             return super().prepare(context)
 
