@@ -349,3 +349,22 @@ def test_triangles_across_a_seam_that_ends_inside_the_region_are_not_stretched()
     select(obj.name)
     assert remesh(target_vertices=600) == {'FINISHED'}
     assert (worst_ratio(obj.data) > limit).sum() <= 2
+
+
+def test_materials_and_smooth_shading_follow_the_source_faces():
+    fresh_scene()
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, size=2)
+    obj = bpy.context.object
+    me = obj.data
+    me.materials.append(bpy.data.materials.new("Left"))
+    me.materials.append(bpy.data.materials.new("Right"))
+    for p in me.polygons:
+        p.material_index = int(p.center.x > 0)
+        p.use_smooth = p.center.x > 0
+    assert remesh(target_vertices=200) == {'FINISHED'}
+    area = [0.0, 0.0]
+    for p in obj.data.polygons:
+        area[p.material_index] += p.area
+        assert p.use_smooth == (p.material_index == 1)
+        assert (p.center.x > 0) == (p.material_index == 1) or abs(p.center.x) < 0.25
+    assert abs(area[0] - 2.0) < 0.2 and abs(area[1] - 2.0) < 0.2

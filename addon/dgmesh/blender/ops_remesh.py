@@ -127,7 +127,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
             outside[lv[~np.repeat(mask, total)]] = True
             items.append(dict(name=obj.name, counts=(len(mesh.vertices), len(mesh.loops), npoly),
                               polys=np.nonzero(mask)[0], ids=ids, outside=outside,
-                              tri_loops=arrays.tri_loops[tri_mask],
+                              tri_loops=arrays.tri_loops[tri_mask], tri_poly=arrays.tri_poly[tri_mask],
                               V=np.ascontiguousarray(arrays.V[ids]), F=Fc.reshape(-1, 3).astype(np.int32)))
         if not items:
             self.report({'WARNING'}, "No faces to remesh (select faces in Edit mode)" if edit
@@ -212,8 +212,7 @@ def _replace_region(mesh, it, select_new):
         # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
         # of the new vertices, blended from the input face each lies on (source_face/bary).
         corner = _corner_values(mesh, it, r)
-        example = faces[0]
-        material, smooth = example.material_index, example.smooth
+        material, smooth = _face_flags(mesh, it, r)
         region_edges = {e for f in faces for e in f.edges}
         kept = [bm.verts[int(ids[s])] for s in r.boundary_source]
         inner = [bm.verts[int(v)] for v in ids[it["inner"]]]
@@ -232,8 +231,8 @@ def _replace_region(mesh, it, select_new):
         corner = [(getattr(bm.loops.layers, kind)[name], values.tolist()) for (kind, name), values in corner]
         for t, (a, b, c) in enumerate(r.F.tolist()):
             f = bm.faces.new((vmap[a], vmap[b], vmap[c]))
-            f.material_index = material
-            f.smooth = smooth
+            f.material_index = int(material[t])
+            f.smooth = bool(smooth[t])
             for j, loop in enumerate(f.loops):
                 for layer, values in corner:
                     if hasattr(loop[layer], "uv"):
@@ -250,6 +249,22 @@ def _replace_region(mesh, it, select_new):
     finally:
         bm.free()
     mesh.update()
+
+
+def _face_flags(mesh, it, r):
+    """Material index and smooth flag of each output triangle: those of the input polygon under
+    most of its corners (each output vertex lies on an input face: source_face), so a region
+    across material or shading borders keeps them."""
+    mat = np.empty(len(mesh.polygons), np.int32)
+    smooth = np.empty(len(mesh.polygons), bool)
+    mesh.polygons.foreach_get("material_index", mat)
+    mesh.polygons.foreach_get("use_smooth", smooth)
+    src = np.asarray(r.source_face)
+    poly = np.where(src >= 0, it["tri_poly"][np.maximum(src, 0)], it["polys"][0])[np.asarray(r.F)]  # (m, 3)
+    m = mat[poly]
+    k = np.where((m[:, 0] == m[:, 1]) | (m[:, 0] == m[:, 2]), 0, np.where(m[:, 1] == m[:, 2], 1, 0))
+    chosen = poly[np.arange(len(poly)), k]
+    return mat[chosen], smooth[chosen]
 
 
 def _corner_values(mesh, it, r):
