@@ -355,3 +355,58 @@ def test_interactive_run_is_modal_and_esc_cancels(tmp_path):
     assert out["first"] == ['RUNNING_MODAL'] and out["moved"]
     assert out["last_operator"] == "DGMESH_OT_denoise"
     assert out["second"] == ['RUNNING_MODAL'] and out["unchanged_after_esc"]
+
+
+def _noisy_grid(name, x=0.0, half=False):
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, size=2, location=(x, 0, 0))
+    obj = bpy.context.object
+    obj.name = name
+    rng = np.random.default_rng(1)
+    co = coords(obj.data).copy()
+    co[:, 2] = 0.05 * rng.standard_normal(len(co)) + 0.3 * np.exp(-4 * (co[:, 0] ** 2 + co[:, 1] ** 2))
+    obj.data.vertices.foreach_set("co", co.astype(np.float32).ravel())
+    if half:  # keep the x >= 0 half, to be completed by a Mirror modifier
+        import bmesh
+        bm = bmesh.new()
+        bm.from_mesh(obj.data)
+        bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
+        bm.to_mesh(obj.data)
+        bm.free()
+    obj.data.update()
+    return obj
+
+
+def test_mirror_half_stays_welded_at_the_plane():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    obj = _noisy_grid("Half", half=True)
+    obj.modifiers.new("Mirror", 'MIRROR')
+    seam = np.flatnonzero(np.abs(coords(obj.data)[:, 0]) < 1e-6)
+    assert len(seam) == 11
+    before = coords(obj.data).copy()
+    assert denoise() == {'FINISHED'}
+    co = coords(obj.data)
+    assert np.abs(co[seam, 0]).max() < 1e-6  # on the plane: the Mirror modifier still welds them
+    assert np.abs(co - before).max() > 1e-3  # and the mesh was denoised
+
+
+def test_edit_mode_object_without_selection_is_skipped():
+    """Several objects in Edit mode: one with nothing selected is left alone, not an error."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    a, b = _noisy_grid("A"), _noisy_grid("B", x=3.0)
+    for o in (a, b):
+        o.select_set(True)
+    bpy.context.view_layer.objects.active = a
+    bpy.ops.object.mode_set(mode='EDIT')
+    import bmesh
+    for o, sel in ((a, True), (b, False)):
+        bm = bmesh.from_edit_mesh(o.data)
+        for v in bm.verts:
+            v.select = sel
+        bm.select_flush(sel)
+        bmesh.update_edit_mesh(o.data)
+    a.update_from_editmode()
+    b.update_from_editmode()
+    ca, cb = coords(a.data).copy(), coords(b.data).copy()
+    assert denoise() == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert not np.array_equal(coords(a.data), ca) and np.array_equal(coords(b.data), cb)

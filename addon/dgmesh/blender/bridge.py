@@ -272,6 +272,40 @@ def object_mode(context):
         bpy.ops.object.mode_set(mode='EDIT')
 
 
+def mirror_axes(obj, V):
+    """The axes of a Mirror modifier that closes the base mesh into what the user sees: the first
+    modifier shown, mirroring in the object's own space (no mirror object) with Merge on, without
+    Bisect, the mesh on one side of each plane. ([(axis, merge distance)], None), or ([], why not)
+    (the base mesh is processed as it is; '' without a Mirror)."""
+    mods = [m for m in obj.modifiers if m.show_viewport]
+    mirrors = [m for m in mods if m.type == 'MIRROR']
+    if not mirrors:
+        return [], ""
+    m = mirrors[0]
+    why = ("it is not the first modifier" if mods[0] != m else "it has a mirror object" if m.mirror_object
+           else "Merge is off" if not m.use_mirror_merge else "Bisect is on" if any(m.use_bisect_axis) else None)
+    if why:
+        return [], why
+    axes = []
+    for k in range(3):
+        if not m.use_axis[k]:
+            continue
+        x = V[:, k]
+        tol = 0.5 * m.merge_threshold  # Blender merges a vertex with its mirror image within the threshold
+        if not ((x >= -tol).all() or (x <= tol).all()):
+            return [], "the mesh is on both sides of its plane"
+        axes.append((k, tol))
+    return axes, None
+
+
+def on_mirror_planes(V, V0, axes):
+    """Vertices of the base mesh (V's first rows) that were on a mirror plane stay exactly there."""
+    for k, tol in axes:
+        seam = np.flatnonzero(np.abs(V0[:, k]) <= tol)
+        V[seam, k] = V0[seam, k]
+    return V
+
+
 def mesh_has_modifiers(obj):
     """True if the object's displayed mesh differs from its datablock's
     because of enabled modifiers."""

@@ -68,12 +68,15 @@ class _Job:
     def __init__(self, obj, V, F, N, mask):
         self.obj, self.name = obj, obj.name
         self.V, self.F, self.N, self.mask = V, F, N, mask
+        # A half modelled with a Mirror modifier: its vertices on the mirror planes stay there, so
+        # the halves stay welded (denoising moves them off by up to the noise level).
+        self.mirror = bridge.mirror_axes(obj, V)[0]
         self.result = None
         self.error = None
 
 
 def _read_job(obj, edit_mode):
-    """A _Job for obj, or an error message."""
+    """A _Job for obj, an error message, or None (Edit mode, nothing selected in it)."""
     mesh = obj.data
     if mesh.library is not None:
         return "mesh data is linked from a library and cannot be changed"
@@ -86,7 +89,7 @@ def _read_job(obj, edit_mode):
     if edit_mode:
         mask = _vertex_flags(mesh, "select") & ~_vertex_flags(mesh, "hide")
         if not mask.any():
-            return "no vertices selected"
+            return None  # nothing selected in this one of the edited objects
     if len(arrays.F) == 0:
         N = read_point_normals(mesh)
         if N is None:
@@ -170,8 +173,12 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
                 job = f"could not read the mesh: {type(exc).__name__}: {exc}"
             if isinstance(job, str):
                 failures.append((obj.name, job))
-            else:
+            elif job is not None:
                 jobs.append(job)
+        if not jobs and not failures:
+            self.report({'ERROR'}, "Denoise: no vertices selected")
+            cancel_event.clear()
+            return None
         if not jobs:
             for name, message in failures:
                 self.report({'ERROR'}, f"Denoise failed on '{name}': {message}")
@@ -231,7 +238,7 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
 
     def _write(self, job):
         mesh = job.obj.data
-        bridge.write_positions(mesh, job.result.vertices)
+        bridge.write_positions(mesh, bridge.on_mirror_planes(np.array(job.result.vertices), job.V, job.mirror))
         if self.show_residual:
             residual = job.result.residual
             bridge.write_point_float(mesh, ATTR_RESIDUAL, residual)

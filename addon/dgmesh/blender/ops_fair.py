@@ -66,34 +66,8 @@ class _Target:
         self.faces = faces  # region triangles or None
         self.refine = False  # Refine Fill for this object (asked for, or a fill without inner vertices)
         # [(axis, merge distance)] of a Mirror modifier, or [] and why it is not used
-        self.mirror, self.mirror_unused = _mirror_axes(obj, arrays.V)
+        self.mirror, self.mirror_unused = bridge.mirror_axes(obj, arrays.V)
         self.result = None
-
-
-def _mirror_axes(obj, V):
-    """The axes of a Mirror modifier that closes the base mesh into what the user sees: the first
-    modifier shown, mirroring in the object's own space (no mirror object) with Merge on, without
-    Bisect, the mesh on one side of each plane. ([(axis, merge distance)], None), or ([], why not)
-    (the base mesh is faired as it is; '' without a Mirror)."""
-    mods = [m for m in obj.modifiers if m.show_viewport]
-    mirrors = [m for m in mods if m.type == 'MIRROR']
-    if not mirrors:
-        return [], ""
-    m = mirrors[0]
-    why = ("it is not the first modifier" if mods[0] != m else "it has a mirror object" if m.mirror_object
-           else "Merge is off" if not m.use_mirror_merge else "Bisect is on" if any(m.use_bisect_axis) else None)
-    if why:
-        return [], why
-    axes = []
-    for k in range(3):
-        if not m.use_axis[k]:
-            continue
-        x = V[:, k]
-        tol = 0.5 * m.merge_threshold  # Blender merges a vertex with its mirror image within the threshold
-        if not ((x >= -tol).all() or (x <= tol).all()):
-            return [], "the mesh is on both sides of its plane"
-        axes.append((k, tol))
-    return axes, None
 
 
 def _mirrored(V, F, masks, axes):
@@ -153,14 +127,6 @@ def _split_seam_edges(V, F, region, axes):
             reg += [True] * (pieces - 1)
             break  # a fill triangle has at most one edge along the plane worth splitting
     return np.array(V), np.array(rows, dtype=F.dtype), np.array(reg, bool), np.array(origin)
-
-
-def _on_planes(V, V0, axes):
-    """Vertices of the base mesh (V's first rows) that were on a mirror plane stay exactly there."""
-    for k, tol in axes:
-        seam = np.flatnonzero(np.abs(V0[:, k]) <= tol)
-        V[seam, k] = V0[seam, k]
-    return V
 
 
 def _read_target(obj, edit_mode, keep_border):
@@ -323,7 +289,7 @@ class _FairBase(NativeJobOperator):
         r = self._run(t, V, F, mask, faces, False, progress, levels)
         n1, m1 = len(V1), len(F1)
         if isinstance(r, np.ndarray):  # Regularize: positions
-            return _on_planes(r[:n1].copy(), V0, t.mirror)
+            return bridge.on_mirror_planes(r[:n1].copy(), V0, t.mirror)
         # The half's faces: its rows (row f holds a child of input face f) and the extra children of
         # its faces; its vertices: its own, then the new ones its faces use (never a mirror copy).
         rows = np.flatnonzero(r.face_origin < m1)
@@ -335,7 +301,7 @@ class _FairBase(NativeJobOperator):
         Fh = index[Fh]
         if (Fh < 0).any():  # cannot happen: the flow neither flips nor joins faces across the plane
             raise api().MeshError("the mirrored result could not be split into its halves")
-        Vh = _on_planes(np.concatenate([r.vertices[:n1], r.vertices[new]]), V1, t.mirror)
+        Vh = bridge.on_mirror_planes(np.concatenate([r.vertices[:n1], r.vertices[new]]), V1, t.mirror)
         size = float(np.ptp(V0, axis=0).max())
         for k, _tol in t.mirror:  # a seam edge's midpoint is on the plane up to rounding
             near = np.abs(Vh[n1:, k]) <= 1e-9 * size
