@@ -296,7 +296,7 @@ def multires(demo):
     with demo.timed("multires_preview"):
         result = bpy.ops.dgmesh.multires_preview('EXEC_DEFAULT', control_faces=faces)
     assert result == {'FINISHED'}, result
-    ctrl = next(o for o in bpy.data.objects if o.get("dgmesh_multires_control_of") == main.name)
+    ctrl = next(o for o in bpy.data.objects if o.get("dgmesh_multires_control_of") == main)
     mag = np.empty(len(main.data.vertices), dtype=np.float32)
     main.data.attributes["dg_multires_magnitude"].data.foreach_get("value", mag)
     co = np.empty(3 * len(main.data.vertices), dtype=np.float32)
