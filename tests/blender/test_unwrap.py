@@ -320,20 +320,20 @@ def test_stretch_map_without_uvs_is_an_error():
 
 @pytest.mark.parametrize("uv_value", [0.0, float("nan")], ids=["collapsed", "nan"])
 def test_stretch_map_of_a_broken_uv_map_is_an_error_and_writes_nothing(uv_value):
-    bpy.ops.wm.read_homefile(use_empty=True)
+    open_fixture("shapes")
     bpy.ops.mesh.primitive_uv_sphere_add()
     mesh = bpy.context.object.data
     uv = mesh.uv_layers.active.data
     uv.foreach_set("uv", np.full(2 * len(uv), uv_value, np.float32))
     before = mesh_snapshot(mesh)
-    with pytest.raises(RuntimeError, match="UV stretch map failed on 'Sphere'") as exc:
+    with pytest.raises(RuntimeError, match=f"UV stretch map failed on '{bpy.context.object.name}'") as exc:
         stretch_map()
     assert "Traceback" not in str(exc.value)
     assert mesh_snapshot(mesh) == before
 
 
 def test_stretch_map_in_edit_mode(dg):
-    bpy.ops.wm.read_homefile(use_empty=True)
+    open_fixture("shapes")
     bpy.ops.mesh.primitive_uv_sphere_add()
     obj = bpy.context.object
     bpy.ops.object.mode_set(mode='EDIT')
@@ -374,3 +374,16 @@ def test_packed_scan_keeps_its_slivers(dg, capsys):
     ratio = got / want
     assert want.min() < 1e-9  # the slivers are there
     assert 0.8 < ratio.min() and ratio.max() < 1.25, (ratio.min(), ratio.max(), np.argmin(ratio), np.argmax(ratio))
+
+
+def test_a_flipped_face_is_reported_as_such_and_nothing_changes():
+    open_fixture("shapes")
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, size=2)
+    mesh = bpy.context.object.data
+    mesh.polygons[0].flip()
+    mesh.update()
+    before = mesh_snapshot(mesh)
+    with pytest.raises(RuntimeError, match="inconsistent face orientation") as exc:
+        unwrap()
+    assert "zero area" not in str(exc.value)
+    assert mesh_snapshot(mesh) == before

@@ -49,9 +49,11 @@ def _read_polys(mesh):
     return start, total, sel, lv, le, seam
 
 
-def split_charts(start, total, face_mask, loop_edge, seam):
+def split_charts(start, total, face_mask, loop_edge, seam, loop_vertex=None):
     """Charts of the masked polygons: returns (corner_class, chart_of_class) where corner_class[l]
-    is the chart vertex of loop l (-1 for loops of unmasked polygons)."""
+    is the chart vertex of loop l (-1 for loops of unmasked polygons). With ``loop_vertex``, two
+    polygons that run a shared edge the same way (one of them flipped) raise MeshError: their
+    corners would be joined crosswise."""
     uw = sys.modules[api().__name__ + ".unwrap"]  # the module (the package's `unwrap` is the function)
     nloop = len(loop_edge)
     poly_of_loop = np.repeat(np.arange(len(start)), total)
@@ -73,6 +75,12 @@ def split_charts(start, total, face_mask, loop_edge, seam):
         after = np.r_[same, False][first + 1]
         ok = ~before & ~after & ~seam[es[first]]
     a, b = ls[first[ok]], ls[first[ok] + 1]
+    if loop_vertex is not None:
+        same_way = np.flatnonzero(loop_vertex[a] == loop_vertex[b])
+        if len(same_way):
+            raise api().MeshError(
+                f"inconsistent face orientation (flipped normals) across {len(same_way)} edge(s) (first: edge "
+                f"{int(loop_edge[a[same_way[0]]])}); Mesh > Normals > Recalculate Outside, then unwrap")
     # Edge u->v in a's polygon and v->u in b's: a~next(b), next(a)~b.
     vertex_pairs = np.concatenate([np.c_[a, nxt[b]], np.c_[nxt[a], b]]).astype(np.int32)
     cls = uw.chart_labels(nloop, vertex_pairs)
@@ -147,7 +155,11 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                 if obj.data.library is not None:
                     self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': mesh data is linked from a library")
                     return None
-                item = _read_charts(obj, edit, dg)
+                try:
+                    item = _read_charts(obj, edit, dg)
+                except dg.MeshError as exc:
+                    self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': {exc}")
+                    return None
                 if item is not None:
                     items.append(item)
         if not items:
@@ -292,7 +304,7 @@ def _read_charts(obj, edit, dg):
     mask = sel.copy() if edit else np.ones(len(start), bool)
     if not mask.any():
         return None
-    corner_class, chart_of_class = split_charts(start, total, mask, le, seam)
+    corner_class, chart_of_class = split_charts(start, total, mask, le, seam, lv)
     tri_mask = mask[arrays.tri_poly]
     tri_loops = arrays.tri_loops[tri_mask]
     tri_cls = corner_class[tri_loops]
