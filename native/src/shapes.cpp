@@ -1,6 +1,7 @@
 #include "dgmesh/shapes.h"
 
 #include <cmath>
+#include <string>
 #include <unordered_map>
 
 #include "dgmesh/errors.h"
@@ -9,6 +10,11 @@ namespace dgmesh {
 
 TriMesh subdivide_linear(const MatX3d& V, const MatX3i& F) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
+  for (int f = 0; f < m; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (F(f, k) < 0 || F(f, k) >= n)
+        throw MeshError("subdivide_linear: face " + std::to_string(f) + " has vertex index " + std::to_string(F(f, k)) +
+                        " outside 0.." + std::to_string(n - 1));
   std::unordered_map<long long, int> mid;
   mid.reserve(3 * m);
   std::vector<Vec3> extra;

@@ -5,6 +5,7 @@
 #include <opensubdiv/far/topologyRefinerFactory.h>
 
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "dgmesh/errors.h"
@@ -29,7 +30,8 @@ struct Point {
 }  // namespace
 
 TriMesh loop_subdivide(const MatX3d& V, const MatX3i& F, int levels) {
-  if (levels < 0) throw Error("loop_subdivide: levels must be >= 0");
+  // OpenSubdiv keeps a refinement level in 4 bits: 16 levels would silently wrap to 0.
+  if (levels < 0 || levels > 15) throw MeshError("loop_subdivide: levels must be in 0..15, got " + std::to_string(levels));
   validate(V, F, kSurface);
   if (levels == 0) return {V, F};
 

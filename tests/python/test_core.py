@@ -139,3 +139,26 @@ def test_gil_released_during_native_work():
         sys.setswitchinterval(old)
     assert elapsed > 0.005, "mesh too small to measure"
     assert during > 1000, f"counter advanced only {during} times in {elapsed:.3f} s: GIL held?"
+
+
+def test_subdivision_rejects_bad_indices_and_levels():
+    """Out-of-range indices read out of bounds (a far one crashed the process) and 16 Loop levels
+    wrapped OpenSubdiv's 4-bit level field (a crash)."""
+    V, F = shapes.icosphere(1)
+    for bad in (len(V), 10 ** 6, -1):
+        F1 = F.copy()
+        F1[0, 0] = bad
+        with pytest.raises(dgmesh.MeshError, match="outside|out of range"):
+            shapes.subdivide_linear(V, F1)
+    Vg, Fg = shapes.grid(1, 1)
+    with pytest.raises(dgmesh.MeshError, match="0..15"):
+        shapes.loop_subdivide(Vg, Fg, 16)
+
+
+def test_mesh_path_with_a_nul_character_is_refused(tmp_path):
+    V, F = shapes.icosphere(1)
+    with pytest.raises(dgmesh.MeshIOError, match="NUL"):
+        dgmesh.write_mesh(str(tmp_path / "a\x00b.obj"), V, F)
+    with pytest.raises(dgmesh.MeshIOError, match="NUL"):
+        dgmesh.read_mesh(str(tmp_path / "a\x00b.obj"))
+    assert list(tmp_path.iterdir()) == []
