@@ -190,15 +190,30 @@ def feature_function(distance, eta, eps=0.1):
     return (d / dmax + eps) ** eta
 
 
-def _crest_arrays(V, lines):
+def _check_same_mesh(lines, V, F):
+    """MeshError unless ``lines`` were traced on (V, F): every point on an edge must be that edge's
+    point at its parameter, and every segment's face must exist."""
+    if not isinstance(lines, CrestLines):
+        raise MeshError("crest_lines must be a CrestLines result of dgmesh.crest_lines")
+    pe = np.asarray(lines.point_edge)
+    on_edge = np.flatnonzero(pe[:, 0] >= 0) if len(pe) else np.zeros(0, np.int64)
+    ok = (not len(pe) or int(pe.max()) < len(V)) and (not len(lines.segment_face) or
+                                                       int(np.max(lines.segment_face)) < len(F))
+    if ok and len(on_edge):
+        t = np.asarray(lines.point_t)[on_edge, None]
+        p = (1 - t) * V[pe[on_edge, 0]] + t * V[pe[on_edge, 1]]
+        scale = max(float(np.ptp(V, axis=0).max()), 1e-300)
+        ok = float(np.abs(p - np.asarray(lines.points)[on_edge]).max()) <= 1e-9 * scale
+    if not ok:
+        raise MeshError("crest_lines were computed on another mesh")
+
+
+def _crest_arrays(V, F, lines):
     """(segments, segment_face, point_edge) of given crest lines for the native feature-guided
     calls, which validate the mesh once and build F(d) on it (no second validation)."""
     if lines is None:
         return None
-    if not isinstance(lines, CrestLines):
-        raise MeshError("crest_lines must be a CrestLines result of dgmesh.crest_lines")
-    if len(lines.point_edge) and int(lines.point_edge.max()) >= len(V):
-        raise MeshError("crest_lines were computed on another mesh")
+    _check_same_mesh(lines, V, F)
     return (np.ascontiguousarray(lines.segments, np.int32), np.ascontiguousarray(lines.segment_face, np.int32),
             np.ascontiguousarray(lines.point_edge, np.int32))
 
@@ -235,7 +250,7 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
     if target_faces < 0:
         raise MeshError(f"target_faces must be non-negative, got {target_faces}")
     feature_weight = _check_feature_weight(feature_weight)
-    crest = _crest_arrays(V, crest_lines) if feature_weight else None
+    crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
     if locked is not None:
         locked = np.asarray(locked, dtype=bool).ravel()
         if locked.shape != (len(V),):
@@ -264,7 +279,7 @@ def segment(V, F, *, segments, feature_weight=0.0, crest_lines=None, rings=1, th
     if segments < 1:
         raise MeshError(f"segments must be at least 1, got {segments}")
     feature_weight = _check_feature_weight(feature_weight)
-    crest = _crest_arrays(V, crest_lines) if feature_weight else None
+    crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
     out = _native.segment(V, F, segments, None, int(iterations), progress, feature_weight, _check_rings(rings),
                           float(threshold), crest)
     labels = np.asarray(out["labels"], dtype=np.int32)
@@ -276,8 +291,9 @@ def snap_to_vertices(lines, V, F):
     of its edge (a junction point to the nearest corner of its triangle). Returns (S', 2) int32
     pairs of distinct vertices (segments whose ends snap to the same vertex are dropped) and the
     line of each pair. Consecutive pairs share a triangle, except across gap jumps."""
-    V = np.asarray(V)
-    F = np.asarray(F)
+    V = as_vertices(V)
+    F = as_faces(F)
+    _check_same_mesh(lines, V, F)
     pe = lines.point_edge
     vert = np.where(lines.point_t < 0.5, pe[:, 0], pe[:, 1]).astype(np.int64)
     junction = np.flatnonzero(pe[:, 0] < 0)

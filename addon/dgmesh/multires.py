@@ -121,7 +121,8 @@ class Multires:
 
     def save(self, path):
         """Writes the bind data to an ``.npz`` archive."""
-        np.savez_compressed(path, **self.to_arrays())
+        with open(path, "wb") as fh:  # a file object: numpy would add ".npz" to a path without it
+            np.savez_compressed(fh, **self.to_arrays())
 
     @classmethod
     def load(cls, path):

@@ -215,7 +215,8 @@ class SkeletalRig:
 
     def save(self, path):
         """Writes the bind data to a .npz file."""
-        np.savez_compressed(path, **self.to_arrays())
+        with open(path, "wb") as fh:  # a file object: numpy would add ".npz" to a path without it
+            np.savez_compressed(fh, **self.to_arrays())
 
     @classmethod
     def load(cls, path):

@@ -42,7 +42,7 @@ SkeletalDeformOptions deform_options(const std::string& method, int fairing_step
                                      int homotopy_steps, int fold_iterations, double projection = 1.0,
                                      bool dual_quaternion = false, double bone_clearance = -1) {
   SkeletalDeformOptions o;
-  if (bone_clearance >= 0) o.bone_clearance = bone_clearance;
+  if (!(bone_clearance < 0)) o.bone_clearance = bone_clearance;  // negative: the default; NaN is refused
   o.projection = projection;
   o.dual_quaternion = dual_quaternion;
   o.method = method_from(method);

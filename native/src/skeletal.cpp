@@ -1182,6 +1182,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     if (!m.allFinite()) throw MeshError("skeletal deform: pose matrices must be finite");
   if (opt.fairing_steps < 0 || opt.homotopy_steps < 1 || opt.fold_iterations < 0)
     throw MeshError("skeletal deform: fairing_steps and fold_iterations must be >= 0, homotopy_steps >= 1");
+  if (!std::isfinite(opt.fairing_step) || !std::isfinite(opt.projection) || !std::isfinite(opt.bone_clearance))
+    throw MeshError("skeletal deform: fairing_step, projection and bone_clearance must be finite");
   MatX9d lin;
   MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   clear_bones(Sd, pose);

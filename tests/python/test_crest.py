@@ -198,3 +198,15 @@ def test_feature_progress_covers_fit_and_decimation(cube):
     with pytest.raises(dgmesh.MeshError, match="another mesh"):
         other = dgmesh.crest_lines(*_native.icosphere(4, 1.0))
         dgmesh.segment(*_native.icosphere(1, 1.0), segments=3, feature_weight=2.0, crest_lines=other)
+
+
+def test_crest_lines_of_a_smaller_or_larger_mesh_are_refused():
+    V, F = shapes.icosphere(2)  # 162 vertices
+    for n in (4, 12):  # rounded cubes of 98 and more vertices than the sphere
+        other = dgmesh.crest_lines(*shapes.rounded_cube(n))
+        with pytest.raises(dgmesh.MeshError, match="another mesh"):
+            dgmesh.decimate(V, F, target_faces=50, feature_weight=1.0, crest_lines=other)
+        with pytest.raises(dgmesh.MeshError, match="another mesh"):
+            dgmesh.segment(V, F, segments=4, feature_weight=1.0, crest_lines=other)
+        with pytest.raises(dgmesh.MeshError, match="another mesh"):
+            snap_to_vertices(other, V, F)

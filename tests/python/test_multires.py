@@ -142,3 +142,13 @@ def test_progress_can_cancel():
     seen = []
     dgmesh.Multires.build(V, F, control_faces=200, progress=lambda f: seen.append(f))
     assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
+
+
+def test_save_and_load_use_the_path_as_given(tmp_path):
+    V, F = shapes.icosphere(2)
+    m = dgmesh.Multires.build(V, F, control_faces=40)
+    p = tmp_path / "bind_data"  # no .npz suffix: numpy's savez would have added one
+    m.save(p)
+    assert [q.name for q in tmp_path.iterdir()] == ["bind_data"]
+    back = dgmesh.Multires.load(p)
+    np.testing.assert_array_equal(back.reconstruct(back.control_vertices), m.reconstruct(m.control_vertices))

@@ -358,3 +358,13 @@ def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance
     assert any("missed the kept boundary" in w for w in r.warnings)
     t = dgmesh.topology(r.V, r.F)
     assert t["n_components"] == 1 and len(t["boundary_loops"]) == 1
+
+
+def test_point_mesh_distance_validates_the_mesh():
+    V, F = dgmesh.shapes.icosphere(2)
+    V = V.copy()
+    V[:80] = np.nan
+    with pytest.raises(dgmesh.MeshError, match="NaN"):
+        dgmesh.point_mesh_distance(np.array([[0, 0, 10.0]]), V, F)
+    with pytest.raises(dgmesh.MeshError, match="candidates"):
+        dgmesh.point_mesh_distance(np.array([[0, 0, 10.0]]), *dgmesh.shapes.icosphere(2), candidates=-5)

@@ -369,3 +369,17 @@ def test_multires_surface_bone_clearance():
         e0, e = (((dgmesh.union_of_balls_distance(P, Sd, whole.radii) - f_rest) ** 2).sum() for P in (X0, X))
         assert e < 1.2 * e0
     _assert_rest_and_rigid_unpushed(rig, V)
+
+
+def test_non_finite_deform_options_are_refused(tmp_path):
+    V, F = capsule(around=16, cap_rings=4, cylinder_rings=12)
+    R = np.repeat(np.eye(4)[None], 2, 0)
+    R[:, :3, :3] = [[0, -1, 0], [1, 0, 0], [0, 0, 1]]
+    R[0, :3, 3] = [-3, 0, 0]
+    rig = dgmesh.SkeletalRig.bind(V, F, R)
+    for kw in ({"fairing_step": float("nan")}, {"projection": float("inf")}, {"bone_clearance": float("nan")}):
+        with pytest.raises(dgmesh.MeshError, match="finite"):
+            rig.deform(R, **kw)
+    p = tmp_path / "rig"  # saved and loaded under the same name, without .npz
+    rig.save(p)
+    np.testing.assert_array_equal(dgmesh.SkeletalRig.load(p).deform(R), rig.deform(R))
