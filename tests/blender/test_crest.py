@@ -418,3 +418,22 @@ def test_decimate_refuses_shape_keys_and_partial_edit_selections():
         bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.5)
     bpy.ops.object.mode_set(mode='OBJECT')
     assert helpers.mesh_snapshot(obj.data) == before
+
+
+def test_crest_curve_is_replaced_after_a_rename_a_long_name_and_removed_when_no_line_is_found(cube):
+    def curves():
+        return [o for o in bpy.data.objects if o.type == 'CURVE']
+
+    def run(threshold=8.0):
+        return bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=threshold, create_curves=True)
+
+    assert run() == {'FINISHED'} and len(curves()) == 1
+    cube.name = "Renamed"
+    assert run() == {'FINISHED'}
+    assert [c.name for c in curves()] == ["Renamed Crest Lines"]
+    cube.name = "L" * 55  # '<name> Crest Lines' is cut to Blender's 63 characters
+    for _ in range(3):
+        assert run() == {'FINISHED'}
+    assert len(curves()) == 1 and curves()[0].get("dgmesh_crest_lines_of") == cube
+    assert run(threshold=1e9) == {'FINISHED'}  # no line at this threshold: no stale curve
+    assert curves() == []

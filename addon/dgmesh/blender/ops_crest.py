@@ -262,15 +262,25 @@ def _or_edge_flag(mesh, prop, mask):
     mesh.edges.foreach_set(key, cur | mask)
 
 
-def _curve_object(context, obj, lines):
-    """(Re)creates '<object> Crest Lines': one poly spline per line, ridges blue, valleys red."""
-    name = f"{obj.name} Crest Lines"
-    old = bpy.data.objects.get(name)
-    if old is not None and old.type == 'CURVE':
+CURVE_KEY = "dgmesh_crest_lines_of"  # custom property of a crest-line curve: its mesh object
+
+
+def _remove_curve_object(obj):
+    """Removes the crest-line curve object made for ``obj`` (found by its pointer to ``obj``, which
+    follows renames; files from before hold the '<object> Crest Lines' name)."""
+    legacy = bpy.data.objects.get(f"{obj.name} Crest Lines")
+    for old in [o for o in bpy.data.objects if o.type == 'CURVE' and (o.get(CURVE_KEY) == obj or
+                                                                       (o == legacy and CURVE_KEY not in o))]:
         data = old.data
         bpy.data.objects.remove(old)
         if data.users == 0:
             bpy.data.curves.remove(data)
+
+
+def _curve_object(context, obj, lines):
+    """(Re)creates '<object> Crest Lines': one poly spline per line, ridges blue, valleys red."""
+    name = f"{obj.name} Crest Lines"
+    _remove_curve_object(obj)
     curve = bpy.data.curves.new(name, 'CURVE')
     curve.dimensions = '3D'
     curve.bevel_depth = 0.0
@@ -286,6 +296,7 @@ def _curve_object(context, obj, lines):
         spline.points.foreach_set("co", co.ravel())
         spline.material_index = int(kind)
     cobj = bpy.data.objects.new(name, curve)
+    cobj[CURVE_KEY] = obj
     cobj.matrix_world = obj.matrix_world.copy()
     for coll in obj.users_collection:
         coll.objects.link(cobj)
@@ -355,6 +366,8 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
         mesh.update()
         if self.create_curves and len(lines):
             _curve_object(context, obj, lines)
+        elif self.create_curves:  # a run that finds no line leaves no stale curve behind
+            _remove_curve_object(obj)
         n_r = int((lines.line_kind == dg.crest.RIDGE).sum())
         return {"lines": len(lines), "ridges": n_r, "length": lines.total_length,
                 "ridge_edges": int(ridge.sum()), "valley_edges": int(valley.sum())}
