@@ -387,3 +387,25 @@ def test_a_flipped_face_is_reported_as_such_and_nothing_changes():
         unwrap()
     assert "zero area" not in str(exc.value)
     assert mesh_snapshot(mesh) == before
+
+
+def test_charts_with_pinned_uvs_are_left_as_they_are(capsys):
+    """Pinned UVs mean the user placed them: their chart is left alone (Blender's own unwrap keeps
+    pins), the other charts are unwrapped."""
+    obj = ngon_cylinder_with_seams()  # three charts: two caps and the side
+    mesh = obj.data
+    if mesh.uv_layers.active is None:
+        mesh.uv_layers.new(name="UVMap")
+    layer = mesh.uv_layers.active
+    cap = next(p for p in mesh.polygons if p.loop_total > 4)
+    pinned = range(cap.loop_start, cap.loop_start + cap.loop_total)
+    for i in pinned:
+        layer.data[i].uv = (5.0, 5.0)
+        layer.data[i].pin_uv = True
+    select(obj.name)
+    assert unwrap(pack=False) == {'FINISHED'}
+    assert "1 chart(s) with pinned UVs left as they are" in capsys.readouterr().out
+    uv = layer_uv(mesh)
+    assert np.all(uv[list(pinned)] == 5.0)  # the pinned cap is untouched
+    others = np.setdiff1d(np.arange(len(mesh.loops)), list(pinned))
+    assert np.all(uv[others] <= 1.0)  # the other two charts were unwrapped into [0, 1]^2

@@ -100,7 +100,8 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
     bl_label = "Low-Stretch Unwrap"
     bl_description = (
         "Unwrap the selected faces (all faces in Object mode) into charts cut along seams, with "
-        "low stretch by stretch equalization, and pack the charts"
+        "low stretch by stretch equalization, and pack the charts. Charts holding a pinned UV are left "
+        "as they are"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
@@ -162,8 +163,11 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                     return None
                 if item is not None:
                     items.append(item)
+        self._n_pinned = sum(it["n_pinned"] for it in items)
+        items = [it for it in items if it["charts"]]
         if not items:
-            self.report({'WARNING'}, "No faces to unwrap (select faces in Edit mode)")
+            self.report({'WARNING'}, self._pinned_note() if self._n_pinned else
+                        "No faces to unwrap (select faces in Edit mode)")
             return None
         opts = dict(boundary=self.boundary.lower(), weights=self.weights.lower(), eta=self.eta,
                     slide_boundary=self.slide_boundary,
@@ -238,10 +242,16 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         if self.pack:
             text += ", packed" if packed else ", not packed"
         self.report({'INFO'}, text)
+        if self._n_pinned:
+            self.report({'WARNING'}, self._pinned_note())
         warnings = sorted({w for it in items for (_, _, ws) in it["stretch"] for w in ws})
         for w in warnings[:3]:
             self.report({'WARNING'}, w)
         return {'FINISHED'}
+
+    def _pinned_note(self):
+        return (f"{self._n_pinned} chart(s) with pinned UVs left as they are (Low-Stretch Unwrap does not use "
+                "pins; Alt+P unpins)")
 
     def _pack(self, context, items, edit):
         """Blender's packer on the unwrapped faces only. In Object mode: enter Edit mode for
@@ -296,8 +306,24 @@ def _layer_uv(layer):
     return uv.reshape(-1, 2).astype(np.float64)
 
 
+def _pinned_loops(mesh):
+    """Pinned corners of the active UV map (bool per loop), or None when none is pinned."""
+    layer = mesh.uv_layers.active
+    if layer is None or not len(mesh.loops):
+        return None
+    pin = np.zeros(len(mesh.loops), bool)
+    try:
+        layer.data.foreach_get("pin_uv", pin)
+    except (AttributeError, TypeError):  # Blender 4.x: a bool layer beside the UVs
+        if getattr(layer, "pin", None) is not None and len(layer.pin):
+            layer.pin.foreach_get("value", pin)
+    return pin if pin.any() else None
+
+
 def _read_charts(obj, edit, dg):
-    """Charts of the faces to unwrap, as arrays for the worker (no bpy objects inside)."""
+    """Charts of the faces to unwrap, as arrays for the worker (no bpy objects inside). Charts
+    holding a pinned UV are left as they are (``n_pinned`` of them): the unwrap has no pins, and a
+    pin means the user placed those UVs."""
     mesh = obj.data
     arrays = bridge.read_mesh(mesh)
     start, total, sel, lv, le, seam = _read_polys(mesh)
@@ -305,6 +331,19 @@ def _read_charts(obj, edit, dg):
     if not mask.any():
         return None
     corner_class, chart_of_class = split_charts(start, total, mask, le, seam, lv)
+    n_pinned = 0
+    pinned = _pinned_loops(mesh)
+    if pinned is not None:
+        has_pin = np.zeros(len(chart_of_class), bool)
+        used = corner_class >= 0
+        has_pin[chart_of_class[corner_class[used & pinned]]] = True
+        if has_pin.any():
+            n_pinned = int(has_pin.sum())
+            poly_chart = np.where(mask, chart_of_class[corner_class[start]], -1)  # by a polygon's first corner
+            mask &= ~((poly_chart >= 0) & has_pin[np.maximum(poly_chart, 0)])
+            if not mask.any():
+                return dict(name=obj.name, n_pinned=n_pinned, charts=[])
+            corner_class, chart_of_class = split_charts(start, total, mask, le, seam, lv)
     tri_mask = mask[arrays.tri_poly]
     tri_loops = arrays.tri_loops[tri_mask]
     tri_cls = corner_class[tri_loops]
@@ -327,7 +366,7 @@ def _read_charts(obj, edit, dg):
         Vc = np.ascontiguousarray(arrays.V[vert_of_class[classes]])
         charts.append((classes, Fc, Vc, int(tri_poly[in_c].min())))
     loops = np.nonzero(corner_class >= 0)[0]
-    return dict(name=obj.name, counts=(len(mesh.loops), len(mesh.polygons)), mask=mask,
+    return dict(name=obj.name, n_pinned=n_pinned, counts=(len(mesh.loops), len(mesh.polygons)), mask=mask,
                 loops=loops, corner_class=corner_class[loops], n_classes=len(chart_of_class),
                 charts=charts, V=arrays.V, F=F, tri_loops=tri_loops, before=before)
 
