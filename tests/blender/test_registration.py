@@ -35,14 +35,14 @@ class FakeLayout:
     def row(self, **kw):
         return self
 
-    def prop(self, *a, **kw):
-        pass
+    def prop(self, data, name="", **kw):
+        self.props = getattr(self, "props", []) + [name]
 
     def label(self, **kw):
         pass
 
     def separator(self, **kw):
-        pass
+        self.operators.append("|")
 
     def menu(self, *a, **kw):
         pass
@@ -70,7 +70,10 @@ def test_panel_and_menus():
     for cls in (ui.DGMESH_PT_main, ui.DGMESH_MT_menu):
         fake = FakeLayout()
         cls.draw(type("Self", (), {"layout": fake})(), bpy.context)
-        assert fake.operators == expected
+        # The groups (interrogation, smoothing, simplification, UVs, remeshing, deformation) are
+        # set apart.
+        assert fake.operators.count("|") == 5
+        assert [o for o in fake.operators if o != "|"] == expected
     for idname in expected:
         module, name = idname.split(".")
         getattr(getattr(bpy.ops, module), name).get_rna_type()  # raises KeyError if missing
@@ -130,3 +133,35 @@ def test_poll_explains_itself():
     bpy.context.scene.collection.objects.link(empty)
     select("Empty")
     assert not bpy.ops.dgmesh.curvature_map.poll()
+
+
+def _draw_redo_panel(idname, mode):
+    """The props an operator's draw() puts in its redo panel, with its default property values."""
+    cls = getattr(bpy.types, "DGMESH_OT_" + idname.split(".")[1])
+    values = {}
+    module, name = idname.split(".")
+    for p in getattr(getattr(bpy.ops, module), name).get_rna_type().properties:
+        if p.type == 'ENUM':
+            values[p.identifier] = p.default or p.enum_items[0].identifier
+        elif p.type in ('BOOLEAN', 'INT', 'FLOAT', 'STRING'):
+            values[p.identifier] = p.default if getattr(p, "array_length", 0) == 0 else tuple(p.default_array)
+    fake = FakeLayout()
+    stub = type("Self", (), dict(values, layout=fake))()
+    context = type("Context", (), {"mode": mode})()
+    cls.draw(stub, context)
+    return fake.props
+
+
+def test_redo_panels_draw_in_both_modes():
+    from dgmesh.blender import ui
+
+    drawn = {}
+    for idname, _label, _icon in ui.OPERATORS:
+        cls = getattr(bpy.types, "DGMESH_OT_" + idname.split(".")[1])
+        if "draw" in cls.__dict__:
+            for mode in ('OBJECT', 'EDIT_MESH'):
+                drawn[idname, mode] = _draw_redo_panel(idname, mode)
+    # Edit-mode-only options are not offered in Object mode.
+    assert "keep_border" not in drawn["dgmesh.regularize", 'OBJECT']
+    assert "keep_border" in drawn["dgmesh.regularize", 'EDIT_MESH']
+    assert {"iterations", "margin"} <= set(drawn["dgmesh.unwrap", 'OBJECT'])

@@ -801,6 +801,29 @@ def test_zero_scale_is_refused_cleanly(which):
     assert _mesh_state(obj) == before and "dg_skeletal" not in obj.keys()
 
 
+def test_bind_with_the_armature_active_and_polls_of_unbound_objects():
+    """Ctrl+P's order (mesh, then armature: the armature active) binds the one selected mesh;
+    Unbind and Bake are greyed out (poll) while the active object is not bound."""
+    obj, arm, V = _scene()
+    assert not bpy.ops.dgmesh.skeletal_unbind.poll() and not bpy.ops.dgmesh.skeletal_bake.poll()
+    assert not bpy.ops.dgmesh.skeletal_rebind.poll()
+    bpy.context.view_layer.objects.active = arm
+    assert bpy.ops.dgmesh.skeletal_bind.poll()
+    assert _bind() == {'FINISHED'}
+    assert "dg_skeletal" in obj.keys() and "dg_skeletal" not in arm.keys()
+    assert not bpy.ops.dgmesh.skeletal_unbind.poll()  # the armature is active, not the bound mesh
+    assert bpy.ops.dgmesh.skeletal_rebind.poll()  # a bound mesh is in the scene (the sidebar names it)
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.dgmesh.skeletal_unbind.poll() and bpy.ops.dgmesh.skeletal_bake.poll()
+    # Two meshes selected with the armature active: which one is meant is unclear.
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    me2 = bpy.data.objects.new("Other", obj.data.copy())
+    bpy.context.scene.collection.objects.link(me2)
+    me2.select_set(True)
+    bpy.context.view_layer.objects.active = arm
+    assert not bpy.ops.dgmesh.skeletal_bind.poll()
+
+
 def test_errors():
     obj, arm, V = _scene()
     # no armature

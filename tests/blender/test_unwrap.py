@@ -233,7 +233,7 @@ def test_closed_chart_is_an_error_and_changes_nothing():
         unwrap()
     msg = str(info.value)
     assert "'Torus' chart 1 of 1 (1024 triangles" in msg and "closed" in msg
-    assert "seams" in msg and "dgmesh.segment" in msg
+    assert "seams" in msg and "DG Mesh > Segment" in msg
     assert mesh_snapshot(mesh) == before
 
 

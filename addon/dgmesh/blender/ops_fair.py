@@ -360,6 +360,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         "move")
 
     def draw(self, context):
+        self.layout.use_property_split = True  # as the other operators' redo panels
         col = self.layout.column()
         for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential",
                   "linear_start"):
@@ -583,6 +584,14 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
     keep_border: BoolProperty(
         name="Keep Selection Border", default=False,
         description="Edit mode: vertices on the border of the selection stay fixed")
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        col = self.layout.column()
+        for p in ("iterations", "boundary", "strength", "keep_on_surface"):
+            col.prop(self, p)
+        if context.mode == 'EDIT_MESH':
+            col.prop(self, "keep_border")
 
     def _run(self, t, V, F, mask, faces, refine, progress, levels=None):
         V = api().regularize(V, F, iterations=self.iterations, mask=mask,

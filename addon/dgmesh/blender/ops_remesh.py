@@ -72,7 +72,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         description="After the Delaunay triangulation in the parameter plane, flip edges towards a Delaunay "
                     "triangulation of the surface (better angles; beyond the thesis)")
     smooth: IntProperty(
-        name="Smoothing Sweeps", default=3, min=0, max=100,
+        name="Smoothing", default=3, min=0, max=100,
         description="Sweeps of tangential smoothing of the new vertices on the surface (never creating an "
                     "angle below 35 degrees, sharp features kept), each followed by the flips; beyond the thesis")
     resample_boundary: BoolProperty(

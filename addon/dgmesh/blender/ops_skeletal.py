@@ -62,7 +62,7 @@ from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
 from . import bridge
-from .common import poll_active_mesh, poll_fail as _poll_fail
+from .common import poll_fail as _poll_fail
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key of objects bound by earlier versions (legacy live target)
@@ -92,6 +92,28 @@ _rigs = {}          # bind id -> SkeletalRig (rebuilt from the stored data after
 _last_pose = {}     # (bind id, object name) -> bytes of the last pose matrices; per object, since a
                     # duplicated object shares the bind id but has its own attribute (and armature)
 _updating = False   # re-entrancy guard: writing the offsets tags the mesh (another depsgraph update)
+
+
+def _bind_target(context):
+    """The mesh Skeletal Bind acts on: the active object, or with the armature active (the order
+    Ctrl+P parenting uses: mesh, then armature) the one selected mesh."""
+    obj = context.active_object
+    if obj is not None and obj.type == 'MESH':
+        return obj
+    if obj is not None and obj.type == 'ARMATURE':
+        meshes = [o for o in context.selected_objects if o.type == 'MESH']
+        if len(meshes) == 1:
+            return meshes[0]
+    return None
+
+
+def _poll_bound(cls, context):
+    """Object mode, with a bound active object."""
+    if context.mode != 'OBJECT':
+        return _poll_fail(cls, "Only available in Object mode")
+    if not is_bound(context.active_object):
+        return _poll_fail(cls, "The active object is not bound (DG Mesh > Skeletal Bind)")
+    return True
 
 
 def _armature_of(context, mesh_obj):
@@ -782,10 +804,15 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
     @classmethod
     def poll(cls, context):
-        return poll_active_mesh(cls, context)
+        if context.mode != 'OBJECT':
+            return _poll_fail(cls, "Only available in Object mode")
+        if _bind_target(context) is None:
+            return _poll_fail(cls, "Select the mesh and its armature (the mesh active, or the armature with "
+                                   "one mesh selected)")
+        return True
 
     def execute(self, context):
-        obj = context.active_object
+        obj = _bind_target(context)
         if is_bound(obj):
             self.report({'ERROR'}, f"{obj.name!r} is already bound; unbind it first (DG Mesh > Skeletal Unbind)")
             return {'CANCELLED'}
@@ -959,12 +986,6 @@ def unbind(obj, enable_armature=True):
         _rigs.pop(info["id"], None)  # no duplicate left using this bind data
 
 
-def _poll_object_mode(cls, context):
-    if context.mode != 'OBJECT':
-        return _poll_fail(cls, "Only available in Object mode")
-    return True
-
-
 class DGMESH_OT_skeletal_rebind(bpy.types.Operator):
     """Bind the active mesh again to its armature with the same settings: after editing the mesh or \
 painting its weights (the binding keeps what it read at bind)"""
@@ -978,12 +999,18 @@ painting its weights (the binding keeps what it read at bind)"""
 
     @classmethod
     def poll(cls, context):
-        return _poll_object_mode(cls, context)
+        if context.mode != 'OBJECT':
+            return _poll_fail(cls, "Only available in Object mode")
+        if not any(is_bound(o) for o in context.scene.objects):  # the sidebar names a bound object
+            return _poll_fail(cls, "Nothing to rebind: the meshes in this scene are not bound "
+                                   "(DG Mesh > Skeletal Bind)")
+        return True
 
     def execute(self, context):
         obj = bpy.data.objects.get(self.object_name) if self.object_name else context.active_object
         if obj is None or not is_bound(obj):
-            self.report({'ERROR'}, f"{self.object_name or 'The active object'!r} is not bound (DG Mesh > Skeletal Bind)")
+            who = repr(self.object_name) if self.object_name else "The active object"
+            self.report({'ERROR'}, f"{who} is not bound (DG Mesh > Skeletal Bind)")
             return {'CANCELLED'}
         info = obj[PROP]
         arm = _armature(obj, info)
@@ -1017,7 +1044,7 @@ object and the stored data; the Armature modifiers are restored"""
 
     @classmethod
     def poll(cls, context):
-        return _poll_object_mode(cls, context)
+        return _poll_bound(cls, context)
 
     def execute(self, context):
         obj = context.active_object
@@ -1052,9 +1079,19 @@ Cache modifier (renders and exports then need no add-on)"""
     frame_start: IntProperty(name="Start", default=1, description="First frame (default: the scene's)")
     frame_end: IntProperty(name="End", default=250, description="Last frame (default: the scene's)")
 
+    filter_glob: StringProperty(default="*.pc2", options={'HIDDEN'})
+
     @classmethod
     def poll(cls, context):
-        return context.mode == 'OBJECT'
+        return _poll_bound(cls, context)
+
+    def invoke(self, context, event):
+        # An unsaved file has no folder for the default '//' path: ask where the cache goes.
+        if not bpy.data.filepath and (not self.filepath or self.filepath.startswith("//")):
+            self.filepath = f"{bpy.path.clean_name(context.active_object.name)}_skeletal.pc2"
+            context.window_manager.fileselect_add(self)
+            return {'RUNNING_MODAL'}
+        return self.execute(context)
 
     def execute(self, context):
         obj = context.active_object

@@ -145,6 +145,19 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
     def poll(cls, context):
         return poll_mesh_targets(cls, context)
 
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        for name in ("boundary", "weights", "eta", "slide_boundary", "optimal"):
+            layout.prop(self, name)
+        row = layout.row()
+        row.active = not self.optimal  # steps count only when not iterating to the optimum
+        row.prop(self, "iterations")
+        layout.prop(self, "pack")
+        row = layout.row()
+        row.active = self.pack
+        row.prop(self, "margin")
+
     # --- main thread: read --------------------------------------------------------------------
     def prepare(self, context):
         dg = api()
@@ -192,7 +205,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                         raise dg.MeshError(
                             f"'{it['name']}' chart {c + 1} of {n_charts} ({len(Fc)} triangles, with face "
                             f"#{first_poly}): {exc}. Add seams so that every chart is a disk, or split "
-                            "it with dgmesh.segment") from None
+                            "it with DG Mesh > Segment") from None
                     # Scale each chart to its 3D area so the packer keeps the charts' relative size.
                     uv = r.uv - r.uv.mean(0)
                     a3 = _area3(Vc, Fc)

@@ -30,9 +30,23 @@ OPERATORS = [
 ]
 
 
+# The first operator of each group after the first (a gap before it in the panel and menus).
+GROUP_STARTS = {"dgmesh.denoise", "dgmesh.decimate_features", "dgmesh.unwrap", "dgmesh.remesh",
+                "dgmesh.multires_preview"}
+
+
 def _draw_operators(layout):
     for idname, label, icon in OPERATORS:
+        if idname in GROUP_STARTS:
+            layout.separator()
         layout.operator(idname, text=label, icon=icon)
+
+
+def _warning(layout, lines):
+    """A warning the sidebar shows whole: one short label per line (a long label is cut off)."""
+    col = layout.column(align=True)
+    for k, text in enumerate(lines):
+        col.label(text=text, icon='ERROR' if k == 0 else 'BLANK1')
 
 
 class DGMESH_PT_main(bpy.types.Panel):
@@ -49,9 +63,9 @@ class DGMESH_PT_main(bpy.types.Panel):
         from . import ops_skeletal
         for obj in context.scene.objects:
             if ops_skeletal.live_modifier_misplaced(obj):
-                layout.label(text=f"{obj.name}: move dg_skeletal to the top of the modifiers", icon='ERROR')
+                _warning(layout, (f"{obj.name}:", "move dg_skeletal to", "the top of the modifiers"))
             if ops_skeletal.shown_undeformed(obj):
-                layout.label(text=f"{obj.name}: edited since bound, rebind it", icon='ERROR')
+                _warning(layout, (f"{obj.name}:", "edited since bound,", "rebind it"))
                 layout.operator("dgmesh.skeletal_rebind", icon='FILE_REFRESH').object_name = obj.name
         # Colour attributes only show in Solid shading with Color = Attribute.
         space = context.space_data
