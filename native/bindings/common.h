@@ -24,7 +24,7 @@ inline ProgressFn progress_from(const pb::object& cb) {
   return [cb](double fraction) {
     pb::gil_scoped_acquire gil;
     pb::object r = cb(fraction);
-    return r.is_none() || r.cast<bool>();
+    return r.is_none() || static_cast<bool>(pb::bool_(r));  // Python truthiness: False, 0, "" cancel
   };
 }
 

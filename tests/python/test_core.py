@@ -162,3 +162,13 @@ def test_mesh_path_with_a_nul_character_is_refused(tmp_path):
     with pytest.raises(dgmesh.MeshIOError, match="NUL"):
         dgmesh.read_mesh(str(tmp_path / "a\x00b.obj"))
     assert list(tmp_path.iterdir()) == []
+
+
+def test_progress_callbacks_answer_by_truthiness():
+    """A callback's answer counts as Python truthiness (a non-bool answer was a pybind cast error)."""
+    V, F = shapes.grid(8, 8)
+    seen = []
+    dgmesh.unwrap(V, F, progress=lambda f: seen.append(f) or "go on")
+    assert seen
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.unwrap(V, F, progress=lambda f: 0)
