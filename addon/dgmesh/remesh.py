@@ -45,6 +45,8 @@ class RemeshResult:
     lloyd_iterations: Lloyd relaxation steps made (see ``lloyd_iterations`` of :func:`remesh_full`).
     n_separated: interior samples dropped for lying closer than ``min_separation`` x the local
         target spacing to another sample (last round).
+    resolution: the control map's raster size used: the one asked for, or coarser when the target
+        is small (error diffusion needs some samples per hundred pixels, at most 256 pixels each).
     sampling_rounds: diffusion + relaxation + separation rounds (repeated with a raised diffusion
         goal while the separation drops more than 0.5% of the target).
     smooth_moves: vertex moves made by ``smooth_iterations``.
@@ -66,6 +68,7 @@ class RemeshResult:
     n_flips: int = 0
     lloyd_iterations: int = 0
     n_separated: int = 0
+    resolution: int = 0
     sampling_rounds: int = 0
     smooth_moves: int = 0
     n_removed: int = 0
@@ -142,7 +145,7 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         n_interior_target=int(r["n_interior_target"]), n_rejected=int(r["n_rejected"]),
         passes=int(r["passes"]), uopt_iterations=int(r["uopt_iterations"]), n_flips=int(r["n_flips"]),
         lloyd_iterations=int(r["lloyd_iterations"]), n_separated=int(r["n_separated"]),
-        sampling_rounds=int(r["sampling_rounds"]), smooth_moves=int(r["smooth_moves"]), n_removed=int(r["n_removed"]),
+        sampling_rounds=int(r["sampling_rounds"]), resolution=int(r["resolution"]), smooth_moves=int(r["smooth_moves"]), n_removed=int(r["n_removed"]),
         seconds=dict(parameterize=r["seconds_parameterize"], sample=r["seconds_sample"],
                      relax=r["seconds_relax"], triangulate=r["seconds_triangulate"]),
         warnings=list(r["warnings"]) + ([retried] if retried else []),

@@ -60,6 +60,7 @@ void bind_remesh(pb::module_& m) {
         d["lloyd_iterations"] = r.lloyd_iterations;
         d["n_separated"] = r.n_separated;
         d["sampling_rounds"] = r.sampling_rounds;
+        d["resolution"] = r.resolution;
         d["smooth_moves"] = r.smooth_moves;
         d["n_removed"] = r.n_removed;
         d["seconds_relax"] = r.seconds_relax;

@@ -46,7 +46,8 @@ constexpr double kSliverDihedralCos = 0.0;
 const double kLowValenceCos = std::cos(20 * kPi / 180);
 constexpr double kSmoothFeatureCos = 0.7;    // ~45 degrees between a triangle and its star's normal
 constexpr int kMaxStar = 64;                  // stars with more triangles are not smoothed
-constexpr int kBand = 16;              // raster rows per band (one band per task, no write races)
+constexpr int kBand = 16;
+constexpr double kPixelsPerSample = 256;  // at most this many chart pixels per interior sample              // raster rows per band (one band per task, no write races)
 
 inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 inline double seconds_since(Clock::time_point t0) {
@@ -812,7 +813,17 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
 
   // 3. Rasterize the control map over the sampling map: pixel value = (3D area / UV area) of the
   // covering face times the interpolated density, i.e. the density per unit of UV area [AMD02].
-  const int R = o.resolution;
+  // Error diffusion needs some samples per hundred pixels: with fewer, a row's carried error only
+  // fires where the row leaves the chart, the samples line the chart's border and the boundary
+  // clearance drops them all (a 150-vertex target on a grid at 512^2 kept no interior sample). So
+  // the raster is made coarser until there are at most kPixelsPerSample chart pixels per interior
+  // sample; larger targets keep the resolution asked for.
+  double chart_uv_area = 0;
+  for (int f = 0; f < nf; ++f)
+    chart_uv_area += 0.5 * std::abs(cross2(uv_row(Us, F(f, 1)) - uv_row(Us, F(f, 0)), uv_row(Us, F(f, 2)) - uv_row(Us, F(f, 0))));
+  const double r_fit = std::ceil(std::sqrt(kPixelsPerSample * n_int / std::max(chart_uv_area, 1e-12)));
+  const int R = std::max(16, int(std::min(r_fit, double(o.resolution))));
+  res.resolution = R;
   const long npix = long(R) * R;
   if (n_int > npix / 4)
     res.warnings.push_back("resolution " + std::to_string(R) + " is low for " + std::to_string(n_int) +
@@ -996,8 +1007,8 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       res.n_rejected = ns - accepted;
       report(std::min(0.55 + 0.04 * (pass + 1), 0.79));
       const int tol = std::max(1, int(0.002 * n_goal));
-      if (std::abs(accepted - n_goal) <= tol || accepted == 0) break;
-      scale *= double(n_goal) / accepted;
+      if (std::abs(accepted - n_goal) <= tol) break;
+      scale *= accepted > 0 ? double(n_goal) / accepted : 2.0;  // none kept: every sample hit the clearance
     }
     res.seconds_sample = seconds_since(t_sample) - res.seconds_relax;
 
@@ -1196,6 +1207,13 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     n_goal = std::max(1, int(std::lround(n_goal * shortfall)));
     scale *= shortfall;
   }  // rounds
+  {
+    int kept = 0;
+    for (char k : keep) kept += k;
+    if (kept == 0 && n_int > 0)
+      throw MeshError("remesh: no inner vertex could be placed (every sample fell within the boundary clearance); "
+                      "raise the target or lower the resolution");
+  }
   if (res.n_separated > std::max(1, n_int / 100))
     res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_goal) +
                            " interior samples were closer than " + std::to_string(o.min_separation) +

@@ -368,3 +368,17 @@ def test_point_mesh_distance_validates_the_mesh():
         dgmesh.point_mesh_distance(np.array([[0, 0, 10.0]]), V, F)
     with pytest.raises(dgmesh.MeshError, match="candidates"):
         dgmesh.point_mesh_distance(np.array([[0, 0, 10.0]]), *dgmesh.shapes.icosphere(2), candidates=-5)
+
+
+@pytest.mark.parametrize("resolution", [512, 1024])
+def test_small_targets_on_a_fine_raster_keep_their_inner_vertices(resolution):
+    """With a few samples per thousand pixels the error diffusion lined the chart's border and the
+    boundary clearance dropped every sample: 150 vertices on a grid at 512^2 came out as the 56
+    boundary vertices alone. The raster is made coarser for such targets."""
+    V, F = dgmesh.shapes.grid(14, 14)
+    r = dgmesh.remesh_full(V, F, target_vertices=150, resolution=resolution, boundary="keep")
+    assert r.n_boundary == 56
+    assert abs(len(r.V) - 150) <= 3
+    assert r.resolution < resolution
+    # Large targets keep the raster asked for.
+    assert dgmesh.remesh_full(V, F, target_vertices=3000, resolution=256, boundary="keep").resolution == 256

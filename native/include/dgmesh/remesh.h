@@ -100,6 +100,7 @@ struct RemeshResult {
   int n_interior_target = 0; // expected interior samples (target minus boundary)
   int n_rejected = 0;        // interior samples dropped by the boundary clearance (last pass)
   int passes = 0;            // error-diffusion passes, all rounds (the density is rescaled to hit the count)
+  int resolution = 0;        // raster size used: the one asked for, or coarser for small targets
   int sampling_rounds = 0;   // diffusion + relaxation + separation rounds (more when separation drops samples)
   int uopt_iterations = 0;   // equalization steps of Uopt (0 for SingleU0)
   int n_flips = 0;           // 3D Delaunay edge flips (flip_3d)
