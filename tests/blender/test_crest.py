@@ -437,3 +437,25 @@ def test_crest_curve_is_replaced_after_a_rename_a_long_name_and_removed_when_no_
     assert len(curves()) == 1 and curves()[0].get("dgmesh_crest_lines_of") == cube
     assert run(threshold=1e9) == {'FINISHED'}  # no line at this threshold: no stale curve
     assert curves() == []
+
+
+def test_segment_rerun_replaces_its_own_seams_and_keeps_the_users():
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16)
+    mesh = bpy.context.object.data
+    user = np.zeros(len(mesh.edges), bool)
+    user[:5] = True  # the user's own seams
+    mesh.edges.foreach_set("use_seam", user)
+
+    def borders():
+        lab = helpers.attribute_array(mesh.attributes["dg_segment"]).ravel()
+        ef = {}
+        for p in mesh.polygons:
+            for k in p.edge_keys:
+                ef.setdefault(k, set()).add(int(lab[p.index]))
+        return np.array([len(ef.get(e.key, ())) > 1 for e in mesh.edges])
+
+    for n in (6, 12):
+        assert bpy.ops.dgmesh.segment('EXEC_DEFAULT', segments=n, mark_seams=True) == {'FINISHED'}
+        seam = np.array([e.use_seam for e in mesh.edges])
+        np.testing.assert_array_equal(seam, borders() | user)

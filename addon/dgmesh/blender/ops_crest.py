@@ -48,6 +48,7 @@ ATTR_RIDGE = "dg_ridge"
 ATTR_VALLEY = "dg_valley"
 ATTR_SEGMENT = "dg_segment"
 ATTR_SEGMENT_COLOR = "dg_segment_color"
+ATTR_SEGMENT_SEAMS = "dg_segment_seams"  # the seams Segment added (a re-run replaces them, keeps the user's)
 RIDGE_RGB = (0.1, 0.25, 1.0)   # thesis figures: ridges blue ...
 VALLEY_RGB = (1.0, 0.1, 0.1)   # ... valleys red
 DEFAULT_THRESHOLD = 10.0
@@ -672,7 +673,12 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
             np.maximum.at(hi, loop_edge, lab)
             border = (hi >= 0) & (lo != hi)
             borders = int(border.sum())
-            _or_edge_flag(mesh, "seam", border)
+            seam = _get(mesh.edges, "use_seam", bool)
+            ours = mesh.attributes.get(ATTR_SEGMENT_SEAMS)
+            if ours is not None and ours.domain == 'EDGE' and ours.data_type == 'BOOLEAN':
+                seam &= ~_get(ours.data, "value", bool)  # the previous run's borders go
+            mesh.edges.foreach_set("use_seam", seam | border)
+            _write_edge_bool(mesh, ATTR_SEGMENT_SEAMS, border & ~seam)
         mesh.update()
         space = context.space_data
         if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':
