@@ -459,3 +459,37 @@ def test_segment_rerun_replaces_its_own_seams_and_keeps_the_users():
         assert bpy.ops.dgmesh.segment('EXEC_DEFAULT', segments=n, mark_seams=True) == {'FINISHED'}
         seam = np.array([e.use_seam for e in mesh.edges])
         np.testing.assert_array_equal(seam, borders() | user)
+
+
+def test_decimate_keeps_seams_and_sharp_edges_that_survive():
+    """An unwrapped mesh's seams (their vertices are locked on the UV seam) and its sharp edges
+    there come through the decimation (they were all dropped)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16)
+    mesh = bpy.context.object.data
+    # The primitive's UV seam: edges whose two vertices each have several UVs.
+    uv = np.empty(2 * len(mesh.loops), np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", uv)
+    uv = uv.reshape(-1, 2)
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    first = {}
+    multi = np.zeros(len(mesh.vertices), bool)
+    for l, v in enumerate(lv):
+        if v in first and np.abs(uv[first[v]] - uv[l]).max() > 1e-6:
+            multi[v] = True
+        first.setdefault(v, l)
+    E = np.array([e.vertices[:] for e in mesh.edges])
+    seam = multi[E[:, 0]] & multi[E[:, 1]]
+    mesh.edges.foreach_set("use_seam", seam)
+    mesh.edges.foreach_set("use_edge_sharp", seam)
+    assert seam.sum() >= 15
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.3, feature_weight=0.0) == {'FINISHED'}
+    E2 = np.array([e.vertices[:] for e in mesh.edges])
+    co = np.array([v.co[:] for v in mesh.vertices])
+    seam2 = np.array([e.use_seam for e in mesh.edges])
+    assert seam2.sum() >= 15 and np.array_equal(seam2, [e.use_edge_sharp for e in mesh.edges])
+    # They run along the same meridian: every seam vertex has the seam's longitude.
+    seam_co = co[np.unique(E2[seam2])]
+    lon = np.arctan2(seam_co[:, 1], seam_co[:, 0])
+    ring = np.hypot(seam_co[:, 0], seam_co[:, 1]) > 1e-3  # the poles have no longitude
+    assert np.ptp(lon[ring]) < 1e-3

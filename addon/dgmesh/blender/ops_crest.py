@@ -15,10 +15,10 @@ in Edit mode it leaves and re-enters Edit mode around the write, and undo restor
 It keeps: UV maps (per corner: a corner keeps its UV when its vertex survives, else it takes the
 surviving vertex's UV on the same side of the seam; a vertex moved to its quadric optimum gets the
 UV interpolated at its new position in the nearest original triangle), material index and smooth
-flag per face (from the input face the output triangle was), and UV seams and material borders
-exactly (their vertices are locked). It drops: vertex groups, colour and other generic attributes,
-shape keys, custom split normals, edge flags (seams, sharp, creases) and quads/n-gons (the result
-is triangles).
+flag per face (from the input face the output triangle was), UV seams and material borders
+exactly (their vertices are locked), and the seam and sharp flags of edges that survive. It drops:
+vertex groups, colour and other generic attributes, custom split normals, creases and quads/n-gons
+(the result is triangles); it refuses shape keys.
 
 Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the threshold
 or the marking flags only re-filter the traced lines.
@@ -411,10 +411,45 @@ def _read_for_decimation(obj):
             locked[sv[differs]] = True
         loop_mat = np.repeat(mat, np.diff(np.append(_get(mesh.polygons, "loop_start", np.int32), n_loops)))
         locked[sv[loop_mat[order] != loop_mat[first]]] = True
+    # Seams and sharp edges, carried over where their edges survive (_carry_edge_flags).
+    edges = np.empty(2 * len(mesh.edges), dtype=np.int32)
+    mesh.edges.foreach_get("vertices", edges)
+    flags = {"seam": _get(mesh.edges, "use_seam", bool)}
+    rna = bpy.types.MeshEdge.bl_rna.properties.get("use_edge_sharp")
+    if rna is not None and not rna.is_readonly:
+        flags["sharp"] = _get(mesh.edges, "use_edge_sharp", bool)
+    elif mesh.attributes.get("sharp_edge") is not None:  # 4.1+: a generic attribute
+        flags["sharp"] = _get(mesh.attributes["sharp_edge"].data, "value", bool)
+    data.update(edges=edges.reshape(-1, 2), edge_flags=flags)
     data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked,
                 uv_active=mesh.uv_layers.active_index,
                 uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))
     return data
+
+
+def _carry_edge_flags(mesh, data, vertex_map):
+    """Seams and sharp edges of the input that survive the decimation (both ends kept and still
+    joined by an edge; vertices on UV seams are locked, so an unwrapped mesh keeps all its seams)
+    keep their flag on the new mesh."""
+    flags = {prop: f for prop, f in data["edge_flags"].items() if f.any()}
+    if not flags or not len(mesh.edges):
+        return
+    out = np.empty(2 * len(mesh.edges), dtype=np.int32)
+    mesh.edges.foreach_get("vertices", out)
+    out = out.reshape(-1, 2).astype(np.int64)
+    n = len(mesh.vertices)
+    key_out = out.min(1) * n + out.max(1)
+    order = np.argsort(key_out)
+    sorted_keys = key_out[order]
+    a, b = (vertex_map[data["edges"][:, k]].astype(np.int64) for k in (0, 1))
+    key_in = np.minimum(a, b) * n + np.maximum(a, b)
+    pos = np.clip(np.searchsorted(sorted_keys, key_in), 0, len(sorted_keys) - 1)
+    hit = (a >= 0) & (b >= 0) & (a != b) & (sorted_keys[pos] == key_in)
+    for prop, flag in flags.items():
+        mask = np.zeros(len(out), bool)
+        mask[order[pos[hit & flag]]] = True
+        if mask.any():
+            _or_edge_flag(mesh, prop, mask)
 
 
 def _moved_vertex_uvs(uv, tri_loops, V, F, V2, vertex_map, moved):
@@ -505,6 +540,7 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
     mesh.polygons.foreach_set("material_index", data["material_index"][poly])
     mesh.polygons.foreach_set("use_smooth", data["use_smooth"][poly])
     mesh.update(calc_edges=True)
+    _carry_edge_flags(mesh, data, vertex_map)
     for name, uv in uvs:
         layer = mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", np.ascontiguousarray(uv, dtype=np.float32).ravel())
@@ -522,8 +558,8 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         "Quadric decimation of the selected meshes that keeps density near salient crest lines "
         "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
         "shading are carried over (vertices on UV seams and material borders are kept in place), "
-        "other attributes (vertex groups, colour attributes, shape keys, custom normals, edge flags) "
-        "are dropped"
+        "and seams and sharp edges where their edges survive; other attributes (vertex groups, "
+        "colour attributes, custom normals) are dropped"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
