@@ -1868,11 +1868,16 @@ UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, 
     return r;
   }
   const UvMetrics& last = r.steps.back().metrics;
-  o.weights = UvWeights::Floater;
+  // A chart with holes (inner boundaries, e.g. slits cut by open seams) gets mean-value weights:
+  // shape-preserving weights suit it poorly (thesis 5.5), and on the fans that close its holes they
+  // gave L2 stretch 140-380 where mean-value weights give 3 (lion-head cut along its crest lines).
+  const bool holes = r.n_holes > 0;
+  o.weights = holes ? UvWeights::MeanValue : UvWeights::Floater;
   UnwrapResult fl = unwrap_weights(V, F, o, progress, false, folded, lscm_map);
   fl.warnings.insert(fl.warnings.begin(), "the cotangent weights' map folded (" + std::to_string(last.flipped) +
                                               " flipped, " + std::to_string(last.zero_area) +
-                                              " zero-area triangles) or its solve did not converge; used Floater's weights");
+                                              " zero-area triangles) or its solve did not converge; used " +
+                                              (holes ? "mean-value weights (the chart has holes)" : "Floater's weights"));
   return fl;
 }
 

@@ -32,7 +32,7 @@ enum class UvWeights {
   // Beyond the thesis: Cotangent (the harmonic map, closest to conformal, equalizes to a lower
   // stretch than Floater's start on the CGAL disk scans; bench unwrap_quality) and, as soon as a
   // map of it folds or if the result has zero-area triangles, Floater (positive: no flips on a
-  // convex polygon) from the start again.
+  // convex polygon) from the start again; mean-value weights for a chart with holes (thesis 5.5).
   Auto,
 };
 
