@@ -122,3 +122,16 @@ def without_dg(snapshot):
     for key in ("active_color", "render_color_index"):
         snap.pop(key)
     return snap
+
+
+def keep_mirror_half(obj):
+    """Deletes the x < 0 half and adds a Mirror modifier (X, Merge on), as a user models a half."""
+    import bmesh
+
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    obj.modifiers.new("Mirror", 'MIRROR')

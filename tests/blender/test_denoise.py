@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import attribute_array, independent_arrays, mesh_snapshot, open_fixture, select
+from helpers import attribute_array, independent_arrays, keep_mirror_half, mesh_snapshot, open_fixture, select
 from make_fixtures import add_mesh_object
 
 from dgmesh.blender import ops_denoise as ADDON  # noqa: E402
@@ -357,7 +357,7 @@ def test_interactive_run_is_modal_and_esc_cancels(tmp_path):
     assert out["second"] == ['RUNNING_MODAL'] and out["unchanged_after_esc"]
 
 
-def _noisy_grid(name, x=0.0, half=False):
+def _noisy_grid(name, x=0.0):
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, size=2, location=(x, 0, 0))
     obj = bpy.context.object
     obj.name = name
@@ -365,21 +365,14 @@ def _noisy_grid(name, x=0.0, half=False):
     co = coords(obj.data).copy()
     co[:, 2] = 0.05 * rng.standard_normal(len(co)) + 0.3 * np.exp(-4 * (co[:, 0] ** 2 + co[:, 1] ** 2))
     obj.data.vertices.foreach_set("co", co.astype(np.float32).ravel())
-    if half:  # keep the x >= 0 half, to be completed by a Mirror modifier
-        import bmesh
-        bm = bmesh.new()
-        bm.from_mesh(obj.data)
-        bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
-        bm.to_mesh(obj.data)
-        bm.free()
     obj.data.update()
     return obj
 
 
 def test_mirror_half_stays_welded_at_the_plane():
     bpy.ops.wm.read_homefile(use_empty=True)
-    obj = _noisy_grid("Half", half=True)
-    obj.modifiers.new("Mirror", 'MIRROR')
+    obj = _noisy_grid("Half")
+    keep_mirror_half(obj)
     seam = np.flatnonzero(np.abs(coords(obj.data)[:, 0]) < 1e-6)
     assert len(seam) == 11
     before = coords(obj.data).copy()

@@ -6,7 +6,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import mesh_snapshot, select
+from helpers import keep_mirror_half, mesh_snapshot, select
 
 R = 1.0
 
@@ -435,17 +435,6 @@ def _select_only(bm, elems):
         e.select_set(True)
 
 
-def _keep_mirror_half(obj):
-    """Deletes the x < 0 half and adds a Mirror modifier (X, Merge on), as a user models a half."""
-    bm = bmesh.new()
-    bm.from_mesh(obj.data)
-    bmesh.ops.delete(bm, geom=[v for v in bm.verts if v.co.x < -1e-6], context='VERTS')
-    bm.to_mesh(obj.data)
-    bm.free()
-    obj.data.update()
-    obj.modifiers.new("Mirror", 'MIRROR')
-
-
 def _mirrored_half_ellipsoid():
     """The x >= 0 half of a 1:2:1 ellipsoid (UV sphere) with a Mirror modifier (X, Merge on)."""
     bpy.ops.wm.read_homefile(use_empty=True)
@@ -454,7 +443,7 @@ def _mirrored_half_ellipsoid():
     obj.name = "Half"
     obj.scale = (1.0, 2.0, 1.0)
     bpy.ops.object.transform_apply(scale=True)
-    _keep_mirror_half(obj)
+    keep_mirror_half(obj)
     return obj, _positions(obj.data)
 
 
@@ -503,7 +492,7 @@ def test_a_hole_at_the_mirror_plane_filled_and_faired_blends_across_it(subdivisi
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=R)
     obj = bpy.context.object
-    _keep_mirror_half(obj)
+    keep_mirror_half(obj)
     bpy.ops.object.mode_set(mode='EDIT')
     bm = bmesh.from_edit_mesh(obj.data)
     _select_only(bm, [f for f in bm.faces if (lambda c: c.x < 0.45 and abs(c.z) < 0.45 and c.y > 0)(
