@@ -424,3 +424,26 @@ def test_a_closed_object_faired_whole_keeps_its_place_and_size():
     assert abs(a2 / a0 - 1) > 0.05
     assert np.linalg.norm(c2 - c0) < 0.05 * diag
     assert r2.energy[-1] == pytest.approx(r.energy[-1], rel=0.05)
+
+
+def test_separate_patches_are_faired_as_if_each_were_alone():
+    """Two patches that do not interact: faired together, each ends where it ends alone (a shared
+    step control let one's energy drop carry the other's rise: an elephant's foot ballooned)."""
+    V, F = shapes.icosphere(4)
+    V = V * np.array([1.0, 1.0, 1.6])  # an ellipsoid: the patches are not already minimal
+    patches = []
+    for c in (np.array([0, 0, 1.6]), np.array([1.0, 0, 0])):
+        near = np.linalg.norm(V - c, axis=1) < 0.35
+        patches.append(near)
+    both = dgmesh.fair(V, F, mask=patches[0] | patches[1])
+    energy = 0.0
+    for m in patches:
+        alone = dgmesh.fair(V, F, mask=m)
+        np.testing.assert_array_equal(both.vertices[m], alone.vertices[m])
+        energy += alone.energy[-1]
+    assert both.energy[-1] == pytest.approx(energy)
+    # With subdivision, each patch's faces are refined and faired as alone too.
+    fm = [m[F].all(1) for m in patches]
+    both = dgmesh.fair(V, F, faces=fm[0] | fm[1], subdivisions=1)
+    assert len(both.faces) == len(F) + sum(len(dgmesh.fair(V, F, faces=f, subdivisions=1).faces) - len(F) for f in fm)
+    assert (both.face_origin < len(F)).all()
