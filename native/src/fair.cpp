@@ -881,7 +881,7 @@ class Driver {
     if (semi) {
       split_fixed(B, w.P, Bmm, Bmf, fixed_pos_);
     }
-    bool factored = false;
+    double tau_factored = -1;  // the step the factorisation holds (refactored only when it changes)
     int it = 0;
     MatX3d BP;
     while (!out_of_budget(it) && nm_ > 0) {
@@ -893,14 +893,15 @@ class Driver {
         for (int v = 0; v < n; ++v)
           if (movable_idx_[v] >= 0) w.P.row(v) -= tau * BP.row(v);
       } else {
-        SpMat A = Bmm * tau;
-        for (int i = 0; i < nm_; ++i) A.coeffRef(i, i) += 1.0;
-        A.makeCompressed();
-        if (!factored) {
-          solver.factor(A, SparseSolver::Kind::LU);
-          factored = true;
-        } else {
-          solver.refactor(A);
+        // I + tau B: B is fixed (uniform weights), so the matrix changes only with tau, which stops
+        // growing at its cap; refactoring it every step cost ~175 ms a step on an 8K-vertex scan.
+        if (tau != tau_factored) {
+          SpMat A = Bmm * tau;
+          for (int i = 0; i < nm_; ++i) A.coeffRef(i, i) += 1.0;
+          A.makeCompressed();
+          if (tau_factored < 0) solver.factor(A, SparseSolver::Kind::LU);
+          else solver.refactor(A);
+          tau_factored = tau;
         }
         Eigen::MatrixXd rhs(nm_, 3);
         for (int v = 0; v < n; ++v)
