@@ -447,3 +447,31 @@ def test_separate_patches_are_faired_as_if_each_were_alone():
     both = dgmesh.fair(V, F, faces=fm[0] | fm[1], subdivisions=1)
     assert len(both.faces) == len(F) + sum(len(dgmesh.fair(V, F, faces=f, subdivisions=1).faces) - len(F) for f in fm)
     assert (both.face_origin < len(F)).all()
+
+
+def test_regularize_is_not_frozen_by_one_sliver_elsewhere():
+    """The drift's step follows the smallest triangle near each vertex (within its two rings), not
+    the smallest of the whole mesh: one sliver froze the rest of a scan (camel)."""
+    rng = np.random.default_rng(3)
+    V, F = shapes.grid(30, 30)
+    V = V.copy()
+    inner = (V[:, 0] > 1e-9) & (V[:, 0] < 1 - 1e-9) & (V[:, 1] > 1e-9) & (V[:, 1] < 1 - 1e-9)
+    V[inner, :2] += rng.uniform(-0.3, 0.3, (inner.sum(), 2)) / 30  # irregular triangles
+    v = int(np.flatnonzero(inner)[0])
+    w = F[(F == v).any(1)][0]
+    w = int(w[w != v][0])
+    V[v, :2] = V[w, :2] + 1e-4 * (V[v, :2] - V[w, :2])  # a sliver's tip next to its neighbour
+
+    def min_angles(P):
+        T = P[F]
+        out = []
+        for i in range(3):
+            a, b = T[:, (i + 1) % 3] - T[:, i], T[:, (i + 2) % 3] - T[:, i]
+            out.append(np.degrees(np.arccos(np.clip((a * b).sum(1) / np.linalg.norm(a, axis=1)
+                                                    / np.linalg.norm(b, axis=1), -1, 1))))
+        return np.min(out, 0)
+
+    far = ~np.isin(F, [v, w]).any(1)
+    before = min_angles(V)[far].mean()
+    after = min_angles(dgmesh.regularize(V, F, iterations=50))[far].mean()
+    assert after > before + 2.0, (before, after)

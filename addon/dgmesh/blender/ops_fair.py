@@ -577,7 +577,8 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
     boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
     strength: FloatProperty(
         name="Step", default=1.0, min=0.01, max=4.0,
-        description="Multiplies the thesis's step (12 times the smallest triangle area)")
+        description="Multiplies the thesis's step (12 times the smallest triangle area, taken within two "
+                    "rings of each vertex)")
     keep_on_surface: BoolProperty(
         name="Keep on Surface", default=True,
         description="Project moved vertices back onto the original surface after each step")

@@ -88,7 +88,7 @@ struct RegularizeOptions {
   int iterations = 100;
   std::vector<char> vertex_mask;  // movable vertices; empty = all
   FairBoundary boundary = FairBoundary::Fixed;
-  double step_scale = 1.0;  // multiplies the thesis's eps = 12 A_min
+  double step_scale = 1.0;  // multiplies the thesis's eps = 12 A_min (A_min within two rings of each vertex)
   // Project moved vertices back onto the input surface after each step (the drift alone leaves
   // a curved surface by O(step^2 * curvature) per step, which accumulates).
   bool project = true;
