@@ -31,7 +31,7 @@ ATTR_RESIDUAL = "dg_denoise_residual"
 ATTR_RESIDUAL_COLOR = "dg_denoise_residual_color"
 ATTR_SIMILARITY = "dg_similarity"
 ATTR_SIMILARITY_COLOR = "dg_similarity_color"
-NORMAL_ATTRIBUTE = "normal"
+NORMAL_ATTRIBUTE = "Normal"  # the name messages ask for: Blender 3.4 reserves "normal" (new() gives None)
 NORMAL_ATTRIBUTE_ALIASES = ("normal", "Normal", "normals", "N")
 # A cancel request for scripts (Esc does the same in an interactive run): the progress callback then
 # returns False, the native code raises Cancelled and nothing is written. Cleared when a run ends.
@@ -118,7 +118,7 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
     bl_idname = "dgmesh.denoise"
     bl_label = "Denoise"
     bl_description = (
-        "Remove noise from the selected meshes, triangle soups or point clouds (attribute 'normal') "
+        "Remove noise from the selected meshes, triangle soups or point clouds (point attribute 'Normal') "
         "while keeping sharp features: similarity-based non-local means (thesis ch. 2) or bilateral "
         "filtering. In Edit mode only the selected vertices move. Esc cancels long runs"
     )
