@@ -418,10 +418,17 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             else:
                 status = " (stopped before the tolerance: the flow stalled)"
             mods = _modifier_note(t)
+            energy = f"bending energy {e0:.4g} \u2192 {e1:.4g}"
+            levels = r.level_iterations
+            if len(levels) > 1 and 0 < levels[0] < len(r.energy):
+                # Each subdivision raises the discrete energy (flat facets): the first level's end and
+                # the refined mesh's end are the comparable figures, not the input's and the output's.
+                energy = (f"bending energy {e0:.4g} \u2192 {float(r.energy[levels[0]]):.4g}, then {e1:.4g} "
+                          f"on the mesh subdivided {len(levels) - 1}x")
             parts.append(
                 f"'{t.name}'{mods}: {moved} vertices moved"
                 + (f", {len(r.vertices) - n} added" if r.subdivided else "")
-                + f", {r.iterations} iterations, bending energy {e0:.4g} \u2192 {e1:.4g}" + status)
+                + f", {r.iterations} iterations, {energy}" + status)
         note = (" (Refine Fill on: the selected faces had no inner vertex to move)"
                 if getattr(self, "_auto_refined", None) else "")
         self.report({level}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts)
