@@ -5,6 +5,8 @@ and layouts are converted). Arrays out are fresh numpy arrays. Native work runs 
 released. Errors are raised as MeshError (a ValueError) and its relatives.
 """
 
+import os
+
 import numpy as np
 
 try:
@@ -46,6 +48,8 @@ def as_faces(F, name="F"):
 
 def set_num_threads(n):
     """Threads for the native parallel loops; 0 means all cores."""
+    if int(n) != n or n < 0:
+        raise ValueError(f"set_num_threads: a whole number >= 0 (0: all cores), got {n!r}")
     _native.set_num_threads(int(n))
 
 
@@ -55,14 +59,14 @@ def num_threads():
 
 def read_mesh(path):
     """Reads an OBJ, OFF or PLY file: returns (V, F) with polygons fan-triangulated."""
-    V, F, _N = _native.read_mesh(str(path))
+    V, F, _N = _native.read_mesh(os.fsdecode(path))  # str, bytes or path-like
     return V, F
 
 
 def write_mesh(path, V, F, normals=None):
     """Writes an OBJ, OFF or PLY (binary) file, chosen by the extension."""
     N = None if normals is None else as_vertices(normals, "normals")
-    _native.write_mesh(str(path), as_vertices(V), as_faces(F), N)
+    _native.write_mesh(os.fsdecode(path), as_vertices(V), as_faces(F), N)
 
 
 def validate(V, F, allow_loose_vertices=True):

@@ -172,3 +172,12 @@ def test_progress_callbacks_answer_by_truthiness():
     assert seen
     with pytest.raises(dgmesh.Cancelled):
         dgmesh.unwrap(V, F, progress=lambda f: 0)
+
+
+def test_paths_as_bytes_and_thread_count_checks(tmp_path):
+    V, F = shapes.icosphere(1)
+    p = bytes(tmp_path / "x.obj")
+    dgmesh.write_mesh(p, V, F)  # bytes paths too (the message said ".obj'" was unsupported)
+    assert len(dgmesh.read_mesh(p)[1]) == len(F)
+    with pytest.raises(ValueError):
+        dgmesh.set_num_threads(-1)  # was taken for "all cores"
