@@ -123,6 +123,11 @@ class SkeletalRig:
         tails = as_vertices(bone_tails, "bone_tails")
         if len(heads) != len(R) or len(tails) != len(R):
             raise MeshError("bone_heads and bone_tails must have one row per bone")
+        for name, value in (("gaussian_sigma", gaussian_sigma), ("frame_regularization", frame_regularization),
+                            ("presmooth_iterations", presmooth_iterations),
+                            ("postsmooth_iterations", postsmooth_iterations)):
+            if not (np.isfinite(value) and value >= 0):
+                raise MeshError(f"skeletal bind: {name} must be >= 0, got {value!r}")
         rig = _native.SkeletalRig.bind(
             V, F, R, W, heads, tails, int(control_faces), int(multires_level), int(fit_iterations),
             float(gaussian_sigma), float(frame_regularization), int(presmooth_iterations),

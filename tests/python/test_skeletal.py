@@ -383,3 +383,12 @@ def test_non_finite_deform_options_are_refused(tmp_path):
     p = tmp_path / "rig"  # saved and loaded under the same name, without .npz
     rig.save(p)
     np.testing.assert_array_equal(dgmesh.SkeletalRig.load(p).deform(R), rig.deform(R))
+
+
+@pytest.mark.parametrize("kw", [{"gaussian_sigma": -1.0}, {"presmooth_iterations": -3},
+                                {"frame_regularization": float("nan")}])
+def test_bind_refuses_negative_or_nan_settings(kw):
+    V, F = capsule(around=16, cap_rings=4, cylinder_rings=12)
+    R = np.repeat(np.eye(4)[None], 2, 0)
+    with pytest.raises(dgmesh.MeshError, match=next(iter(kw))):
+        dgmesh.SkeletalRig.bind(V, F, R, **kw)
