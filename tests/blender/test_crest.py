@@ -493,3 +493,19 @@ def test_decimate_keeps_seams_and_sharp_edges_that_survive():
     lon = np.arctan2(seam_co[:, 1], seam_co[:, 0])
     ring = np.hypot(seam_co[:, 0], seam_co[:, 1]) > 1e-3  # the poles have no longitude
     assert np.ptp(lon[ring]) < 1e-3
+
+
+def test_crest_curve_goes_to_the_scene_the_operator_ran_in(cube):
+    """A mesh in two scenes: the curve is linked where the user is working (it went to the first
+    scene's collection)."""
+    s1 = bpy.context.scene
+    s2 = bpy.data.scenes.new("Scene2")
+    s2.collection.objects.link(cube)
+    layer = s2.view_layers[0]
+    cube.select_set(True, view_layer=layer)
+    layer.objects.active = cube
+    with bpy.context.temp_override(scene=s2, view_layer=layer, active_object=cube, object=cube,
+                                   selected_objects=[cube]):
+        assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=8.0, create_curves=True) == {'FINISHED'}
+    curve = next(o for o in bpy.data.objects if o.get("dgmesh_crest_lines_of") == cube)
+    assert curve.name in s2.objects

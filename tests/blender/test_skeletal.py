@@ -1051,3 +1051,46 @@ def test_live_modifier_moved_below_a_subdivision_shows_the_mesh_undeformed():
     X = _evaluated_co(obj)
     tip = np.argmax(rest[:, 0])
     assert abs(X[tip, 0]) < 0.1 and abs(X[tip, 1] - 3.5) < 0.1  # posed again, then subdivided
+
+
+def test_bind_in_a_scene_sharing_the_mesh_and_with_its_collection_excluded():
+    """The internal skeleton and helper objects are hidden in every view layer that holds them (a
+    second scene showed the skeleton), and a bound mesh in a collection excluded from the view layer
+    binds without a traceback (hide_set raised mid-bind and left a half-bound mesh)."""
+    obj, arm, V = _scene()
+    s1 = bpy.context.scene
+    s2 = bpy.data.scenes.new("Scene2")
+    s2.collection.objects.link(obj)
+    s2.collection.objects.link(arm)
+    assert _bind() == {'FINISHED'}
+    for name in (obj.name + "_skeleton", obj.name + "_dg_offsets"):
+        o = bpy.data.objects[name]
+        assert o.hide_get(view_layer=s1.view_layers[0]) and o.hide_get(view_layer=s2.view_layers[0]), name
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    # The mesh in a collection excluded from the view layer (bound through a context override).
+    col = bpy.data.collections.new("Body")
+    s1.collection.children.link(col)
+    col.objects.link(obj)
+    s1.collection.objects.unlink(obj)
+    bpy.context.view_layer.layer_collection.children["Body"].exclude = True
+    with bpy.context.temp_override(active_object=obj, object=obj, selected_objects=[obj, arm]):
+        assert _bind() == {'FINISHED'}
+    assert "dg_skeletal" in obj.keys()
+
+
+def test_a_bind_that_fails_while_adding_its_objects_leaves_the_object_as_it_was(monkeypatch):
+    from dgmesh.blender import ops_skeletal
+
+    obj, arm, V = _scene()
+    before = _mesh_state(obj)
+    n_objects, n_groups = len(bpy.data.objects), len(bpy.data.node_groups)
+
+    def broken(*a, **kw):
+        raise RuntimeError("simulated failure")
+
+    monkeypatch.setattr(ops_skeletal, "_skeleton_object", broken)
+    with pytest.raises(RuntimeError, match="simulated failure"):
+        _bind()
+    assert _mesh_state(obj) == before  # the Armature modifier still on, with its armature
+    assert (len(bpy.data.objects), len(bpy.data.node_groups)) == (n_objects, n_groups)
+    assert "dg_skeletal" not in obj.keys()

@@ -299,11 +299,10 @@ def _curve_object(context, obj, lines):
     cobj = bpy.data.objects.new(name, curve)
     cobj[CURVE_KEY] = obj
     cobj.matrix_world = obj.matrix_world.copy()
-    for coll in obj.users_collection:
-        coll.objects.link(cobj)
-        break
-    else:
-        context.scene.collection.objects.link(cobj)
+    # A collection of the mesh in the scene the operator ran in (the mesh may be in several scenes).
+    root = context.scene.collection
+    in_scene = [c for c in obj.users_collection if c == root or c in root.children_recursive]
+    (in_scene[0] if in_scene else context.scene.collection).objects.link(cobj)
     return cobj
 
 

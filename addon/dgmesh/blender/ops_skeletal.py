@@ -697,6 +697,23 @@ def _purge_orphans():
             _remove_object(sk)
 
 
+def _hide_everywhere(o):
+    """Hides an internal object in every view layer that holds it (hide_set acts on one view layer
+    only; a scene sharing the mesh showed the skeleton), never raising for a view layer that
+    excludes its collection."""
+    for scene in bpy.data.scenes:
+        if o.name not in scene.objects:
+            continue
+        for layer in scene.view_layers:
+            for attempt in range(2):
+                try:
+                    o.hide_set(True, view_layer=layer)
+                    break
+                except RuntimeError:  # a view layer not yet synced with the new object, or excluding it
+                    if attempt == 0:
+                        layer.update()
+
+
 def _helper_object(obj, n):
     """The hidden helper: ``n`` loose vertices at the origin (zero offsets: the rest pose), in the
     mesh's collections so the depsgraph evaluates it, never drawn, rendered or selectable. Blender
@@ -709,10 +726,7 @@ def _helper_object(obj, n):
     h = bpy.data.objects.new(name, me)
     for coll in obj.users_collection:
         coll.objects.link(h)
-    try:
-        h.hide_set(True)
-    except RuntimeError:  # not in the active view layer (a collection excluded from it)
-        pass
+    _hide_everywhere(h)
     h.hide_render = True
     h.hide_select = True
     h.display_type = 'BOUNDS'
@@ -767,7 +781,7 @@ def _skeleton_object(context, obj, rig, space=None):
         coll.objects.link(sk)
     sk.parent = obj
     sk[SKELETON_OF] = obj.name
-    sk.hide_set(True)
+    _hide_everywhere(sk)  # (a collection excluded from the view layer: hide_set raised mid-bind)
     sk.hide_render = True
     return sk
 
@@ -879,6 +893,29 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             if has_window:
                 wm.progress_end()
         bid = uuid.uuid4().hex
+        # What the binding adds comes first and goes again if anything fails, before the user's
+        # Armature modifiers are touched: a failure leaves the object as it was.
+        helper = ng = mod = sk = None
+        try:
+            helper = _helper_object(obj, len(V))
+            ng = _helper_node_group(helper)
+            mod = obj.modifiers.new(MOD, 'NODES')
+            mod.node_group = ng
+            _move_first(obj, mod)
+            sk = _skeleton_object(context, obj, rig, space)
+        except Exception as exc:
+            if mod is not None:
+                obj.modifiers.remove(mod)
+            if ng is not None and ng.users == 0:
+                bpy.data.node_groups.remove(ng)
+            for o in (sk, helper):
+                if o is not None:
+                    me = o.data
+                    bpy.data.objects.remove(o)
+                    if me.users == 0:
+                        bpy.data.meshes.remove(me)
+            self.report({'ERROR'}, f"Skeletal Bind failed on {obj.name!r}: {type(exc).__name__}: {exc}")
+            return {'CANCELLED'}
         tag = arm.get(ARM_TAG)
         if not isinstance(tag, str):
             tag = arm[ARM_TAG] = uuid.uuid4().hex
@@ -890,12 +927,6 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                 m.object = None
                 m.show_viewport = False
                 m.show_render = False
-        helper = _helper_object(obj, len(V))
-        ng = _helper_node_group(helper)
-        mod = obj.modifiers.new(MOD, 'NODES')
-        mod.node_group = ng
-        _move_first(obj, mod)
-        sk = _skeleton_object(context, obj, rig, space)
         obj[PROP] = {
             "id": bid, "armature": arm.name, "armature_tag": tag, "armature_data": arm.data.name,
             "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
