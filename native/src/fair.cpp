@@ -1733,7 +1733,7 @@ MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt
   for (int v = 0; v < w.topo.n_vertices; ++v) moves[v] = w.movable[v] && !w.sliding[v];
   VecXd areas;
   MatX3d N, fcross;
-  std::vector<double> ring_min_, ring2_min_;
+  std::vector<double> ring_min, ring2_min;
   const SurfaceProjector projector(w.P, w.F, w.topo);
   for (int it = 0; it < opt.iterations; ++it) {
     progress(double(it) / std::max(1, opt.iterations));
@@ -1742,19 +1742,19 @@ MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt
     // two rings of the vertex (the bi-umbrella's reach) rather than of the whole mesh: a scan's few
     // slivers (camel: smallest triangle 6e-5 of the mean) otherwise freeze every other vertex.
     const int nv = w.topo.n_vertices;
-    ring_min_.assign(nv, std::numeric_limits<double>::infinity());
+    ring_min.assign(nv, std::numeric_limits<double>::infinity());
     for (int v = 0; v < nv; ++v)
       for (int q = w.topo.vf_offset[v]; q < w.topo.vf_offset[v + 1]; ++q)
-        ring_min_[v] = std::min(ring_min_[v], areas[w.topo.vf_index[q]]);
-    ring2_min_ = ring_min_;
+        ring_min[v] = std::min(ring_min[v], areas[w.topo.vf_index[q]]);
+    ring2_min = ring_min;
     for (int v = 0; v < nv; ++v)
       for (int q = w.topo.vv_offset[v]; q < w.topo.vv_offset[v + 1]; ++q)
-        ring2_min_[v] = std::min(ring2_min_[v], ring_min_[w.topo.vv_index[q]]);
+        ring2_min[v] = std::min(ring2_min[v], ring_min[w.topo.vv_index[q]]);
     tan.field(w.P, N, w.topo);
 #pragma omp parallel for schedule(static) if (nv > kParallelMin)
     for (int v = 0; v < nv; ++v) {
-      if (!moves[v] || !std::isfinite(ring2_min_[v])) continue;
-      const double eps = opt.step_scale * 12.0 * ring2_min_[v];
+      if (!moves[v] || !std::isfinite(ring2_min[v])) continue;
+      const double eps = opt.step_scale * 12.0 * ring2_min[v];
       const Vec3 p = Vec3(w.P.row(v)) + eps * Vec3(tan.U2.row(v));
       if (opt.project) {
         thread_local std::vector<int> idx;
