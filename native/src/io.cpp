@@ -66,7 +66,8 @@ std::string read_whole_file(const std::string& path) {
 
 std::string lower_extension(const std::string& path) {
   // The C library stops a path at its first NUL: "a\0b.obj" would open the file "a".
-  if (path.find('\0') != std::string::npos) fail(path.substr(0, path.find('\0')) + "...", "the path holds a NUL character");
+  const size_t nul = path.find('\0');
+  if (nul != std::string::npos) fail(path.substr(0, nul) + "...", "the path holds a NUL character");
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>((c >= 'A' && c <= 'Z') ? c - 'A' + 'a' : c);
   return ext;

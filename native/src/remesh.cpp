@@ -46,8 +46,8 @@ constexpr double kSliverDihedralCos = 0.0;
 const double kLowValenceCos = std::cos(20 * kPi / 180);
 constexpr double kSmoothFeatureCos = 0.7;    // ~45 degrees between a triangle and its star's normal
 constexpr int kMaxStar = 64;                  // stars with more triangles are not smoothed
-constexpr int kBand = 16;
-constexpr double kPixelsPerSample = 256;  // at most this many chart pixels per interior sample              // raster rows per band (one band per task, no write races)
+constexpr int kBand = 16;               // raster rows per band (one band per task, no write races)
+constexpr double kPixelsPerSample = 256;  // at most this many chart pixels per interior sample
 
 inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 inline double seconds_since(Clock::time_point t0) {
@@ -927,6 +927,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   // until the kept count is within 0.5% of the target (every mode hits the count).
   int n_goal = n_int;
   res.passes = 0;
+  int kept = 0;  // interior samples kept by the last round
   for (int round = 0;; ++round) {
     res.n_separated = 0;
     for (int pass = 0; pass < 6; ++pass) {
@@ -1199,7 +1200,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       }
       res.seconds_relax += seconds_since(t_sep);
     }
-    int kept = 0;
+    kept = 0;
     for (char k : keep) kept += k;
     res.sampling_rounds = round + 1;
     if (kept == 0 || std::abs(kept - n_int) <= std::max(1, int(0.005 * n_int)) || round == 3) break;
@@ -1207,13 +1208,9 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     n_goal = std::max(1, int(std::lround(n_goal * shortfall)));
     scale *= shortfall;
   }  // rounds
-  {
-    int kept = 0;
-    for (char k : keep) kept += k;
-    if (kept == 0 && n_int > 0)
-      throw MeshError("remesh: no inner vertex could be placed (every sample fell within the boundary clearance); "
-                      "raise the target or lower the resolution");
-  }
+  if (kept == 0 && n_int > 0)
+    throw MeshError("remesh: no inner vertex could be placed (every sample fell within the boundary clearance); "
+                    "raise the target or lower the resolution");
   if (res.n_separated > std::max(1, n_int / 100))
     res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_goal) +
                            " interior samples were closer than " + std::to_string(o.min_separation) +

@@ -580,11 +580,7 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
                                "them first)")
         if self._edit_mode:
             # The whole mesh is rebuilt: in Edit mode only when all of it is shown and selected.
-            hide = np.empty(len(mesh.polygons), bool)
-            select = np.empty(len(mesh.polygons), bool)
-            mesh.polygons.foreach_get("hide", hide)
-            mesh.polygons.foreach_get("select", select)
-            if hide.any() or not select.all():
+            if _get(mesh.polygons, "hide", bool).any() or not _get(mesh.polygons, "select", bool).all():
                 raise dg.MeshError("Feature Decimate works on whole meshes: reveal and select all (Alt+H, A) "
                                    "or use it in Object mode")
         return _read_for_decimation(obj)
