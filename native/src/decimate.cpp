@@ -99,6 +99,12 @@ class Decimator {
   std::vector<int> mark_;
   int mark_id_ = 0;
   std::vector<int> nbr_, tmp_faces_;
+  // Faces a candidate collapse moves: corners after the collapse, normals before and after.
+  struct Moved {
+    int f, c[3];
+    Vec3 n0, n1;
+  };
+  std::vector<Moved> moved_;
   std::vector<Rec> recs_;
   // 4-ary min-heap of heap_key: half the depth of a binary heap, and the four children of a node
   // share a cache line, which matters because most pops are stale entries.
@@ -162,6 +168,7 @@ class Decimator {
   }
   Candidate evaluate(int a, int b) const;
   bool try_collapse(const Candidate& c);
+  bool no_new_folds(int u, int v) const;
   void push_edges_of(int v);
   int run_batched(Progress& progress, int to_remove);
   void compact_refs();
@@ -252,6 +259,7 @@ bool Decimator::try_collapse(const Candidate& c) {
   }
   if (count_[u] + count_[v] - 2 * shared < (shared == 1 ? 1 : 3)) return false;
   // Geometry guards on every face that survives and moves.
+  moved_.clear();
   for (int side = 0; side < 2; ++side) {
     const int x = side ? v : u;
     for (int j = start_[x]; j < start_[x] + count_[x]; ++j) {
@@ -275,8 +283,12 @@ bool Decimator::try_collapse(const Candidate& c) {
       // Never create (near) degenerate faces: quality 1e-3 is an aspect ratio of about 1000.
       const double q1 = quality2(na, nb, nc, s1);
       if (q1 < 1e-6 || (q1 < min_q2_ && q1 < quality2(a, b, cc, s0))) return false;
+      Moved m{f, {F_(f, 0), F_(f, 1), F_(f, 2)}, n0, n1};
+      m.c[k] = v;
+      moved_.push_back(m);
     }
   }
+  if (!no_new_folds(u, v)) return false;
 
   // Collapse u into v.
   V_.row(v) = c.p.transpose();
@@ -314,6 +326,49 @@ bool Decimator::try_collapse(const Candidate& c) {
   count_[v] = static_cast<int>(tmp_faces_.size());
   refs_.insert(refs_.end(), tmp_faces_.begin(), tmp_faces_.end());
   if (!opt_.batched) push_edges_of(v);
+  return true;
+}
+
+// A fold is a dihedral angle beyond 120 degrees (unit normals' dot below -1/2). The per-face turn
+// limit alone lets folds build up over many collapses at extreme ratios, e.g. around locked seams;
+// refuse a collapse that creates a fold or sharpens one across any edge of the faces it moves.
+constexpr double kCosSmallTurn = 0.99863;  // cos 3 degrees
+
+bool Decimator::no_new_folds(int u, int v) const {
+  auto fold = [](const Vec3& a, const Vec3& b) {
+    const double d = a.dot(b), s = a.squaredNorm() * b.squaredNorm();
+    return d < 0 && d * d > 0.25 * s ? d / std::sqrt(s) : 1.0;  // cosine when folded, else 1
+  };
+  for (const Moved& m : moved_) {
+    for (int e = 0; e < 3; ++e) {
+      const int p = m.c[e], q = m.c[(e + 1) % 3];
+      Vec3 g0, g1;
+      bool found = false;
+      if (p == v || q == v) {  // inner edge of the new fan: the neighbour moves too
+        const int w = p == v ? q : p;
+        for (const Moved& o : moved_)
+          if (o.f != m.f && (o.c[0] == w || o.c[1] == w || o.c[2] == w)) {
+            g0 = o.n0, g1 = o.n1, found = true;
+            break;
+          }
+      } else if (m.n0.dot(m.n1) < kCosSmallTurn * std::sqrt(m.n0.squaredNorm() * m.n1.squaredNorm())) {
+        // Link edge: the neighbour is a face around p that the collapse leaves alone. Skipped when
+        // m turns less than kCosSmallTurn: it cannot fold a dihedral that was not near one already.
+        for (int j = start_[p]; j < start_[p] + count_[p] && !found; ++j) {
+          const int g = refs_[j];
+          const int a = F_(g, 0), b = F_(g, 1), c = F_(g, 2);
+          if (g == m.f || (a != q && b != q && c != q) || a == u || b == u || c == u || a == v ||
+              b == v || c == v)
+            continue;
+          g0 = g1 = (V_.row(b) - V_.row(a)).cross(V_.row(c) - V_.row(a)).transpose();
+          found = true;
+        }
+      }
+      if (!found) continue;  // boundary edge
+      const double now = fold(m.n1, g1);
+      if (now < 1.0 && now < fold(m.n0, g0) - 1e-9) return false;
+    }
+  }
   return true;
 }
 

@@ -1,6 +1,7 @@
 // Quadric decimation: manifoldness, topology, boundary, feature weights, bad input.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <set>
 
@@ -122,6 +123,54 @@ TEST(Decimate, LockedVerticesStayAndMapsAreConsistent) {
     for (int k = 0; k < 3; ++k) EXPECT_EQ(r.F(j, k), r.vertex_map[s.F(r.face_map[j], k)]);
   opt.locked.pop_back();
   EXPECT_THROW(decimate(m, opt), MeshError);
+}
+
+// A UV sphere (32 segments, 16 rings, like Blender's) with its seam meridian locked, decimated
+// near the topological limit: collapses pile up against the locked arc, and before the fold guard
+// left back-to-back face pairs (dihedral angles near 180 degrees).
+TEST(Decimate, LockedSeamAtExtremeRatioMakesNoFolds) {
+  const int seg = 32, rings = 16;
+  std::vector<Vec3> P{Vec3(0, 0, 1)};
+  for (int i = 1; i < rings; ++i)
+    for (int j = 0; j < seg; ++j) {
+      const double th = M_PI * i / rings, ph = 2 * M_PI * j / seg;
+      P.emplace_back(std::sin(th) * std::cos(ph), std::sin(th) * std::sin(ph), std::cos(th));
+    }
+  P.emplace_back(0, 0, -1);
+  std::vector<std::array<int, 3>> T;
+  const int south = static_cast<int>(P.size()) - 1, last = 1 + (rings - 2) * seg;
+  for (int j = 0; j < seg; ++j) T.push_back({0, 1 + j, 1 + (j + 1) % seg});
+  for (int i = 0; i < rings - 2; ++i)
+    for (int j = 0; j < seg; ++j) {
+      const int a = 1 + i * seg + j, b = 1 + i * seg + (j + 1) % seg;
+      T.push_back({a, a + seg, b + seg});
+      T.push_back({a, b + seg, b});
+    }
+  for (int j = 0; j < seg; ++j) T.push_back({south, last + (j + 1) % seg, last + j});
+  MatX3d V(P.size(), 3);
+  for (size_t i = 0; i < P.size(); ++i) V.row(i) = P[i].transpose();
+  MatX3i F(T.size(), 3);
+  for (size_t i = 0; i < T.size(); ++i) F.row(i) << T[i][0], T[i][1], T[i][2];
+  const Mesh m = make_mesh(V, F);
+  DecimateOptions opt;
+  opt.locked.assign(V.rows(), 0);
+  for (int v = 0; v < V.rows(); ++v) opt.locked[v] = std::abs(V(v, 1)) < 1e-9 && V(v, 0) >= 0;
+  for (double ratio : {0.03, 0.02}) {
+    opt.target_faces = static_cast<int>(ratio * F.rows());
+    const DecimateResult r = decimate(m, opt);
+    EXPECT_EQ(euler(r.V, r.F), 2);
+    const Topology t = validate(r.V, r.F);
+    int folds = 0;
+    for (int e = 0; e < t.n_edges(); ++e) {
+      const int f = t.edge_faces(e, 0), g = t.edge_faces(e, 1);
+      const auto normal = [&](int i) {
+        const Vec3 a = r.V.row(r.F(i, 0)), b = r.V.row(r.F(i, 1)), c = r.V.row(r.F(i, 2));
+        return Vec3((b - a).cross(c - a).normalized());
+      };
+      folds += normal(f).dot(normal(g)) < -0.5;
+    }
+    EXPECT_EQ(folds, 0) << "ratio " << ratio << ", " << r.F.rows() << " faces";
+  }
 }
 
 TEST(Decimate, FeatureWeightsKeepDensityNearCrestLines) {
