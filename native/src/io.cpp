@@ -148,6 +148,18 @@ void fan_triangulate(const std::vector<int>& poly, std::vector<int>& F) {
 // ------------------------------------------------------------------------------------------------
 // OBJ
 
+// Statements of the OBJ specification (Wavefront, appendix B1) besides v, vn and f.
+bool is_obj_keyword(std::string_view kw) {
+  static const std::string_view known[] = {
+      "vt", "vp", "p", "l", "g", "o", "s", "mg", "usemtl", "mtllib", "cstype", "deg", "bmat",
+      "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp", "end", "con", "bevel",
+      "c_interp", "d_interp", "lod", "usemap", "maplib", "shadow_obj", "trace_obj", "ctech",
+      "stech", "call", "csh"};
+  for (std::string_view k : known)
+    if (kw == k) return true;
+  return false;
+}
+
 MeshData read_obj(const std::string& path, const std::string& buf) {
   std::vector<double> V, VN;
   std::vector<int> F, FN;  // FN: normal index per triangle corner, -1 if none
@@ -158,7 +170,8 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
 
   const char* p = buf.data();
   const char* const end = p + buf.size();
-  size_t line = 0;
+  size_t line = 0, unknown_line = 0;  // the first line that starts with no OBJ keyword
+  const char* unknown_kw = nullptr;
 
   auto read_coords = [&](const char* q, const char* le, std::vector<double>& out, const char* what) {
     for (int k = 0; k < 3; ++k) {
@@ -210,7 +223,10 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
     const bool is_v = kl == 1 && kw[0] == 'v';
     const bool is_vn = kl == 2 && kw[0] == 'v' && kw[1] == 'n';
     const bool is_f = kl == 1 && kw[0] == 'f';
-    if (!is_v && !is_vn && !is_f) continue;  // vt, vp, g, o, s, usemtl, mtllib, l, ...
+    if (!is_v && !is_vn && !is_f) {  // vt, vp, g, o, s, usemtl, mtllib, l, ...
+      if (!unknown_line && !is_obj_keyword(std::string_view(kw, kl))) unknown_line = line, unknown_kw = kw;
+      continue;
+    }
     if (const void* hash = std::memchr(q, '#', static_cast<size_t>(le - q)))
       le = static_cast<const char*>(hash);  // trailing comment
 
@@ -261,6 +277,9 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
   }
 
   const size_t nv = V.size() / 3, nn = VN.size() / 3;
+  // Any text file reads as an OBJ with no statements: say so rather than return an empty mesh.
+  if (nv == 0 && unknown_line)
+    fail_line(path, unknown_line, "not an OBJ file: " + show_token(unknown_kw, end) + " is not an OBJ statement");
   if (fwd_v >= static_cast<int64_t>(nv))
     fail_line(path, fwd_v_line, "vertex index " + std::to_string(fwd_v + 1) + " out of range (" +
                                     std::to_string(nv) + " vertices)");

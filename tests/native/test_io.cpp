@@ -641,6 +641,16 @@ TEST_F(IoTest, EmptyFiles) {
   for (const char* ext : {".obj", ".off", ".ply"}) expect_io_error(write_file(std::string("w") + ext, " \n\r\n\t"), "empty");
 }
 
+// A text file named .obj has no OBJ statement at all: an error, not an empty mesh. Unknown
+// statements in a real OBJ are still skipped.
+TEST_F(IoTest, TextFileIsNotAnObj) {
+  expect_io_error(write_file("notes.obj", "# list\nhello world\nv is a letter\n"), "invalid number");
+  expect_io_error(write_file("junk.obj", "hello world\nsecond line\n"), "not an OBJ file: 'hello'");
+  const MeshData m = read_mesh(write_file("ok.obj", "myext 1 2\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+  EXPECT_EQ(m.F.rows(), 1);
+  EXPECT_EQ(read_mesh(write_file("c.obj", "# only a comment\ng group\n")).V.rows(), 0);
+}
+
 TEST_F(IoTest, MissingFileAndBadExtension) {
   expect_io_error(path("does_not_exist.obj"), "not found");
   expect_io_error(path("does_not_exist.ply"), "not found");
