@@ -12,9 +12,18 @@ import numpy as np
 try:
     from . import _native
 except ImportError as exc:  # pragma: no cover - only without a build
+    import glob
+    import sys
+
+    built = [os.path.basename(p) for p in glob.glob(os.path.join(os.path.dirname(__file__), "_native*.so"))]
+    # Blender 4.0 runs Python 3.10; the module is built for one Python (3.11 on Debian bookworm)
+    # and links Debian's OpenSubdiv, UMFPACK and Qhull, which must be installed.
     raise ImportError(
-        "dgmesh's compiled module is missing: build it with `bash scripts/build.sh` "
-        f"(or install the add-on zip from dist/). Original error: {exc}"
+        "dgmesh's compiled module could not be loaded in Python "
+        f"{sys.version_info.major}.{sys.version_info.minor}: "
+        + (f"found {', '.join(built)}, " if built else "none is built; ")
+        + "build it for this Python with `bash scripts/build.sh` (it installs the libraries it "
+        f"links: libosd, libumfpack, libqhull). Original error: {exc}"
     ) from exc
 
 Error = _native.Error

@@ -409,3 +409,78 @@ def test_charts_with_pinned_uvs_are_left_as_they_are(capsys):
     assert np.all(uv[list(pinned)] == 5.0)  # the pinned cap is untouched
     others = np.setdiff1d(np.arange(len(mesh.loops)), list(pinned))
     assert np.all(uv[others] <= 1.0)  # the other two charts were unwrapped into [0, 1]^2
+
+
+def _seamed_grid(n=8):
+    """A grid cut by a seam along x = 0 into two charts, left half's faces flagged."""
+    bpy.ops.object.select_all(action='DESELECT')
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=n, y_subdivisions=n)
+    obj = bpy.context.object
+    mesh = obj.data
+    co = coords(mesh)
+    set_seams(mesh, np.all(np.abs(co[edges_of(mesh)][:, :, 0]) < 1e-6, axis=1))
+    centers = np.empty(3 * len(mesh.polygons), np.float32)
+    mesh.polygons.foreach_get("center", centers)
+    return obj, centers.reshape(-1, 3)[:, 0] < 0
+
+
+def _uv_bbox(mesh, faces):
+    uv = layer_uv(mesh)
+    loops = [i for p in mesh.polygons if faces[p.index] for i in p.loop_indices]
+    return uv[loops].min(0), uv[loops].max(0)
+
+
+def test_object_mode_packs_hidden_faces_too_and_keeps_them_hidden():
+    """Object mode unwraps every face, hidden ones included: the packer (which skips hidden faces)
+    must see them too, or their chart overlaps the packed ones."""
+    obj, left = _seamed_grid()
+    mesh = obj.data
+    mesh.polygons.foreach_set("hide", left)
+    mesh.update()
+    hide_before = [p.hide for p in mesh.polygons]
+    assert unwrap(pack=True) == {'FINISHED'}
+    (lo_a, hi_a), (lo_b, hi_b) = _uv_bbox(mesh, left), _uv_bbox(mesh, ~left)
+    overlap = np.minimum(hi_a, hi_b) - np.maximum(lo_a, lo_b)
+    assert np.any(overlap <= 1e-6), (lo_a, hi_a, lo_b, hi_b)  # the islands' boxes are apart
+    assert [p.hide for p in mesh.polygons] == hide_before
+
+
+@pytest.mark.parametrize("edit", [False, True])
+def test_uv_selection_survives_packing(edit):
+    obj, _ = _seamed_grid(6)
+    mesh = obj.data
+    layer = mesh.uv_layers.active
+    sel = np.arange(len(mesh.loops)) % 3 == 0
+    layer.data.foreach_set("select", sel)
+    if edit:
+        bpy.ops.object.mode_set(mode='EDIT')
+        bpy.ops.mesh.select_all(action='SELECT')
+    assert unwrap(pack=True) == {'FINISHED'}
+    if edit:
+        bpy.ops.object.mode_set(mode='OBJECT')
+    after = np.empty(len(mesh.loops), bool)
+    mesh.uv_layers.active.data.foreach_get("select", after)
+    assert np.array_equal(after, sel)
+
+
+def test_failed_packing_restores_the_selection(capsys):
+    """An object outside the view layer (a script's override) cannot enter Edit mode: packing fails
+    with a warning, and the selection it had set up is undone."""
+    bpy.ops.object.select_all(action='DESELECT')
+    bpy.ops.mesh.primitive_cube_add()
+    other = bpy.context.object
+    coll = bpy.data.collections.new("Excluded")
+    bpy.context.scene.collection.children.link(coll)
+    obj, _ = _seamed_grid(4)
+    for c in obj.users_collection:
+        c.objects.unlink(obj)
+    coll.objects.link(obj)
+    obj.data.polygons.foreach_set("select", np.zeros(len(obj.data.polygons), bool))
+    obj.data.update()
+    other.select_set(True)
+    bpy.context.view_layer.layer_collection.children["Excluded"].exclude = True
+    with bpy.context.temp_override(selected_objects=[obj], active_object=obj, object=obj):
+        assert bpy.ops.dgmesh.unwrap(pack=True) == {'FINISHED'}
+    assert "Packing failed" in capsys.readouterr().out
+    assert not any(p.select for p in obj.data.polygons)
+    assert other.select_get()

@@ -18,6 +18,14 @@ def test_versions_agree():
     assert dgmesh.bl_info["blender"] >= (3, 4, 0)
 
 
+def test_manifest_permission_reasons_fit_blenders_limit():
+    """`blender --command extension build/validate` refuses reasons over 64 characters."""
+    manifest = (PKG / "blender_manifest.toml").read_text()
+    section = manifest.split("[permissions]", 1)[1].split("\n[", 1)[0]
+    reasons = re.findall(r'^\w+ = "([^"]*)"', section, re.M)
+    assert reasons and all(len(r) <= 64 and not r.endswith(".") for r in reasons), reasons
+
+
 def test_import_without_bpy():
     code = "import sys, dgmesh; assert 'bpy' not in sys.modules; print(dgmesh.__version__)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -250,7 +250,8 @@ def _or_edge_flag(mesh, prop, mask):
     n = len(mesh.edges)
     rna = bpy.types.MeshEdge.bl_rna.properties.get("use_edge_sharp")
     if prop == "sharp" and (rna is None or rna.is_readonly):
-        # 4.1+: sharp edges are the generic attribute "sharp_edge".
+        # Newer Blender stores sharp edges as the attribute "sharp_edge"; use_edge_sharp still
+        # wraps it in 4.x, this is for a version that drops the wrapper.
         attr = mesh.attributes.get("sharp_edge")
         cur = np.zeros(n, bool)
         if attr is not None:

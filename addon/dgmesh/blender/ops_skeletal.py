@@ -757,7 +757,7 @@ def _move_to(obj, mod, index):
     idx = [m.name for m in obj.modifiers].index(mod.name)
     if idx == index:
         return
-    if hasattr(obj.modifiers, "move"):  # 4.x
+    if hasattr(obj.modifiers, "move"):  # 3.5+
         obj.modifiers.move(idx, index)
         return
     with bpy.context.temp_override(object=obj, active_object=obj):

@@ -229,11 +229,14 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                     return {'CANCELLED'}
             for it in items:
                 _write_uvs(bpy.data.objects[it["name"]], it, normalise=not self.pack)
+            uv_sel = {it["name"]: _uv_selection(bpy.data.objects[it["name"]].data) for it in items}
         packed = False
         if self.pack:
             packed = self._pack(context, items, edit)
         # Measure the stretch of what was written, over the same triangles as "before".
         with bridge.object_mode(context):
+            for name, sel in uv_sel.items():  # the packer selected every UV
+                _uv_selection(bpy.data.objects[name].data, sel)
             after = []
             for it in items:
                 mesh = bpy.data.objects[it["name"]].data
@@ -268,40 +271,61 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
 
     def _pack(self, context, items, edit):
         """Blender's packer on the unwrapped faces only. In Object mode: enter Edit mode for
-        the duration with exactly those faces selected, then restore selection and mode."""
+        the duration with exactly those faces selected and none hidden (Object mode unwraps hidden
+        faces too), then restore selection, hiding and mode."""
         names = [it["name"] for it in items]
         saved = {}
+        active = context.view_layer.objects.active
+        sel_objs = [o for o in context.view_layer.objects if o.select_get()]
+        tool = context.scene.tool_settings
+        sync = tool.use_uv_select_sync
         try:
             if not edit:
-                active = context.view_layer.objects.active
-                sel_objs = [o for o in context.view_layer.objects if o.select_get()]
                 for it in items:
                     mesh = bpy.data.objects[it["name"]].data
-                    saved[it["name"]] = _get_selection(mesh)
+                    saved[it["name"]] = (_get_flags(mesh, "select"), _get_flags(mesh, "hide"))
+                    _set_flags(mesh, "hide", [np.zeros(len(c), bool) for c in saved[it["name"]][1]])
                     _set_face_selection(mesh, it["mask"])
                 for o in context.view_layer.objects:
                     o.select_set(o.name in names)
                 context.view_layer.objects.active = bpy.data.objects[names[0]]
                 bpy.ops.object.mode_set(mode='EDIT')
-            try:
-                tool = context.scene.tool_settings
-                sync = tool.use_uv_select_sync
-                tool.use_uv_select_sync = False
-                bpy.ops.uv.select_all(action='SELECT')
-                bpy.ops.uv.pack_islands(margin=self.margin)
-                tool.use_uv_select_sync = sync
-            finally:
-                if not edit:
-                    bpy.ops.object.mode_set(mode='OBJECT')
-                    for name, sel in saved.items():
-                        _set_selection(bpy.data.objects[name].data, sel)
-                    for o in context.view_layer.objects:
-                        o.select_set(o in sel_objs)
-                    context.view_layer.objects.active = active
+            tool.use_uv_select_sync = False
+            bpy.ops.uv.select_all(action='SELECT')
+            kw = {}
+            if "shape_method" in bpy.ops.uv.pack_islands.get_rna_type().properties:
+                kw["shape_method"] = 'AABB'  # 3.6+: the packer of 3.4 (bounding boxes)
+            bpy.ops.uv.pack_islands(margin=self.margin, **kw)
             return True
         except RuntimeError as exc:
             self.report({'WARNING'}, f"Packing failed: {exc}")
             return False
+        finally:
+            tool.use_uv_select_sync = sync
+            if not edit:
+                if context.mode != 'OBJECT':
+                    bpy.ops.object.mode_set(mode='OBJECT')
+                for name, (sel, hide) in saved.items():
+                    mesh = bpy.data.objects[name].data
+                    _set_flags(mesh, "select", sel)
+                    _set_flags(mesh, "hide", hide)
+                for o in context.view_layer.objects:
+                    o.select_set(o in sel_objs)
+                context.view_layer.objects.active = active
+
+
+def _uv_selection(mesh, restore=None):
+    """The active UV map's corner selection (Object mode), or restores it: packing selects all."""
+    layer = mesh.uv_layers.active
+    if layer is None:
+        return None
+    if restore is None:
+        sel = np.empty(len(layer.data), bool)
+        layer.data.foreach_get("select", sel)
+        return sel
+    if len(restore) == len(layer.data):
+        layer.data.foreach_set("select", restore)
+    return None
 
 
 def _area3(V, F):
@@ -410,18 +434,19 @@ def _write_uvs(obj, it, normalise):
     mesh.update()
 
 
-def _get_selection(mesh):
+def _get_flags(mesh, prop):
+    """A boolean flag ("select", "hide") of the vertices, edges and faces."""
     out = []
     for coll in (mesh.vertices, mesh.edges, mesh.polygons):
         a = np.empty(len(coll), bool)
-        coll.foreach_get("select", a)
+        coll.foreach_get(prop, a)
         out.append(a)
     return out
 
 
-def _set_selection(mesh, saved):
+def _set_flags(mesh, prop, saved):
     for coll, a in zip((mesh.vertices, mesh.edges, mesh.polygons), saved):
-        coll.foreach_set("select", a)
+        coll.foreach_set(prop, a)
     mesh.update()
 
 
