@@ -212,6 +212,33 @@ def test_annulus_selection_is_an_error_and_changes_nothing():
     assert mesh_snapshot(obj.data) == before
 
 
+def test_wire_edge_on_an_inner_vertex_is_an_error_and_changes_nothing():
+    """A loose edge hanging from the middle of the disk would be deleted with its vertex."""
+    fresh_scene()
+    bpy.ops.object.select_all(action='DESELECT')
+    bpy.ops.mesh.primitive_circle_add(vertices=32, fill_type='TRIFAN')
+    obj = bpy.context.object
+    mesh = obj.data
+    n = len(mesh.vertices)
+    centre = int(np.argmin(np.linalg.norm(coords(mesh), axis=1)))
+    mesh.vertices.add(1)
+    mesh.vertices[n].co = (0, 0, 1)
+    mesh.edges.add(1)
+    mesh.edges[-1].vertices = (centre, n)
+    mesh.update()
+    before = mesh_snapshot(mesh)
+    with pytest.raises(RuntimeError) as info:
+        remesh(target_vertices=100)
+    assert "loose edges" in str(info.value)
+    assert mesh_snapshot(mesh) == before
+    # A wire edge on the boundary is kept, as the boundary is.
+    mesh.edges[-1].vertices = (0 if centre else 1, n)
+    mesh.update()
+    assert remesh(target_vertices=100) == {'FINISHED'}
+    top = int(np.nonzero(coords(mesh)[:, 2] == 1)[0][0])
+    assert sum(top in e.vertices for e in mesh.edges) == 1
+
+
 def test_edit_mode_quad_region_inside_a_grid_stays_stitched():
     fresh_scene()
     obj = grid_object()

@@ -116,15 +116,24 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
             tri_mask = mask[arrays.tri_poly]
             Fsel = arrays.F[tri_mask]
             ids, Fc = np.unique(Fsel, return_inverse=True)
-            # Inner vertices of the region must not be shared with faces outside it.
+            # Inner vertices of the region must not be shared with faces outside it, nor carry
+            # edges of no face (wire edges): the new triangulation would drop them.
             start = np.empty(npoly, np.int32)
             total = np.empty(npoly, np.int32)
             mesh.polygons.foreach_get("loop_start", start)
             mesh.polygons.foreach_get("loop_total", total)
             lv = np.empty(len(mesh.loops), np.int32)
+            le = np.empty(len(mesh.loops), np.int32)
             mesh.loops.foreach_get("vertex_index", lv)
+            mesh.loops.foreach_get("edge_index", le)
             outside = np.zeros(len(mesh.vertices), bool)
             outside[lv[~np.repeat(mask, total)]] = True
+            wire = np.ones(len(mesh.edges), bool)
+            wire[le] = False
+            if wire.any():
+                ev = np.empty(2 * len(mesh.edges), np.int32)
+                mesh.edges.foreach_get("vertices", ev)
+                outside[ev.reshape(-1, 2)[wire].ravel()] = True
             items.append(dict(name=obj.name, counts=(len(mesh.vertices), len(mesh.loops), npoly),
                               polys=np.nonzero(mask)[0], ids=ids, outside=outside,
                               tri_loops=arrays.tri_loops[tri_mask], tri_poly=arrays.tri_poly[tri_mask],
@@ -171,7 +180,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                 inner[r.boundary_source] = False
             if it["outside"][it["ids"][inner]].any():
                 self.report({'ERROR'}, f"Remesh failed on '{it['name']}': inner vertices of the selection are "
-                                       "shared with unselected faces (non-manifold); nothing was changed")
+                                       "shared with unselected faces or loose edges; nothing was changed")
                 return {'CANCELLED'}
             it["inner"] = inner
         edit = context.mode == 'EDIT_MESH'
