@@ -495,6 +495,43 @@ def test_decimate_keeps_seams_and_sharp_edges_that_survive():
     assert np.ptp(lon[ring]) < 1e-3
 
 
+def test_decimate_keeps_loose_geometry_and_hidden_faces():
+    """Loose vertices and wire edges are not part of the surface: they come through as they were
+    (they were deleted), a wire edge following the surface vertex it hangs from; hidden faces'
+    triangles stay hidden."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16)
+    obj = bpy.context.object
+    mesh = obj.data
+    n = len(mesh.vertices)
+    top = max(range(n), key=lambda i: mesh.vertices[i].co.z)  # the pole, kept by decimation
+    mesh.vertices.add(3)
+    for i, co in enumerate([(0, 0, 2), (3, 0, 0), (3, 1, 0)]):
+        mesh.vertices[n + i].co = co
+    mesh.edges.add(2)
+    mesh.edges[-2].vertices = (top, n)  # a wire edge hanging from the surface
+    mesh.edges[-1].vertices = (n + 1, n + 2)  # a free-floating edge
+    mesh.vertices.add(1)
+    mesh.vertices[n + 3].co = (-3, 0, 0)  # a loose vertex
+    hide = np.array([p.center.x > 0.5 for p in mesh.polygons])
+    mesh.polygons.foreach_set("hide", hide)
+    mesh.update()
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.3, feature_weight=0.0) == {'FINISHED'}
+    co = np.array([v.co[:] for v in mesh.vertices])
+    in_face = np.zeros(len(co), bool)
+    in_face[[i for p in mesh.polygons for i in p.vertices]] = True
+    assert sorted(map(tuple, co[~in_face].round(6))) == [(-3, 0, 0), (0, 0, 2), (3, 0, 0), (3, 1, 0)]
+    used = {k for p in mesh.polygons for k in p.edge_keys}
+    wire = [tuple(sorted(tuple(co[v].round(6)) for v in e.vertices)) for e in mesh.edges if e.key not in used]
+    assert len(wire) == 2 and ((3, 0, 0), (3, 1, 0)) in wire
+    hanging = next(w for w in wire if (0, 0, 2) in w)
+    assert hanging[0] in map(tuple, co[in_face].round(6))  # its other end is on the surface
+    assert len(mesh.polygons) < 300
+    centres = np.array([p.center.x for p in mesh.polygons])
+    hidden = np.array([p.hide for p in mesh.polygons])
+    assert hidden.any() and np.all(centres[hidden] > 0.3) and np.all(centres[~hidden] < 0.7)
+
+
 def test_crest_curve_goes_to_the_scene_the_operator_ran_in(cube):
     """A mesh in two scenes: the curve is linked where the user is working (it went to the first
     scene's collection)."""

@@ -420,7 +420,10 @@ def _read_for_decimation(obj):
         flags["sharp"] = _get(mesh.edges, "use_edge_sharp", bool)
     elif mesh.attributes.get("sharp_edge") is not None:  # 4.1+: a generic attribute
         flags["sharp"] = _get(mesh.attributes["sharp_edge"].data, "value", bool)
-    data.update(edges=edges.reshape(-1, 2), edge_flags=flags)
+    wire = np.ones(len(mesh.edges), bool)  # edges of no face
+    wire[_get(mesh.loops, "edge_index", np.int32)] = False
+    data.update(edges=edges.reshape(-1, 2), edge_flags=flags, wire=wire,
+                hide=(_get(mesh.vertices, "hide", bool), _get(mesh.polygons, "hide", bool)))
     data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked,
                 uv_active=mesh.uv_layers.active_index,
                 uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))
@@ -518,7 +521,7 @@ def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex,
 
 def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
     """Replaces the mesh's geometry in place (same datablock: its name, materials and users stay),
-    with UV maps, material indices and smooth flags carried over."""
+    with UV maps, material indices, smooth and hide flags, and loose geometry carried over."""
     arrays = data["arrays"]
     poly = arrays.tri_poly[face_map]
     moved = np.any(V2 != arrays.V[source_vertex], axis=1)
@@ -527,9 +530,16 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
         moved_uv = _moved_vertex_uvs(uv, arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved)
         uvs.append((name, transfer_corner_uvs(uv, arrays.tri_loops, data["loop_vertex"], F2, face_map,
                                               source_vertex, moved_uv, moved)))
+    # Loose geometry (vertices and edges of no face) is not decimated but carried over, after the
+    # surface's vertices; wire edges follow their ends.
+    loose = np.flatnonzero(vertex_map < 0)
+    vertex_map = vertex_map.copy()
+    vertex_map[loose] = len(V2) + np.arange(len(loose))
+    wire = vertex_map[data["edges"][data["wire"]]]
+    wire = np.unique(np.sort(wire[wire[:, 0] != wire[:, 1]], axis=1), axis=0)
     mesh.clear_geometry()
-    mesh.vertices.add(len(V2))
-    mesh.vertices.foreach_set("co", np.ascontiguousarray(V2, dtype=np.float32).ravel())
+    mesh.vertices.add(len(V2) + len(loose))
+    mesh.vertices.foreach_set("co", np.ascontiguousarray(np.vstack([V2, arrays.V[loose]]), dtype=np.float32).ravel())
     mesh.loops.add(3 * len(F2))
     mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(F2, dtype=np.int32).ravel())
     mesh.polygons.add(len(F2))
@@ -540,7 +550,25 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
     mesh.polygons.foreach_set("material_index", data["material_index"][poly])
     mesh.polygons.foreach_set("use_smooth", data["use_smooth"][poly])
     mesh.update(calc_edges=True)
+    if len(wire):
+        ev = _edge_vertices(mesh)
+        n = len(mesh.vertices)
+        wire = wire[~np.isin(wire[:, 0].astype(np.int64) * n + wire[:, 1],
+                             np.sort(ev, axis=1).astype(np.int64) @ np.array([n, 1]))]
+        mesh.edges.add(len(wire))
+        mesh.edges.foreach_set("vertices", np.concatenate([ev.ravel(), wire.astype(np.int32).ravel()]))
     _carry_edge_flags(mesh, data, vertex_map)
+    # Hidden faces stay hidden, with the vertices and edges no shown face uses.
+    vert_hide, poly_hide = data["hide"]
+    if poly_hide.any() or vert_hide.any():
+        hide = poly_hide[poly]
+        shown = np.zeros(len(mesh.vertices), bool)
+        shown[F2[~hide].ravel()] = True
+        shown[len(V2):] = ~vert_hide[loose]
+        ev = _edge_vertices(mesh)
+        mesh.polygons.foreach_set("hide", hide)
+        mesh.vertices.foreach_set("hide", ~shown)
+        mesh.edges.foreach_set("hide", ~(shown[ev[:, 0]] & shown[ev[:, 1]]))
     for name, uv in uvs:
         layer = mesh.uv_layers.new(name=name, do_init=False)
         layer.data.foreach_set("uv", np.ascontiguousarray(uv, dtype=np.float32).ravel())
@@ -558,7 +586,8 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         "Quadric decimation of the selected meshes that keeps density near salient crest lines "
         "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
         "shading are carried over (vertices on UV seams and material borders are kept in place), "
-        "and seams and sharp edges where their edges survive; other attributes (vertex groups, "
+        "seams and sharp edges where their edges survive, hidden faces, and loose vertices and "
+        "edges as they are; other attributes (vertex groups, "
         "colour attributes, custom normals) are dropped"
     )
     bl_options = {'REGISTER', 'UNDO'}
@@ -724,6 +753,12 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
         if self.mark_seams:
             text += f"; {tot['borders']} border edges marked as seams"
         return text
+
+
+def _edge_vertices(mesh):
+    ev = np.empty(2 * len(mesh.edges), np.int32)
+    mesh.edges.foreach_get("vertices", ev)
+    return ev.reshape(-1, 2)
 
 
 def _get(collection, key, dtype):
