@@ -2,6 +2,7 @@
 
 import bpy
 import numpy as np
+import pytest
 
 from helpers import DG_ATTRIBUTES, curvature_map, mesh_snapshot, open_fixture, select, without_dg
 
@@ -75,3 +76,37 @@ def test_shape_key_data_kept_and_basis_measured(dg):
     H = np.array([d.value for d in obj.data.attributes["dg_mean_curvature"].data])
     assert abs(np.median(H) - 1.0) < 0.1
     np.testing.assert_array_equal(np.array([d.co[:] for d in basis.data]), co)
+
+
+@pytest.mark.parametrize("op, props", [("fair", dict(subdivisions=1)), ("remesh", dict(target_vertices=150))])
+def test_new_faces_carry_generic_corner_attributes(op, props):
+    """Faces an operator makes (Fair's subdivision, Remesh's triangulation) get the generic corner
+    attributes of the faces they replace, like UVs and colours (they were zero)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    mesh = bpy.context.object.data
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    z = np.array([v.co.z for v in mesh.vertices])[lv]
+    mesh.attributes.new("c_float", 'FLOAT', 'CORNER').data.foreach_set("value", 2.0 + z)
+    mesh.attributes.new("c_int", 'INT', 'CORNER').data.foreach_set("value", np.full(len(lv), 7))
+    vec = np.stack([z, np.ones_like(z), -z], 1)
+    mesh.attributes.new("c_vec", 'FLOAT_VECTOR', 'CORNER').data.foreach_set("vector", vec.ravel())
+    sel = np.array([p.center.z > 0.6 for p in mesh.polygons])
+    mesh.vertices.foreach_set("select", np.zeros(len(mesh.vertices), bool))
+    mesh.edges.foreach_set("select", np.zeros(len(mesh.edges), bool))
+    mesh.polygons.foreach_set("select", sel)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_mode(type='FACE')
+    assert getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT', **props) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    new = np.array([l for p in mesh.polygons if p.select for l in p.loop_indices])
+    assert len(new) > 3 * sel.sum()  # the region was rebuilt with more faces
+    lv = np.array([l.vertex_index for l in mesh.loops])
+    z = np.array([v.co.z for v in mesh.vertices])[lv]
+    f = np.array([d.value for d in mesh.attributes["c_float"].data])
+    i = np.array([d.value for d in mesh.attributes["c_int"].data])
+    v = np.array([d.vector[:] for d in mesh.attributes["c_vec"].data])
+    # Interpolated from the polygons the corners lie on: close to 2 + z (the sphere's cap).
+    assert np.abs(f[new] - (2.0 + z[new])).max() < 0.1
+    assert np.all(i[new] == 7)
+    assert np.abs(v[new][:, 1] - 1).max() < 1e-5 and np.abs(v[new][:, 0] - z[new]).max() < 0.1

@@ -312,6 +312,10 @@ def mesh_has_modifiers(obj):
     return any(m.show_viewport or m.show_render for m in obj.modifiers)
 
 
+# Generic attribute types that Blender 3.4's bmesh exposes as layers: (layer group, components).
+BMESH_LAYER_KIND = {'FLOAT': ("float", 1), 'INT': ("int", 1), 'FLOAT_VECTOR': ("float_vector", 3)}
+
+
 def bmesh_point_layers(bm):
     """The point-domain layers an operator that adds vertices should fill in: ([(layer, kind)],
     the active deform (vertex-group) layer or None). Blender 3.4's bmesh cannot reach boolean and

@@ -456,17 +456,20 @@ def _modifier_note(t):
 
 
 def _corner_layers(bm):
+    """(layer, kind) of the corner data new faces interpolate: UV maps, colours and the generic
+    float, vector and integer attributes (Blender 3.4's bmesh reaches no other corner types)."""
     out = [(layer, "uv") for layer in bm.loops.layers.uv.values()]
-    for kind in ("color", "float_color"):
+    for kind in ("color", "float_color", "float_vector", "float", "int"):
         group = getattr(bm.loops.layers, kind, None)
         if group is not None:
-            out += [(layer, None) for layer in group.values()]
+            out += [(layer, kind) for layer in group.values() if not layer.name.startswith(".")]
     return out
 
 
 def _interpolate_corners(face, src, layers):
-    """Corner data (UVs, corner colours) of a new face from the polygon it replaces:
-    inverse-distance weights to the old polygon's corners (exact at shared vertices).
+    """Corner data (UVs, colours, generic attributes) of a new face from the polygon it replaces:
+    inverse-distance weights to the old polygon's corners (exact at shared vertices); integers
+    come from the nearest corner.
     (BMLoop.copy_from_face_interp would do this but fails on Blender 3.4 with Python 3.11.)"""
     if not layers:
         return
@@ -487,6 +490,10 @@ def _interpolate_corners(face, src, layers):
                 u = sum(wi * c[layer].uv[0] for wi, c in zip(w, corners)) / total
                 v = sum(wi * c[layer].uv[1] for wi, c in zip(w, corners)) / total
                 loop[layer].uv = (u, v)
+            elif key == "int":
+                loop[layer] = corners[max(range(len(w)), key=w.__getitem__)][layer]
+            elif key == "float":
+                loop[layer] = sum(wi * c[layer] for wi, c in zip(w, corners)) / total
             else:
                 n = len(corners[0][layer])
                 loop[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) / total for k in range(n)]

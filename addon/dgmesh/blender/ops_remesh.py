@@ -5,10 +5,11 @@ handles); all its faces are replaced by the new triangulation. Edit mode: the se
 each edited object must form one disk chart; they are replaced by the new triangulation, stitched to
 the rest of the mesh along the chart's boundary, whose vertices (and edges) are kept as they are, so
 the result is as watertight as the input. Non-disk input is an error and nothing is written (all or
-nothing over the objects). The new faces take the material and smooth flag of the chart's first face
-and, in Edit mode, are left selected. The new corners take the UV maps and corner colours, the new
-vertices the vertex-group weights and point attributes, of the input point each lies on (blended
-over its input triangle); a triangle across a UV seam inside the region takes its corners from
+nothing over the objects). The new faces take the material and smooth flag of the input polygon
+under most of their corners and, in Edit mode, are left selected. The new corners take the UV maps,
+corner colours and float, vector and integer corner attributes, the new vertices the vertex-group
+weights and point attributes, of the input point each lies on (blended over its input triangle;
+integers from its nearest corner); a triangle across a UV seam inside the region takes its corners from
 one side's map (the seam then runs along new edges, zig-zagging at the new spacing). Long
 runs show progress and Esc cancels (jobs.NativeJobOperator); the mesh is written only when the
 computation has finished.
@@ -277,8 +278,8 @@ def _face_flags(mesh, it, r):
 
 
 def _corner_values(mesh, it, r):
-    """(bmesh loop layer name, (m_out, 3, k) values of each output triangle's corners) for each UV
-    map and corner colour."""
+    """((bmesh layer group, name), (m_out, 3[, k]) values of each output triangle's corners) for each
+    UV map, corner colour and generic corner attribute bmesh can write."""
     L = it["tri_loops"]  # (nf, 3) mesh loops of the chart's triangles
     out = []
     for uv in mesh.uv_layers:
@@ -292,6 +293,24 @@ def _corner_values(mesh, it, r):
             att.data.foreach_get("color_srgb" if att.data_type == 'BYTE_COLOR' else "color", a)
             kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
             out.append(((kind, att.name), _island_corners(it["V"], it["F"], a.reshape(-1, 4)[L], r)))
+    # Other corner attributes that bmesh exposes (3.4: float, vector, int): blended like the
+    # colours, integers taken from the nearest input corner.
+    colors = {a.name for a in mesh.color_attributes}
+    uvs = {u.name for u in mesh.uv_layers}
+    for att in mesh.attributes:
+        kind, k = bridge.BMESH_LAYER_KIND.get(att.data_type, (None, 0))
+        if att.domain != 'CORNER' or kind is None or att.name in colors | uvs or att.name.startswith("."):
+            continue
+        a = np.empty(k * len(mesh.loops), np.float64 if kind == "float" or kind == "float_vector" else np.int64)
+        att.data.foreach_get("vector" if kind == "float_vector" else "value", a)
+        C = a.reshape(-1, k)[L]
+        if kind in ("float", "float_vector"):
+            vals = _island_corners(it["V"], it["F"], C, r)
+        else:  # no blend of integers: the input corner with the largest barycentric weight
+            T = r.F
+            s = r.source_face[T]
+            vals = C[s, np.argmax(r.source_bary[T], axis=-1)]
+        out.append(((kind, att.name), vals[..., 0] if k == 1 else vals))
     return out
 
 
