@@ -1190,11 +1190,16 @@ Cache modifier (renders and exports then need no add-on)"""
             self.report({'ERROR'}, f"Cannot write {path}: {exc}")
             return {'CANCELLED'}
         mod = obj.modifiers.get(CACHE) or obj.modifiers.new(CACHE, 'MESH_CACHE')
+        # Off while it moves into place (Blender 3.4 moves through an operator, which evaluates
+        # the stack: at the end, after a Subdivision, the cache reads a vertex count mismatch).
+        shown = mod.show_viewport, mod.show_render
+        mod.show_viewport = mod.show_render = False
+        _move_to(obj, mod, cut)
         mod.cache_format = 'PC2'
         mod.deform_mode = 'OVERWRITE'
         mod.filepath = self.filepath
         mod.frame_start = self.frame_start
-        _move_to(obj, mod, cut)
+        mod.show_viewport, mod.show_render = shown
         self.report({'INFO'}, f"Baked {len(frames)} frames of {obj.name!r} to {path}")
         return {'FINISHED'}
 
