@@ -1097,3 +1097,37 @@ def test_a_bind_that_fails_while_adding_its_objects_leaves_the_object_as_it_was(
     assert _mesh_state(obj) == before  # the Armature modifier still on, with its armature
     assert (len(bpy.data.objects), len(bpy.data.node_groups)) == (n_objects, n_groups)
     assert "dg_skeletal" not in obj.keys()
+
+
+def test_collection_instance_draws_neither_helper_nor_skeleton_and_show_skeleton_toggles():
+    """A collection instance ignores view-layer hiding: the helper and skeleton are disabled in
+    viewports as well (the instance drew both), and the deformation still plays. Show Skeleton
+    reveals the skeletal mesh and hides it again."""
+    obj, arm, V = _scene()
+    coll = bpy.data.collections.new("Character")
+    bpy.context.scene.collection.children.link(coll)
+    for o in (obj, arm):
+        bpy.context.scene.collection.objects.unlink(o)
+        coll.objects.link(o)
+    bpy.context.view_layer.objects.active = obj
+    obj.select_set(True)
+    arm.select_set(True)
+    assert _bind() == {'FINISHED'}
+    inst = bpy.data.objects.new("Instance", None)
+    inst.instance_type = 'COLLECTION'
+    inst.instance_collection = coll
+    bpy.context.scene.collection.objects.link(inst)
+    _pose_lower(arm, math.pi / 2, frame=1)
+    bpy.context.scene.frame_set(1)
+    dg = bpy.context.evaluated_depsgraph_get()
+    assert sorted(i.object.original.name for i in dg.object_instances if i.is_instance) == ["Capsule", "Rig"]
+    assert np.abs(_evaluated_co(obj) - V).max() > 1.0  # posed
+    sk = bpy.data.objects["Capsule_skeleton"]
+    bpy.context.view_layer.objects.active = obj
+    assert not sk.visible_get()
+    assert bpy.ops.dgmesh.skeletal_show_skeleton('EXEC_DEFAULT', show=True) == {'FINISHED'}
+    assert sk.visible_get()
+    assert bpy.ops.dgmesh.skeletal_show_skeleton('EXEC_DEFAULT', show=False) == {'FINISHED'}
+    assert not sk.visible_get() and sk.hide_viewport
+    bpy.context.view_layer.objects.active = arm
+    assert not bpy.ops.dgmesh.skeletal_show_skeleton.poll()

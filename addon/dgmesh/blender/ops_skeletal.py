@@ -4,7 +4,9 @@ Bind (a mesh and an armature selected, the mesh active): the mesh is bound to th
 deform bones with the weights of its vertex groups named after them (distance-based Gaussian
 weights when it has none). The bind data is stored in the .blend (a custom property of the mesh
 object holding the compressed arrays), plus a hidden object ``<mesh>_skeleton`` showing the
-skeletal mesh coloured by its medial-ball radius (thesis fig. 6.8).
+skeletal mesh coloured by its medial-ball radius (thesis fig. 6.8), revealed by DG Mesh > Show
+Skeleton. Both internal objects are disabled in viewports, not only hidden, so collection instances
+of a bound character do not draw them.
 
 Live update. The basis is never changed: each pose's displacement from the rest positions goes to
 the vertex positions of a hidden helper object ``<mesh>_dg_offsets`` (a mesh of loose vertices, one
@@ -576,6 +578,9 @@ def _on_update(scene, depsgraph=None):
 @bpy.app.handlers.persistent
 def _on_load(*_args):
     _purge_orphans()
+    for o in bpy.data.objects:  # helpers of files bound before they were disabled in viewports
+        if OWNER in o.keys() and not o.hide_viewport and o.library is None:
+            o.hide_viewport = True
     _rest_ok.clear()
     _rigs.clear()
     _last_pose.clear()
@@ -727,6 +732,9 @@ def _helper_object(obj, n):
     for coll in obj.users_collection:
         coll.objects.link(h)
     _hide_everywhere(h)
+    # Disabled in viewports too: a collection instance ignores the view-layer hide and drew it (a
+    # modifier's dependency is still evaluated).
+    h.hide_viewport = True
     h.hide_render = True
     h.hide_select = True
     h.display_type = 'BOUNDS'
@@ -782,8 +790,43 @@ def _skeleton_object(context, obj, rig, space=None):
     sk.parent = obj
     sk[SKELETON_OF] = obj.name
     _hide_everywhere(sk)  # (a collection excluded from the view layer: hide_set raised mid-bind)
+    sk.hide_viewport = True  # also in collection instances; DG Mesh > Show Skeleton reveals it
     sk.hide_render = True
     return sk
+
+
+def skeleton_of(obj):
+    """The skeleton object of a bound mesh (None when it was deleted)."""
+    if not is_bound(obj):
+        return None
+    sk = bpy.data.objects.get(obj[PROP].get("skeleton", ""))
+    return sk if sk is not None and sk.get(SKELETON_OF) is not None else None
+
+
+class DGMESH_OT_skeletal_show_skeleton(bpy.types.Operator):
+    """Show or hide the skeletal mesh of the active bound object, coloured by medial-ball radius \
+(thesis fig. 6.8)"""
+
+    bl_idname = "dgmesh.skeletal_show_skeleton"
+    bl_label = "Show Skeleton"
+    bl_options = {'REGISTER', 'UNDO'}
+
+    show: bpy.props.BoolProperty(name="Show", default=True)
+
+    @classmethod
+    def poll(cls, context):
+        if skeleton_of(context.active_object) is None:
+            return _poll_fail(cls, "The active object is not bound, or its skeleton was deleted")
+        return True
+
+    def execute(self, context):
+        sk = skeleton_of(context.active_object)
+        sk.hide_viewport = not self.show
+        try:
+            sk.hide_set(not self.show)
+        except RuntimeError:  # not in this view layer
+            pass
+        return {'FINISHED'}
 
 
 class DGMESH_OT_skeletal_bind(bpy.types.Operator):
@@ -1225,4 +1268,5 @@ def _cache_index(obj, live):
     return max(after) + 1 if after else 0
 
 
-classes = (DGMESH_OT_skeletal_bind, DGMESH_OT_skeletal_rebind, DGMESH_OT_skeletal_unbind, DGMESH_OT_skeletal_bake)
+classes = (DGMESH_OT_skeletal_bind, DGMESH_OT_skeletal_rebind, DGMESH_OT_skeletal_unbind, DGMESH_OT_skeletal_bake,
+           DGMESH_OT_skeletal_show_skeleton)

@@ -61,6 +61,11 @@ class DGMESH_PT_main(bpy.types.Panel):
         col = layout.column(align=True)
         _draw_operators(col)
         from . import ops_skeletal
+        sk = ops_skeletal.skeleton_of(context.active_object)
+        if sk is not None:
+            shown = not sk.hide_viewport and sk.visible_get()
+            col.operator("dgmesh.skeletal_show_skeleton", text="Hide Skeleton" if shown else "Show Skeleton",
+                         icon='HIDE_OFF' if shown else 'HIDE_ON').show = not shown
         for obj in context.scene.objects:
             if ops_skeletal.live_modifier_misplaced(obj):
                 _warning(layout, (f"{obj.name}:", "move dg_skeletal to", "the top of the modifiers"))
