@@ -103,6 +103,20 @@ def test_disable_enable_cycle():
     for menu in ("VIEW3D_MT_object", "VIEW3D_MT_edit_mesh"):
         assert _menu_funcs(menu).count(dgmesh.blender.ui._menu_entry) == 1
 
+    # Another add-on's handlers named like ours stay.
+    namespace = {"__name__": "other_addon"}
+    exec("def _on_load(*args):\n    pass\n", namespace)
+    foreign = namespace["_on_load"]
+    bpy.app.handlers.load_post.append(foreign)
+    try:
+        dgmesh.unregister()
+        dgmesh.register()
+        assert foreign in bpy.app.handlers.load_post
+        from dgmesh.blender import ops_skeletal
+        assert ops_skeletal._on_load in bpy.app.handlers.load_post
+    finally:
+        bpy.app.handlers.load_post.remove(foreign)
+
     # And the operator still works.
     open_fixture("shapes")
     select("QuadSphere")

@@ -328,7 +328,8 @@ def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path, capfd):
     obj = bpy.data.objects["Capsule"]
     capfd.readouterr()
     assert bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT') == {'FINISHED'}
-    assert (tmp_path / "Capsule_skeletal.pc2").exists()
+    # Named after the .blend too: two shots of one character in a folder keep their own caches.
+    assert (tmp_path / "scene_Capsule_skeletal.pc2").exists()
     # The cache was evaluated at the end of the stack while moving into place (Blender 3.4).
     assert "Vertex count mismatch" not in "".join(capfd.readouterr())
     for unbound in (False, True):
@@ -1131,3 +1132,38 @@ def test_collection_instance_draws_neither_helper_nor_skeleton_and_show_skeleton
     assert not sk.visible_get() and sk.hide_viewport
     bpy.context.view_layer.objects.active = arm
     assert not bpy.ops.dgmesh.skeletal_show_skeleton.poll()
+
+
+def test_deleted_helper_is_made_again_and_renamed_skeleton_still_shows():
+    """Deleting the hidden helper by hand (Outliner, Blender File view) left the mesh at rest in
+    every pose, silently; it is made again at the next update. Show Skeleton finds a renamed
+    skeleton through its parent."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    posed = _evaluated_co(obj)
+    assert np.abs(posed - V).max() > 1.0
+    bpy.data.objects.remove(_helper(obj))
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - posed).max() < 1e-4  # the same pose, shown again
+    assert len(_helper(obj).data.vertices) == len(V)
+    assert not [m for m in bpy.data.meshes if m.users == 0 and m.name.startswith(obj.name + "_dg_offsets")]
+    bpy.data.objects[obj.name + "_skeleton"].name = "Bones mesh"
+    bpy.context.view_layer.objects.active = obj
+    assert bpy.ops.dgmesh.skeletal_show_skeleton('EXEC_DEFAULT', show=True) == {'FINISHED'}
+    assert bpy.data.objects["Bones mesh"].visible_get()
+    assert bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT') == {'FINISHED'}
+    assert "Bones mesh" not in bpy.data.objects
+
+
+def test_armature_modifier_turned_back_on_while_bound_is_flagged():
+    """Set back by hand (a session without the add-on shows the mesh frozen), the Armature modifier
+    deforms the mesh a second time: the sidebar panel says so."""
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    assert not ops_skeletal.armature_modifier_on(obj)
+    mod = obj.modifiers["Armature"]
+    mod.object, mod.show_viewport = arm, True
+    assert ops_skeletal.armature_modifier_on(obj)

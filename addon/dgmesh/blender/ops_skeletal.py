@@ -41,6 +41,10 @@ is cleared meanwhile too, because a disabled modifier still makes the mesh depen
 Blender would re-evaluate the whole mesh once more on every frame (measured: ~30 ms CPU per frame at
 178K vertices) before the handler's write.
 
+Live update covers local objects of the open file: a character linked from a library (collection
+instance or library override) is not in the scene's objects the handler walks, and its helper's
+mesh is library data; it stays at rest, so bake it in its own file (the cache plays when linked).
+
 Bake writes a frame range to a .pc2 point cache played by a Mesh Cache modifier, so renders and
 exports need no add-on: each frame as the stack evaluates it up to the live deformation (shape keys
 included), the cache placed after the live and Armature modifiers and before the others (a
@@ -335,6 +339,24 @@ def _own_helper(obj, info, shared):
     return helper
 
 
+def _replace_helper(obj, info, n):
+    """A new helper for one deleted by hand (the Outliner's Blender File view removes it): the
+    mesh showed at rest, silently, until unbound. None if the live modifier is not ours."""
+    mod = _live_modifier(obj, info)
+    ng = mod.node_group if mod is not None else None
+    node = ng.nodes.get(HELPER_NODE) if ng is not None else None
+    if node is None:
+        return None
+    old = bpy.data.meshes.get(obj.name + HELPER_SUFFIX)
+    if old is not None and old.users == 0:  # the deleted helper's mesh
+        bpy.data.meshes.remove(old)
+    helper = _helper_object(obj, n)
+    node.inputs["Object"].default_value = helper
+    info["helper"] = helper.name
+    print(f"dgmesh skeletal: the helper object of {obj.name!r} was deleted: made again")
+    return helper
+
+
 def _rest_hash(mesh):
     co = np.empty(3 * len(mesh.vertices), dtype=np.float32)
     mesh.vertices.foreach_get("co", co)
@@ -462,7 +484,9 @@ def _live_target(obj, info, adopt=True):
     target = _target(info)
     if target == "HELPER":
         h = _helper_of(obj, info)
-        if h is not None and not _writes_helper(obj, h):
+        if h is None and adopt:
+            h = _replace_helper(obj, info, n)
+        elif h is not None and not _writes_helper(obj, h):
             h = _own_helper(obj, info, h) if adopt else None
         if h is None or len(h.data.vertices) != n:
             return none
@@ -533,6 +557,8 @@ def update_object(obj, force=False, depsgraph=None):
     else:
         pose = _pose_matrices(obj, arm, names, space=space, bind=bind)
     sig = pose.tobytes()
+    if _target(info) == "HELPER" and _helper_of(obj, info) is None:
+        force = True  # deleted by hand: _live_target makes it again, with this pose's offsets
     if not force and _last_pose.get(_key(obj, info)) == sig:
         return False
     data, prop, tagged = _live_target(obj, info, adopt=depsgraph is None or depsgraph.mode != 'RENDER')
@@ -607,10 +633,12 @@ def _add_handlers():
 
 
 def _remove_handlers():
+    """Ours only, also those of an earlier load of this module (a reload makes new functions): by
+    name and module, as another add-on may name its handlers alike."""
     names = {fn.__name__ for _, fn in _HANDLERS}
     for lst in {lst for lst, _ in _HANDLERS}:
         lst = getattr(bpy.app.handlers, lst)
-        for h in [h for h in lst if getattr(h, "__name__", "") in names]:
+        for h in [h for h in lst if getattr(h, "__name__", "") in names and getattr(h, "__module__", "") == __name__]:
             lst.remove(h)
 
 
@@ -670,6 +698,14 @@ def _helper_node_group(helper):
     oi.location, pos.location, idx.location, si.location = (-650, -150), (-650, -350), (-650, -450), (-400, -150)
     size_in.location, size_helper.location, same.location = (-650, 200), (-650, 50), (-400, 150)
     return ng
+
+
+def armature_modifier_on(obj):
+    """Whether a bound object's Armature modifier deforms it as well (bind turned it off and cleared
+    its armature; set back by hand, e.g. in a session without the add-on, both deformations add
+    up): the sidebar panel says so."""
+    return is_bound(obj) and any(m.type == 'ARMATURE' and m.object is not None and (m.show_viewport or m.show_render)
+                                 for m in obj.modifiers)
 
 
 def live_modifier_misplaced(obj):
@@ -800,7 +836,10 @@ def skeleton_of(obj):
     if not is_bound(obj):
         return None
     sk = bpy.data.objects.get(obj[PROP].get("skeleton", ""))
-    return sk if sk is not None and sk.get(SKELETON_OF) is not None else None
+    if sk is not None and sk.get(SKELETON_OF) is not None:
+        return sk
+    # Renamed: it is parented to its mesh.
+    return next((c for c in obj.children if c.get(SKELETON_OF) is not None), None)
 
 
 class DGMESH_OT_skeletal_show_skeleton(bpy.types.Operator):
@@ -1140,6 +1179,13 @@ def write_pc2(path, frames, start, rate=1.0):
         f.write(frames.tobytes())
 
 
+def _default_cache_path(obj):
+    """//<blend>_<object>_skeletal.pc2: the .blend's name too, or two files in one folder baking a
+    character of the same name overwrote each other's cache."""
+    stem = bpy.path.clean_name(bpy.path.display_name_from_filepath(bpy.data.filepath)) if bpy.data.filepath else ""
+    return f"//{stem + '_' if stem else ''}{bpy.path.clean_name(obj.name)}_skeletal.pc2"
+
+
 class DGMESH_OT_skeletal_bake(bpy.types.Operator):
     """Bake the skeletal deformation of a frame range to a .pc2 point cache played by a Mesh \
 Cache modifier (renders and exports then need no add-on)"""
@@ -1149,7 +1195,8 @@ Cache modifier (renders and exports then need no add-on)"""
     bl_options = {'REGISTER', 'UNDO'}
 
     filepath: StringProperty(name="File", subtype='FILE_PATH', default="",
-                             description="The .pc2 file; empty: //<object name>_skeletal.pc2 next to the .blend")
+                             description="The .pc2 file; empty: //<file>_<object>_skeletal.pc2 next to the .blend "
+                             "(named after both, so two shots of one character in a folder keep their caches)")
     frame_start: IntProperty(name="Start", default=1, description="First frame (default: the scene's)")
     frame_end: IntProperty(name="End", default=250, description="Last frame (default: the scene's)")
 
@@ -1178,7 +1225,7 @@ Cache modifier (renders and exports then need no add-on)"""
         if not self.properties.is_property_set("frame_end"):
             self.frame_end = context.scene.frame_end
         if not self.filepath:
-            self.filepath = f"//{bpy.path.clean_name(obj.name)}_skeletal.pc2"
+            self.filepath = _default_cache_path(obj)
         if self.frame_end < self.frame_start:
             self.report({'ERROR'}, f"Frame range {self.frame_start}..{self.frame_end} is empty")
             return {'CANCELLED'}

@@ -67,6 +67,9 @@ class DGMESH_PT_main(bpy.types.Panel):
             col.operator("dgmesh.skeletal_show_skeleton", text="Hide Skeleton" if shown else "Show Skeleton",
                          icon='HIDE_OFF' if shown else 'HIDE_ON').show = not shown
         for obj in context.scene.objects:
+            if ops_skeletal.armature_modifier_on(obj):
+                _warning(layout, (f"{obj.name}:", "its Armature modifier is on:", "it deforms twice;",
+                                  "turn the modifier off"))
             if ops_skeletal.live_modifier_misplaced(obj):
                 _warning(layout, (f"{obj.name}:", "move dg_skeletal to", "the top of the modifiers"))
             if ops_skeletal.shown_undeformed(obj):
