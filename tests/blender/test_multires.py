@@ -203,3 +203,24 @@ def test_interactive_run_is_modal_and_esc_cancels(tmp_path):
     out = eval(line[len("MODAL_RESULT"):])
     assert out["first"] == ['RUNNING_MODAL'] and out["finished"]
     assert out["second"] == ['RUNNING_MODAL'] and out["unchanged_after_esc"]
+
+
+def test_deleting_the_source_frees_it(tmp_path):
+    """The control cage and the crest-line curve point at their object: deleted, it stayed in the
+    file (in no scene, kept by the pointer) through save, reload and Purge. The pointers go; the
+    cage and the curve stay."""
+    open_fixture("shapes")
+    select("Torus")
+    assert _run(control_faces=200) == {'FINISHED'}
+    select("SubdivCube")
+    assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=8.0, create_curves=True) == {'FINISHED'}
+    select("Torus", "SubdivCube")
+    assert bpy.ops.object.delete() == {'FINISHED'}
+    bpy.context.view_layer.update()
+    path = str(tmp_path / "deleted.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=path)
+    bpy.ops.wm.open_mainfile(filepath=path)
+    assert "Torus" not in bpy.data.objects and "SubdivCube" not in bpy.data.objects
+    assert "Torus_control" in bpy.data.objects
+    assert "dgmesh_multires_control_of" not in bpy.data.objects["Torus_control"].keys()
+    assert any(o.type == 'CURVE' and "Crest Lines" in o.name for o in bpy.data.objects), [(o.name, o.type) for o in bpy.data.objects]

@@ -30,6 +30,50 @@ def _classes():
         yield from module.classes
 
 
+# Custom properties pointing from an object we made (crest-line curve, multires control cage) to
+# its source object. An ID pointer follows renames but is a user: a deleted source stayed in the
+# file, in no scene, kept alive by it.
+_SOURCE_KEYS = (ops_crest.CURVE_KEY, ops_multires.CONTROL_KEY)
+_scene_counts = []
+
+
+def release_deleted_sources(force=False):
+    """Drops the pointers to source objects that are in no scene any more (deleted), so Blender
+    frees them like any deleted object; the curves and cages stay. Cheap unless a scene lost objects."""
+    counts = [len(s.objects) for s in bpy.data.scenes]
+    if not force and counts == _scene_counts:
+        return
+    _scene_counts[:] = counts
+    for o in bpy.data.objects:
+        if o.library is not None:
+            continue
+        for key in _SOURCE_KEYS:
+            src = o.get(key)
+            if isinstance(src, bpy.types.Object) and not src.users_scene:
+                del o[key]
+
+
+@bpy.app.handlers.persistent
+def _on_depsgraph(*_args):
+    release_deleted_sources()
+
+
+@bpy.app.handlers.persistent
+def _on_file(*_args):
+    release_deleted_sources(force=True)
+
+
+_HANDLERS = (("depsgraph_update_post", _on_depsgraph), ("save_pre", _on_file), ("load_post", _on_file))
+
+
+def _remove_handlers():
+    for lst, fn in _HANDLERS:
+        lst = getattr(bpy.app.handlers, lst)
+        for h in [h for h in lst if getattr(h, "__name__", "") == fn.__name__
+                  and getattr(h, "__module__", "") == __name__]:
+            lst.remove(h)
+
+
 def register():
     for cls in _classes():
         if getattr(cls, "is_registered", False):
@@ -37,9 +81,13 @@ def register():
         bpy.utils.register_class(cls)
     ui.register_menus()
     prefs.apply_thread_count()
+    _remove_handlers()
+    for lst, fn in _HANDLERS:
+        getattr(bpy.app.handlers, lst).append(fn)
 
 
 def unregister():
+    _remove_handlers()
     ui.unregister_menus()
     for cls in reversed(list(_classes())):
         if getattr(cls, "is_registered", False):
