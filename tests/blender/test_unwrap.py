@@ -308,6 +308,20 @@ def test_object_mode_several_objects_and_stretch_map_with_checker(dg, capsys):
     mat = bpy.data.materials["DG Checker"]
     assert any(n.bl_idname == "ShaderNodeTexChecker" for n in mat.node_tree.nodes)
 
+    # A mesh with materials shows the checker on every face through object-linked slots; the
+    # mesh's own materials and indices stay (the checker was an unused extra slot).
+    own = [bpy.data.materials.new("A"), bpy.data.materials.new("B")]
+    mesh = obj.data
+    mesh.materials.clear()
+    for m in own:
+        mesh.materials.append(m)
+    index = np.arange(len(mesh.polygons), dtype=np.int32) % 2
+    mesh.polygons.foreach_set("material_index", index)
+    select("NgonCylinder")
+    assert stretch_map(checker=True) == {'FINISHED'}
+    assert [s.material for s in obj.material_slots] == [mat, mat]
+    assert list(mesh.materials) == own and [p.material_index for p in mesh.polygons] == index.tolist()
+
 
 def test_stretch_map_without_uvs_is_an_error():
     open_fixture("shapes")

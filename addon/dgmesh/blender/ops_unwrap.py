@@ -477,7 +477,10 @@ class DGMESH_OT_stretch_map(bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     checker: BoolProperty(name="Checker Material", default=False,
-                          description="Assign a checker-texture material for a visual check")
+                          description="Show a checker texture on every face for a visual check: a 'DG "
+                          "Checker' material, added to a mesh without materials, else put in the object's "
+                          "slots linked to the object (the mesh keeps its materials: set a slot's Link back "
+                          "to Data to see them)")
     percentile: FloatProperty(name="Range Percentile", default=95.0, min=50.0, max=100.0)
 
     @classmethod
@@ -544,8 +547,14 @@ def _assign_checker(obj):
         bsdf = nt.nodes.get("Principled BSDF")
         if bsdf is not None:
             nt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
-    if mat.name not in obj.data.materials:
+    if not obj.material_slots:
         obj.data.materials.append(mat)
+        return
+    # Faces use their slots' materials: override every slot for this object only, leaving the
+    # mesh's materials and material indices as they are.
+    for slot in obj.material_slots:
+        slot.link = 'OBJECT'
+        slot.material = mat
 
 
 classes = (DGMESH_OT_unwrap, DGMESH_OT_stretch_map)
