@@ -8,9 +8,9 @@ PKGS=(
   pybind11-dev python3-dev python3-numpy python3-pytest libgtest-dev
   blender          # 3.4.1, runs the add-on tests and the demo
   libcgal-demo     # ships data.tar.gz with the scanned test meshes (unpacked at run time)
-  libcgal-dev      # bench only: CGAL's hole filling as the reference in fair_restore (bench/tools/cgal_fair_hole.cpp)
+  libcgal-dev      # bench only: CGAL peers in fair_restore and unwrap_quality (bench/tools/*.cpp)
   xvfb             # a real window for the interactive (modal, Esc) operator test
-  libopenblas0-pthread  # optimised BLAS for UMFPACK's dense fronts (unwrap: 1.6x less CPU than reference BLAS)
+  libopenblas0-pthread  # optimised BLAS for UMFPACK's dense fronts (the default is the reference BLAS)
 )
 missing=()
 for p in "${PKGS[@]}"; do

@@ -59,8 +59,8 @@ class Multires:
             it when the sliver guard or the topology forbid further collapses; every connected
             component keeps at least a tetrahedron's worth of faces).
         level : 1..5, adaptive isolation level of the limit patches around extraordinary vertices
-            and density of the limit samples that seed the closest-point search (2**level + 1 per
-            control edge). The thesis used subdivision levels 2-3.
+            and density of the limit samples that seed the closest-point search (2**min(level, 3) + 1
+            per control edge). The thesis used subdivision levels 2-3.
         min_quality : sliver guard of the decimation, in [0, 1) (1 = equilateral).
         fit_iterations : least-squares fits of the control vertices to the dense mesh, each
             followed by a re-bind; 0 keeps the decimated positions.

@@ -31,7 +31,8 @@ def loop_subdivide(V, F, levels=1):
 def rounded_cube(n=20, r=0.3, quads=False):
     """Cube [-1, 1]^3 with edges rounded to radius r: an n x n grid per side, corners pushed out
     to the rounding. Returns (V, F) with triangles, or with quads (a list of 4-tuples: the quad
-    diagonals are then not mesh edges) when ``quads`` is True. Crest lines: 12 ridges."""
+    diagonals are then not mesh edges) when ``quads`` is True. Crest lines: its 12 rounded edges
+    are ridges, traced as 6 lines (they join at the corners)."""
     import numpy as np
 
     verts, tris, quad_list, index = [], [], [], {}

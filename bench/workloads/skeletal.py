@@ -197,7 +197,7 @@ def speed(quick):
                  "CPU ms control deform", "CPU ms full deform (float32 buffer)"], rows),
           "", "Capsule Loop-subdivided; control mesh 5000 faces; wall-clock medians (7 runs, 15 for the reconstruct) "
           "and process CPU time per call (all threads, including OpenMP's spin-waiting; the control deform "
-          "is serial). Targets: bind <= 10 s for 170K vertices, per pose (native deform + dense reconstruction) "
+          "runs on the OpenMP threads). Targets: bind <= 10 s for 170K vertices, per pose (native deform + dense reconstruction) "
           "<= 20 ms. The float32 buffer is what the live update hands to Blender "
           "(`rig.deform(pose, out=np.empty((n, 3), np.float32))`).", "",
           "Live in Blender (`dgmesh.skeletal_bind` operator, then `scene.frame_set` over 20 keyframed frames, median): "

@@ -16,7 +16,9 @@ It keeps: UV maps (per corner: a corner keeps its UV when its vertex survives, e
 surviving vertex's UV on the same side of the seam; a vertex moved to its quadric optimum gets the
 UV interpolated at its new position in the nearest original triangle), material index and smooth
 flag per face (from the input face the output triangle was), UV seams and material borders
-exactly (their vertices are locked), and the seam and sharp flags of edges that survive. It drops:
+exactly (their vertices are locked), the seam and sharp flags of edges that survive, hidden faces'
+hide flags, and loose vertices and wire edges as they are (a wire edge follows the surface vertex
+it hangs from). It drops:
 vertex groups, colour and other generic attributes, custom split normals, creases and quads/n-gons
 (the result is triangles); it refuses shape keys.
 

@@ -4,8 +4,9 @@ dgmesh.denoise works on every selected mesh object in Object mode, and on the se
 the edited objects in Edit mode (the other vertices stay put but still inform the filter). Meshes
 with quads and n-gons are triangulated for the computation only (Blender's own loop triangles);
 triangle soups work as they are (coincident vertices move together); meshes without faces are
-point clouds and need a FLOAT_VECTOR point attribute ``normal`` (Blender 3.4 reserves that name
-for its own normals, so ``Normal``, ``normals`` and ``N`` are accepted as well).
+point clouds and need a FLOAT_VECTOR point attribute ``Normal`` (Blender 3.4 reserves ``normal``
+for its own normals and will not make one; ``normal`` from an import, ``normals`` and ``N`` are read
+as well).
 
 Everything is computed before anything is written: an object that fails gets an ERROR report and
 is left untouched; a cancelled run (Esc, or a progress callback returning False) writes nothing.
@@ -50,7 +51,7 @@ def _vertex_flags(mesh, key):
 
 
 def read_point_normals(mesh):
-    """The FLOAT_VECTOR point attribute ``normal`` (or an alias) as (n, 3) float64, or None."""
+    """The FLOAT_VECTOR point attribute ``Normal`` (or normal, normals, N) as (n, 3) float64, or None."""
     for name in NORMAL_ATTRIBUTE_ALIASES:
         attr = mesh.attributes.get(name)
         if attr is not None and attr.data_type == 'FLOAT_VECTOR' and attr.domain == 'POINT':

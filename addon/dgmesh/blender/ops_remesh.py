@@ -45,7 +45,8 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
     bl_description = (
         "Replace a disk-shaped mesh (Object mode) or the selected disk-shaped region (Edit mode) by a "
         "new, near-uniform or curvature-adapted triangulation with about the requested vertex count; "
-        "the region's boundary vertices are kept so it stays stitched to the rest"
+        "the region's boundary vertices are kept so it stays stitched to the rest (in Object mode "
+        "unless Resample Boundary)"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
