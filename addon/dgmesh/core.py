@@ -55,11 +55,28 @@ def as_faces(F, name="F"):
     return np.ascontiguousarray(F, dtype=np.int32)
 
 
+INT_MAX = 2**31 - 1  # the native side's int
+
+
+def as_count(value, name, lo=0, hi=INT_MAX):
+    """An integer option as an int in [lo, hi], else a MeshError naming it (beyond a C int,
+    pybind11's own TypeError printed the whole call, mesh arrays included)."""
+    integral = isinstance(value, (int, np.integer)) or (isinstance(value, float) and value.is_integer())
+    if isinstance(value, bool) or not integral:
+        raise MeshError(f"{name} must be an integer, got {value!r}")
+    if not lo <= value <= hi:
+        raise MeshError(f"{name} must be in [{lo}, {hi}], got {int(value)}")
+    return int(value)
+
+
 def set_num_threads(n):
-    """Threads for the native parallel loops; 0 means all cores."""
-    if int(n) != n or n < 0:
-        raise ValueError(f"set_num_threads: a whole number >= 0 (0: all cores), got {n!r}")
-    _native.set_num_threads(int(n))
+    """Threads for the native parallel loops, for the whole process (every thread); 0 means all
+    cores."""
+    try:
+        n = as_count(n, "set_num_threads", 0, 4096)
+    except MeshError as exc:
+        raise ValueError(f"set_num_threads: a whole number in [0, 4096] (0: all cores), got {n!r}") from exc
+    _native.set_num_threads(n)
 
 
 def num_threads():

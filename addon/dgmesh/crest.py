@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_vertices
 
 RIDGE = 0
 VALLEY = 1
@@ -246,9 +246,7 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
     """
     V = as_vertices(V)
     F = as_faces(F)
-    target_faces = int(target_faces)
-    if target_faces < 0:
-        raise MeshError(f"target_faces must be non-negative, got {target_faces}")
+    target_faces = as_count(target_faces, "target_faces")
     feature_weight = _check_feature_weight(feature_weight)
     crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
     if locked is not None:

@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_vertices
 
 __all__ = ["FairResult", "fair", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
@@ -141,6 +141,7 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         vm = inner & ~border
     if max_iterations is None:
         max_iterations = 5000 if scheme == "explicit" else 200
+    max_iterations = as_count(max_iterations, "max_iterations")
     if int(subdivisions) != subdivisions or not 0 <= subdivisions <= 6:
         raise MeshError(f"subdivisions must be an integer in [0, 6], got {subdivisions!r}")
 

@@ -26,7 +26,7 @@ better; ``fit_iterations=0`` keeps the decimated positions.
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_vertices
 
 __all__ = ["Multires", "FORMAT_VERSION"]
 
@@ -69,7 +69,8 @@ class Multires:
         """
         V = as_vertices(V)
         F = as_faces(F)
-        return cls(_native.Multires.build(V, F, int(control_faces), int(level), float(min_quality),
+        control_faces = as_count(control_faces, "control_faces")
+        return cls(_native.Multires.build(V, F, control_faces, int(level), float(min_quality),
                                           int(fit_iterations), float(fit_regularization),
                                           int(projection_iterations), progress))
 

@@ -19,7 +19,7 @@ from typing import List
 
 import numpy as np
 
-from .core import Error, MeshError, _native, as_faces, as_vertices
+from .core import Error, MeshError, _native, as_count, as_faces, as_vertices
 
 __all__ = ["RemeshResult", "remesh", "remesh_full", "point_mesh_distance", "MODES"]
 
@@ -115,10 +115,10 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         raise MeshError(f"boundary must be 'keep' or 'resample', got {boundary!r}")
     if domain not in ("circle", "square"):
         raise MeshError(f"domain must be 'circle' or 'square', got {domain!r}")
-    if isinstance(target_vertices, bool) or not isinstance(target_vertices, (int, np.integer)):
-        raise MeshError(f"target_vertices must be an integer, got {target_vertices!r}")
-    if isinstance(resolution, bool) or not isinstance(resolution, (int, np.integer)):
-        raise MeshError(f"resolution must be an integer, got {resolution!r}")
+    if isinstance(target_vertices, float) or isinstance(resolution, float):
+        raise MeshError(f"target_vertices and resolution must be integers, got {target_vertices!r}, {resolution!r}")
+    target_vertices = as_count(target_vertices, "target_vertices")
+    resolution = as_count(resolution, "resolution")
     def run(clearance):
         return _native.remesh(V, F, int(target_vertices), adaptivity=float(adaptivity), resolution=int(resolution),
                               mode=mode, boundary=boundary, domain=domain,

@@ -24,7 +24,7 @@ from typing import List
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_vertices
 
 __all__ = ["UnwrapResult", "unwrap", "uv_metrics", "uv_stretch", "BOUNDARIES", "WEIGHTS", "SOLVERS"]
 
@@ -116,14 +116,14 @@ def unwrap(V, F, *, boundary="square", weights="floater", eta=1.0, iterations="o
     if iterations == "optimal":
         it = -1
     elif isinstance(iterations, (int, np.integer)) and not isinstance(iterations, bool) and iterations >= 0:
-        it = int(iterations)
+        it = as_count(iterations, "iterations")
     else:
         raise MeshError(f"iterations must be 'optimal' or an integer >= 0, got {iterations!r}")
     eta = float(eta)
     if not (0.0 < eta <= 1.0):
         raise MeshError(f"eta must be in (0, 1], got {eta}")
     r = _native.unwrap(V, F, boundary=boundary, weights=weights, eta=eta, iterations=it,
-                       max_iterations=int(max_iterations), min_improvement=float(min_improvement),
+                       max_iterations=as_count(max_iterations, "max_iterations"), min_improvement=float(min_improvement),
                        solver=solver, slide_boundary=bool(slide_boundary), progress=progress)
     return UnwrapResult(
         uv=np.asarray(r["uv"]),

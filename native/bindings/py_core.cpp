@@ -15,7 +15,7 @@ void bind_core(pb::module_& m) {
   m.def(
       "validate",
       [](InV V, InF F, unsigned checks) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         validate(V, F, checks);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("checks") = static_cast<unsigned>(kSurface));
@@ -27,7 +27,7 @@ void bind_core(pb::module_& m) {
       [](InV Vin, InF Fin) {
         Curvature c;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           const Mesh mesh = make_mesh(Vin, Fin, kSurface);
           c = curvature(mesh.V, mesh.F, mesh.topo);
         }
@@ -45,7 +45,7 @@ void bind_core(pb::module_& m) {
       [](InV Vin, InF Fin) {
         Topology t;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           t = validate(Vin, Fin, kSurface);
         }
         pb::dict d;
@@ -63,7 +63,7 @@ void bind_core(pb::module_& m) {
       [](const std::string& path) {
         MeshData md;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           md = read_mesh(path);
         }
         return pb::make_tuple(std::move(md.V), std::move(md.F), std::move(md.N));
@@ -72,7 +72,7 @@ void bind_core(pb::module_& m) {
   m.def(
       "write_mesh",
       [](const std::string& path, InV V, InF F, std::optional<MatX3d> N) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         write_mesh(path, V, F, N ? &*N : nullptr);
       },
       pb::arg("path"), pb::arg("V"), pb::arg("F"), pb::arg("N") = pb::none());
@@ -91,7 +91,7 @@ void bind_core(pb::module_& m) {
       [tuple](InV V, InF F, int levels) {
         TriMesh t;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           t = loop_subdivide(V, F, levels);
         }
         return tuple(std::move(t));

@@ -106,7 +106,7 @@ void bind_crest(pb::module_& m) {
          bool transport_to_vertex, const pb::object& cb) {
         CurvatureDerivatives d;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           const Mesh mesh = make_mesh(Vin, Fin, kSurface);
           d = curvature_derivatives(
               mesh, DerivativeOptions{rings, smooth, use_normals, fit_tangent_plane, transport_to_vertex},
@@ -125,7 +125,7 @@ void bind_crest(pb::module_& m) {
         CurvatureDerivatives d;
         CrestLines c;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           const Mesh mesh = make_mesh(Vin, Fin, kSurface);
           d = curvature_derivatives(mesh, DerivativeOptions{rings, smooth, use_normals}, progress_from(cb));
           CrestOptions opt;
@@ -145,7 +145,7 @@ void bind_crest(pb::module_& m) {
   m.def(
       "crest_face_distance",
       [](InV Vin, InF Fin, const MatX2i& segments, const std::vector<int>& segment_face, const MatX2i& point_edge) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         const Mesh mesh = make_mesh(Vin, Fin, kSurface);
         return crest_face_distance(mesh, crest_from_arrays(mesh, CrestArrays{segments, segment_face, point_edge}));
       },
@@ -159,7 +159,7 @@ void bind_crest(pb::module_& m) {
          std::optional<CrestArrays> crest) {
         DecimateResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           const Mesh mesh = make_mesh(Vin, Fin, kSurface);
           const ProgressFn progress = progress_from(cb);
           const double share = feature_weight > 0 && !crest ? 0.3 : 0.0;  // of the progress for the fit
@@ -196,7 +196,7 @@ void bind_crest(pb::module_& m) {
          double feature_weight, int rings, double threshold, std::optional<CrestArrays> crest) {
         SegmentResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           const Mesh mesh = make_mesh(Vin, Fin, kSurface);
           const ProgressFn progress = progress_from(cb);
           const double share = feature_weight > 0 && !crest ? 0.3 : 0.0;

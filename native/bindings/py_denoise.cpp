@@ -51,7 +51,7 @@ void bind_denoise(pb::module_& m) {
         const ProgressFn cb = progress_from(progress);
         DenoiseResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           r = denoise(V, F, o, cb);
         }
         return to_dict(std::move(r));
@@ -69,7 +69,7 @@ void bind_denoise(pb::module_& m) {
         const ProgressFn cb = progress_from(progress);
         DenoiseResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           r = denoise_points(V, N, o, cb);
         }
         return to_dict(std::move(r));
@@ -89,7 +89,7 @@ void bind_denoise(pb::module_& m) {
       "similarity_mesh",
       [similarity_options](InV V, InF F, int vertex, double eta1, double eta3, bool shape_only) {
         const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return similarity(V, F, vertex, o);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("vertex"), pb::arg("eta1"), pb::arg("eta3"),
@@ -99,7 +99,7 @@ void bind_denoise(pb::module_& m) {
       "similarity_points",
       [similarity_options](InV V, InV N, int vertex, double eta1, double eta3, bool shape_only) {
         const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return similarity_points(V, N, vertex, o);
       },
       pb::arg("V"), pb::arg("N"), pb::arg("vertex"), pb::arg("eta1"), pb::arg("eta3"),

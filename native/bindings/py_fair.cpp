@@ -64,7 +64,7 @@ void bind_fair(pb::module_& m) {
         const ProgressFn cb = progress_from(progress);
         FairResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           r = fair(Vin, Fin, o, cb);
         }
         pb::dict d;
@@ -101,7 +101,7 @@ void bind_fair(pb::module_& m) {
         const ProgressFn cb = progress_from(progress);
         MatX3d out;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           out = regularize(Vin, Fin, o, cb);
         }
         return out;
@@ -112,7 +112,7 @@ void bind_fair(pb::module_& m) {
   m.def(
       "willmore_energy",
       [](InV V, InF F) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return willmore_energy(V, F);
       },
       pb::arg("V"), pb::arg("F"));
@@ -123,7 +123,7 @@ void bind_fair(pb::module_& m) {
         std::vector<char> fm = to_mask(face_mask);
         RegionSubdivision r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           validate(V, F, kNonEmpty | kIndices);
           r = subdivide_region(V, F, fm);
         }
@@ -137,7 +137,7 @@ void bind_fair(pb::module_& m) {
         std::vector<char> fm = to_mask(face_mask);
         RegionSubdivision r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           validate(V, F, kNonEmpty | kIndices | kFinite);
           r = refine_region(V, F, fm, density);
         }

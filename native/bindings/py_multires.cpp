@@ -35,7 +35,7 @@ void bind_multires(pb::module_& m) {
             o.fit_regularization = fit_regularization;
             o.projection_iterations = projection_iterations;
             const ProgressFn cb = progress_from(progress);
-            pb::gil_scoped_release nogil;
+            NativeScope nogil;
             return Multires::build(V, F, o, cb);
           },
           pb::arg("V"), pb::arg("F"), pb::arg("control_faces"), pb::arg("level"), pb::arg("min_quality"),
@@ -45,7 +45,7 @@ void bind_multires(pb::module_& m) {
           "bind",
           [](InV control_V, InF control_F, InV V, int level, int projection_iterations, const pb::object& progress) {
             const ProgressFn cb = progress_from(progress);
-            pb::gil_scoped_release nogil;
+            NativeScope nogil;
             return Multires::bind(control_V, control_F, V, level, cb, projection_iterations);
           },
           pb::arg("control_V"), pb::arg("control_F"), pb::arg("V"), pb::arg("level"),
@@ -60,7 +60,7 @@ void bind_multires(pb::module_& m) {
             d.face = face;
             d.st = st;
             d.disp = disp;
-            pb::gil_scoped_release nogil;
+            NativeScope nogil;
             return Multires::from_data(d);
           },
           pb::arg("control_V"), pb::arg("control_F"), pb::arg("level"), pb::arg("face"), pb::arg("st"),
@@ -92,7 +92,7 @@ void bind_multires(pb::module_& m) {
             if (out.is_none()) {
               MatX3d res(r.n_dense(), 3);
               {
-                pb::gil_scoped_release nogil;
+                NativeScope nogil;
                 r.reconstruct(X, Eigen::Ref<MatX3d>(res));
               }
               return pb::cast(std::move(res));
@@ -100,11 +100,11 @@ void bind_multires(pb::module_& m) {
             // A caller-owned C-contiguous (n, 3) float64 or float32 array, written in place.
             if (pb::isinstance<pb::array>(out) && out.cast<pb::array>().dtype().is(pb::dtype::of<float>())) {
               auto ref = out.cast<Eigen::Ref<MatX3f>>();
-              pb::gil_scoped_release nogil;
+              NativeScope nogil;
               r.reconstruct(X, ref);
             } else {
               auto ref = out.cast<Eigen::Ref<MatX3d>>();
-              pb::gil_scoped_release nogil;
+              NativeScope nogil;
               r.reconstruct(X, ref);
             }
             return out;
@@ -115,7 +115,7 @@ void bind_multires(pb::module_& m) {
           [](const Multires& r, const MatX3d& X) {
             MatX3d P, N;
             {
-              pb::gil_scoped_release nogil;
+              NativeScope nogil;
               r.limit_points(X, P, &N);
             }
             return pb::make_tuple(std::move(P), std::move(N));
@@ -126,7 +126,7 @@ void bind_multires(pb::module_& m) {
           [](const Multires& r, const MatX3d& X, const VecXi& face, const MatX2dR& st) {
             MatX3d P, Ds, Dt;
             {
-              pb::gil_scoped_release nogil;
+              NativeScope nogil;
               r.evaluate(X, face, st, P, &Ds, &Dt);
             }
             return pb::make_tuple(std::move(P), std::move(Ds), std::move(Dt));
@@ -135,7 +135,7 @@ void bind_multires(pb::module_& m) {
       .def("limit_matrix", [](const Multires& r) {
         SpMatR W;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           W = r.limit_matrix();
         }
         return sparse_rows(W);

@@ -41,7 +41,7 @@ void bind_remesh(pb::module_& m) {
         else throw MeshError("relax_metric must be 'surface' or 'map', got '" + relax_metric + "'");
         RemeshResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           r = remesh(V, F, o, progress_from(progress));
         }
         pb::dict d;
@@ -80,7 +80,7 @@ void bind_remesh(pb::module_& m) {
   m.def(
       "point_mesh_distance",
       [](InV P, InV V, InF F, int candidates) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return point_mesh_distance(P, V, F, candidates);
       },
       pb::arg("P"), pb::arg("V"), pb::arg("F"), pb::arg("candidates") = 16);

@@ -67,7 +67,7 @@ void bind_skeletal(pb::module_& m) {
       [](InV P) {
         Delaunay3 d;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           d = delaunay_3d(P);
         }
         pb::dict out;
@@ -82,7 +82,7 @@ void bind_skeletal(pb::module_& m) {
   m.def(
       "delaunay_2d",
       [](Eigen::Ref<const MatX2d> P) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return delaunay_2d(P);
       },
       pb::arg("points"));
@@ -98,23 +98,23 @@ void bind_skeletal(pb::module_& m) {
         o.max_pole_angle = angle;
         SkeletalMesh s;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           s = skeletal_mesh(make_mesh(V, F, kSurface), o);
         }
         return pb::make_tuple(std::move(s.S), std::move(s.radii), s.n_fallback, s.n_postsmoothed);
       });
   m.def("union_of_balls_distance", [](InV X, InV C, const VecXd& r) {
-    pb::gil_scoped_release nogil;
+    NativeScope nogil;
     if (!X.allFinite() || !C.allFinite() || !r.allFinite()) throw MeshError("union of balls: inputs must be finite");
     return union_of_balls_distance(X, C, r);
   });
   m.def("gaussian_bone_weights", [](InV P, InV heads, InV tails, double sigma) {
-    pb::gil_scoped_release nogil;
+    NativeScope nogil;
     return gaussian_bone_weights(P, heads, tails, sigma);
   });
   m.def("skeletal_subspace_deform", [](InV P, const Eigen::MatrixXd& W, const Mats& rest, const Mats& pose) {
     const auto r = to_mats(rest, "bones_rest"), p = to_mats(pose, "bones_pose");
-    pb::gil_scoped_release nogil;
+    NativeScope nogil;
     return skeletal_subspace_deform(P, W, r, p);
   });
 
@@ -134,7 +134,7 @@ void bind_skeletal(pb::module_& m) {
             o.skeleton.postsmooth_iterations = post;
             const auto r = to_mats(rest, "bones_rest");
             const ProgressFn cb = progress_from(progress);
-            pb::gil_scoped_release nogil;
+            NativeScope nogil;
             return SkeletalRig::bind(V, F, r, weights ? *weights : Eigen::MatrixXd(),
                                      heads ? *heads : MatX3d(0, 3), tails ? *tails : MatX3d(0, 3), o, cb);
           },
@@ -151,7 +151,7 @@ void bind_skeletal(pb::module_& m) {
             if (out.is_none()) {
               MatX3d X;
               {
-                pb::gil_scoped_release nogil;
+                NativeScope nogil;
                 X = rig.deform(p, o);
               }
               return pb::cast(std::move(X));
@@ -160,11 +160,11 @@ void bind_skeletal(pb::module_& m) {
             // allocation of the dense result).
             if (pb::isinstance<pb::array>(out) && out.cast<pb::array>().dtype().is(pb::dtype::of<float>())) {
               auto ref = out.cast<Eigen::Ref<MatX3f>>();
-              pb::gil_scoped_release nogil;
+              NativeScope nogil;
               rig.deform(p, o, ref);
             } else {
               auto ref = out.cast<Eigen::Ref<MatX3d>>();
-              pb::gil_scoped_release nogil;
+              NativeScope nogil;
               rig.deform(p, o, ref);
             }
             return out;
@@ -179,7 +179,7 @@ void bind_skeletal(pb::module_& m) {
              const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq, bc);
              MatX3d X, Sd;
              {
-               pb::gil_scoped_release nogil;
+               NativeScope nogil;
                X = rig.deform_control(p, o, &Sd);
              }
              return pb::make_tuple(std::move(X), std::move(Sd));
@@ -190,7 +190,7 @@ void bind_skeletal(pb::module_& m) {
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");
-             pb::gil_scoped_release nogil;
+             NativeScope nogil;
              return rig.skeleton_pose(p);
            })
       .def_property_readonly("n_vertices", &SkeletalRig::n_vertices)
@@ -240,7 +240,7 @@ void bind_skeletal(pb::module_& m) {
           d.multires.st = get<MatX2d>(o, "mr_st");
           d.multires.disp = get<MatX3d>(o, "mr_disp");
         }
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return SkeletalRig::from_data(d);
       });
 }

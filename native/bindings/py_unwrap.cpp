@@ -81,7 +81,7 @@ void bind_unwrap(pb::module_& m) {
         o.slide_boundary = slide_boundary;
         UnwrapResult r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           r = unwrap(V, F, o, progress_from(progress));
         }
         pb::dict d;
@@ -114,7 +114,7 @@ void bind_unwrap(pb::module_& m) {
       [](InV V, InF F, InUV UV, double eps) {
         UvMetrics r;
         {
-          pb::gil_scoped_release nogil;
+          NativeScope nogil;
           r = uv_metrics(V, F, UV, eps);
         }
         return metrics_dict(r);
@@ -124,7 +124,7 @@ void bind_unwrap(pb::module_& m) {
   m.def(
       "uv_face_stretch",
       [](InV V, InF F, InUV UV, double eps) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return uv_face_stretch(V, F, UV, eps);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps") = 1e-10);
@@ -132,7 +132,7 @@ void bind_unwrap(pb::module_& m) {
   m.def(
       "uv_vertex_stretch",
       [](InV V, InF F, InUV UV, double eps) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return uv_vertex_stretch(V, F, UV, eps);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps") = 1e-10);
@@ -140,7 +140,7 @@ void bind_unwrap(pb::module_& m) {
   m.def(
       "connected_labels",
       [](int n, Eigen::Ref<const MatX2i> pairs) {
-        pb::gil_scoped_release nogil;
+        NativeScope nogil;
         return connected_labels(n, pairs);
       },
       pb::arg("n"), pb::arg("pairs"));

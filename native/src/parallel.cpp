@@ -1,22 +1,36 @@
 #include "dgmesh/parallel.h"
 
+#include <atomic>
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
 
 namespace dgmesh {
+namespace {
+std::atomic<int> g_threads{-1};  // -1: never set (OpenMP's default: OMP_NUM_THREADS or all cores)
+}
 
 void set_num_threads(int n) {
 #ifdef _OPENMP
-  omp_set_num_threads(n > 0 ? n : omp_get_num_procs());
+  g_threads = n > 0 ? n : omp_get_num_procs();
+  apply_num_threads();
 #else
   (void)n;
 #endif
 }
 
+void apply_num_threads() {
+#ifdef _OPENMP
+  const int n = g_threads;
+  if (n > 0 && omp_get_max_threads() != n) omp_set_num_threads(n);
+#endif
+}
+
 int num_threads() {
 #ifdef _OPENMP
-  return omp_get_max_threads();
+  const int n = g_threads;
+  return n > 0 ? n : omp_get_max_threads();
 #else
   return 1;
 #endif

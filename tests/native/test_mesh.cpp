@@ -4,9 +4,13 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <thread>
+
+#include <omp.h>
 
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
+#include "dgmesh/parallel.h"
 #include "dgmesh/shapes.h"
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/spatial_index.h"
@@ -207,4 +211,26 @@ TEST(SparseSolver, FactorOnceSolveMany) {
     SparseSolver lu;
     EXPECT_THROW(lu.factor(singular, kind), SolverError);
   }
+}
+
+// OpenMP's thread count is per thread: a count set in one thread must reach native work started
+// from another (the add-on's jobs run in worker threads), which applies it on entry.
+TEST(Parallel, ThreadCountReachesOtherThreads) {
+  if (omp_get_num_procs() < 2) GTEST_SKIP() << "one core: every team has one thread";
+  const int before = num_threads();
+  set_num_threads(1);
+  int seen = -1, team = -1;
+  std::thread t([&] {
+    seen = num_threads();
+    apply_num_threads();
+#pragma omp parallel
+    {
+#pragma omp single
+      team = omp_get_num_threads();
+    }
+  });
+  t.join();
+  set_num_threads(before);
+  EXPECT_EQ(seen, 1);
+  EXPECT_EQ(team, 1);
 }

@@ -181,3 +181,81 @@ def test_paths_as_bytes_and_thread_count_checks(tmp_path):
     assert len(dgmesh.read_mesh(p)[1]) == len(F)
     with pytest.raises(ValueError):
         dgmesh.set_num_threads(-1)  # was taken for "all cores"
+
+
+def test_thread_count_is_process_wide():
+    """OpenMP's own setting is per thread: a worker thread (the add-on's jobs) kept the default."""
+    import threading
+
+    before = dgmesh.num_threads()
+    try:
+        dgmesh.set_num_threads(1)
+        seen = []
+        t = threading.Thread(target=lambda: seen.append(dgmesh.num_threads()))
+        t.start()
+        t.join()
+        assert seen == [1]
+    finally:
+        dgmesh.set_num_threads(before)
+
+
+def test_progress_callback_shared_by_threads():
+    """Native code copies the callback without the GIL: its reference count was updated unlocked
+    and a callable shared by threads crashed the process or was freed while in use."""
+    from concurrent.futures import ThreadPoolExecutor
+    import sys
+
+    V, F = shapes.grid(3, 3)
+
+    class Callback:
+        def __call__(self, fraction):
+            return None
+
+    cb = Callback()
+    refs = sys.getrefcount(cb)
+
+    def work(_):
+        for _ in range(5000):
+            dgmesh.unwrap(V, F, progress=cb)
+
+    with ThreadPoolExecutor(4) as ex:
+        list(ex.map(work, range(4)))
+    assert sys.getrefcount(cb) == refs
+
+
+def test_ctrl_c_stops_a_call_without_progress_callback():
+    """Without a callback a long call ran to its end before KeyboardInterrupt (unwrap with a huge
+    iteration count never ended)."""
+    import subprocess
+    import sys
+    import textwrap
+
+    code = textwrap.dedent("""
+        import os, signal, threading, time, dgmesh
+        from dgmesh import shapes
+        V, F = shapes.grid(40, 40)
+        threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+        t = time.time()
+        try:
+            dgmesh.unwrap(V, F, iterations=10**7)
+        except KeyboardInterrupt:
+            print("interrupted")
+    """)
+    env = {"PYTHONPATH": str(__import__("pathlib").Path(dgmesh.__file__).parents[1])}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, env=env)
+    assert "interrupted" in out.stdout, out.stderr
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda V, F: dgmesh.decimate(V, F, target_faces=10**12), "target_faces"),
+    (lambda V, F: dgmesh.remesh(V, F, target_vertices=2**31), "target_vertices"),
+    (lambda V, F: dgmesh.unwrap(V, F, iterations=10**10), "iterations"),
+    (lambda V, F: dgmesh.fair(V, F, max_iterations=10**10), "max_iterations"),
+    (lambda V, F: dgmesh.Multires.build(V, F, control_faces=10**10), "control_faces"),
+])
+def test_integer_options_beyond_a_c_int_are_named(call, name):
+    """pybind11's TypeError for such a value was ~8000 characters, the mesh arrays printed whole."""
+    V, F = shapes.grid(4, 4)
+    with pytest.raises(dgmesh.MeshError, match=name) as info:
+        call(V, F)
+    assert len(str(info.value)) < 200

@@ -2,8 +2,11 @@
 #pragma once
 
 namespace dgmesh {
+// The count is process-wide; OpenMP's own setting is per thread, so entry points running native
+// work call apply_num_threads() on their thread (the Python bindings do, in NativeScope).
 void set_num_threads(int n);
 int num_threads();
+void apply_num_threads();
 // This thread's index inside a parallel region (0 outside one): per-thread scratch slots.
 int thread_index();
 // Loops over fewer items than this run serially (`#pragma omp parallel for if (n >= kParallelMin)`):
