@@ -3,6 +3,12 @@
 One package with two faces. In plain Python, ``import dgmesh`` gives the numpy API (no bpy).
 Inside Blender, the add-on's ``register()`` imports ``dgmesh.blender`` (operators, panels,
 the bpy <-> numpy bridge).
+
+Long functions take ``progress``: a callable(fraction in [0, 1]) called on the calling thread
+(at most every 50 ms); a result that is falsy but not None (False, 0, "") cancels with
+:class:`Cancelled` and nothing changes, and an exception it raises comes through as it is. The
+native work releases the GIL, and Ctrl+C interrupts it with or without a callback. Calls may run
+in several threads at once; :func:`set_num_threads` applies to all of them.
 """
 
 __version__ = "0.1.0"
