@@ -420,7 +420,7 @@ def _read_for_decimation(obj):
     rna = bpy.types.MeshEdge.bl_rna.properties.get("use_edge_sharp")
     if rna is not None and not rna.is_readonly:
         flags["sharp"] = _get(mesh.edges, "use_edge_sharp", bool)
-    elif mesh.attributes.get("sharp_edge") is not None:  # 4.1+: a generic attribute
+    elif mesh.attributes.get("sharp_edge") is not None:  # a version without use_edge_sharp
         flags["sharp"] = _get(mesh.attributes["sharp_edge"].data, "value", bool)
     wire = np.ones(len(mesh.edges), bool)  # edges of no face
     wire[_get(mesh.loops, "edge_index", np.int32)] = False

@@ -319,12 +319,16 @@ def _uv_selection(mesh, restore=None):
     layer = mesh.uv_layers.active
     if layer is None:
         return None
+    # 3.5+ also keeps it as a bool layer beside the UVs (MeshUVLoop.select is its deprecated view).
+    coll, key = (layer.data, "select") if "select" in bpy.types.MeshUVLoop.bl_rna.properties else \
+        (layer.vertex_selection, "value")
     if restore is None:
-        sel = np.empty(len(layer.data), bool)
-        layer.data.foreach_get("select", sel)
+        sel = np.zeros(len(mesh.loops), bool)
+        if len(coll) == len(sel):
+            coll.foreach_get(key, sel)
         return sel
-    if len(restore) == len(layer.data):
-        layer.data.foreach_set("select", restore)
+    if len(restore) == len(coll):
+        coll.foreach_set(key, restore)
     return None
 
 
