@@ -258,18 +258,30 @@ def object_mode(context):
     """Temporarily leave Edit mode so mesh datablocks can be written.
 
     Leaving Edit mode writes every edited object's edit-mesh to its mesh; on
-    exit Edit mode is re-entered and rebuilds the edit-meshes from the
-    (written) datablocks.  Outside Edit mode this does nothing.
+    exit Edit mode is re-entered for the same objects (mode_set alone enters it
+    for the selected ones, which need not be those) and rebuilds the edit-meshes
+    from the (written) datablocks.  Outside Edit mode this does nothing.
     """
-    obj = context.view_layer.objects.active
+    layer = context.view_layer
+    obj = layer.objects.active
     if obj is None or obj.mode != 'EDIT':
         yield
         return
+    editing = [o for o in layer.objects if o.mode == 'EDIT']
     bpy.ops.object.mode_set(mode='OBJECT')
     try:
         yield
     finally:
+        selected = [o for o in layer.objects if o.select_get()]
+        for o in selected:
+            o.select_set(False)
+        for o in editing:
+            if o.name in layer.objects:
+                o.select_set(True)
+        layer.objects.active = obj
         bpy.ops.object.mode_set(mode='EDIT')
+        for o in layer.objects:
+            o.select_set(o in selected)
 
 
 def mirror_axes(obj, V):

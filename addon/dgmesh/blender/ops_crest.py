@@ -362,10 +362,11 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
             raise RuntimeError("the mesh changed while it was computed")
         _write_edge_bool(mesh, ATTR_RIDGE, ridge)
         _write_edge_bool(mesh, ATTR_VALLEY, valley)
+        shown = ~_get(mesh.edges, "hide", bool)  # hidden edges are left alone, as Blender's own tools do
         if self.mark_seams:
-            _or_edge_flag(mesh, "seam", ridge | valley)
+            _or_edge_flag(mesh, "seam", (ridge | valley) & shown)
         if self.mark_sharp:
-            _or_edge_flag(mesh, "sharp", ridge | valley)
+            _or_edge_flag(mesh, "sharp", (ridge | valley) & shown)
         mesh.update()
         if self.create_curves and len(lines):
             _curve_object(context, obj, lines)
@@ -734,14 +735,18 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
             hi = np.full(len(mesh.edges), -1)
             np.minimum.at(lo, loop_edge, lab)
             np.maximum.at(hi, loop_edge, lab)
-            border = (hi >= 0) & (lo != hi)
+            hidden = _get(mesh.edges, "hide", bool)  # left alone, as Blender's own tools do
+            border = (hi >= 0) & (lo != hi) & ~hidden
             borders = int(border.sum())
             seam = _get(mesh.edges, "use_seam", bool)
             ours = mesh.attributes.get(ATTR_SEGMENT_SEAMS)
+            prev = np.zeros(len(seam), bool)
             if ours is not None and ours.domain == 'EDGE' and ours.data_type == 'BOOLEAN':
-                seam &= ~_get(ours.data, "value", bool)  # the previous run's borders go
-            mesh.edges.foreach_set("use_seam", seam | border)
-            _write_edge_bool(mesh, ATTR_SEGMENT_SEAMS, border & ~seam)
+                prev = _get(ours.data, "value", bool)
+            user = seam & ~prev  # the previous run's borders go, the user's seams stay
+            kept = seam & hidden & prev  # ours on a hidden edge: left as it is, still ours
+            mesh.edges.foreach_set("use_seam", user | border | kept)
+            _write_edge_bool(mesh, ATTR_SEGMENT_SEAMS, (border & ~user) | kept)
         mesh.update()
         space = context.space_data
         if getattr(space, "type", None) == 'VIEW_3D' and space.shading.type == 'SOLID':

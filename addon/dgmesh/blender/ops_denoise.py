@@ -79,6 +79,10 @@ class _Job:
 def _read_job(obj, edit_mode):
     """A _Job for obj, an error message, or None (Edit mode, nothing selected in it)."""
     mesh = obj.data
+    if edit_mode:  # nothing selected: not a target, whatever it holds
+        obj.update_from_editmode()
+        if not (_vertex_flags(mesh, "select") & ~_vertex_flags(mesh, "hide")).any():
+            return None
     if mesh.library is not None:
         return "mesh data is linked from a library and cannot be changed"
     if mesh.shape_keys is not None:
@@ -264,12 +268,17 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
 
 
 def _active_vertex(obj):
-    """Index of the active vertex in Edit mode (or the first selected one), else None."""
+    """Index of the active vertex in Edit mode; in edge or face select mode, the vertex of the active
+    element nearest its centre; else the first selected vertex; else None."""
     bm = bmesh.from_edit_mesh(obj.data)
     bm.verts.index_update()
     active = bm.select_history.active
     if isinstance(active, bmesh.types.BMVert):
         return active.index
+    if isinstance(active, (bmesh.types.BMEdge, bmesh.types.BMFace)):
+        verts = list(active.verts)
+        centre = sum((v.co for v in verts), verts[0].co * 0) / len(verts)
+        return min(verts, key=lambda v: (v.co - centre).length).index
     for v in bm.verts:
         if v.select:
             return v.index
@@ -288,7 +297,8 @@ class DGMESH_OT_similarity_map(bpy.types.Operator):
 
     vertex: IntProperty(
         name="Vertex",
-        description="Vertex index to compare with (Object mode; Edit mode uses the active vertex)",
+        description="Vertex index to compare with (Object mode; Edit mode uses the active vertex, or a "
+        "vertex of the active edge or face)",
         default=0, min=0,
     )
     mode: EnumProperty(

@@ -130,8 +130,13 @@ def _split_seam_edges(V, F, region, axes):
 
 
 def _read_target(obj, edit_mode, keep_border):
-    """Arrays and masks of one object; raises MeshError with a user-facing message."""
+    """Arrays and masks of one object; raises MeshError with a user-facing message. None for an
+    edited object with nothing selected (not a target, whatever it holds)."""
     dg = api()
+    if edit_mode:
+        obj.update_from_editmode()
+        if not _flags(obj.data.vertices).any():
+            return None
     if obj.data.library is not None:
         raise dg.MeshError("mesh data is linked from a library and cannot be changed")
     if obj.data.shape_keys is not None:

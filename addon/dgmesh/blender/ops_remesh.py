@@ -27,6 +27,12 @@ from .jobs import NativeJobOperator
 from .prefs import api
 
 
+def _poly_flags(mesh, key):
+    a = np.empty(len(mesh.polygons), bool)
+    mesh.polygons.foreach_get(key, a)
+    return a
+
+
 def _min_angle_deg(V, F):
     if len(F) == 0:
         return 0.0
@@ -100,6 +106,10 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         edit = context.mode == 'EDIT_MESH'
         items = []
         for obj in target_objects(context):
+            if edit:  # an edited object with no face selected is not a target (its data is not read)
+                obj.update_from_editmode()
+                if not np.any(_poly_flags(obj.data, "select") & ~_poly_flags(obj.data, "hide")):
+                    continue
             if obj.data.library is not None:
                 self.report({'ERROR'}, f"Remesh failed on '{obj.name}': mesh data is linked from a library")
                 return None

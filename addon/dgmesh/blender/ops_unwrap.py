@@ -220,7 +220,6 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
     # --- main thread: write, pack, report ------------------------------------------------------
     def finish(self, context, items):
         dg = api()
-        edit = context.mode == 'EDIT_MESH'
         with bridge.object_mode(context):
             for it in items:
                 obj = bpy.data.objects.get(it["name"])
@@ -232,7 +231,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             uv_sel = {it["name"]: _uv_selection(bpy.data.objects[it["name"]].data) for it in items}
         packed = False
         if self.pack:
-            packed = self._pack(context, items, edit)
+            packed = self._pack(context, items)
         # Measure the stretch of what was written, over the same triangles as "before".
         with bridge.object_mode(context):
             for name, sel in uv_sel.items():  # the packer selected every UV
@@ -269,27 +268,32 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         return (f"{self._n_pinned} chart(s) with pinned UVs left as they are (Low-Stretch Unwrap does not use "
                 "pins; Alt+P unpins)")
 
-    def _pack(self, context, items, edit):
-        """Blender's packer on the unwrapped faces only. In Object mode: enter Edit mode for
-        the duration with exactly those faces selected and none hidden (Object mode unwraps hidden
-        faces too), then restore selection, hiding and mode."""
+    def _pack(self, context, items):
+        """Blender's packer on the unwrapped faces only: Edit mode for the duration with exactly
+        those faces selected and none hidden (Object mode unwraps hidden faces too), then selection,
+        hiding and mode back as they were. From Edit mode too (through Object mode): packing its
+        selection as it stood took charts left alone (pinned) and other edited objects' charts."""
+        with bridge.object_mode(context):
+            return self._pack_objects(context, items)
+
+    def _pack_objects(self, context, items):
         names = [it["name"] for it in items]
         saved = {}
-        active = context.view_layer.objects.active
-        sel_objs = [o for o in context.view_layer.objects if o.select_get()]
+        layer = context.view_layer
+        active = layer.objects.active
+        sel_objs = [o for o in layer.objects if o.select_get()]
         tool = context.scene.tool_settings
         sync = tool.use_uv_select_sync
         try:
-            if not edit:
-                for it in items:
-                    mesh = bpy.data.objects[it["name"]].data
-                    saved[it["name"]] = (_get_flags(mesh, "select"), _get_flags(mesh, "hide"))
-                    _set_flags(mesh, "hide", [np.zeros(len(c), bool) for c in saved[it["name"]][1]])
-                    _set_face_selection(mesh, it["mask"])
-                for o in context.view_layer.objects:
-                    o.select_set(o.name in names)
-                context.view_layer.objects.active = bpy.data.objects[names[0]]
-                bpy.ops.object.mode_set(mode='EDIT')
+            for it in items:
+                mesh = bpy.data.objects[it["name"]].data
+                saved[it["name"]] = (_get_flags(mesh, "select"), _get_flags(mesh, "hide"))
+                _set_flags(mesh, "hide", [np.zeros(len(c), bool) for c in saved[it["name"]][1]])
+                _set_face_selection(mesh, it["mask"])
+            for o in layer.objects:
+                o.select_set(o.name in names)
+            layer.objects.active = bpy.data.objects[names[0]]
+            bpy.ops.object.mode_set(mode='EDIT')
             tool.use_uv_select_sync = False
             bpy.ops.uv.select_all(action='SELECT')
             kw = {}
@@ -302,16 +306,15 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             return False
         finally:
             tool.use_uv_select_sync = sync
-            if not edit:
-                if context.mode != 'OBJECT':
-                    bpy.ops.object.mode_set(mode='OBJECT')
-                for name, (sel, hide) in saved.items():
-                    mesh = bpy.data.objects[name].data
-                    _set_flags(mesh, "select", sel)
-                    _set_flags(mesh, "hide", hide)
-                for o in context.view_layer.objects:
-                    o.select_set(o in sel_objs)
-                context.view_layer.objects.active = active
+            if context.mode != 'OBJECT':
+                bpy.ops.object.mode_set(mode='OBJECT')
+            for name, (sel, hide) in saved.items():
+                mesh = bpy.data.objects[name].data
+                _set_flags(mesh, "select", sel)
+                _set_flags(mesh, "hide", hide)
+            for o in layer.objects:
+                o.select_set(o in sel_objs)
+            layer.objects.active = active
 
 
 def _uv_selection(mesh, restore=None):
