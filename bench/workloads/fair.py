@@ -463,7 +463,10 @@ def fair_restore(quick):
                 Vp = r.vertices.copy()
                 Vp[r.moved] = closest_points(r.vertices[r.moved], V, F[hole])
                 got["E_willmore"] = _region_energy(r.vertices, r.faces, r.moved)
-                got["E_original"] = _region_energy(Vp, r.faces, r.moved)
+                try:
+                    got["E_original"] = _region_energy(Vp, r.faces, r.moved)
+                except dgmesh.MeshError:  # two vertices projected onto one point (a crease of the scan)
+                    got["E_original"] = float("nan")
                 data[f"{key}/willmore_fan"].update(E_region=got["E_willmore"], E_original_projected=got["E_original"])
         groups.extend("c" * (len(rows) - len(groups)))
         data[f"{key}/original"] = {"E": e_orig, "rim_vertices": nrim, "rim_crease_deg": got["crease_original"]}
@@ -517,7 +520,7 @@ def fair_restore(quick):
     # Headline: the Blender workflow fill (c), per hole. A hole whose interior is large for its
     # rim (removed vertices > rim^2 / 4; a disk on an even mesh has about rim^2 / 11) swallowed a
     # protrusion: the rim alone says nothing of it, so no fairing can bring it back.
-    head_rows, n_ok, n_w, n_wb, n_wc, n_cmp, n_eo = [], 0, 0, 0, 0, 0, 0
+    head_rows, n_ok, n_w, n_wb, n_wc, n_cmp, n_eo, n_eo_of = [], 0, 0, 0, 0, 0, 0, 0
     for name, frac, got in wins:
         cname, cfrac, cseed, nrim, ninner, nfill, dflat = got["_case"]
         if "willmore_fan" not in got:
@@ -542,9 +545,11 @@ def fair_restore(quick):
                           got["bilaplacian_fan"], got.get("cgal_trf", ""), best,
                           "%.1f / %.1f / %.1f" % (got["crease_original"], got["crease_willmore"],
                                                   got["crease_bilaplacian"]),
-                          "%.3g / %.3g" % (got["E_willmore"], got["E_original"]), note])
-        if scanned and not protr:
+                          "%.3g / %s" % (got["E_willmore"], "%.3g" % got["E_original"] if np.isfinite(got["E_original"])
+                                         else "degenerate"), note])
+        if scanned and not protr and np.isfinite(got["E_original"]):
             n_eo += got["E_original"] > got["E_willmore"]
+            n_eo_of += 1
     n_scan = sum(1 for w in wins if not w[0].startswith("icosphere") and "willmore_fan" in w[2])
     sc = [w[2] for w in wins if not w[0].startswith("icosphere") and "willmore_fan" in w[2]]
     means = ", ".join(f"{lab} {np.mean([g[k] for g in sc]):.4g}" for k, lab in
@@ -576,9 +581,9 @@ def fair_restore(quick):
                 f"protrusion: removed vertices > rim^2 / 4, where a disk on an even mesh has about rim^2 / 11), "
                 f"Willmore is closer than the bilaplacian flow on {n_wb} of {n_ok}, closer than CGAL "
                 f"triangulate_refine_and_fair_hole on {n_wc} of {n_cmp}, closest of the three on {n_w} of {n_cmp}. "
-                f"Mean distance over all {n_scan} scanned holes: {means}. On {n_eo} of {n_ok} restorable holes "
+                f"Mean distance over all {n_scan} scanned holes: {means}. On {n_eo} of {n_eo_of} restorable holes "
                 f"the removed scan itself, put on the Willmore patch's connectivity (its moving vertices moved "
-                f"onto the removed surface), has a higher discrete Willmore energy than the Willmore result "
+                f"onto the removed surface; 'degenerate' where two of them landed on one point), has a higher discrete Willmore energy than the Willmore result "
                 f"(column 'E'): there the flow lowers the energy it is asked to, and a patch closer to the scan "
                 f"would cost energy (the scan's noise is part of that cost).\n\n"
                 + table(["mesh", "area", "seed", "rim", "removed vertices", "removed / rim^2", "fill vertices", "refined fan (unfaired)",
