@@ -136,7 +136,16 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         # the boundary samples' full clearance.
         if "triangulation is invalid" not in str(exc) or boundary_clearance >= 1.0:
             raise
-        r = run(1.0)
+        try:
+            r = run(1.0)
+        except Error as exc2:
+            if "triangulation is invalid" not in str(exc2) or boundary != "keep":
+                raise
+            # Not understood yet (left half of a subdivided lion-head, boundary edges 0.001 to 0.044
+            # long); what the user can do is change the border.
+            raise MeshError("remesh: the new triangulation could not be stitched to the kept boundary of this "
+                            "region; select a region with a smoother border, or remesh the whole disk with the "
+                            "boundary resampled (boundary='resample'; Object mode: Resample Boundary)") from None
         retried = ("the first triangulation missed the kept boundary: remeshed again with more room between the "
                    f"boundary and the inner vertices (boundary_clearance {boundary_clearance:g} -> 1)")
     return RemeshResult(

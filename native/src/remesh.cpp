@@ -825,6 +825,16 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   const int R = std::max(16, int(std::min(r_fit, double(o.resolution))));
   res.resolution = R;
   const long npix = long(R) * R;
+  // At most one sample per pixel: a target beyond the chart's pixels cannot be met, and error
+  // diffusion at several samples a pixel fell apart (5M asked at 512^2 gave 94 vertices).
+  const double chart_pixels = chart_uv_area * double(npix);
+  if (n_int > chart_pixels) {
+    const int needed = int(std::ceil(std::sqrt(n_int / std::max(chart_uv_area, 1e-12))));
+    throw MeshError("remesh: " + std::to_string(n_int) + " interior vertices do not fit the chart's " +
+                    std::to_string(long(chart_pixels)) + " pixels at resolution " + std::to_string(R) +
+                    " (at most one per pixel): raise the resolution to at least " + std::to_string(needed) +
+                    " or lower the target");
+  }
   if (n_int > npix / 4)
     res.warnings.push_back("resolution " + std::to_string(R) + " is low for " + std::to_string(n_int) +
                            " interior samples (at most one per pixel): raise the resolution");

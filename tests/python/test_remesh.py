@@ -382,3 +382,29 @@ def test_small_targets_on_a_fine_raster_keep_their_inner_vertices(resolution):
     assert r.resolution < resolution
     # Large targets keep the raster asked for.
     assert dgmesh.remesh_full(V, F, target_vertices=3000, resolution=256, boundary="keep").resolution == 256
+
+
+def test_target_beyond_the_charts_pixels_is_an_error():
+    """At most one sample per pixel: 5M vertices asked at 512^2 gave 94, with only a warning."""
+    V, F = dgmesh.shapes.grid(24, 24)
+    with pytest.raises(dgmesh.MeshError, match="raise the resolution to at least"):
+        dgmesh.remesh(V, F, target_vertices=5_000_000, resolution=512)
+
+
+def test_unstitchable_kept_boundary_is_a_mesh_error(monkeypatch):
+    """When even the retry cannot meet the kept boundary, the user gets what to change (a smoother
+    border, or the boundary resampled), not an internal error."""
+    import sys
+
+    remesh_module = sys.modules["dgmesh.remesh"]
+
+    def failing(*args, **kwargs):
+        raise dgmesh.Error("remesh: internal error, the new triangulation is invalid (the triangulation's "
+                           "boundary is not the chart's boundary); try another resolution or target")
+
+    monkeypatch.setattr(remesh_module._native, "remesh", failing)
+    V, F = dgmesh.shapes.grid(8, 8)
+    with pytest.raises(dgmesh.MeshError, match="smoother border"):
+        dgmesh.remesh(V, F, target_vertices=100)
+    with pytest.raises(dgmesh.Error, match="internal error"):
+        dgmesh.remesh(V, F, target_vertices=100, boundary="resample")

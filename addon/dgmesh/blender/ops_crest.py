@@ -381,7 +381,8 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
         return (f"Crest lines on {_plural(len(written), 'object')}: {tot['lines']} lines ({tot['ridges']} ridges, "
                 f"{tot['lines'] - tot['ridges']} valleys), total length {tot['length']:.4g}; marked "
                 f"{tot['ridge_edges']} ridge and {tot['valley_edges']} valley edges "
-                f"(threshold T {self.threshold:g}, rings {self.rings})")
+                f"(threshold T {self.threshold:g}, rings {self.rings})"
+                + ("; Ridges and Valleys are both off" if not (self.ridges or self.valleys) else ""))
 
 
 def _read_for_decimation(obj):
@@ -755,7 +756,7 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
 
     def summary(self, written):
         tot = {k: sum(w[k] for w in written) for k in written[0]}
-        text = (f"Segmented {_plural(len(written), 'object')} into {tot['segments']} segments "
+        text = (f"Segmented {_plural(len(written), 'object')} into {_plural(tot['segments'], 'segment')} "
                 f"(feature weight {self.feature_weight:g}, {tot['lines']} crest lines)")
         if self.mark_seams:
             text += f"; {tot['borders']} border edges marked as seams"

@@ -335,7 +335,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         name="Tolerance", default=1e-4, min=1e-9, max=0.1, precision=6,
         description="Stop when the relative change of the bending energy falls below this")
     max_iterations: IntProperty(
-        name="Max Iterations", default=300, min=1, max=100000,
+        name="Max Iterations", default=300, min=1, max=100000, soft_max=3000,
         description="Iteration budget per subdivision level")
     boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
     tangential: BoolProperty(
@@ -592,7 +592,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    iterations: IntProperty(name="Iterations", default=100, min=1, max=100000)
+    iterations: IntProperty(name="Iterations", default=100, min=1, max=100000, soft_max=1000)
     boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
     strength: FloatProperty(
         name="Step", default=1.0, min=0.01, max=4.0,

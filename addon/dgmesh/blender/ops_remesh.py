@@ -56,11 +56,12 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    target_vertices: IntProperty(name="Vertices", default=2000, min=8, max=5_000_000,
+    # soft_max: the slider's range (a redo-panel drag runs inline, without Esc); typed values go on.
+    target_vertices: IntProperty(name="Vertices", default=2000, min=8, max=5_000_000, soft_max=500_000,
                                  description="Vertices of the new triangulation, boundary included")
     adaptivity: FloatProperty(name="Adaptivity", default=0.0, min=0.0, max=1.0,
                               description="0: uniform density; 1: density proportional to curvature")
-    resolution: IntProperty(name="Resolution", default=512, min=16, max=4096,
+    resolution: IntProperty(name="Resolution", default=512, min=16, max=4096, soft_max=2048,
                             description="Control map size in pixels (at most one vertex per pixel)")
     mode: EnumProperty(
         name="Mode",

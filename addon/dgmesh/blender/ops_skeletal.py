@@ -1290,7 +1290,7 @@ Cache modifier (renders and exports then need no add-on)"""
         mod.filepath = self.filepath
         mod.frame_start = self.frame_start
         mod.show_viewport, mod.show_render = shown
-        self.report({'INFO'}, f"Baked {len(frames)} frames of {obj.name!r} to {path}")
+        self.report({'INFO'}, f"Baked {len(frames)} frame{'' if len(frames) == 1 else 's'} of {obj.name!r} to {path}")
         return {'FINISHED'}
 
 
