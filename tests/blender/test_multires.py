@@ -224,3 +224,12 @@ def test_deleting_the_source_frees_it(tmp_path):
     assert "Torus_control" in bpy.data.objects
     assert "dgmesh_multires_control_of" not in bpy.data.objects["Torus_control"].keys()
     assert any(o.type == 'CURVE' and "Crest Lines" in o.name for o in bpy.data.objects), [(o.name, o.type) for o in bpy.data.objects]
+
+
+def test_a_control_target_too_small_is_reported(capsys):
+    """A torus cannot go down to 4 faces: the preview said nothing about the 22 it kept."""
+    open_fixture("shapes")
+    select("Torus")
+    assert _run(control_faces=4) == {'FINISHED'}
+    out = capsys.readouterr().out
+    assert "more than the 4 asked" in out

@@ -167,6 +167,10 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
             f"({len(mr.control_faces)} faces, {mr.n_control} vertices) in {seconds:.2f} s; "
             f"|displacement| max {mag.max():.4g}, RMS {np.sqrt((mag ** 2).mean()):.4g}; "
             f"rest reconstruction error {rest_err:.1e} of the diagonal"))
+        if len(mr.control_faces) > 1.5 * self.control_faces:
+            self.report({'WARNING'}, f"The control mesh has {len(mr.control_faces)} faces, more than the "
+                        f"{self.control_faces} asked: the decimation stops where a collapse would change the "
+                        "topology, fold the surface or leave a sliver")
         return {'FINISHED'}
 
 
