@@ -58,10 +58,11 @@ def as_faces(F, name="F"):
 INT_MAX = 2**31 - 1  # the native side's int
 
 
-def as_count(value, name, lo=0, hi=INT_MAX):
+def as_count(value, name, lo=0, hi=INT_MAX, floats=True):
     """An integer option as an int in [lo, hi], else a MeshError naming it (beyond a C int,
-    pybind11's own TypeError printed the whole call, mesh arrays included)."""
-    integral = isinstance(value, (int, np.integer)) or (isinstance(value, float) and value.is_integer())
+    pybind11's own TypeError printed the whole call, mesh arrays included). ``floats``: a float
+    with an integer value (5000.0) is accepted too."""
+    integral = isinstance(value, (int, np.integer)) or (floats and isinstance(value, float) and value.is_integer())
     if isinstance(value, bool) or not integral:
         raise MeshError(f"{name} must be an integer, got {value!r}")
     if not lo <= value <= hi:

@@ -115,10 +115,8 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         raise MeshError(f"boundary must be 'keep' or 'resample', got {boundary!r}")
     if domain not in ("circle", "square"):
         raise MeshError(f"domain must be 'circle' or 'square', got {domain!r}")
-    if isinstance(target_vertices, float) or isinstance(resolution, float):
-        raise MeshError(f"target_vertices and resolution must be integers, got {target_vertices!r}, {resolution!r}")
-    target_vertices = as_count(target_vertices, "target_vertices")
-    resolution = as_count(resolution, "resolution")
+    target_vertices = as_count(target_vertices, "target_vertices", floats=False)
+    resolution = as_count(resolution, "resolution", floats=False)
     def run(clearance):
         return _native.remesh(V, F, int(target_vertices), adaptivity=float(adaptivity), resolution=int(resolution),
                               mode=mode, boundary=boundary, domain=domain,

@@ -21,6 +21,8 @@ from . import (
     ui,
 )
 
+from .common import set_handlers
+
 # Registration order: preferences, operators (one module per capability), then the UI.
 _MODULES = (prefs, ops_curvature, ops_denoise, ops_fair, ops_crest, ops_unwrap, ops_multires, ops_skeletal, ops_remesh, ui)
 
@@ -66,14 +68,6 @@ def _on_file(*_args):
 _HANDLERS = (("depsgraph_update_post", _on_depsgraph), ("save_pre", _on_file), ("load_post", _on_file))
 
 
-def _remove_handlers():
-    for lst, fn in _HANDLERS:
-        lst = getattr(bpy.app.handlers, lst)
-        for h in [h for h in lst if getattr(h, "__name__", "") == fn.__name__
-                  and getattr(h, "__module__", "") == __name__]:
-            lst.remove(h)
-
-
 def register():
     for cls in _classes():
         if getattr(cls, "is_registered", False):
@@ -81,13 +75,11 @@ def register():
         bpy.utils.register_class(cls)
     ui.register_menus()
     prefs.apply_thread_count()
-    _remove_handlers()
-    for lst, fn in _HANDLERS:
-        getattr(bpy.app.handlers, lst).append(fn)
+    set_handlers(_HANDLERS)
 
 
 def unregister():
-    _remove_handlers()
+    set_handlers(_HANDLERS, add=False)
     ui.unregister_menus()
     for cls in reversed(list(_classes())):
         if getattr(cls, "is_registered", False):

@@ -171,6 +171,22 @@ def read_object(obj, evaluated=False, depsgraph=None, edges=False):
         obj_eval.to_mesh_clear()
 
 
+def get_array(collection, key, dtype=bool, width=1):
+    """One property of every element of a collection (``foreach_get``) as a numpy array, (n,) or
+    (n, width)."""
+    a = np.empty(width * len(collection), dtype=dtype)
+    collection.foreach_get(key, a)
+    return a.reshape(-1, width) if width > 1 else a
+
+
+def has_selection(obj, domain="vertices"):
+    """Edit mode: whether the object has a shown, selected element of ``domain`` ("vertices" or
+    "polygons"); one with none is no target of an operator, whatever else it holds."""
+    obj.update_from_editmode()
+    coll = getattr(obj.data, domain)
+    return bool((get_array(coll, "select") & ~get_array(coll, "hide")).any())
+
+
 def _check_rows(mesh, values, width, what):
     """One row per vertex: shape (n,) for width 1, else (n, width)."""
     n = len(mesh.vertices)

@@ -25,6 +25,23 @@ def poll_fail(cls, message):
     return False
 
 
+def set_handlers(handlers, add=True):
+    """Removes the app handlers ``handlers`` ((list name, function) pairs) and, with ``add``, appends
+    them again: register/unregister stay idempotent. A handler counts as ours by name and module, so
+    those of an earlier load of the module go too (a reload makes new functions) while another
+    add-on's handlers of the same name stay."""
+    import bpy
+
+    for lst, fn in handlers:
+        funcs = getattr(bpy.app.handlers, lst)
+        for h in [h for h in funcs if getattr(h, "__name__", "") == fn.__name__
+                  and getattr(h, "__module__", "") == fn.__module__]:
+            funcs.remove(h)
+    if add:
+        for lst, fn in handlers:
+            getattr(bpy.app.handlers, lst).append(fn)
+
+
 def plural(n, word):
     return f"{n} {word}{'' if n == 1 else 's'}"
 

@@ -46,6 +46,8 @@ from .common import plural as _plural, poll_mesh_targets, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
+_get = bridge.get_array  # (collection, key, dtype[, width])
+
 ATTR_RIDGE = "dg_ridge"
 ATTR_VALLEY = "dg_valley"
 ATTR_SEGMENT = "dg_segment"
@@ -555,7 +557,7 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
     mesh.polygons.foreach_set("use_smooth", data["use_smooth"][poly])
     mesh.update(calc_edges=True)
     if len(wire):
-        ev = _edge_vertices(mesh)
+        ev = _get(mesh.edges, "vertices", np.int32, 2)
         n = len(mesh.vertices)
         wire = wire[~np.isin(wire[:, 0].astype(np.int64) * n + wire[:, 1],
                              np.sort(ev, axis=1).astype(np.int64) @ np.array([n, 1]))]
@@ -569,7 +571,7 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
         shown = np.zeros(len(mesh.vertices), bool)
         shown[F2[~hide].ravel()] = True
         shown[len(V2):] = ~vert_hide[loose]
-        ev = _edge_vertices(mesh)
+        ev = _get(mesh.edges, "vertices", np.int32, 2)
         mesh.polygons.foreach_set("hide", hide)
         mesh.vertices.foreach_set("hide", ~shown)
         mesh.edges.foreach_set("hide", ~(shown[ev[:, 0]] & shown[ev[:, 1]]))
@@ -761,18 +763,6 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
         if self.mark_seams:
             text += f"; {tot['borders']} border edges marked as seams"
         return text
-
-
-def _edge_vertices(mesh):
-    ev = np.empty(2 * len(mesh.edges), np.int32)
-    mesh.edges.foreach_get("vertices", ev)
-    return ev.reshape(-1, 2)
-
-
-def _get(collection, key, dtype):
-    buf = np.empty(len(collection), dtype=dtype)
-    collection.foreach_get(key, buf)
-    return buf
 
 
 classes = (DGMESH_OT_crest_lines, DGMESH_OT_decimate_features, DGMESH_OT_segment)

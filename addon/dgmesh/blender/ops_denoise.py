@@ -44,12 +44,6 @@ METHOD_ITEMS = (
 )
 
 
-def _vertex_flags(mesh, key):
-    flags = np.empty(len(mesh.vertices), dtype=bool)
-    mesh.vertices.foreach_get(key, flags)
-    return flags
-
-
 def read_point_normals(mesh):
     """The FLOAT_VECTOR point attribute ``Normal`` (or normal, normals, N) as (n, 3) float64, or None."""
     for name in NORMAL_ATTRIBUTE_ALIASES:
@@ -79,10 +73,8 @@ class _Job:
 def _read_job(obj, edit_mode):
     """A _Job for obj, an error message, or None (Edit mode, nothing selected in it)."""
     mesh = obj.data
-    if edit_mode:  # nothing selected: not a target, whatever it holds
-        obj.update_from_editmode()
-        if not (_vertex_flags(mesh, "select") & ~_vertex_flags(mesh, "hide")).any():
-            return None
+    if edit_mode and not bridge.has_selection(obj):
+        return None
     if mesh.library is not None:
         return "mesh data is linked from a library and cannot be changed"
     if mesh.shape_keys is not None:
@@ -92,7 +84,7 @@ def _read_job(obj, edit_mode):
     arrays = bridge.read_object(obj)  # syncs the edit-mesh first
     mask = None
     if edit_mode:
-        mask = _vertex_flags(mesh, "select") & ~_vertex_flags(mesh, "hide")
+        mask = bridge.get_array(mesh.vertices, "select") & ~bridge.get_array(mesh.vertices, "hide")
         if not mask.any():
             return None  # nothing selected in this one of the edited objects
     if len(arrays.F) == 0:

@@ -51,12 +51,6 @@ BOUNDARIES = (
 )
 
 
-def _flags(collection, key="select"):
-    a = np.empty(len(collection), dtype=bool)
-    collection.foreach_get(key, a)
-    return a
-
-
 class _Target:
     def __init__(self, obj, arrays, mask, faces):
         self.obj = obj
@@ -133,10 +127,8 @@ def _read_target(obj, edit_mode, keep_border):
     """Arrays and masks of one object; raises MeshError with a user-facing message. None for an
     edited object with nothing selected (not a target, whatever it holds)."""
     dg = api()
-    if edit_mode:
-        obj.update_from_editmode()
-        if not _flags(obj.data.vertices).any():
-            return None
+    if edit_mode and not bridge.has_selection(obj):
+        return None
     if obj.data.library is not None:
         raise dg.MeshError("mesh data is linked from a library and cannot be changed")
     if obj.data.shape_keys is not None:
@@ -151,7 +143,7 @@ def _read_target(obj, edit_mode, keep_border):
     if not edit_mode:
         return _Target(obj, arrays, None, None)
     mesh = obj.data
-    vsel = _flags(mesh.vertices)
+    vsel = bridge.get_array(mesh.vertices, "select")
     if not vsel.any():
         return None
     in_face = np.zeros(len(vsel), dtype=bool)
@@ -159,7 +151,7 @@ def _read_target(obj, edit_mode, keep_border):
     if not (vsel & in_face).any():
         raise dg.MeshError("the selected vertices are in no face (loose vertices or wire edges): select the faces "
                            "to fair")
-    psel = _flags(mesh.polygons)
+    psel = bridge.get_array(mesh.polygons, "select")
     tri_sel = psel[arrays.tri_poly]
     movable = vsel & in_face  # a loose vertex has nothing to be faired with
     if keep_border:

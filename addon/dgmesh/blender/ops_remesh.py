@@ -27,12 +27,6 @@ from .jobs import NativeJobOperator
 from .prefs import api
 
 
-def _poly_flags(mesh, key):
-    a = np.empty(len(mesh.polygons), bool)
-    mesh.polygons.foreach_get(key, a)
-    return a
-
-
 def _min_angle_deg(V, F):
     if len(F) == 0:
         return 0.0
@@ -107,10 +101,8 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         edit = context.mode == 'EDIT_MESH'
         items = []
         for obj in target_objects(context):
-            if edit:  # an edited object with no face selected is not a target (its data is not read)
-                obj.update_from_editmode()
-                if not np.any(_poly_flags(obj.data, "select") & ~_poly_flags(obj.data, "hide")):
-                    continue
+            if edit and not bridge.has_selection(obj, "polygons"):
+                continue
             if obj.data.library is not None:
                 self.report({'ERROR'}, f"Remesh failed on '{obj.name}': mesh data is linked from a library")
                 return None
@@ -135,18 +127,13 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
             total = np.empty(npoly, np.int32)
             mesh.polygons.foreach_get("loop_start", start)
             mesh.polygons.foreach_get("loop_total", total)
-            lv = np.empty(len(mesh.loops), np.int32)
-            le = np.empty(len(mesh.loops), np.int32)
-            mesh.loops.foreach_get("vertex_index", lv)
-            mesh.loops.foreach_get("edge_index", le)
+            lv = bridge.get_array(mesh.loops, "vertex_index", np.int32)
             outside = np.zeros(len(mesh.vertices), bool)
             outside[lv[~np.repeat(mask, total)]] = True
             wire = np.ones(len(mesh.edges), bool)
-            wire[le] = False
+            wire[bridge.get_array(mesh.loops, "edge_index", np.int32)] = False
             if wire.any():
-                ev = np.empty(2 * len(mesh.edges), np.int32)
-                mesh.edges.foreach_get("vertices", ev)
-                outside[ev.reshape(-1, 2)[wire].ravel()] = True
+                outside[bridge.get_array(mesh.edges, "vertices", np.int32, 2)[wire].ravel()] = True
             items.append(dict(name=obj.name, counts=(len(mesh.vertices), len(mesh.loops), npoly),
                               polys=np.nonzero(mask)[0], ids=ids, outside=outside,
                               tri_loops=arrays.tri_loops[tri_mask], tri_poly=arrays.tri_poly[tri_mask],

@@ -68,7 +68,7 @@ from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
 from . import bridge
-from .common import poll_fail as _poll_fail
+from .common import plural, poll_fail as _poll_fail, set_handlers
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key of objects bound by earlier versions (legacy live target)
@@ -557,9 +557,10 @@ def update_object(obj, force=False, depsgraph=None):
     else:
         pose = _pose_matrices(obj, arm, names, space=space, bind=bind)
     sig = pose.tobytes()
-    if _target(info) == "HELPER" and _helper_of(obj, info) is None:
-        force = True  # deleted by hand: _live_target makes it again, with this pose's offsets
-    if not force and _last_pose.get(_key(obj, info)) == sig:
+    # Same pose: nothing to write, unless the helper was deleted by hand (_live_target makes it
+    # again, with this pose's offsets).
+    if not force and _last_pose.get(_key(obj, info)) == sig and (
+            _target(info) != "HELPER" or _helper_of(obj, info) is not None):
         return False
     data, prop, tagged = _live_target(obj, info, adopt=depsgraph is None or depsgraph.mode != 'RENDER')
     if data is None:
@@ -624,22 +625,6 @@ def _on_undo(*_args):
 
 _HANDLERS = (("depsgraph_update_post", _on_update), ("frame_change_post", _on_update),
              ("load_post", _on_load), ("undo_post", _on_undo), ("redo_post", _on_undo))
-
-
-def _add_handlers():
-    _remove_handlers()
-    for lst, fn in _HANDLERS:
-        getattr(bpy.app.handlers, lst).append(fn)
-
-
-def _remove_handlers():
-    """Ours only, also those of an earlier load of this module (a reload makes new functions): by
-    name and module, as another add-on may name its handlers alike."""
-    names = {fn.__name__ for _, fn in _HANDLERS}
-    for lst in {lst for lst, _ in _HANDLERS}:
-        lst = getattr(bpy.app.handlers, lst)
-        for h in [h for h in lst if getattr(h, "__name__", "") in names and getattr(h, "__module__", "") == __name__]:
-            lst.remove(h)
 
 
 def _set_position_group():
@@ -892,11 +877,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
     @classmethod
     def register(cls):
-        _add_handlers()
+        set_handlers(_HANDLERS)
 
     @classmethod
     def unregister(cls):
-        _remove_handlers()
+        set_handlers(_HANDLERS, add=False)
 
     @classmethod
     def poll(cls, context):
@@ -1290,7 +1275,7 @@ Cache modifier (renders and exports then need no add-on)"""
         mod.filepath = self.filepath
         mod.frame_start = self.frame_start
         mod.show_viewport, mod.show_render = shown
-        self.report({'INFO'}, f"Baked {len(frames)} frame{'' if len(frames) == 1 else 's'} of {obj.name!r} to {path}")
+        self.report({'INFO'}, f"Baked {plural(len(frames), 'frame')} of {obj.name!r} to {path}")
         return {'FINISHED'}
 
 

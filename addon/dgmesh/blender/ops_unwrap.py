@@ -443,12 +443,7 @@ def _write_uvs(obj, it, normalise):
 
 def _get_flags(mesh, prop):
     """A boolean flag ("select", "hide") of the vertices, edges and faces."""
-    out = []
-    for coll in (mesh.vertices, mesh.edges, mesh.polygons):
-        a = np.empty(len(coll), bool)
-        coll.foreach_get(prop, a)
-        out.append(a)
-    return out
+    return [bridge.get_array(coll, prop) for coll in (mesh.vertices, mesh.edges, mesh.polygons)]
 
 
 def _set_flags(mesh, prop, saved):
