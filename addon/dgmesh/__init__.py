@@ -47,6 +47,20 @@ from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, unio
 from .multires import Multires  # noqa: E402
 from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # noqa: E402
 
+# The public numpy API (``from dgmesh import *``); register/unregister are Blender's entry points.
+__all__ = [
+    "Cancelled", "Error", "MeshError", "MeshIOError", "SolverError",
+    "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate", "write_mesh",
+    "DenoiseResult", "denoise", "similarity",
+    "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
+    "FairResult", "fair", "regularize", "willmore_energy",
+    "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
+    "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
+    "Multires",
+    "RemeshResult", "point_mesh_distance", "remesh", "remesh_full",
+    "shapes",
+]
+
 
 def register():
     from . import blender

@@ -41,33 +41,85 @@ def as_vertices(V, name="V"):
     return V
 
 
-def as_faces(F, name="F"):
-    """(m, 3) int32 C-contiguous view or copy of F; a clear error for the wrong shape or range."""
+def as_faces(F, name="F", n=None):
+    """(m, 3) int32 C-contiguous view or copy of F; a clear error for the wrong shape or for
+    indices out of range (below 0, or at least ``n`` when given)."""
     F = np.asarray(F)
     if F.size == 0:
-        F = F.reshape(0, 3)
+        F = F.reshape(0, 3).astype(np.int32)  # np.asarray([]) is float64
     if F.ndim != 2 or F.shape[1] != 3:
         raise MeshError(f"{name} must have shape (m, 3) (triangles), got {F.shape}")
     if not np.issubdtype(F.dtype, np.integer):
         raise MeshError(f"{name} must hold integer vertex indices, got {F.dtype}")
-    if F.size and (F.min() < 0 or F.max() > np.iinfo(np.int32).max):
-        raise MeshError(f"{name} has vertex indices out of range")
+    hi = np.iinfo(np.int32).max if n is None else n - 1
+    if F.size and (F.min() < 0 or F.max() > hi):
+        f = int(np.flatnonzero(((F < 0) | (F > hi)).any(1))[0])
+        bound = "" if n is None else f" (the mesh has {n} vertices)"
+        raise MeshError(f"{name}: face {f} refers to vertex {F[f].tolist()}, out of range{bound}")
     return np.ascontiguousarray(F, dtype=np.int32)
+
+
+def as_mask(mask, n, name="mask"):
+    """A selection of n items as an (n,) bool array. Accepted: bool per item; integer indices (an
+    index list of any length, n included); per-item flags, that is numbers of length n, non-zero
+    = selected (an integer array of length n holding only 0 and 1 is read as flags, as Blender's
+    foreach_get of a bool field gives). None stays None."""
+    if mask is None:
+        return None
+    m = np.asarray(mask)
+    if m.size == 0 and m.dtype != bool:
+        m = m.astype(np.int64).ravel()
+    flags = m.dtype == bool or not np.issubdtype(m.dtype, np.integer) or (
+        m.shape == (n,) and n > 2 and not np.any((m != 0) & (m != 1)))
+    if flags:
+        if m.shape != (n,) or not (m.dtype == bool or np.issubdtype(m.dtype, np.number)):
+            raise MeshError(f"{name} must be one bool per item ({n},) or a list of indices, got "
+                            f"{m.dtype} of shape {m.shape}")
+        if m.dtype != bool and not np.all(np.isfinite(m)):
+            raise MeshError(f"{name} holds NaN or inf")
+        return np.ascontiguousarray(m != 0)
+    if m.ndim != 1:
+        raise MeshError(f"{name}: a list of indices must be one-dimensional, got shape {m.shape}")
+    if m.size and (m.min() < 0 or m.max() >= n):
+        raise MeshError(f"{name} has indices out of range [0, {n})")
+    b = np.zeros(n, dtype=bool)
+    b[m] = True
+    return b
 
 
 INT_MAX = 2**31 - 1  # the native side's int
 
 
-def as_count(value, name, lo=0, hi=INT_MAX, floats=True):
+def _scalar(value):
+    """numpy scalars and 0-d arrays as the Python number they hold; other values unchanged."""
+    if isinstance(value, np.generic) or (isinstance(value, np.ndarray) and value.ndim == 0):
+        return value.item()
+    return value
+
+
+def as_count(value, name, lo=0, hi=INT_MAX):
     """An integer option as an int in [lo, hi], else a MeshError naming it (beyond a C int,
-    pybind11's own TypeError printed the whole call, mesh arrays included). ``floats``: a float
-    with an integer value (5000.0) is accepted too."""
-    integral = isinstance(value, (int, np.integer)) or (floats and isinstance(value, float) and value.is_integer())
+    pybind11's own TypeError printed the whole call, mesh arrays included). A float with an
+    integer value (5000.0) and numpy scalars count too; 2.5, True and NaN do not."""
+    value = _scalar(value)
+    integral = isinstance(value, int) or (isinstance(value, float) and value.is_integer())
     if isinstance(value, bool) or not integral:
         raise MeshError(f"{name} must be an integer, got {value!r}")
     if not lo <= value <= hi:
         raise MeshError(f"{name} must be in [{lo}, {hi}], got {int(value)}")
     return int(value)
+
+
+def as_real(value, name, lo=-np.inf, hi=np.inf, lo_open=False):
+    """A real option as a finite float in [lo, hi] ((lo, hi] with ``lo_open``), else a MeshError
+    naming it."""
+    value = _scalar(value)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+        raise MeshError(f"{name} must be a finite number, got {value!r}")
+    if value < lo or (lo_open and value == lo) or value > hi:
+        lo_s = "(" if lo_open else "["
+        raise MeshError(f"{name} must be in {lo_s}{lo:g}, {hi:g}], got {value!r}")
+    return float(value)
 
 
 def set_num_threads(n):

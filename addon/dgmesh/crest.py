@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_mask, as_real, as_vertices
 
 RIDGE = 0
 VALLEY = 1
@@ -124,10 +124,7 @@ def _subset(base, keep, threshold):
 
 
 def _check_rings(rings):
-    rings = int(rings)
-    if not 1 <= rings <= 8:
-        raise MeshError(f"rings must be between 1 and 8, got {rings}")
-    return rings
+    return as_count(rings, "rings", 1, 8)
 
 
 def curvature_derivatives(V, F, *, rings=1, smooth=True, use_normals=True, fit_tangent_plane=True,
@@ -163,9 +160,7 @@ def crest_lines(V, F, *, rings=1, threshold=0.0, ridges=True, valleys=True, smoo
     """
     d, lines = _native.crest_lines(as_vertices(V), as_faces(F), _check_rings(rings), bool(smooth), True,
                                    True, True, bool(join_gaps), bool(skip_boundary), progress)
-    threshold = float(threshold)
-    if not np.isfinite(threshold):
-        raise MeshError(f"threshold must be finite, got {threshold}")
+    threshold = as_real(threshold, "threshold")
     base = CrestLines(**{k: lines[k] for k in _LINE_FIELDS}, derivatives=d, threshold=0.0)
     return base.filter(threshold, ridges, valleys)
 
@@ -181,9 +176,7 @@ def crest_face_distance(V, F, lines):
 def feature_function(distance, eta, eps=0.1):
     """F(d) = (d / max d + eps)^eta of eq. 4.12 (all ones when eta is 0 or there is no line)."""
     d = np.asarray(distance, dtype=np.float64)
-    eta = float(eta)
-    if not np.isfinite(eta) or eta < 0:
-        raise MeshError(f"feature weight (eta) must be a non-negative number, got {eta}")
+    eta = as_real(eta, "feature weight (eta)", 0.0)
     dmax = float(d.max()) if d.size else 0.0
     if eta == 0.0 or dmax <= 0.0:
         return np.ones_like(d)
@@ -219,15 +212,12 @@ def _crest_arrays(V, F, lines):
 
 
 def _check_feature_weight(feature_weight):
-    feature_weight = float(feature_weight)
-    if feature_weight < 0 or not np.isfinite(feature_weight):
-        raise MeshError(f"feature_weight must be a non-negative number, got {feature_weight}")
-    return feature_weight
+    return as_real(feature_weight, "feature_weight", 0.0)
 
 
 def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0,
              preserve_boundary=True, min_quality=0.0, max_normal_angle=1.3, progress=None, return_map=False,
-             return_face_map=False, locked=None, greedy=False):
+             return_face_map=False, locked=None, greedy=False, planes=None):
     """Quadric edge-collapse decimation (Garland-Heckbert) to ``target_faces`` faces.
 
     ``feature_weight`` is eta of thesis eq. 4.12: each face's quadric is weighted by 1 / F(d), d its
@@ -235,7 +225,10 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
     0 is plain QEM. Crest lines come from ``crest_lines`` or are detected with ``rings`` and
     ``threshold``. The result is manifold; boundary vertices are kept in place when
     ``preserve_boundary``; ``locked`` (bool per vertex) marks more vertices that must neither move nor
-    go (e.g. UV seams). ``min_quality`` in [0, 1) rejects collapses that create worse slivers.
+    go (e.g. UV seams). ``planes`` (int per vertex, bit k set: the vertex lies on plane k, e.g. a
+    Mirror modifier's) forbids collapses that make a face with its three corners on one plane (it
+    would lie in the plane, on its mirror twin). ``min_quality`` in [0, 1) rejects collapses that
+    create worse slivers.
     By default collapses run in multiple-choice passes (every edge costed in parallel, the cheapest
     independent ones taken in order); ``greedy=True`` uses one global priority queue instead, the
     exact greedy order of Garland-Heckbert (slower on large meshes, same guards).
@@ -245,19 +238,23 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
     per-face and per-corner attributes over.
     """
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     target_faces = as_count(target_faces, "target_faces")
     feature_weight = _check_feature_weight(feature_weight)
     crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
     if locked is not None:
-        locked = np.asarray(locked, dtype=bool).ravel()
-        if locked.shape != (len(V),):
-            raise MeshError(f"locked must have one value per vertex ({len(V)}), got {locked.shape[0]}")
-        locked = locked.astype(np.int32)
+        locked = as_mask(locked, len(V), "locked").astype(np.int32)
+    if planes is not None:
+        planes = np.asarray(planes)
+        if planes.shape != (len(V),) or not (planes.dtype == bool or np.issubdtype(planes.dtype, np.integer)):
+            raise MeshError(f"planes must be one integer bit mask per vertex ({len(V)},), got {planes.dtype} "
+                            f"of shape {planes.shape}")
+        planes = planes.astype(np.int32)
     V2, F2, vmap, fmap, src = _native.decimate(V, F, target_faces, None, bool(preserve_boundary),
-                                               float(min_quality), float(max_normal_angle), float("inf"), progress,
-                                               locked, not bool(greedy), feature_weight, _check_rings(rings),
-                                               float(threshold), crest)
+                                               float(min_quality), float(max_normal_angle),  # checked natively
+                                               float("inf"), progress, locked, not bool(greedy), feature_weight,
+                                               _check_rings(rings), as_real(threshold, "threshold"), crest,
+                                               planes)
     out = (V2, F2) + ((vmap,) if return_map else ()) + ((fmap, src) if return_face_map else ())
     return out
 
@@ -272,14 +269,12 @@ def segment(V, F, *, segments, feature_weight=0.0, crest_lines=None, rings=1, th
     with ``return_info`` also a dict with proxy normals, iterations and the total distortion.
     """
     V = as_vertices(V)
-    F = as_faces(F)
-    segments = int(segments)
-    if segments < 1:
-        raise MeshError(f"segments must be at least 1, got {segments}")
+    F = as_faces(F, n=len(V))
+    segments = as_count(segments, "segments", 1)
     feature_weight = _check_feature_weight(feature_weight)
     crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
-    out = _native.segment(V, F, segments, None, int(iterations), progress, feature_weight, _check_rings(rings),
-                          float(threshold), crest)
+    out = _native.segment(V, F, segments, None, as_count(iterations, "iterations"), progress, feature_weight,
+                          _check_rings(rings), as_real(threshold, "threshold"), crest)
     labels = np.asarray(out["labels"], dtype=np.int32)
     return (labels, dict(out)) if return_info else labels
 
@@ -290,7 +285,7 @@ def snap_to_vertices(lines, V, F):
     pairs of distinct vertices (segments whose ends snap to the same vertex are dropped) and the
     line of each pair. Consecutive pairs share a triangle, except across gap jumps."""
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     _check_same_mesh(lines, V, F)
     pe = lines.point_edge
     vert = np.where(lines.point_t < 0.5, pe[:, 0], pe[:, 1]).astype(np.int64)

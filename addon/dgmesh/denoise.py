@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_mask, as_vertices
 
 __all__ = ["DenoiseResult", "denoise", "similarity", "residual_entropy", "METHOD_DEFAULTS"]
 
@@ -49,19 +49,6 @@ class DenoiseResult:
     welded: int = 0
 
 
-def _mask(mask, n):
-    if mask is None:
-        return None
-    m = np.asarray(mask)
-    if m.ndim != 1 or m.shape[0] != n:
-        raise MeshError(f"mask must have one entry per vertex ({n}), got shape {m.shape}")
-    if m.dtype != bool:
-        if not np.issubdtype(m.dtype, np.number) or not np.all(np.isfinite(m)):
-            raise MeshError("mask must hold booleans (True: the vertex may move)")
-        m = m != 0
-    return np.ascontiguousarray(m, dtype=np.uint8)
-
-
 def denoise(V, F=None, normals=None, *, method="similarity", eta1=None, eta2=None, eta3=None,
             iterations=None, mask=None, progress=None):
     """Denoise a mesh, a triangle soup or a point cloud.
@@ -79,8 +66,8 @@ def denoise(V, F=None, normals=None, *, method="similarity", eta1=None, eta2=Non
         2 sigma2 the radius of the averaging domain, 2 sigma3 the radius of the compared patches.
         Bilateral: sigma1 is the height Gaussian, 2 sigma2 the neighbourhood radius, sigma3 the
         spatial Gaussian.
-    mask : optional (n,) booleans, True where a vertex may move. Fixed vertices still inform the
-        filter.
+    mask : optional (n,) booleans, True where a vertex may move, or the indices of the vertices that
+        may move. Fixed vertices still inform the filter.
     progress : optional callable(fraction) -> bool|None; returning False cancels with
         :class:`dgmesh.Cancelled` (nothing is changed: inputs are never modified).
 
@@ -98,19 +85,17 @@ def denoise(V, F=None, normals=None, *, method="similarity", eta1=None, eta2=Non
     eta1 = d1 if eta1 is None else float(eta1)
     eta2 = d2 if eta2 is None else float(eta2)
     eta3 = d3 if eta3 is None else float(eta3)
-    iterations = dn if iterations is None else iterations
-    if isinstance(iterations, bool) or int(iterations) != iterations:
-        raise MeshError(f"iterations must be an integer, got {iterations!r}")
-    iterations = int(iterations)
+    iterations = as_count(dn if iterations is None else iterations, "iterations")
     V = as_vertices(V)
-    m = _mask(mask, len(V))
+    m = as_mask(mask, len(V))
+    m = None if m is None else m.astype(np.uint8)
     if F is None:
         if normals is None:
             raise MeshError("a point cloud (F=None) needs per-point normals")
         N = as_vertices(normals, "normals")
         out = _native.denoise_points(V, N, method, eta1, eta2, eta3, iterations, m, progress)
     else:
-        out = _native.denoise_mesh(V, as_faces(F), method, eta1, eta2, eta3, iterations, m, progress)
+        out = _native.denoise_mesh(V, as_faces(F, n=len(V)), method, eta1, eta2, eta3, iterations, m, progress)
     return DenoiseResult(
         vertices=out["vertices"],
         residual=out["residual"],
@@ -141,16 +126,14 @@ def similarity(V, F, vertex, normals=None, *, eta1=0.4, eta3=0.75, mode="shape")
     if mode not in ("shape", "filter"):
         raise MeshError(f"unknown mode {mode!r} (use 'shape' or 'filter')")
     V = as_vertices(V)
-    if isinstance(vertex, bool) or int(vertex) != vertex:
-        raise MeshError(f"vertex must be an integer index, got {vertex!r}")
-    vertex = int(vertex)
+    vertex = as_count(vertex, "vertex")
     shape_only = mode == "shape"
     if F is None:
         if normals is None:
             raise MeshError("a point cloud (F=None) needs per-point normals")
         return _native.similarity_points(V, as_vertices(normals, "normals"), vertex, float(eta1), float(eta3),
                                          shape_only)
-    return _native.similarity_mesh(V, as_faces(F), vertex, float(eta1), float(eta3), shape_only)
+    return _native.similarity_mesh(V, as_faces(F, n=len(V)), vertex, float(eta1), float(eta3), shape_only)
 
 
 def residual_entropy(residual):

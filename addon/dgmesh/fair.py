@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_mask, as_vertices
 
 __all__ = ["FairResult", "fair", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
@@ -52,24 +52,6 @@ class FairResult:
     @property
     def subdivided(self):
         return len(self.faces) != len(self.face_origin) or bool(np.any(self.face_origin != np.arange(len(self.faces))))
-
-
-def _mask(mask, n, what):
-    if mask is None:
-        return None
-    m = np.asarray(mask)
-    if m.dtype != bool:
-        if m.ndim == 1 and m.size and np.issubdtype(m.dtype, np.integer) and len(m) != n:
-            # Index list.
-            if m.min() < 0 or m.max() >= n:
-                raise MeshError(f"{what} has indices out of range [0, {n})")
-            b = np.zeros(n, dtype=bool)
-            b[m] = True
-            return b
-        m = m.astype(bool)
-    if m.shape != (n,):
-        raise MeshError(f"{what} must be a bool array of length {n} or a list of indices, got shape {m.shape}")
-    return np.ascontiguousarray(m)
 
 
 def _choice(value, allowed, what):
@@ -125,12 +107,12 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
     Returns a :class:`FairResult`.
     """
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     method = _choice(method, METHODS, "method")
     scheme = _choice(scheme, SCHEMES, "scheme")
     boundary = _choice(boundary, BOUNDARIES, "boundary")
-    vm = _mask(mask, len(V), "mask")
-    fm = _mask(faces, len(F), "faces")
+    vm = as_mask(mask, len(V), "mask")
+    fm = as_mask(faces, len(F), "faces")
     if fm is not None and vm is None:
         vm = np.zeros(len(V), dtype=bool)
         inner = np.zeros(len(V), dtype=bool)
@@ -142,8 +124,7 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
     if max_iterations is None:
         max_iterations = 5000 if scheme == "explicit" else 200
     max_iterations = as_count(max_iterations, "max_iterations")
-    if int(subdivisions) != subdivisions or not 0 <= subdivisions <= 6:
-        raise MeshError(f"subdivisions must be an integer in [0, 6], got {subdivisions!r}")
+    subdivisions = as_count(subdivisions, "subdivisions", 0, 6)
 
     def run(Vc, Fc, vmc, fmc, prog):
         r = _native.fair(Vc, Fc, method, scheme, boundary, vmc, fmc, int(subdivisions), float(tolerance),
@@ -229,12 +210,11 @@ def regularize(V, F, *, iterations=100, mask=None, boundary="fixed", step_scale=
     ``project`` puts moved vertices back onto the input surface after each step (the drift
     alone leaves a curved surface by O(step^2 * curvature) per step)."""
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     boundary = _choice(boundary, BOUNDARIES, "boundary")
-    vm = _mask(mask, len(V), "mask")
-    if int(iterations) != iterations or iterations < 0:
-        raise MeshError(f"iterations must be a non-negative integer, got {iterations!r}")
-    return _native.regularize(V, F, int(iterations), vm, boundary, float(step_scale), bool(project), progress)
+    vm = as_mask(mask, len(V), "mask")
+    iterations = as_count(iterations, "iterations")
+    return _native.regularize(V, F, iterations, vm, boundary, float(step_scale), bool(project), progress)
 
 
 def willmore_energy(V, F):
@@ -248,8 +228,8 @@ def subdivide_region(V, F, faces):
     faces are not split (the faces along the border become 2 or 3 triangles). Returns
     (V, F, face_origin)."""
     V = as_vertices(V)
-    F = as_faces(F)
-    fm = _mask(faces, len(F), "faces")
+    F = as_faces(F, n=len(V))
+    fm = as_mask(faces, len(F), "faces")
     if fm is None:
         fm = np.ones(len(F), dtype=bool)
     return _native.subdivide_region(V, F, fm)
@@ -262,8 +242,8 @@ def refine_region(V, F, faces, density=2 ** 0.5):
     Liepa's alpha). The region's border edges are never split or flipped and faces outside keep
     their rows. Returns (V, F, face_origin); new vertices follow the input's."""
     V = as_vertices(V)
-    F = as_faces(F)
-    fm = _mask(faces, len(F), "faces")
+    F = as_faces(F, n=len(V))
+    fm = as_mask(faces, len(F), "faces")
     if fm is None:
         fm = np.ones(len(F), dtype=bool)
     return _native.refine_region(V, F, fm, float(density))

@@ -68,11 +68,11 @@ class Multires:
             (dgmesh.Cancelled).
         """
         V = as_vertices(V)
-        F = as_faces(F)
+        F = as_faces(F, n=len(V))
         control_faces = as_count(control_faces, "control_faces")
-        return cls(_native.Multires.build(V, F, control_faces, int(level), float(min_quality),
-                                          int(fit_iterations), float(fit_regularization),
-                                          int(projection_iterations), progress))
+        return cls(_native.Multires.build(V, F, control_faces, as_count(level, "level"), float(min_quality),
+                                          as_count(fit_iterations, "fit_iterations"), float(fit_regularization),
+                                          as_count(projection_iterations, "projection_iterations"), progress))
 
     @classmethod
     def bind(cls, control_vertices, control_faces, V, *, level=2, projection_iterations=12,
@@ -80,9 +80,14 @@ class Multires:
         """Binds the points V to the limit surface of a given control mesh (no decimation, no fit)."""
         return cls(_native.Multires.bind(as_vertices(control_vertices, "control_vertices"),
                                          as_faces(control_faces, "control_faces"), as_vertices(V),
-                                         int(level), int(projection_iterations), progress))
+                                         as_count(level, "level"),
+                                         as_count(projection_iterations, "projection_iterations"), progress))
 
     # -- persistence ----------------------------------------------------------------------------
+    def __reduce__(self):
+        # pickle / copy.deepcopy through the exact array round trip (e.g. to send it to another process)
+        return (type(self).from_arrays, (self.to_arrays(),))
+
     def to_arrays(self):
         """The bind data as plain numpy arrays (a dict), enough to rebuild this object exactly with
         :meth:`from_arrays`: control_vertices (rest pose), control_faces, level, base_face,
@@ -157,7 +162,10 @@ class Multires:
         """Limit positions and derivatives (P, dP/ds, dP/dt) at locations (face[i], st[i]) of the
         control mesh (s, t >= 0, s + t <= 1; corners 0, 1, 2 of a face at (0,0), (1,0), (0,1))."""
         X = self._m.control_vertices if control_vertices is None else as_vertices(control_vertices)
-        face = np.ascontiguousarray(face, dtype=np.int32).reshape(-1)
+        face = np.asarray(face).reshape(-1)
+        if face.size and not np.issubdtype(face.dtype, np.integer):
+            raise MeshError(f"face must hold integer face indices, got {face.dtype}")
+        face = np.ascontiguousarray(face, dtype=np.int32)
         st = np.ascontiguousarray(st, dtype=np.float64).reshape(-1, 2)
         return self._m.evaluate(X, face, st)
 

@@ -108,22 +108,26 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
     boundary_clearance, eta, uopt_steps, domain: see RemeshOptions in remesh.h.
     """
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     if mode not in MODES:
         raise MeshError(f"mode must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
     if boundary not in ("keep", "resample"):
         raise MeshError(f"boundary must be 'keep' or 'resample', got {boundary!r}")
     if domain not in ("circle", "square"):
         raise MeshError(f"domain must be 'circle' or 'square', got {domain!r}")
-    target_vertices = as_count(target_vertices, "target_vertices", floats=False)
-    resolution = as_count(resolution, "resolution", floats=False)
+    target_vertices = as_count(target_vertices, "target_vertices")
+    resolution = as_count(resolution, "resolution")
+    uopt_steps = as_count(uopt_steps, "uopt_steps", -1)
+    lloyd_iterations = as_count(lloyd_iterations, "lloyd_iterations")
+    smooth_iterations = as_count(smooth_iterations, "smooth_iterations")
+
     def run(clearance):
-        return _native.remesh(V, F, int(target_vertices), adaptivity=float(adaptivity), resolution=int(resolution),
+        return _native.remesh(V, F, target_vertices, adaptivity=float(adaptivity), resolution=resolution,
                               mode=mode, boundary=boundary, domain=domain,
                               boundary_clearance=float(clearance), flip_3d=bool(flip_3d),
-                              eta=float(eta), uopt_steps=int(uopt_steps), lloyd_iterations=int(lloyd_iterations),
+                              eta=float(eta), uopt_steps=uopt_steps, lloyd_iterations=lloyd_iterations,
                               relax_metric=str(relax_metric), min_separation=float(min_separation),
-                              smooth_iterations=int(smooth_iterations), progress=progress)
+                              smooth_iterations=smooth_iterations, progress=progress)
 
     try:
         r = run(boundary_clearance)
@@ -188,5 +192,6 @@ def remesh(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="doubl
 def point_mesh_distance(P, V, F, *, candidates=16):
     """Distance from each point of P (k, 3) to the triangle mesh (V, F): exact distances to the
     triangles whose centroids are among the ``candidates`` nearest (so it can only over-estimate)."""
-    return np.asarray(_native.point_mesh_distance(as_vertices(P, "P"), as_vertices(V), as_faces(F),
-                                                  int(candidates)))
+    V = as_vertices(V)
+    return np.asarray(_native.point_mesh_distance(as_vertices(P, "P"), V, as_faces(F, n=len(V)),
+                                                  as_count(candidates, "candidates", 1)))

@@ -1,31 +1,34 @@
 """Meshes of surfaces with known answers (for tests, benchmarks and demos)."""
 
-from .core import _native, as_faces, as_vertices
+from .core import _native, as_count, as_faces, as_real, as_vertices
 
 
 def icosphere(level, radius=1.0):
     """Icosahedron subdivided ``level`` times and projected onto the sphere: (V, F)."""
-    return _native.icosphere(int(level), float(radius))
+    return _native.icosphere(as_count(level, "level", 0, 10), as_real(radius, "radius", 0.0, lo_open=True))
 
 
 def torus(R, r, nu, nv):
     """Torus with centre-line radius R and tube radius r over an nu x nv grid: (V, F)."""
-    return _native.torus(float(R), float(r), int(nu), int(nv))
+    return _native.torus(as_real(R, "R", 0.0, lo_open=True), as_real(r, "r", 0.0, lo_open=True),
+                         as_count(nu, "nu", 3), as_count(nv, "nv", 3))
 
 
 def grid(nx, ny):
     """Unit square in the z = 0 plane, nx x ny cells, two triangles each: (V, F)."""
-    return _native.grid(int(nx), int(ny))
+    return _native.grid(as_count(nx, "nx", 1), as_count(ny, "ny", 1))
 
 
 def subdivide_linear(V, F):
     """1-to-4 subdivision with new vertices at edge midpoints: (V, F)."""
-    return _native.subdivide_linear(as_vertices(V), as_faces(F))
+    V = as_vertices(V)
+    return _native.subdivide_linear(V, as_faces(F, n=len(V)))
 
 
 def loop_subdivide(V, F, levels=1):
     """Loop subdivision (OpenSubdiv), ``levels`` times: (V, F) with 4**levels times the faces."""
-    return _native.loop_subdivide(as_vertices(V), as_faces(F), int(levels))
+    V = as_vertices(V)
+    return _native.loop_subdivide(V, as_faces(F, n=len(V)), as_count(levels, "levels"))
 
 
 def rounded_cube(n=20, r=0.3, quads=False):
@@ -35,6 +38,8 @@ def rounded_cube(n=20, r=0.3, quads=False):
     are ridges, traced as 6 lines (they join at the corners)."""
     import numpy as np
 
+    n = as_count(n, "n", 1)
+    r = as_real(r, "r", 0.0, 1.0)
     verts, tris, quad_list, index = [], [], [], {}
 
     def vid(c):
@@ -57,5 +62,6 @@ def rounded_cube(n=20, r=0.3, quads=False):
                     tris += [(v00, v10, v11), (v00, v11, v01)] if side else [(v00, v11, v10), (v00, v01, v11)]
     V = np.array(verts)
     c = np.clip(V, -(1 - r), 1 - r)
-    V = c + r * (V - c) / np.linalg.norm(V - c, axis=1)[:, None]
+    d = np.linalg.norm(V - c, axis=1)[:, None]
+    V = c + r * np.divide(V - c, d, out=np.zeros_like(V), where=d > 0)  # r = 0: the sharp cube
     return (V, quad_list) if quads else (V, np.array(tris, dtype=np.int32))

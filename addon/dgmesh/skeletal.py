@@ -17,7 +17,7 @@ multiresolution layer: the skeletal machinery runs on a decimated control mesh.
 
 import numpy as np
 
-from .core import MeshError, _native, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices
 
 __all__ = [
     "SkeletalRig",
@@ -104,7 +104,9 @@ class SkeletalRig:
         and malformed bones.
         """
         V = as_vertices(V)
-        F = as_faces(F)
+        F = as_faces(F, n=len(V))
+        if len(V) == 0:
+            raise MeshError("skeletal bind: the mesh is empty")
         R = _mats(bones_rest, "bones_rest")
         if len(R) == 0:
             raise MeshError("skeletal bind: no deform bones")
@@ -123,15 +125,12 @@ class SkeletalRig:
         tails = as_vertices(bone_tails, "bone_tails")
         if len(heads) != len(R) or len(tails) != len(R):
             raise MeshError("bone_heads and bone_tails must have one row per bone")
-        for name, value in (("gaussian_sigma", gaussian_sigma), ("frame_regularization", frame_regularization),
-                            ("presmooth_iterations", presmooth_iterations),
-                            ("postsmooth_iterations", postsmooth_iterations)):
-            if not (np.isfinite(value) and value >= 0):
-                raise MeshError(f"skeletal bind: {name} must be >= 0, got {value!r}")
         rig = _native.SkeletalRig.bind(
-            V, F, R, W, heads, tails, int(control_faces), int(multires_level), int(fit_iterations),
-            float(gaussian_sigma), float(frame_regularization), int(presmooth_iterations),
-            int(postsmooth_iterations), progress,
+            V, F, R, W, heads, tails, as_count(control_faces, "control_faces"),
+            as_count(multires_level, "multires_level"), as_count(fit_iterations, "fit_iterations"),
+            as_real(gaussian_sigma, "gaussian_sigma", 0.0), as_real(frame_regularization, "frame_regularization", 0.0),
+            as_count(presmooth_iterations, "presmooth_iterations"),
+            as_count(postsmooth_iterations, "postsmooth_iterations"), progress,
         )
         return cls(rig)
 
@@ -174,9 +173,9 @@ class SkeletalRig:
                     or out.shape != (self.n_vertices, 3) or not out.flags.c_contiguous or not out.flags.writeable):
                 raise MeshError("deform: out must be a writeable C-contiguous float64 or float32 array of shape "
                                 "(%d, 3)" % self.n_vertices)
-        return self._rig.deform(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                int(fold_iterations), float(projection), out, bool(dual_quaternion),
-                                float(bone_clearance))
+        return self._rig.deform(P, method, as_count(fairing_steps, "fairing_steps"), float(fairing_step),
+                                as_count(homotopy_steps, "homotopy_steps"), as_count(fold_iterations, "fold_iterations"),
+                                float(projection), out, bool(dual_quaternion), float(bone_clearance))
 
     def deform_control(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5,
                        homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=False,
@@ -184,9 +183,10 @@ class SkeletalRig:
         """(control mesh positions, deformed skeletal vertices) for a pose."""
         self._check_method(method)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
-        return self._rig.deform_control(P, method, int(fairing_steps), float(fairing_step), int(homotopy_steps),
-                                        int(fold_iterations), float(projection), bool(dual_quaternion),
-                                        float(bone_clearance))
+        return self._rig.deform_control(P, method, as_count(fairing_steps, "fairing_steps"), float(fairing_step),
+                                        as_count(homotopy_steps, "homotopy_steps"),
+                                        as_count(fold_iterations, "fold_iterations"), float(projection),
+                                        bool(dual_quaternion), float(bone_clearance))
 
     def skeleton_pose(self, bones_pose):
         """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""
@@ -198,12 +198,16 @@ class SkeletalRig:
             raise MeshError(f"method must be one of {METHODS}, got {method!r}")
 
     # --- bind data ---------------------------------------------------------------------------
+    def __reduce__(self):
+        # pickle / copy.deepcopy through the exact array round trip (e.g. to send it to another process)
+        return (type(self).from_arrays, (self.to_arrays(),))
+
     def to_arrays(self):
         """The bind data as a dict of numpy arrays (np.savez-able); :meth:`from_arrays` restores it."""
         d = self._rig.data()
         out = {}
         for k, v in d.items():
-            out[k] = np.asarray(v)
+            out[k] = np.ascontiguousarray(v)
         return out
 
     @classmethod
@@ -238,15 +242,18 @@ class SkeletalRig:
     skeleton_vertices = property(lambda self: self._rig.skeleton_vertices, doc="(n_control, 3) skeletal mesh")
     skeleton_faces = property(lambda self: self._rig.control_faces, doc="faces of the skeletal mesh")
     radii = property(lambda self: self._rig.radii, doc="medial-ball radius per skeletal vertex (eq. 6.7)")
-    weights = property(lambda self: self._rig.weights, doc="(n_control, B) bone weights of the skeletal vertices")
+    weights = property(lambda self: np.ascontiguousarray(self._rig.weights), doc="(n_control, B) bone weights of the skeletal vertices")
 
 
 def skeletal_mesh(V, F, *, presmooth_iterations=10, presmooth_step=0.2, postsmooth_iterations=20,
                   postsmooth_step=0.2, spike_factor=2.5, max_pole_angle=1.2):
     """Skeletal mesh of a closed mesh (thesis 6.1): (S (n, 3), radii (n,)). Faces are F's."""
-    S, r, _, _ = _native.skeletal_mesh(as_vertices(V), as_faces(F), int(presmooth_iterations), float(presmooth_step),
-                                       int(postsmooth_iterations), float(postsmooth_step), float(spike_factor),
-                                       float(max_pole_angle))
+    V = as_vertices(V)
+    S, r, _, _ = _native.skeletal_mesh(
+        V, as_faces(F, n=len(V)), as_count(presmooth_iterations, "presmooth_iterations"),
+        as_real(presmooth_step, "presmooth_step", 0.0), as_count(postsmooth_iterations, "postsmooth_iterations"),
+        as_real(postsmooth_step, "postsmooth_step", 0.0), as_real(spike_factor, "spike_factor", 0.0, lo_open=True),
+        as_real(max_pole_angle, "max_pole_angle", 0.0, np.pi, lo_open=True))
     return S, r
 
 

@@ -24,7 +24,7 @@ from typing import List
 
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices
 
 __all__ = ["UnwrapResult", "unwrap", "uv_metrics", "uv_stretch", "BOUNDARIES", "WEIGHTS", "SOLVERS"]
 
@@ -109,16 +109,17 @@ def unwrap(V, F, *, boundary="square", weights="floater", eta=1.0, iterations="o
     handles), with a message saying what to do.
     """
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     _choice("boundary", boundary, BOUNDARIES)
     _choice("weights", weights, WEIGHTS)
     _choice("solver", solver, SOLVERS)
     if iterations == "optimal":
         it = -1
-    elif isinstance(iterations, (int, np.integer)) and not isinstance(iterations, bool) and iterations >= 0:
-        it = as_count(iterations, "iterations")
     else:
-        raise MeshError(f"iterations must be 'optimal' or an integer >= 0, got {iterations!r}")
+        try:
+            it = as_count(iterations, "iterations")
+        except MeshError:
+            raise MeshError(f"iterations must be 'optimal' or an integer >= 0, got {iterations!r}") from None
     eta = float(eta)
     if not (0.0 < eta <= 1.0):
         raise MeshError(f"eta must be in (0, 1], got {eta}")
@@ -161,9 +162,9 @@ def uv_metrics(V, F, UV, *, zero_area_eps=1e-10) -> dict:
     area; "flipped" counts triangles oriented against the total orientation.
     """
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     Vs, Fs, UVs = _as_uv(V, F, UV)
-    return dict(_native.uv_metrics(Vs, Fs, UVs, float(zero_area_eps)))
+    return dict(_native.uv_metrics(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0)))
 
 
 def uv_stretch(V, F, UV, *, per="vertex", zero_area_eps=1e-10) -> np.ndarray:
@@ -171,11 +172,11 @@ def uv_stretch(V, F, UV, *, per="vertex", zero_area_eps=1e-10) -> np.ndarray:
     (``per="vertex"``: eq. 5.1, area-weighted over the incident triangles). UV as in
     :func:`uv_metrics`. Zero-area UV triangles have infinite stretch."""
     V = as_vertices(V)
-    F = as_faces(F)
+    F = as_faces(F, n=len(V))
     if per not in ("vertex", "face"):
         raise MeshError(f"per must be 'vertex' or 'face', got {per!r}")
     Vs, Fs, UVs = _as_uv(V, F, UV)
-    fs = np.asarray(_native.uv_face_stretch(Vs, Fs, UVs, float(zero_area_eps)))
+    fs = np.asarray(_native.uv_face_stretch(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0)))
     if per == "face":
         return fs
     a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)

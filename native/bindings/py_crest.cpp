@@ -156,7 +156,7 @@ void bind_crest(pb::module_& m) {
       [](InV Vin, InF Fin, int target_faces, std::optional<VecXd> face_weights, bool preserve_boundary,
          double min_quality, double max_normal_angle, double max_error, const pb::object& cb,
          std::optional<std::vector<int>> locked, bool batched, double feature_weight, int rings, double threshold,
-         std::optional<CrestArrays> crest) {
+         std::optional<CrestArrays> crest, std::optional<std::vector<int>> planes) {
         DecimateResult r;
         {
           NativeScope nogil;
@@ -178,6 +178,7 @@ void bind_crest(pb::module_& m) {
           opt.max_normal_angle = max_normal_angle;
           opt.max_error = max_error;
           if (locked) opt.locked.assign(locked->begin(), locked->end());
+          if (planes) opt.planes.assign(planes->begin(), planes->end());
           opt.batched = batched;
           r = decimate(mesh, opt, tail_progress(progress, share));
         }
@@ -188,7 +189,7 @@ void bind_crest(pb::module_& m) {
       pb::arg("preserve_boundary") = true, pb::arg("min_quality") = 0.0, pb::arg("max_normal_angle") = 1.3,
       pb::arg("max_error") = std::numeric_limits<double>::infinity(), pb::arg("progress") = pb::none(),
       pb::arg("locked") = pb::none(), pb::arg("batched") = true, pb::arg("feature_weight") = 0.0,
-      pb::arg("rings") = 1, pb::arg("threshold") = 0.0, pb::arg("crest") = pb::none());
+      pb::arg("rings") = 1, pb::arg("threshold") = 0.0, pb::arg("crest") = pb::none(), pb::arg("planes") = pb::none());
 
   m.def(
       "segment",

@@ -285,6 +285,8 @@ bool Decimator::try_collapse(const Candidate& c) {
       if (q1 < 1e-6 || (q1 < min_q2_ && q1 < quality2(a, b, cc, s0))) return false;
       Moved m{f, {F_(f, 0), F_(f, 1), F_(f, 2)}, n0, n1};
       m.c[k] = v;
+      // No face with its three corners on one mirror plane (DecimateOptions::planes).
+      if (!opt_.planes.empty() && (opt_.planes[m.c[0]] & opt_.planes[m.c[1]] & opt_.planes[m.c[2]])) return false;
       moved_.push_back(m);
     }
   }
@@ -477,6 +479,9 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
   if (opt_.face_weights.size() && !opt_.face_weights.allFinite())
     throw MeshError("face_weights must be finite and non-negative");
   if (!(opt_.min_quality >= 0 && opt_.min_quality < 1)) throw MeshError("min_quality must be in [0, 1)");
+  if (!opt_.planes.empty() && opt_.planes.size() != static_cast<size_t>(nv))
+    throw MeshError("planes has " + std::to_string(opt_.planes.size()) + " values for " + std::to_string(nv) +
+                    " vertices");
   if (!opt_.locked.empty() && opt_.locked.size() != static_cast<size_t>(nv))
     throw MeshError("locked has " + std::to_string(opt_.locked.size()) + " values for " + std::to_string(nv) +
                     " vertices");

@@ -252,6 +252,23 @@ def test_ctrl_c_stops_a_call_without_progress_callback():
     (lambda V, F: dgmesh.unwrap(V, F, iterations=10**10), "iterations"),
     (lambda V, F: dgmesh.fair(V, F, max_iterations=10**10), "max_iterations"),
     (lambda V, F: dgmesh.Multires.build(V, F, control_faces=10**10), "control_faces"),
+    (lambda V, F: dgmesh.Multires.build(V, F, level=2**31), "level"),
+    (lambda V, F: dgmesh.denoise(V, F, iterations=2**31), "iterations"),
+    (lambda V, F: dgmesh.similarity(V, F, 2**31), "vertex"),
+    (lambda V, F: dgmesh.segment(V, F, segments=2**31), "segments"),
+    (lambda V, F: dgmesh.segment(V, F, segments=2, iterations=2**31), "iterations"),
+    (lambda V, F: dgmesh.regularize(V, F, iterations=2**31), "iterations"),
+    (lambda V, F: dgmesh.remesh_full(V, F, target_vertices=100, lloyd_iterations=2**31), "lloyd_iterations"),
+    (lambda V, F: dgmesh.point_mesh_distance(V, V, F, candidates=2**31), "candidates"),
+    (lambda V, F: dgmesh.skeletal_mesh(V, F, presmooth_iterations=2**31), "presmooth_iterations"),
+    (lambda V, F: shapes.loop_subdivide(V, F, levels=2**31), "levels"),
+    (lambda V, F: dgmesh.crest_lines(V, F, rings=2.5), "rings"),
+    (lambda V, F: dgmesh.segment(V, F, segments=float("nan")), "segments"),
+    (lambda V, F: dgmesh.uv_metrics(V, F, V[:, :2], zero_area_eps=float("nan")), "zero_area_eps"),
+    (lambda V, F: dgmesh.skeletal_mesh(V, F, postsmooth_step=float("nan")), "postsmooth_step"),
+    (lambda V, F: dgmesh.skeletal_mesh(V, F, max_pole_angle=float("inf")), "max_pole_angle"),
+    (lambda V, F: dgmesh.SkeletalRig.bind(V, F, np.eye(4)[None], gaussian_sigma="x"), "gaussian_sigma"),
+    (lambda V, F: shapes.icosphere(2, radius=float("nan")), "radius"),
 ])
 def test_integer_options_beyond_a_c_int_are_named(call, name):
     """pybind11's TypeError for such a value was ~8000 characters, the mesh arrays printed whole."""
@@ -259,3 +276,62 @@ def test_integer_options_beyond_a_c_int_are_named(call, name):
     with pytest.raises(dgmesh.MeshError, match=name) as info:
         call(V, F)
     assert len(str(info.value)) < 200
+
+
+def test_numpy_scalars_count_as_numbers():
+    """np.float32(200) and 0-d arrays were 'not an integer' while np.float64(200) worked."""
+    V, F = shapes.icosphere(2)
+    ref = dgmesh.decimate(V, F, target_faces=200)
+    for n in (np.float32(200), np.array(200), np.int16(200), 200.0):
+        out = dgmesh.decimate(V, F, target_faces=n)
+        assert np.array_equal(out[0], ref[0]) and np.array_equal(out[1], ref[1])
+    for bad in (200.5, True, np.float32("nan")):
+        with pytest.raises(dgmesh.MeshError, match="target_faces"):
+            dgmesh.decimate(V, F, target_faces=bad)
+
+
+def test_masks_index_lists_of_every_length():
+    """An index list as long as the mesh was read as a bool mask: mask=np.arange(n) left vertex 0
+    fixed, faces=np.arange(m) refined all faces but the first few."""
+    from dgmesh.core import as_mask
+    V, F = shapes.icosphere(2)
+    n = len(V)
+    assert as_mask(np.arange(n), n).all()
+    assert np.array_equal(as_mask(np.arange(n)[::-1], n), np.ones(n, bool))
+    assert not as_mask([], n).any()
+    flags = np.zeros(n, np.int8)
+    flags[[3, 5]] = 1  # foreach_get of a bool field into integers: flags, not indices
+    assert np.array_equal(np.flatnonzero(as_mask(flags, n)), [3, 5])
+    assert np.array_equal(np.flatnonzero(as_mask([5, 3, 5], n)), [3, 5])
+    with pytest.raises(dgmesh.MeshError, match="NaN"):
+        as_mask(np.full(n, np.nan), n)
+    with pytest.raises(dgmesh.MeshError, match="out of range"):
+        as_mask([n], n)
+    Vn = V + 0.01 * np.random.default_rng(0).standard_normal(V.shape)
+    R = dgmesh.regularize(Vn, F, iterations=3, mask=np.arange(n))
+    assert np.array_equal(R, dgmesh.regularize(Vn, F, iterations=3))
+    from dgmesh.fair import subdivide_region
+    assert len(subdivide_region(V, F, np.arange(len(F)))[1]) == 4 * len(F)
+
+
+def test_face_indices_checked_before_use():
+    """fair(mask=...) and uv_metrics with corner UVs indexed V by F before any check (a raw
+    IndexError); an empty face list said 'float64'."""
+    V, F = shapes.icosphere(1)
+    F1 = F.copy()
+    F1[7, 1] = len(V)
+    with pytest.raises(dgmesh.MeshError, match="face 7"):
+        dgmesh.fair(V, F1, mask=[0, 1])
+    with pytest.raises(dgmesh.MeshError, match="face 7"):
+        dgmesh.uv_metrics(V, F1, np.zeros((len(F), 3, 2)))
+    F1[7, 1] = -1
+    with pytest.raises(dgmesh.MeshError, match="face 7"):
+        dgmesh.curvature(V, F1)
+    with pytest.raises(dgmesh.MeshError) as info:
+        dgmesh.curvature(V, [])
+    assert "float64" not in str(info.value)
+
+
+def test_rounded_cube_with_sharp_edges():
+    V, F = shapes.rounded_cube(4, r=0)
+    assert np.isfinite(V).all() and np.abs(V).max() == 1.0

@@ -110,7 +110,7 @@ def test_decimate_locked_vertices_stay(cube):
     assert np.isin(np.flatnonzero(locked), src).all()
     assert np.array_equal(V2[vmap[locked]], V[locked])
     assert len(F2) < len(F) and (V2[:, 2] <= 0.5).sum() < (V[:, 2] <= 0.5).sum() / 3
-    with pytest.raises(dgmesh.MeshError, match="one value per vertex"):
+    with pytest.raises(dgmesh.MeshError, match="one bool per item"):
         dgmesh.decimate(V, F, target_faces=10, locked=locked[:-1])
 
 

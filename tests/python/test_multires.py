@@ -76,6 +76,10 @@ def test_save_load_and_arrays_round_trip(tmp_path):
     assert set(arrays) >= {"control_vertices", "control_faces", "base_face", "base_st", "displacement", "level"}
     again = dgmesh.Multires.from_arrays(arrays)
     np.testing.assert_array_equal(again.reconstruct(X), mr.reconstruct(X))
+    import copy
+    import pickle
+    for again in (pickle.loads(pickle.dumps(mr)), copy.deepcopy(mr)):
+        np.testing.assert_array_equal(again.reconstruct(X), mr.reconstruct(X))
 
 
 def test_reconstruct_into_preallocated_array():

@@ -141,6 +141,12 @@ def test_save_load(rig, tmp_path):
     assert np.abs(back.deform(pose) - rig.deform(pose)).max() < 1e-12
     back2 = dgmesh.SkeletalRig.from_arrays(rig.to_arrays())
     assert np.abs(back2.deform(pose) - rig.deform(pose)).max() < 1e-12
+    # Pickle and deepcopy (multiprocessing sends a rig this way); they raised "cannot pickle".
+    import copy
+    import pickle
+    for back3 in (pickle.loads(pickle.dumps(rig)), copy.deepcopy(rig)):
+        assert np.array_equal(back3.deform(pose), rig.deform(pose))
+    assert rig.weights.flags.c_contiguous and rig.to_arrays()["weights"].flags.c_contiguous
 
 
 def test_vertex_group_weights(mesh):

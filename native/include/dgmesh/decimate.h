@@ -27,6 +27,10 @@ struct DecimateOptions {
   // Per input vertex (empty: none): locked vertices never move and are never removed, e.g. the
   // vertices on UV seams or material borders, so those stay exact and attributes stay consistent.
   std::vector<char> locked;
+  // Per input vertex (empty: none): bit k set when the vertex lies on plane k (a Mirror modifier's
+  // planes). No collapse makes a face with its three corners on one plane: such a face lies in the
+  // plane, where the mirrored half puts its twin, and the mirrored mesh is no longer manifold.
+  std::vector<char> planes;
   // A collapse is rejected if a face normal turns by more than this angle (radians; < pi/2 also
   // rules out flips) ...
   double max_normal_angle = 1.3;
