@@ -344,6 +344,30 @@ def mesh_has_modifiers(obj):
 BMESH_LAYER_KIND = {'FLOAT': ("float", 1), 'INT': ("int", 1), 'FLOAT_VECTOR': ("float_vector", 3)}
 
 
+def remap_vertex_references(mesh, new_index, fallback=None):
+    """After a renumbering of ``mesh``'s vertices written outside Edit mode (``new_index[old]``, -1
+    for a removed vertex), the vertex parents of children and the Hook modifiers of every object
+    using the mesh follow it, as Blender's remap on leaving Edit mode does. ``fallback(old) -> new``
+    places references to removed vertices (without it hooks drop them and parents keep theirs)."""
+    n = len(new_index)
+
+    def new(i):
+        if not 0 <= i < n:
+            return i
+        j = int(new_index[i])
+        return j if j >= 0 or fallback is None else int(fallback(i))
+
+    users = {o for o in bpy.data.objects if o.data == mesh}
+    for o in bpy.data.objects:
+        if o.parent in users and o.parent_type in {'VERTEX', 'VERTEX_3'}:
+            o.parent_vertices = [j if (j := new(i)) >= 0 else i for i in o.parent_vertices]
+    for o in users:
+        for m in o.modifiers:
+            if m.type == 'HOOK' and len(m.vertex_indices):
+                idx = sorted({new(i) for i in m.vertex_indices} - {-1})
+                m.vertex_indices_set(idx)
+
+
 def bmesh_point_layers(bm):
     """The point-domain layers an operator that adds vertices should fill in: ([(layer, kind)],
     the active deform (vertex-group) layer or None). Blender 3.4's bmesh cannot reach boolean and

@@ -18,6 +18,70 @@ def target_objects(context):
     return unique
 
 
+def read_only_reason(obj):
+    """Why the object's mesh cannot be changed, or None. Library data, and library overrides:
+    Blender ignores foreach_set on an overridden mesh and a save drops what bmesh wrote to it."""
+    mesh = obj.data
+    if mesh.library is not None:
+        return "mesh data is linked from a library and cannot be changed"
+    if getattr(mesh, "override_library", None) is not None:
+        return "mesh data is a library override and cannot be changed (make it local first)"
+    return None
+
+
+def _editable(coll):
+    return coll.library is None and getattr(coll, "override_library", None) is None
+
+
+def editable_collections(obj):
+    """The collections of ``obj`` a new object may be linked into (Blender refuses linked and
+    overridden ones)."""
+    return [c for c in obj.users_collection if _editable(c)]
+
+
+def editable_collection(context, obj):
+    """Where a new object made for ``obj`` goes: a collection of ``obj`` in the current scene that is
+    neither linked nor an override (the mesh may be in several scenes), else the scene's own."""
+    root = context.scene.collection
+    for coll in editable_collections(obj):
+        if coll == root or coll in root.children_recursive:
+            return coll
+    return root
+
+
+def shown_shape_notes(obj):
+    """How the mesh an operator reads (the datablock's coordinates, in object space) differs from
+    what the viewport shows, besides modifiers: a shape key mix, a non-uniform scale (Blender's own
+    Unwrap says so too). Short phrases for a report."""
+    notes = []
+    keys = obj.data.shape_keys
+    if keys is not None and len(keys.key_blocks) > 1:
+        if not keys.use_relative:
+            shown = True
+        elif obj.mode == 'EDIT' or obj.show_only_shape_key:
+            shown = obj.active_shape_key_index > 0  # the active key is what Edit mode shows
+        else:
+            shown = any(k.value != 0 and not k.mute for k in keys.key_blocks[1:])
+        if shown:
+            notes.append("measured on the basis shape, without its shape keys")
+    scale = [abs(x) for x in obj.matrix_world.to_scale()]
+    if min(scale) > 0 and max(scale) > (1 + 1e-4) * min(scale):
+        notes.append("computed on the unscaled mesh (the object has non-uniform scale: apply it to work on "
+                     "the shape as shown)")
+    return notes
+
+
+def report_shown_shape(op, objects):
+    """One WARNING per note of :func:`shown_shape_notes`, naming the objects it applies to."""
+    by_note = {}
+    for obj in objects:
+        for note in shown_shape_notes(obj):
+            by_note.setdefault(note, []).append(obj.name)
+    for note, names in by_note.items():
+        more = f" and {len(names) - 3} more" if len(names) > 3 else ""
+        op.report({'WARNING'}, f"{', '.join(map(repr, names[:3]))}{more}: {note}")
+
+
 def poll_fail(cls, message):
     """Fails a poll with a reason the UI shows in the tooltip (Blender 3.0+)."""
     if hasattr(cls, "poll_message_set"):

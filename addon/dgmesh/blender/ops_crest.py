@@ -42,7 +42,8 @@ from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_mesh_targets, target_objects
+from .common import (editable_collection, plural as _plural, poll_mesh_targets, read_only_reason,
+                     report_shown_shape, target_objects)
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -82,8 +83,9 @@ class _PerObjectJob(NativeJobOperator):
         dg = api()
         items, failures = [], []
         for obj in target_objects(context):
-            if obj.data.library is not None:
-                failures.append((obj.name, "mesh data is linked from a library and cannot be changed"))
+            reason = read_only_reason(obj)
+            if reason:
+                failures.append((obj.name, reason))
                 continue
             try:
                 items.append((obj.name, self.read(obj)))
@@ -116,7 +118,7 @@ class _PerObjectJob(NativeJobOperator):
     def finish(self, context, results):
         failures = [(n, r) for n, r in results if isinstance(r, str)]
         done = [(n, r) for n, r in results if not isinstance(r, str)]
-        written = []
+        written, objects = [], []
         if done:
             with bridge.object_mode(context):
                 for name, (data, result) in done:
@@ -127,12 +129,14 @@ class _PerObjectJob(NativeJobOperator):
                         if (len(obj.data.vertices), len(obj.data.polygons)) != data["counts"]:
                             raise RuntimeError("the mesh changed while it was computed")
                         written.append(self.write(context, obj, data, result))
+                        objects.append(obj)
                     except Exception as exc:
                         failures.append((name, f"could not write: {type(exc).__name__}: {exc}"))
         self._report_failures(failures)
         if not written:
             return {'CANCELLED'}
         self.report({'INFO'}, self.summary(written))
+        report_shown_shape(self, objects)
         return {'FINISHED'}
 
 
@@ -303,11 +307,10 @@ def _curve_object(context, obj, lines):
         spline.material_index = int(kind)
     cobj = bpy.data.objects.new(name, curve)
     cobj[CURVE_KEY] = obj
-    cobj.matrix_world = obj.matrix_world.copy()
-    # A collection of the mesh in the scene the operator ran in (the mesh may be in several scenes).
-    root = context.scene.collection
-    in_scene = [c for c in obj.users_collection if c == root or c in root.children_recursive]
-    (in_scene[0] if in_scene else context.scene.collection).objects.link(cobj)
+    editable_collection(context, obj).objects.link(cobj)
+    # A child with an identity local transform sits exactly on the mesh (a copied matrix_world
+    # loses a parent's shear) and follows it when it moves.
+    cobj.parent = obj
     return cobj
 
 
@@ -430,7 +433,12 @@ def _read_for_decimation(obj):
     wire[_get(mesh.loops, "edge_index", np.int32)] = False
     data.update(edges=edges.reshape(-1, 2), edge_flags=flags, wire=wire,
                 hide=(_get(mesh.vertices, "hide", bool), _get(mesh.polygons, "hide", bool)))
-    data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked,
+    # A half modelled with a Mirror modifier: no face may end up lying in a mirror plane, where the
+    # mirrored half puts its twin (the mirrored mesh would tear there).
+    planes = np.zeros(nv, dtype=np.int32)
+    for k, tol in bridge.mirror_axes(obj, data["arrays"].V)[0]:
+        planes[np.abs(data["arrays"].V[:, k]) <= tol] |= 1 << k
+    data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked, planes=planes,
                 uv_active=mesh.uv_layers.active_index,
                 uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))
     return data
@@ -583,6 +591,7 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
         mesh.uv_layers[min(data["uv_render"], len(mesh.uv_layers) - 1)].active_render = True
     mesh.validate(verbose=False)
     mesh.update()
+    bridge.remap_vertex_references(mesh, vertex_map)  # every input vertex went to one output vertex
 
 
 class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
@@ -641,7 +650,7 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
             lines = cached_crest_lines(arrays, p["rings"], lambda f: progress(0.3 * f)).filter(p["threshold"])
         V2, F2, vmap, fmap, src = dg.decimate(arrays.V, arrays.F, target_faces=target, feature_weight=p["eta"],
                                               crest_lines=lines, return_map=True, return_face_map=True,
-                                              locked=data["locked"],
+                                              locked=data["locked"], planes=data["planes"],
                                         progress=lambda f: progress((0.3 if lines is not None else 0.0) + 0.7 * f))
         return V2, F2, vmap, fmap, src, 0 if lines is None else len(lines)
 

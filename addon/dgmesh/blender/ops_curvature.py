@@ -17,7 +17,7 @@ from bpy.props import EnumProperty, FloatProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_mesh_targets, target_objects
+from .common import plural as _plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .prefs import api
 
 ATTR_MEAN = "dg_mean_curvature"
@@ -70,8 +70,9 @@ class DGMESH_OT_curvature_map(bpy.types.Operator):
         # 1. Compute everything before writing anything.
         results, failures = [], []
         for obj in targets:
-            if obj.data.library is not None:
-                failures.append((obj.name, "mesh data is linked from a library and cannot be changed"))
+            reason = read_only_reason(obj)
+            if reason:
+                failures.append((obj.name, reason))
                 continue
             try:
                 arrays = bridge.read_object(obj)
@@ -105,6 +106,7 @@ class DGMESH_OT_curvature_map(bpy.types.Operator):
 
         self._show_in_viewport(context)
         self.report({'INFO'}, self._summary(written, skipped))
+        report_shown_shape(self, [w[0] for w in written])
         return {'FINISHED'}
 
     def _write(self, mesh, H, K):

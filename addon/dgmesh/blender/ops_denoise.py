@@ -24,7 +24,8 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import plural as _plural, poll_active_mesh, poll_mesh_targets, target_objects
+from .common import (plural as _plural, poll_active_mesh, poll_mesh_targets, read_only_reason, report_shown_shape,
+                     target_objects)
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -65,7 +66,7 @@ class _Job:
         self.V, self.F, self.N, self.mask = V, F, N, mask
         # A half modelled with a Mirror modifier: its vertices on the mirror planes stay there, so
         # the halves stay welded (denoising moves them off by up to the noise level).
-        self.mirror = bridge.mirror_axes(obj, V)[0]
+        self.mirror, self.mirror_unused = bridge.mirror_axes(obj, V)
         self.result = None
         self.error = None
 
@@ -75,8 +76,9 @@ def _read_job(obj, edit_mode):
     mesh = obj.data
     if edit_mode and not bridge.has_selection(obj):
         return None
-    if mesh.library is not None:
-        return "mesh data is linked from a library and cannot be changed"
+    reason = read_only_reason(obj)
+    if reason:
+        return reason
     if mesh.shape_keys is not None:
         return "the mesh has shape keys; denoising would only change the basis (remove or apply them first)"
     if len(mesh.vertices) == 0:
@@ -231,6 +233,11 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         if self.show_residual:
             _show_colors(context)
         self.report({'INFO'}, self._summary(written, seconds))
+        report_shown_shape(self, [job.obj for job in written])
+        for job in written:
+            if job.mirror_unused:  # a Mirror it cannot honour: its seam may open
+                self.report({'WARNING'}, f"'{job.name}': the Mirror modifier is not used ({job.mirror_unused}): "
+                                         "vertices on its plane may have moved off it")
         return {'FINISHED'}
 
     def _write(self, job):
@@ -314,8 +321,9 @@ class DGMESH_OT_similarity_map(bpy.types.Operator):
         dg = api()
         obj = context.active_object
         mesh = obj.data
-        if mesh.library is not None:
-            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': mesh data is linked from a library")
+        reason = read_only_reason(obj)
+        if reason:
+            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': {reason}")
             return {'CANCELLED'}
         vertex = self.vertex
         if obj.mode == 'EDIT':
@@ -348,6 +356,7 @@ class DGMESH_OT_similarity_map(bpy.types.Operator):
         _show_colors(context)
         self.report({'INFO'}, (f"Similarity map of '{obj.name}' to vertex {vertex}: "
                                f"{int((w > 0.5).sum())} of {len(w)} vertices above 0.5"))
+        report_shown_shape(self, [obj])
         return {'FINISHED'}
 
 

@@ -30,7 +30,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from ..fair import refine_region
 from . import bridge
-from .common import poll_mesh_targets, target_objects
+from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -129,8 +129,9 @@ def _read_target(obj, edit_mode, keep_border):
     dg = api()
     if edit_mode and not bridge.has_selection(obj):
         return None
-    if obj.data.library is not None:
-        raise dg.MeshError("mesh data is linked from a library and cannot be changed")
+    reason = read_only_reason(obj)
+    if reason:
+        raise dg.MeshError(reason)
     if obj.data.shape_keys is not None:
         # The basis alone would change (the shown shape is the active key's) and Edit mode would
         # bring the keys' positions back.
@@ -430,6 +431,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
                 if getattr(self, "_auto_refined", None) else "")
         self.report({level}, f"Fair ({self.method.title().replace('_', ' ')}) in {secs:.2f} s: " + "; ".join(parts)
                     + note)
+        report_shown_shape(self, [t.obj for t in written])
         return {'FINISHED'}
 
 
@@ -620,6 +622,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         mods = "".join(_modifier_note(t) for t in targets[:1])
         self.report({'INFO'}, f"Regularize: {moved} vertices moved on {len(targets)} object(s){mods}, "
                               f"{self.iterations} iterations in {secs:.2f} s")
+        report_shown_shape(self, [t.obj for t in targets])
         return {'FINISHED'}
 
 

@@ -19,10 +19,11 @@ import time
 import bpy
 import numpy as np
 from bpy.props import FloatProperty, IntProperty
+from mathutils import Matrix
 
 from .. import colors
 from . import bridge
-from .common import poll_active_mesh
+from .common import editable_collection, poll_active_mesh, read_only_reason, report_shown_shape
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -66,16 +67,18 @@ def _control_object(context, obj, V, F):
     mesh.update(calc_edges=True)
     if ctrl is None:
         ctrl = bpy.data.objects.new(name, mesh)
-        collections = obj.users_collection or (context.scene.collection,)
-        for col in collections:
-            col.objects.link(ctrl)
+        editable_collection(context, obj).objects.link(ctrl)
         ctrl[CONTROL_KEY] = obj
     else:
         old = ctrl.data
         ctrl.data = mesh
         if old.users == 0:
             bpy.data.meshes.remove(old)
-    ctrl.matrix_world = obj.matrix_world.copy()
+    # A child with an identity local transform: on the mesh (a copied matrix_world loses a parent's
+    # shear) and following it.
+    ctrl.parent = obj
+    ctrl.matrix_parent_inverse = Matrix.Identity(4)
+    ctrl.matrix_basis = Matrix.Identity(4)
     ctrl.display_type = 'WIRE'
     ctrl.show_in_front = True
     return ctrl
@@ -115,8 +118,9 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
     def prepare(self, context):
         """Reads the active mesh (main thread); returns the native work, or None after an error."""
         obj = context.active_object
-        if obj.data.library is not None:
-            self.report({'ERROR'}, f"Multires preview failed on '{obj.name}': mesh data is linked from a library")
+        reason = read_only_reason(obj)
+        if reason:
+            self.report({'ERROR'}, f"Multires preview failed on '{obj.name}': {reason}")
             cancel_event.clear()
             return None
         self._name = obj.name
@@ -147,6 +151,7 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
         if obj is None or obj.type != 'MESH' or len(obj.data.vertices) != mr.n_dense:
             self.report({'ERROR'}, f"Multires preview: '{self._name}' changed while the build ran; nothing was written")
             return {'CANCELLED'}
+        ctrl = _control_object(context, obj, mr.control_vertices, mr.control_faces)  # first: it may fail
         disp = mr.normal_displacement
         mag = mr.displacement_magnitude
         mesh = obj.data
@@ -154,7 +159,6 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
         bridge.write_point_float(mesh, ATTR_MAG, mag)
         bridge.write_point_color(mesh, ATTR_COLOR, colors.sequential(mag, percentile=self.percentile),
                                  'FLOAT_COLOR', make_active=True)
-        ctrl = _control_object(context, obj, mr.control_vertices, mr.control_faces)
 
         V = self._arrays.V
         diag = float(np.linalg.norm(V.max(0) - V.min(0))) or 1.0
@@ -167,6 +171,7 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
             f"({len(mr.control_faces)} faces, {mr.n_control} vertices) in {seconds:.2f} s; "
             f"|displacement| max {mag.max():.4g}, RMS {np.sqrt((mag ** 2).mean()):.4g}; "
             f"rest reconstruction error {rest_err:.1e} of the diagonal"))
+        report_shown_shape(self, [obj])
         if len(mr.control_faces) > 1.5 * self.control_faces:
             self.report({'WARNING'}, f"The control mesh has {len(mr.control_faces)} faces, more than the "
                         f"{self.control_faces} asked: the decimation stops where a collapse would change the "

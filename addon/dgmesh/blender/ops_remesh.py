@@ -22,7 +22,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from ..unwrap import chart_labels
 from . import bridge
-from .common import plural, poll_mesh_targets, target_objects
+from .common import plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -103,8 +103,9 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         for obj in target_objects(context):
             if edit and not bridge.has_selection(obj, "polygons"):
                 continue
-            if obj.data.library is not None:
-                self.report({'ERROR'}, f"Remesh failed on '{obj.name}': mesh data is linked from a library")
+            reason = read_only_reason(obj)
+            if reason:
+                self.report({'ERROR'}, f"Remesh failed on '{obj.name}': {reason}")
                 return None
             if obj.data.shape_keys is not None:
                 self.report({'ERROR'}, f"Remesh failed on '{obj.name}': the mesh has shape keys, which a new "
@@ -188,7 +189,9 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         with bridge.object_mode(context):
             for it in items:
                 mesh = bpy.data.objects[it["name"]].data
+                n_old = len(mesh.vertices)
                 _replace_region(mesh, it, select_new=edit)
+                bridge.remap_vertex_references(mesh, *_renumbering(n_old, it))
                 r = it["result"]
                 lines.append(f"'{it['name']}': {len(it['ids'])} -> {len(r.V)} vertices, "
                              f"{len(it['F'])} -> {len(r.F)} triangles, min angle {_min_angle_deg(r.V, r.F):.1f} deg")
@@ -203,6 +206,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                         "the new vertices (slivers along it): turn on Resample Boundary")
         self.report({'INFO'}, f"Remeshed {plural(len(items), 'region')} ({self.mode.lower()}, target "
                               f"{self.target_vertices}): " + "; ".join(lines))
+        report_shown_shape(self, [bpy.data.objects[it["name"]] for it in items])
         return {'FINISHED'}
 
 
@@ -258,6 +262,23 @@ def _replace_region(mesh, it, select_new):
     finally:
         bm.free()
     mesh.update()
+
+
+def _renumbering(n_old, it):
+    """(new index of each old vertex, -1 for the region's removed inner vertices; their nearest new
+    vertex) after _replace_region: bmesh compacts the survivors in order and appends the new ones."""
+    r, ids = it["result"], it["ids"]
+    removed = np.zeros(n_old, bool)
+    removed[ids[it["inner"]]] = True
+    new_index = np.where(removed, -1, np.arange(n_old) - np.cumsum(removed))
+    nb = len(r.boundary_source)
+    # Output vertex k is the kept boundary vertex ids[boundary_source[k]] for k < nb, else new.
+    out_index = np.concatenate([new_index[ids[r.boundary_source]], n_old - removed.sum() + np.arange(len(r.V) - nb)])
+    chart = {int(v): k for k, v in enumerate(ids)}
+
+    def nearest(old):
+        return out_index[np.argmin(np.linalg.norm(r.V - it["V"][chart[old]], axis=1))]
+    return new_index, nearest
 
 
 def _face_flags(mesh, it, r):

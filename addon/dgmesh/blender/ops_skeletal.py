@@ -68,7 +68,7 @@ from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
 from . import bridge
-from .common import plural, poll_fail as _poll_fail, set_handlers
+from .common import editable_collections, plural, poll_fail as _poll_fail, set_handlers
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key of objects bound by earlier versions (legacy live target)
@@ -750,7 +750,7 @@ def _helper_object(obj, n):
     me.vertices.add(n)
     me.update()
     h = bpy.data.objects.new(name, me)
-    for coll in obj.users_collection:
+    for coll in editable_collections(obj) or [bpy.context.scene.collection]:
         coll.objects.link(h)
     _hide_everywhere(h)
     # Disabled in viewports too: a collection instance ignores the view-layer hide and drew it (a
@@ -806,7 +806,7 @@ def _skeleton_object(context, obj, rig, space=None):
     bridge.write_point_float(me, "dg_radius", rig.radii)
     bridge.write_point_color(me, "dg_radius_color", rgba)
     sk = bpy.data.objects.new(name, me)
-    for coll in obj.users_collection:
+    for coll in editable_collections(obj) or [context.scene.collection]:
         coll.objects.link(sk)
     sk.parent = obj
     sk[SKELETON_OF] = obj.name

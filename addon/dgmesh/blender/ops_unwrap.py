@@ -23,7 +23,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from . import bridge
-from .common import poll_mesh_targets, target_objects
+from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
@@ -166,8 +166,9 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         # Edit mode keeps the real data in the edit-mesh: read the synced datablocks.
         with bridge.object_mode(context):
             for obj in target_objects(context):
-                if obj.data.library is not None:
-                    self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': mesh data is linked from a library")
+                reason = read_only_reason(obj)
+                if reason:
+                    self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': {reason}")
                     return None
                 try:
                     item = _read_charts(obj, edit, dg)
@@ -257,6 +258,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         if self.pack:
             text += ", packed" if packed else ", not packed"
         self.report({'INFO'}, text)
+        report_shown_shape(self, [bpy.data.objects[it["name"]] for it in items])
         if self._n_pinned:
             self.report({'WARNING'}, self._pinned_note())
         warnings = sorted({w for it in items for (_, _, ws) in it["stretch"] for w in ws})
@@ -498,6 +500,10 @@ class DGMESH_OT_stretch_map(bpy.types.Operator):
             # 1. Compute everything before writing anything.
             for obj in targets:
                 mesh = obj.data
+                reason = read_only_reason(obj)
+                if reason:
+                    failures.append((obj.name, reason))
+                    continue
                 if mesh.uv_layers.active is None:
                     failures.append((obj.name, "it has no UV map"))
                     continue
@@ -533,6 +539,7 @@ class DGMESH_OT_stretch_map(bpy.types.Operator):
         vals = np.concatenate([s for _, s in done])
         vals = vals[np.isfinite(vals)]
         self.report({'INFO'}, f"Stretch map: vertex stretch {vals.min():.3g} .. {vals.max():.3g}")
+        report_shown_shape(self, [obj for obj, _ in done])
         return {'FINISHED'}
 
 
