@@ -133,9 +133,10 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         r = run(boundary_clearance)
         retried = None
     except Error as exc:
-        # Lloyd steps can bring samples so close to the kept boundary that the Delaunay triangulation
-        # of the map no longer meets it (Add > Grid 60x60 at 30000 vertices on 256^2): once more with
-        # the boundary samples' full clearance.
+        # A safety net: samples close to the boundary can keep the map's Delaunay triangulation from
+        # meeting a resampled boundary (the ears of a kept one are triangulated apart; Add > Grid 60x60
+        # at 30000 vertices on 256^2 needed this before): once more with the boundary samples' full
+        # clearance.
         if "triangulation is invalid" not in str(exc) or boundary_clearance >= 1.0:
             raise
         try:
@@ -143,8 +144,8 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         except Error as exc2:
             if "triangulation is invalid" not in str(exc2) or boundary != "keep":
                 raise
-            # Not understood yet (left half of a subdivided lion-head, boundary edges 0.001 to 0.044
-            # long); what the user can do is change the border.
+            # No known case left (the left half of a subdivided lion-head was one: needle ears side by
+            # side, now triangulated apart); what the user can do is change the border.
             raise MeshError("remesh: the new triangulation could not be stitched to the kept boundary of this "
                             "region; select a region with a smoother border, or remesh the whole disk with the "
                             "boundary resampled (boundary='resample'; Object mode: Resample Boundary)") from None

@@ -2,12 +2,14 @@
 #include "dgmesh/remesh.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <memory>
 #include <string>
+#include <unordered_set>
 #include <vector>
 
 #include "dgmesh/delaunay.h"
@@ -314,6 +316,79 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
     link(3 * f + 2, o_ca);
     link(3 * g + 0, o_db);
     link(3 * g + 1, o_bc);
+    ++flips;
+    for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
+  }
+  return flips;
+}
+
+// Lawson flips (Lawson 1977) towards the Delaunay triangulation of the map P, starting from the
+// edges in `seeds` and going on with the edges of the flipped triangles: an interior edge (a, b) of
+// triangles (a, b, c) and (b, a, d) flips to (c, d) when d lies inside the circle through a, b and
+// c, both new triangles keep the pair's orientation in the map and (c, d) is not an edge yet.
+// Boundary edges never flip. Returns the number of flips.
+int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
+                       const std::vector<std::pair<int, int>>& seeds) {
+  const int nt = int(T.size());
+  const int64_t nv = P.rows();
+  auto key = [nv](int a, int b) { return a < b ? int64_t(a) * nv + b : int64_t(b) * nv + a; };
+  // Twin half-edges (h = 3 t + k runs T[t][k] -> T[t][k + 1]) by sorting the undirected keys.
+  std::vector<std::pair<int64_t, int>> he(3 * nt);
+  for (int t = 0; t < nt; ++t)
+    for (int k = 0; k < 3; ++k) he[3 * t + k] = {key(T[t][k], T[t][(k + 1) % 3]), 3 * t + k};
+  std::sort(he.begin(), he.end());
+  std::vector<int> opp(3 * nt, -1);
+  for (size_t q = 0; q + 1 < he.size(); ++q)
+    if (he[q].first == he[q + 1].first) {
+      opp[he[q].second] = he[q + 1].second;
+      opp[he[q + 1].second] = he[q].second;
+    }
+  std::unordered_set<int64_t> edges;
+  edges.reserve(he.size());
+  for (const auto& e : he) edges.insert(e.first);
+  auto orient = [&](int a, int b, int c) { return cross2(uv_row(P, b) - uv_row(P, a), uv_row(P, c) - uv_row(P, a)); };
+  // > 0 when d is inside the circle through a, b, c (counter-clockwise); relative to its magnitude.
+  auto in_circle = [&](int a, int b, int c, int d) {
+    const Vec2 pa = uv_row(P, a) - uv_row(P, d), pb = uv_row(P, b) - uv_row(P, d), pc = uv_row(P, c) - uv_row(P, d);
+    const double la = pa.squaredNorm(), lb = pb.squaredNorm(), lc = pc.squaredNorm();
+    const double t1 = la * cross2(pb, pc), t2 = lb * cross2(pc, pa), t3 = lc * cross2(pa, pb);
+    const double det = t1 + t2 + t3, mag = std::abs(t1) + std::abs(t2) + std::abs(t3);
+    return det > 1e-12 * mag ? 1 : det < -1e-12 * mag ? -1 : 0;
+  };
+  std::vector<int> stack;
+  for (auto [a, b] : seeds) {
+    const int64_t k = key(a, b);
+    auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(k, -1));
+    if (it != he.end() && it->first == k) stack.push_back(it->second);
+  }
+  const long max_flips = 20L * nt + 100;
+  int flips = 0;
+  while (!stack.empty() && flips < max_flips) {
+    const int h = stack.back();
+    stack.pop_back();
+    const int o = opp[h];
+    if (o < 0) continue;
+    const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
+    const int a = T[f][k], b = T[f][(k + 1) % 3], c = T[f][(k + 2) % 3], d = T[g][(l + 2) % 3];
+    const double s = orient(a, b, c);
+    if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) continue;
+    if (!(orient(a, d, c) * s > 0) || !(orient(d, b, c) * s > 0) || edges.count(key(c, d))) continue;
+    const int h_bc = 3 * f + (k + 1) % 3, h_ca = 3 * f + (k + 2) % 3;
+    const int h_ad = 3 * g + (l + 1) % 3, h_db = 3 * g + (l + 2) % 3;
+    const int o_bc = opp[h_bc], o_ca = opp[h_ca], o_ad = opp[h_ad], o_db = opp[h_db];
+    T[f] = {a, d, c};
+    T[g] = {d, b, c};
+    auto link = [&](int x, int y) {
+      opp[x] = y;
+      if (y >= 0) opp[y] = x;
+    };
+    link(3 * f + 0, o_ad);
+    link(3 * f + 1, 3 * g + 2);
+    link(3 * f + 2, o_ca);
+    link(3 * g + 0, o_db);
+    link(3 * g + 1, o_bc);
+    edges.erase(key(a, b));
+    edges.insert(key(c, d));
     ++flips;
     for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
   }
@@ -802,14 +877,66 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   for (int f = 0; f < nf; ++f)
     signed_area += cross2(uv_row(Ut, F(f, 1)) - uv_row(Ut, F(f, 0)), uv_row(Ut, F(f, 2)) - uv_row(Ut, F(f, 0)));
   const bool flip = signed_area < 0;
-  // The boundary polygon, counter-clockwise, for the inside test.
-  std::vector<Vec2> poly = bnd_u;
+  // Ears of the kept boundary: a boundary vertex with a single input face, (prev, tip, next) (a
+  // grid's corner; a region cut out of a finer mesh has many). The unwrap takes the tip off the
+  // convex domain and lays the ear out in its 3D shape beyond the chord (prev, next), so in the
+  // triangulation map the chart is a convex core (the other boundary vertices, on the domain's
+  // boundary) with one triangle glued onto each chord. One Delaunay triangulation of all the points
+  // need not have the ears' sides: a needle ear leaning along the boundary holds the tip of the ear
+  // on the other side of its base vertex in its circumcircle (the left half of a subdivided
+  // lion-head has 20 such ears out of 85), and ears that lean far even overlap each other in the map,
+  // where no planar triangulation has the boundary's edges. So the core and each ear are
+  // triangulated on their own (step 5) and joined along the chords. Every interior sample goes with
+  // its input face: an ear's face to the ear, any other face to the core. (Two ears are never loop
+  // neighbours; with fewer than 3 core vertices there are no ears.)
+  struct Ear {
+    int tip, prev, next;  // boundary sample indices
+    int face;             // the ear's input face
+  };
+  std::vector<Ear> ears;
+  std::vector<int> ear_of_face(nf, -1);
+  std::vector<char> is_tip(nb, 0);
+  if (o.boundary == RemeshBoundary::Keep && nb > 3) {
+    for (int k = 0; k < nb; ++k) {
+      const int v = loop[k];
+      if (topo.vf_offset[v + 1] - topo.vf_offset[v] != 1) continue;
+      if (is_tip[(k + nb - 1) % nb] || (k + 1 == nb && is_tip[0])) continue;
+      is_tip[k] = 1;
+      ears.push_back({k, (k + nb - 1) % nb, (k + 1) % nb, topo.vf_index[topo.vf_offset[v]]});
+    }
+    if (nb - int(ears.size()) < 3) {
+      ears.clear();
+      std::fill(is_tip.begin(), is_tip.end(), 0);
+    }
+    for (int e = 0; e < int(ears.size()); ++e) ear_of_face[ears[e].face] = e;
+  }
+  std::vector<int> core;  // boundary samples of the core, in loop order
+  for (int k = 0; k < nb; ++k)
+    if (!is_tip[k]) core.push_back(k);
+  // The core polygon, counter-clockwise, for the inside test.
+  std::vector<Vec2> poly;
+  for (int k : core) poly.push_back(bnd_u[k]);
   {
     double a2 = 0;
-    for (int k = 0; k < nb; ++k) a2 += cross2(poly[k], poly[(k + 1) % nb]);
+    for (size_t k = 0; k < poly.size(); ++k) a2 += cross2(poly[k], poly[(k + 1) % poly.size()]);
     if (a2 < 0) std::reverse(poly.begin(), poly.end());
   }
   const ConvexPolygon polygon(poly);
+  // Whether a point u of the triangulation map on input face f is strictly inside (by margin) its
+  // piece of the chart: the ear's triangle for an ear's face, the core polygon for any other.
+  auto inside_chart = [&](int f, const Vec2& u, double margin) {
+    const int e = ear_of_face[f];
+    if (e < 0) return polygon.inside(u, margin);
+    Vec2 c[3] = {bnd_u[ears[e].prev], bnd_u[ears[e].tip], bnd_u[ears[e].next]};
+    const double s = cross2(c[1] - c[0], c[2] - c[0]);
+    if (s == 0) return false;
+    if (s < 0) std::swap(c[1], c[2]);
+    for (int k = 0; k < 3; ++k) {
+      const Vec2 d = c[(k + 1) % 3] - c[k];
+      if (!(cross2(d, u - c[k]) > margin * d.norm())) return false;
+    }
+    return true;
+  };
 
   // 3. Rasterize the control map over the sampling map: pixel value = (3D area / UV area) of the
   // covering face times the interpolated density, i.e. the density per unit of UV area [AMD02].
@@ -998,7 +1125,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
           continue;
         }
         const Vec2 u = w0 * uv_row(Ut, F(f, 0)) + w1 * uv_row(Ut, F(f, 1)) + w2 * uv_row(Ut, F(f, 2));
-        if (!polygon.inside(u, margin)) {
+        if (!inside_chart(f, u, margin)) {
           pix_keep[idx] = 0;
           continue;
         }
@@ -1149,7 +1276,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
           if (!locate(c, start, next)) continue;
           const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
                          next.w2 * uv_row(Ut, F(next.face, 2));
-          if (!polygon.inside(u, margin)) continue;  // must stay strictly inside for the Delaunay step
+          if (!inside_chart(next.face, u, margin)) continue;  // must stay strictly inside for the Delaunay step
           sm = next;
           ++moved;
         }
@@ -1241,12 +1368,13 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     X.row(k) = bnd_x[k].transpose();
   }
   {
-    // The boundary polygon is convex but for the tips of ears (a boundary triangle whose three
-    // vertices are on the boundary, a grid's corner: the unwrap lays it out in its 3D shape, outside
-    // the circle or square), which leave their neighbours reflex. The Delaunay triangulation keeps a
-    // polygon edge next to a reflex vertex only when no sample lies in its diametral disk (a Gabriel
-    // edge); a sample there connects past the reflex vertex, which becomes an interior vertex. So
-    // the few interior samples in those disks are left out (hull edges need no such care).
+    // The boundary polygon is convex but for the tips of ears, which leave their neighbours reflex;
+    // interior samples in the diametral disk of a polygon edge next to a reflex vertex are left out.
+    // With a resampled boundary (no pieces: its samples lie on the ears' sides) this keeps the
+    // boundary in the Delaunay triangulation: it keeps such an edge only when no sample lies in
+    // that disk (a Gabriel edge), else it connects past the reflex vertex, which becomes an interior
+    // vertex. A kept boundary is met anyway (the pieces below); there it keeps the samples away
+    // from the ears' sides, which they would see at more than 90 degrees (obtuse triangles on them).
     std::vector<std::pair<Vec2, double>> disks;  // centre, squared radius
     double area2 = 0;
     for (int k = 0; k < nb; ++k) area2 += cross2(bnd_u[k], bnd_u[(k + 1) % nb]);
@@ -1277,28 +1405,79 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     n_all = w;
   }
   report(0.8);
-  const MatX3i T = delaunay_2d(P);
+  // The pieces' points (indices into P): the core's boundary samples and the interior samples on
+  // its faces; each ear's prev, tip and next and the interior samples on its face.
+  std::vector<int> core_pts(core);
+  std::vector<std::vector<int>> ear_pts(ears.size());
+  for (size_t e = 0; e < ears.size(); ++e) ear_pts[e] = {ears[e].prev, ears[e].tip, ears[e].next};
+  for (int i = nb; i < n_all; ++i) {
+    const int e = ear_of_face[PS[i].face];
+    (e < 0 ? core_pts : ear_pts[e]).push_back(i);
+  }
+  // Delaunay triangulation of a piece, counter-clockwise in the map, in P's indices.
+  auto triangulate = [&](const std::vector<int>& pts) {
+    MatX2d Q(int(pts.size()), 2);
+    for (int i = 0; i < Q.rows(); ++i) Q.row(i) = P.row(pts[i]);
+    MatX3i T = delaunay_2d(Q);
+    for (int t = 0; t < T.rows(); ++t)
+      for (int k = 0; k < 3; ++k) T(t, k) = pts[T(t, k)];
+    return T;
+  };
+  const MatX3i T = triangulate(core_pts);
   report(0.92);
-  // Drop flat triangles (co-linear boundary points) and any outside the chart polygon.
+  // The output triangles in P's indices, oriented like the input. The core's: without flat
+  // triangles (co-linear boundary points) and any outside the core polygon.
   const double area_eps = 1e-14;
-  std::vector<int> tri_keep;
-  tri_keep.reserve(T.rows());
+  std::vector<std::array<int, 3>> tris;
+  tris.reserve(T.rows() + ears.size());
+  auto add_map_triangle = [&](int a, int b, int c, bool reverse) {  // (a, b, c) counter-clockwise in the map
+    if (reverse) std::swap(b, c);
+    tris.push_back({a, b, c});
+  };
   for (int t = 0; t < T.rows(); ++t) {
     const Vec2 a = uv_row(P, T(t, 0)), b = uv_row(P, T(t, 1)), c = uv_row(P, T(t, 2));
     if (std::abs(cross2(b - a, c - a)) <= area_eps) continue;
-    // Every interior sample is strictly inside the convex boundary polygon, so the hull is the
-    // polygon and only a triangle of three boundary samples can lie outside it (on a straight side).
+    // Every interior sample of the core is strictly inside the convex core polygon, so the hull is
+    // the polygon and only a triangle of three boundary samples can lie outside it (on a straight side).
     const bool all_boundary = T(t, 0) < nb && T(t, 1) < nb && T(t, 2) < nb;
     if (all_boundary && !polygon.inside((a + b + c) / 3.0, 0.0)) continue;
-    tri_keep.push_back(t);
+    add_map_triangle(T(t, 0), T(t, 1), T(t, 2), flip);
+  }
+  // The ears: the input face itself when no sample lies on it (whatever its shape in the map), else
+  // the Delaunay triangulation of its corners and samples (strictly inside its triangle, so the
+  // hull is the ear and the chord joins the core), oriented like the ear's face in the map.
+  for (size_t e = 0; e < ears.size(); ++e) {
+    const Ear& ear = ears[e];
+    auto sample_of = [&](int v) { return v == loop[ear.tip] ? ear.tip : v == loop[ear.prev] ? ear.prev : ear.next; };
+    const int f = ear.face;
+    if (ear_pts[e].size() == 3) {
+      tris.push_back({sample_of(F(f, 0)), sample_of(F(f, 1)), sample_of(F(f, 2))});
+      continue;
+    }
+    const Vec2 u0 = uv_row(Ut, F(f, 0));
+    const bool reverse = cross2(uv_row(Ut, F(f, 1)) - u0, uv_row(Ut, F(f, 2)) - u0) < 0;
+    const MatX3i Te = triangulate(ear_pts[e]);
+    for (int t = 0; t < Te.rows(); ++t) {
+      const Vec2 a = uv_row(P, Te(t, 0)), b = uv_row(P, Te(t, 1)), c = uv_row(P, Te(t, 2));
+      if (std::abs(cross2(b - a, c - a)) <= area_eps) continue;
+      add_map_triangle(Te(t, 0), Te(t, 1), Te(t, 2), reverse);
+    }
+  }
+  // The chords join the pieces but are no boundary: flips across them (and on from there) give the
+  // Delaunay triangulation of the map constrained by the boundary's edges only, the triangulation
+  // of all the points in one piece wherever that has the boundary's edges.
+  if (!ears.empty()) {
+    std::vector<std::pair<int, int>> chords;
+    for (const Ear& ear : ears) chords.emplace_back(ear.prev, ear.next);
+    delaunay_flips_map(P, tris, chords);
   }
   // Compact: boundary vertices keep their indices, unused interior samples go.
   std::vector<int> id(n_all, -1);
   for (int k = 0; k < nb; ++k) id[k] = k;
   int nout = nb;
-  for (int t : tri_keep)
+  for (const auto& t : tris)
     for (int k = 0; k < 3; ++k)
-      if (id[T(t, k)] < 0) id[T(t, k)] = nout++;
+      if (id[t[k]] < 0) id[t[k]] = nout++;
   res.V.resize(nout, 3);
   res.uv.resize(nout, 2);
   std::vector<Sample> out_s(nout, Sample{-1, 0, 0, 0});
@@ -1308,13 +1487,9 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       res.uv.row(id[i]) = P.row(i);
       out_s[id[i]] = PS[i];
     }
-  res.F.resize(int(tri_keep.size()), 3);
-  for (size_t q = 0; q < tri_keep.size(); ++q) {
-    const int t = tri_keep[q];
-    res.F(int(q), 0) = id[T(t, 0)];
-    res.F(int(q), 1) = id[T(t, flip ? 2 : 1)];
-    res.F(int(q), 2) = id[T(t, flip ? 1 : 2)];
-  }
+  res.F.resize(int(tris.size()), 3);
+  for (size_t q = 0; q < tris.size(); ++q)
+    for (int k = 0; k < 3; ++k) res.F(int(q), k) = id[tris[q][k]];
   if (o.flip_3d) res.n_flips = delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
   if (o.smooth_iterations > 0) {
     VecXd rho_out = VecXd::Ones(nout);

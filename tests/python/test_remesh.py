@@ -131,6 +131,90 @@ def test_grid_with_ear_corners_keeps_its_boundary(mode, domain):
         assert abs(len(r.V) - target) <= 0.05 * target
 
 
+def needle_ears(lean, height, lift):
+    """A planar disk (polar_disk with 8 rings) with a pair of needle ears on either side of every
+    eighth boundary vertex q: one triangle on the boundary edge (p, q), one on (q, r), each with its
+    tip `lean` chords along its edge and `height` chords off it (turned out of the plane by `lift`
+    radians). Returns V, F and the pairs' tips as (tip on (p, q), tip on (q, r))."""
+    V, F = polar_disk(rings=8)
+    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    halfedges = {(f[k], f[(k + 1) % 3]) for f in F for k in range(3)}
+    forward = (loop[0], loop[1]) in halfedges  # the new faces run the other way along the loop
+    V, F, pairs = list(V), [tuple(f) for f in F], []
+    for k in range(0, len(loop) - 2, 8):
+        tips = []
+        for (a, b), le, h, z in zip(((loop[k], loop[k + 1]), (loop[k + 1], loop[k + 2])), lean, height, lift):
+            A, B = V[a], V[b]
+            d = B - A
+            out = np.array([d[1], -d[0], 0.0]) * np.sign(d[1] * (A + B)[0] - d[0] * (A + B)[1])
+            V.append(A + le * d + h * (np.cos(z) * out + np.sin(z) * np.linalg.norm(d) * np.array([0, 0, 1.0])))
+            F.append((b, a, len(V) - 1) if forward else (a, b, len(V) - 1))
+            tips.append(len(V) - 1)
+        pairs.append(tuple(tips))
+    return np.array(V), np.array(F), pairs
+
+
+@pytest.mark.parametrize("shape", ("side_by_side", "overlapping"))
+def test_needle_ears_side_by_side_keep_their_boundary(shape):
+    """Ears (boundary vertices with one triangle) are laid out by the unwrap in their 3D shape beyond
+    the circle. Two needle ears on either side of one boundary vertex, leaning the same way along the
+    boundary: the second's tip lies in the first's circumcircle, so the map's Delaunay triangulation
+    of all the points has no first ear and loses its tip ('could not be stitched to the kept
+    boundary'; the left half of a subdivided lion-head has 20 such ears). Leaning further (and out of
+    the plane, so the input does not cross itself) the two ears overlap in the map, where no planar
+    triangulation has the boundary's edges. The ears are triangulated apart from the rest."""
+    if shape == "side_by_side":
+        V, F, pairs = needle_ears(lean=(-0.5, -1.0), height=(4.0, 3.6), lift=(0.0, 0.0))
+        for t1, t2 in pairs:  # planar: the map keeps the ears' shapes; the mechanism is there
+            f = F[(F == t1).any(1)][0]
+            a, b, c = V[f, :2]
+            M = np.c_[np.r_[[a, b, c]] - V[t2, :2], (np.r_[[a, b, c]] - V[t2, :2]) ** 2 @ [1, 1]]
+            assert np.linalg.det(M) * np.cross(b - a, c - a) > 0  # t2 inside the circle through the ear
+    else:
+        V, F, pairs = needle_ears(lean=(-0.5, -2.5), height=(3.0, 3.0), lift=(0.0, 1.2))
+    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    assert len(loop) == 60
+    # The boundary in the triangulation map (U0: Floater's weights on the circle).
+    Q = dgmesh.unwrap(V, F, boundary="circle", iterations=0).uv[loop]
+    A, B = Q, np.roll(Q, -1, axis=0)
+    side = lambda o, a, b: (a[..., 0] - o[..., 0]) * (b[..., 1] - o[..., 1]) - (a[..., 1] - o[..., 1]) * (b[..., 0] - o[..., 0])
+    cross = (side(A[:, None], B[:, None], A[None]) * side(A[:, None], B[:, None], B[None]) < 0) & \
+            (side(A[None], B[None], A[:, None]) * side(A[None], B[None], B[:, None]) < 0)
+    assert cross.any() == (shape == "overlapping")  # boundary edges crossing each other
+    for target in (300, 1500):
+        r = dgmesh.remesh_full(V, F, target_vertices=target)
+        t = check_disk(r.V, r.F)
+        assert not r.warnings
+        assert np.array_equal(r.boundary_source, loop)
+        assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
+        # The output boundary is the input's, edge for edge.
+        out = t["boundary_loops"][0]
+        i0 = out.index(0)
+        out = out[i0:] + out[:i0]
+        assert out == list(range(r.n_boundary)) or out == [0] + list(range(r.n_boundary - 1, 0, -1))
+        assert abs(len(r.V) - target) <= 0.1 * target
+
+
+def test_left_half_of_a_subdivided_lion_head_keeps_its_boundary(cgal):
+    """The chart that showed it: the faces of a once-subdivided lion-head left of the median centroid,
+    one boundary loop of 524 vertices with 85 ears, needles side by side among them."""
+    V, F = dgmesh.read_mesh(cgal / "lion-head.off")
+    V, F = dgmesh.shapes.subdivide_linear(V, F)
+    cx = V[F].mean(axis=1)[:, 0]
+    F = F[cx < np.median(cx)]
+    used = np.unique(F)
+    V, F = V[used], np.searchsorted(used, F)
+    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    assert len(loop) == 524
+    for kw in (dict(), dict(lloyd_iterations=0, min_separation=0.0, flip_3d=False, smooth_iterations=0)):
+        r = dgmesh.remesh_full(V, F, target_vertices=5000, **kw)
+        t = check_disk(r.V, r.F)
+        assert not any("missed the kept boundary" in w for w in r.warnings)
+        assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+        assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
+        assert abs(len(r.V) - 5000) <= 100
+
+
 @pytest.mark.parametrize("boundary", ("keep", "resample"))
 def test_source_face_and_barycentrics_rebuild_every_output_vertex(boundary):
     """Each output vertex lies on the input face it names, at its barycentric weights (what the
@@ -343,11 +427,11 @@ def test_huge_coordinates_are_refused():
         dgmesh.remesh(V * 1e39, F, target_vertices=500)
 
 
-def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance():
-    """Blender's Add > Grid 60x60 (its diagonal pattern) at 30000 vertices on 256^2: the Lloyd steps
-    brought samples so close to the kept boundary that the map's Delaunay triangulation left a
-    non-manifold vertex there ('internal error'). The run is repeated with the boundary samples' full
-    clearance, and says so."""
+def test_grid_corner_ears_meet_the_kept_boundary_without_a_retry():
+    """Blender's Add > Grid 60x60 (its diagonal pattern) at 30000 vertices on 256^2: samples close
+    to a corner ear kept the map's Delaunay triangulation of all the points from meeting the kept
+    boundary (a non-manifold vertex: 'internal error'), and remesh_full retried with the boundary
+    samples' full clearance. The ears are now triangulated apart: no retry."""
     n = 61
     x, y = np.meshgrid(np.linspace(-1, 1, n), np.linspace(-1, 1, n))
     V = np.stack([x.ravel(), y.ravel(), 0 * x.ravel()], 1)
@@ -355,9 +439,33 @@ def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance
     F = np.stack([np.stack([i, i + 1, i + n + 1], 1), np.stack([i, i + n + 1, i + n], 1)], 1).reshape(-1, 3)
     r = dgmesh.remesh_full(V, F, target_vertices=30000, resolution=256)
     assert abs(len(r.V) - 30000) < 300
-    assert any("missed the kept boundary" in w for w in r.warnings)
+    assert not any("missed the kept boundary" in w for w in r.warnings)
     t = dgmesh.topology(r.V, r.F)
     assert t["n_components"] == 1 and len(t["boundary_loops"]) == 1
+    assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+
+
+def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance(monkeypatch):
+    """The safety net: an 'invalid triangulation' is run once more with the boundary samples' full
+    clearance, and the result says so."""
+    import sys
+
+    remesh_module = sys.modules["dgmesh.remesh"]
+    native = remesh_module._native.remesh
+    clearances = []
+
+    def first_fails(*args, **kwargs):
+        clearances.append(kwargs["boundary_clearance"])
+        if len(clearances) == 1:
+            raise dgmesh.Error("remesh: internal error, the new triangulation is invalid (the triangulation's "
+                               "boundary is not the chart's boundary); try another resolution or target")
+        return native(*args, **kwargs)
+
+    monkeypatch.setattr(remesh_module._native, "remesh", first_fails)
+    V, F = dgmesh.shapes.grid(8, 8)
+    r = dgmesh.remesh_full(V, F, target_vertices=200)
+    assert clearances == [0.5, 1.0]
+    assert any("missed the kept boundary" in w for w in r.warnings)
 
 
 def test_point_mesh_distance_validates_the_mesh():

@@ -10,7 +10,10 @@
 //   3b. (beyond the thesis's list) relax the samples by a few density-weighted
 //      Lloyd steps over the control map's pixels, boundary samples fixed;
 //   4. map the samples to the triangulation map through the shared triangulation (same face, same
-//      barycentric coordinates), Delaunay-triangulate them there (Qhull) and lift to 3D;
+//      barycentric coordinates), Delaunay-triangulate them there (Qhull) and lift to 3D; a kept
+//      boundary's ears (boundary vertices with one triangle, which the unwrap lays out beyond the
+//      convex domain) are triangulated apart from the convex rest and joined to it by Delaunay flips
+//      across their chords, so the triangulation always has the boundary's edges;
 //   4b. (beyond the thesis) 3D Delaunay edge flips and a few sweeps of tangential (optimal-
 //      Delaunay) smoothing of the new vertices in the surface metric, moved inside the
 //      triangulation map, with removal of stuck valence-3/4 vertices (flip_3d, smooth_iterations):
