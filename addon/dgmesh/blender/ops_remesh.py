@@ -15,6 +15,8 @@ runs show progress and Esc cancels (jobs.NativeJobOperator); the mesh is written
 computation has finished.
 """
 
+import dataclasses
+
 import bmesh
 import bpy
 import numpy as np
@@ -138,7 +140,8 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
             items.append(dict(name=obj.name, counts=(len(mesh.vertices), len(mesh.loops), npoly),
                               polys=np.nonzero(mask)[0], ids=ids, outside=outside,
                               tri_loops=arrays.tri_loops[tri_mask], tri_poly=arrays.tri_poly[tri_mask],
-                              V=np.ascontiguousarray(arrays.V[ids]), F=Fc.reshape(-1, 3).astype(np.int32)))
+                              V=np.ascontiguousarray(arrays.V[ids]), F=Fc.reshape(-1, 3).astype(np.int32),
+                              mirror=bridge.mirror_axes(obj, arrays.V)[0]))
         if not items:
             self.report({'WARNING'}, "No faces to remesh (select faces in Edit mode)" if edit
                         else "No faces to remesh: the selected meshes have no faces")
@@ -161,6 +164,9 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                 except dg.MeshError as exc:
                     what = "the selected faces" if edit else "the mesh"
                     raise dg.MeshError(f"'{it['name']}' ({what}, {len(it['F'])} triangles): {exc}") from None
+                if it["mirror"]:
+                    r = it["result"]
+                    it["result"] = dataclasses.replace(r, F=flip_off_mirror_planes(r.V, r.F, it["mirror"]))
                 done += len(it["F"])
             return items
 
@@ -262,6 +268,51 @@ def _replace_region(mesh, it, select_new):
     finally:
         bm.free()
     mesh.update()
+
+
+def flip_off_mirror_planes(V, F, axes):
+    """A triangle with its three corners on a Mirror modifier's plane lies in the plane, on its
+    mirror twin: the mirrored mesh tears there (a kept boundary along the plane gives a few, from
+    three boundary vertices in a row). Each such triangle's edge shared with a triangle off the
+    plane is flipped, when the two new triangles face the way the pair did. Returns the new F."""
+    F = np.array(F)
+    on = np.zeros(len(V), np.int64)
+    for k, tol in axes:
+        on[np.abs(V[:, k]) <= tol] |= 1 << k
+    bad = np.flatnonzero(on[F[:, 0]] & on[F[:, 1]] & on[F[:, 2]])
+    if not len(bad):
+        return F
+    n = len(V)
+    keys = (F * n + np.roll(F, -1, axis=1)).ravel()  # half-edge a -> b of face i // 3
+    order = np.argsort(keys)
+    made = {}  # half-edges of flipped faces (the sorted keys are stale for them)
+
+    def face_of(a, b):  # the face with half-edge a -> b, or None
+        i = np.searchsorted(keys, a * n + b, sorter=order)
+        for f in (made.get((a, b)), int(order[i]) // 3 if i < len(keys) and keys[order[i]] == a * n + b else None):
+            if f is not None and any(F[f, j] == a and F[f, (j + 1) % 3] == b for j in range(3)):
+                return f
+        return None
+
+    def normal(a, b, c):
+        return np.cross(V[b] - V[a], V[c] - V[a])
+
+    for t in bad:  # a handful: a loop over them
+        for k in range(3):
+            a, b, c = (int(F[t, (k + j) % 3]) for j in range(3))
+            g = face_of(b, a)
+            if g is None:
+                continue
+            d = int(F[g].sum()) - a - b
+            if on[a] & on[b] & on[d] or face_of(c, d) is not None or face_of(d, c) is not None:
+                continue
+            m = normal(b, a, d)  # the neighbour off the plane: the side the surface faces
+            if normal(a, d, c) @ m <= 0 or normal(d, b, c) @ m <= 0:
+                continue
+            F[t], F[g] = (a, d, c), (d, b, c)
+            made.update({(a, d): t, (d, c): t, (c, a): t, (d, b): g, (b, c): g, (c, d): g})
+            break
+    return F
 
 
 def _renumbering(n_old, it):
