@@ -195,9 +195,8 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         with bridge.object_mode(context):
             for it in items:
                 mesh = bpy.data.objects[it["name"]].data
-                n_old = len(mesh.vertices)
-                _replace_region(mesh, it, select_new=edit)
-                bridge.remap_vertex_references(mesh, *_renumbering(n_old, it))
+                new_index, out_index = _replace_region(mesh, it, select_new=edit)
+                bridge.remap_vertex_references(mesh, new_index, _nearest_output(it, out_index))
                 r = it["result"]
                 lines.append(f"'{it['name']}': {len(it['ids'])} -> {len(r.V)} vertices, "
                              f"{len(it['F'])} -> {len(r.F)} triangles, min angle {_min_angle_deg(r.V, r.F):.1f} deg")
@@ -219,19 +218,21 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
 def _replace_region(mesh, it, select_new):
     """Deletes the region's faces and inner vertices and adds the new triangulation, reusing the
     region's boundary vertices (kept) so the stitch is exact. Works on a BMesh copy written back
-    only at the end."""
+    only at the end; the new faces' corner data and flags are written in bulk after that. Returns
+    (the new index of each old vertex, -1 for removed ones; the mesh vertex of each output vertex)."""
     r = it["result"]
     ids = it["ids"]
+    # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
+    # of the new vertices, blended from the input face each lies on (source_face/bary).
+    corner = _corner_values(mesh, it, r)
+    material, smooth = _face_flags(mesh, it, r)
     bm = bmesh.new()
     try:
         bm.from_mesh(mesh)
         bm.verts.ensure_lookup_table()
         bm.faces.ensure_lookup_table()
+        old = bm.verts[:]
         faces = [bm.faces[p] for p in it["polys"]]
-        # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
-        # of the new vertices, blended from the input face each lies on (source_face/bary).
-        corner = _corner_values(mesh, it, r)
-        material, smooth = _face_flags(mesh, it, r)
         region_edges = {e for f in faces for e in f.edges}
         kept = [bm.verts[int(ids[s])] for s in r.boundary_source]
         inner = [bm.verts[int(v)] for v in ids[it["inner"]]]
@@ -242,32 +243,65 @@ def _replace_region(mesh, it, select_new):
         bridge.blend_point_data(new, sources, it["F"][r.source_face[nb:]], r.source_bary[nb:], vlayers, deform)
         bmesh.ops.delete(bm, geom=faces, context='FACES_ONLY')
         bmesh.ops.delete(bm, geom=inner, context='VERTS')
-        if select_new:
-            for coll in (bm.verts, bm.edges, bm.faces):
-                for e in coll:
-                    e.select_set(False)
         vmap = kept + new
-        corner = [(getattr(bm.loops.layers, kind)[name], values.tolist()) for (kind, name), values in corner]
-        for t, (a, b, c) in enumerate(r.F.tolist()):
-            f = bm.faces.new((vmap[a], vmap[b], vmap[c]))
-            f.material_index = int(material[t])
-            f.smooth = bool(smooth[t])
-            for j, loop in enumerate(f.loops):
-                for layer, values in corner:
-                    if hasattr(loop[layer], "uv"):
-                        loop[layer].uv = values[t][j]
-                    else:
-                        loop[layer] = values[t][j]
-            if select_new:
-                f.select_set(True)
+        made = [bm.faces.new((vmap[a], vmap[b], vmap[c])) for a, b, c in r.F.tolist()]
         # Old chords of the region (edges between two boundary vertices) that no face uses now.
         stale = [e for e in region_edges if e.is_valid and not e.link_faces]
         if stale:
             bmesh.ops.delete(bm, geom=stale, context='EDGES')
+        # The indices to_mesh gives (bmesh reuses freed slots: new faces are not simply appended).
+        bm.verts.index_update()
+        bm.faces.index_update()
+        new_index = np.array([v.index if v.is_valid else -1 for v in old], dtype=np.int64)
+        out_index = np.array([v.index for v in vmap], dtype=np.int64)
+        polys = np.array([f.index for f in made], dtype=np.int64)
         bm.to_mesh(mesh)
     finally:
         bm.free()
+    _write_new_faces(mesh, polys, out_index[r.F], corner, material, smooth, select_new)
     mesh.update()
+    return new_index, out_index
+
+
+def _write_new_faces(mesh, polys, want, corner, material, smooth, select_new):
+    """Corner values ((kind, name), (m, 3[, k])), material index and smooth flag of the new
+    triangles ``polys`` whose vertices are ``want`` (m, 3), and (``select_new``) the selection: them
+    alone. Each loop's vertex says which corner it is. In bulk: a Python loop per face and corner
+    took half of a 100K-vertex Remesh."""
+    npoly = len(mesh.polygons)
+    start = bridge.get_array(mesh.polygons, "loop_start", np.int32)[polys]
+    got = bridge.get_array(mesh.loops, "vertex_index", np.int32)[start[:, None] + np.arange(3)]
+    pos = np.argmax(got[:, None, :] == want[:, :, None], axis=2)  # corner j is loop pos[t, j] of face t
+    if not np.array_equal(np.take_along_axis(got, pos, 1), want):
+        raise RuntimeError("the new faces' corners were not found")
+    loops = (start[:, None] + pos).ravel()
+    for (kind, name), values in corner:
+        if kind == "uv":
+            data, key = mesh.uv_layers[name].data, "uv"
+        elif kind in ("float_color", "color"):
+            att = mesh.color_attributes[name]
+            # bmesh's byte-colour layers held the stored (sRGB) values, as _corner_values read them
+            data, key = att.data, "color_srgb" if att.data_type == 'BYTE_COLOR' else "color"
+        else:
+            data, key = mesh.attributes[name].data, "vector" if kind == "float_vector" else "value"
+        k = values.shape[2] if values.ndim == 3 else 1
+        a = np.empty(k * len(mesh.loops), np.int32 if kind == "int" else np.float32)
+        data.foreach_get(key, a)
+        a.reshape(-1, k)[loops] = values.reshape(-1, k)
+        data.foreach_set(key, a)
+    for key, values in (("material_index", material), ("use_smooth", smooth)):
+        a = bridge.get_array(mesh.polygons, key, values.dtype)
+        a[polys] = values
+        mesh.polygons.foreach_set(key, a)
+    if select_new:
+        poly = np.zeros(npoly, bool)
+        poly[polys] = True
+        vert = np.zeros(len(mesh.vertices), bool)
+        vert[want.ravel()] = True
+        edge = np.zeros(len(mesh.edges), bool)
+        edge[bridge.get_array(mesh.loops, "edge_index", np.int32)[loops]] = True
+        for coll, sel in ((mesh.polygons, poly), (mesh.vertices, vert), (mesh.edges, edge)):
+            coll.foreach_set("select", sel)
 
 
 def flip_off_mirror_planes(V, F, axes):
@@ -315,21 +349,15 @@ def flip_off_mirror_planes(V, F, axes):
     return F
 
 
-def _renumbering(n_old, it):
-    """(new index of each old vertex, -1 for the region's removed inner vertices; their nearest new
-    vertex) after _replace_region: bmesh compacts the survivors in order and appends the new ones."""
-    r, ids = it["result"], it["ids"]
-    removed = np.zeros(n_old, bool)
-    removed[ids[it["inner"]]] = True
-    new_index = np.where(removed, -1, np.arange(n_old) - np.cumsum(removed))
-    nb = len(r.boundary_source)
-    # Output vertex k is the kept boundary vertex ids[boundary_source[k]] for k < nb, else new.
-    out_index = np.concatenate([new_index[ids[r.boundary_source]], n_old - removed.sum() + np.arange(len(r.V) - nb)])
-    chart = {int(v): k for k, v in enumerate(ids)}
+def _nearest_output(it, out_index):
+    """Where references to a removed vertex of the region go: the mesh vertex of the output vertex
+    nearest to it."""
+    r = it["result"]
+    chart = {int(v): k for k, v in enumerate(it["ids"])}
 
     def nearest(old):
         return out_index[np.argmin(np.linalg.norm(r.V - it["V"][chart[old]], axis=1))]
-    return new_index, nearest
+    return nearest
 
 
 def _face_flags(mesh, it, r):
