@@ -35,6 +35,8 @@ Cancelled = _native.Cancelled
 
 def as_vertices(V, name="V"):
     """(n, 3) float64 C-contiguous view or copy of V; a clear error for the wrong shape."""
+    if np.iscomplexobj(V):
+        raise MeshError(f"{name} must hold real coordinates, got complex numbers")
     V = np.ascontiguousarray(V, dtype=np.float64)
     if V.ndim != 2 or V.shape[1] != 3:
         raise MeshError(f"{name} must have shape (n, 3), got {V.shape}")

@@ -194,5 +194,8 @@ def point_mesh_distance(P, V, F, *, candidates=16):
     """Distance from each point of P (k, 3) to the triangle mesh (V, F): exact distances to the
     triangles whose centroids are among the ``candidates`` nearest (so it can only over-estimate)."""
     V = as_vertices(V)
-    return np.asarray(_native.point_mesh_distance(as_vertices(P, "P"), V, as_faces(F, n=len(V)),
+    P = as_vertices(P, "P")
+    if not np.isfinite(P).all():
+        raise MeshError("P has NaN or infinite coordinates")
+    return np.asarray(_native.point_mesh_distance(P, V, as_faces(F, n=len(V)),
                                                   as_count(candidates, "candidates", 1)))

@@ -332,6 +332,14 @@ def test_face_indices_checked_before_use():
     assert "float64" not in str(info.value)
 
 
+def test_complex_coordinates_and_nan_query_points_are_refused():
+    V, F = shapes.icosphere(1)
+    with pytest.raises(dgmesh.MeshError, match="complex"):
+        dgmesh.curvature(V + 0j, F)
+    with pytest.raises(dgmesh.MeshError, match="NaN"):
+        dgmesh.point_mesh_distance(np.array([[0.0, np.nan, 0.0]]), V, F)
+
+
 def test_rounded_cube_with_sharp_edges():
     V, F = shapes.rounded_cube(4, r=0)
     assert np.isfinite(V).all() and np.abs(V).max() == 1.0
