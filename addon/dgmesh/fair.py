@@ -79,7 +79,9 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         needs ``faces`` and ``subdivisions >= 1``: the new edge midpoints are the ones that move.
     boundary: "fixed" or "sliding" (boundary vertices slide along the boundary curve).
     subdivisions: coarse-to-fine levels: fair, refine 1-to-4 (linear), fair again (fig. 3.5).
-    tolerance: stop when the relative energy change over a window of flow time falls below it.
+    tolerance: stop when the relative energy change over a window of flow time falls below it
+        (semi-implicit: also when 16 accepted steps found no energy lower by this fraction than
+        the lowest before them; ``converged`` is then False if the energy had crept up).
     max_iterations: per level; default 5000 (explicit) or 200 (semi-implicit).
     tangential: add the tangential drift that equalises triangles (eq. 3.8).
     scheme: "semi_implicit" (default: a linearised implicit bi-Laplacian step, same fixed points,

@@ -195,7 +195,8 @@ TEST(SparseSolver, FactorOnceSolveMany) {
   SpMat I(L.rows(), L.cols());
   I.setIdentity();
   const SpMat A = I - 0.1 * L;  // SPD: the implicit smoothing matrix
-  for (auto kind : {SparseSolver::Kind::Cholesky, SparseSolver::Kind::LU, SparseSolver::Kind::Umfpack}) {
+  for (auto kind : {SparseSolver::Kind::Cholesky, SparseSolver::Kind::LU, SparseSolver::Kind::Umfpack,
+                    SparseSolver::Kind::Supernodal}) {
     SparseSolver solver;
     solver.factor(A, kind);
     for (int rep = 0; rep < 3; ++rep) {
@@ -211,6 +212,40 @@ TEST(SparseSolver, FactorOnceSolveMany) {
     SparseSolver lu;
     EXPECT_THROW(lu.factor(singular, kind), SolverError);
   }
+}
+
+// Supernodal (CHOLMOD): refactoring reuses the analysis of the first matrix's pattern; a matrix that
+// is not positive definite falls back to LDL^T (which solves this indefinite one), a singular one throws.
+TEST(SparseSolver, SupernodalRefactorAndFallback) {
+  const TriMesh s = icosphere(3);
+  const SpMat L = cotan_laplacian(s.V, s.F);
+  SpMat I(L.rows(), L.cols());
+  I.setIdentity();
+  SparseSolver solver;
+  solver.factor(SpMat(I - 0.1 * L), SparseSolver::Kind::Supernodal);
+  for (double tau : {0.1, 10.0, 0.01}) {
+    const SpMat A = I - tau * L;
+    solver.refactor(A);
+    const Eigen::MatrixXd B = Eigen::MatrixXd::Random(L.rows(), 3);
+    EXPECT_LT((A * solver.solve(B) - B).norm() / B.norm(), 1e-10);
+    EXPECT_EQ(solver.rows(), L.rows());
+  }
+  SpMat D(3, 3);
+  D.insert(0, 0) = 2.0;
+  D.insert(1, 1) = -1.0;
+  D.insert(2, 2) = 3.0;
+  SparseSolver indefinite;
+  indefinite.factor(D, SparseSolver::Kind::Supernodal);
+  const Eigen::MatrixXd x = indefinite.solve(Eigen::MatrixXd::Ones(3, 1));
+  EXPECT_NEAR(x(0), 0.5, 1e-14);
+  EXPECT_NEAR(x(1), -1.0, 1e-14);
+  EXPECT_NEAR(x(2), 1.0 / 3.0, 1e-14);
+  SpMat zero(3, 3);
+  zero.insert(0, 0) = 0.0;
+  zero.insert(1, 1) = 0.0;
+  zero.insert(2, 2) = 0.0;
+  SparseSolver singular;
+  EXPECT_THROW(singular.factor(zero, SparseSolver::Kind::Supernodal), SolverError);
 }
 
 // OpenMP's thread count is per thread: a count set in one thread must reach native work started
