@@ -1167,3 +1167,18 @@ def test_armature_modifier_turned_back_on_while_bound_is_flagged():
     mod = obj.modifiers["Armature"]
     mod.object, mod.show_viewport = arm, True
     assert ops_skeletal.armature_modifier_on(obj)
+
+
+def test_bind_data_encoding_reads_earlier_compressed_files():
+    """Bind data is stored uncompressed now (deflate cost 1.3 s at 655K vertices for 15% less
+    text); files bound by earlier versions hold savez_compressed data, which must still load."""
+    import base64
+    import io
+
+    from dgmesh.blender.ops_skeletal import _decode, _encode
+    arrays = {"a": np.arange(10.0), "b": np.eye(3, dtype=np.int32)}
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    for text in (_encode(arrays), base64.b64encode(buf.getvalue()).decode("ascii")):
+        back = _decode(text)
+        assert set(back) == {"a", "b"} and all(np.array_equal(back[k], arrays[k]) for k in arrays)

@@ -197,8 +197,10 @@ def _space(info):
 
 
 def _encode(arrays):
+    # Uncompressed: deflate saved 15% of the text for 9x the time (1.3 s at 655K vertices); files
+    # written with it still load (np.load reads both).
     buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
+    np.savez(buf, **arrays)
     return base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -1281,6 +1283,11 @@ Cache modifier (renders and exports then need no add-on)"""
 
 def _evaluated_positions(obj, depsgraph):
     ev = obj.evaluated_get(depsgraph)
+    me = ev.data  # the evaluated mesh itself: to_mesh() copied it (0.18 s a frame at 655K vertices)
+    if isinstance(me, bpy.types.Mesh) and len(me.vertices) == len(obj.data.vertices):
+        co = np.empty(3 * len(me.vertices), dtype=np.float32)
+        me.vertices.foreach_get("co", co)
+        return co.reshape(-1, 3)
     me = ev.to_mesh()
     try:
         co = np.empty(3 * len(me.vertices), dtype=np.float32)
