@@ -146,18 +146,19 @@ def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
     return MeshArrays(arrays.V, F, L, P, arrays.edges)
 
 
-def read_object(obj, evaluated=False, depsgraph=None, edges=False):
+def read_object(obj, evaluated=False, depsgraph=None, edges=False, sync=True):
     """Read a mesh object's data (positions in object space).
 
     ``evaluated=False`` reads the original mesh datablock, the one attributes
     are written to; modifiers are ignored.  ``evaluated=True`` reads the mesh
     after modifiers and shape keys (its vertex count may differ, so results on
     it cannot be stored as attributes of the original).
-    In Edit mode the edit-mesh is synced into the datablock first.
+    In Edit mode the edit-mesh is synced into the datablock first (``sync=False``: the caller
+    just did, e.g. :func:`has_selection`; a sync costs 0.44 s at 1M triangles).
     """
     if obj.type != 'MESH':
         raise TypeError(f"object {obj.name!r} is not a mesh")
-    if obj.mode == 'EDIT':
+    if obj.mode == 'EDIT' and sync:
         obj.update_from_editmode()
     if not evaluated:
         return read_mesh(obj.data, edges=edges)

@@ -83,7 +83,7 @@ def _read_job(obj, edit_mode):
         return "the mesh has shape keys; denoising would only change the basis (remove or apply them first)"
     if len(mesh.vertices) == 0:
         return "the mesh is empty"
-    arrays = bridge.read_object(obj)  # syncs the edit-mesh first
+    arrays = bridge.read_object(obj, sync=not edit_mode)  # has_selection synced the edit-mesh
     mask = None
     if edit_mode:
         mask = bridge.get_array(mesh.vertices, "select") & ~bridge.get_array(mesh.vertices, "hide")

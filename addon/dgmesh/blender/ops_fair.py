@@ -138,7 +138,7 @@ def _read_target(obj, edit_mode, keep_border):
         raise dg.MeshError("the mesh has shape keys; only the basis would change (remove or apply them first)")
     # Two n-gons sharing a valence-2 vertex (a Grid Fill quad beside a rim quad) can triangulate
     # into the same triangle twice; re-triangulate those instead of reporting duplicate faces.
-    arrays = bridge.repair_ngon_triangles(bridge.read_object(obj))
+    arrays = bridge.repair_ngon_triangles(bridge.read_object(obj, sync=not edit_mode))  # has_selection synced
     if len(arrays.F) == 0:
         raise dg.MeshError("mesh has no faces")
     if not edit_mode:

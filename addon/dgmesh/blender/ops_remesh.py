@@ -113,7 +113,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                 self.report({'ERROR'}, f"Remesh failed on '{obj.name}': the mesh has shape keys, which a new "
                             "triangulation cannot carry (remove or apply them first)")
                 return None
-            arrays = bridge.read_object(obj)  # syncs the edit-mesh in Edit mode
+            arrays = bridge.read_object(obj, sync=not edit)  # has_selection synced the edit-mesh
             mesh = obj.data
             npoly = len(mesh.polygons)
             mask = np.ones(npoly, bool)
