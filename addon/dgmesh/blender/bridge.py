@@ -85,10 +85,11 @@ def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
     diag2 = float(((V.max(0) - V.min(0)) ** 2).sum())
     tol = rel_area * max(diag2, np.finfo(float).tiny)
     nv = np.int64(len(V))
-    real = None
-    if arrays.edges is not None and len(arrays.edges):
-        E = np.sort(arrays.edges.astype(np.int64), axis=1)
-        real = set((E[:, 0] * nv + E[:, 1]).tolist())
+    count = np.bincount(P, minlength=int(P.max()) + 1)
+    multi = np.flatnonzero(count[P] > 1)  # triangles of n-gons (quads included): the only suspects
+    if multi.size == 0:
+        return arrays
+    real = None  # the mesh's edges, a set made only when something needs repair (0.3 s at 1M)
 
     def area(f):  # twice the area, of (k, 3) index rows
         return np.linalg.norm(np.cross(V[f[:, 1]] - V[f[:, 0]], V[f[:, 2]] - V[f[:, 0]]), axis=1)
@@ -96,10 +97,10 @@ def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
     def is_real(x, y):
         return real is not None and min(x, y) * nv + max(x, y) in real
 
-    count = np.bincount(P, minlength=int(P.max()) + 1)
     changed = False
     for _ in range(max_rounds):
-        bad = area(F) <= 2 * tol
+        bad = np.zeros(len(F), bool)
+        bad[multi] = area(F[multi]) <= 2 * tol
         key = np.sort(F.astype(np.int64), axis=1) @ np.array([nv * nv, nv, 1], dtype=np.int64)
         _, first = np.unique(key, return_index=True)
         dup = np.ones(len(F), bool)
@@ -107,6 +108,9 @@ def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
         bad = np.flatnonzero((bad | dup) & (count[P] > 1))  # triangles of n-gons only
         if bad.size == 0:
             break
+        if real is None and arrays.edges is not None and len(arrays.edges):
+            E = np.sort(arrays.edges.astype(np.int64), axis=1)
+            real = set((E[:, 0] * nv + E[:, 1]).tolist())
         members = {}
         for t in np.flatnonzero(np.isin(P, np.unique(P[bad]))).tolist():
             members.setdefault(int(P[t]), []).append(t)
