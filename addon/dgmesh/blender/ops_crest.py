@@ -755,8 +755,14 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
             lab = labels[loop_poly]
             lo = np.full(len(mesh.edges), np.iinfo(np.int32).max)
             hi = np.full(len(mesh.edges), -1)
-            np.minimum.at(lo, loop_edge, lab)
-            np.maximum.at(hi, loop_edge, lab)
+            # Per edge, the smallest and largest label of its corners, reduced over the corners
+            # grouped by edge (ufunc.at took 0.57 s at 1M triangles).
+            if len(loop_edge):
+                order = np.argsort(loop_edge, kind="stable")
+                e, ls = loop_edge[order], lab[order]
+                starts = np.r_[0, np.flatnonzero(np.diff(e)) + 1]
+                lo[e[starts]] = np.minimum.reduceat(ls, starts)
+                hi[e[starts]] = np.maximum.reduceat(ls, starts)
             hidden = _get(mesh.edges, "hide", bool)  # left alone, as Blender's own tools do
             border = (hi >= 0) & (lo != hi) & ~hidden
             borders = int(border.sum())
