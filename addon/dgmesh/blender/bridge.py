@@ -393,6 +393,10 @@ def blend_point_data(new_verts, src_verts, idx, w, layers, deform):
     if not len(new_verts) or not len(src_verts) or (not layers and deform is None):
         return
     idx, w = np.asarray(idx), np.asarray(w, dtype=float)
+    # Only the sources some new vertex reads are read (each one is a Python access).
+    used, idx = np.unique(idx, return_inverse=True)
+    idx = idx.reshape(w.shape)
+    src_verts = [src_verts[i] for i in used.tolist()]
     heavy = idx[np.arange(len(idx)), w.argmax(1)]
 
     def blend(A):
