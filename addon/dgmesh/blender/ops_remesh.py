@@ -380,18 +380,19 @@ def _corner_values(mesh, it, r):
     """((bmesh layer group, name), (m_out, 3[, k]) values of each output triangle's corners) for each
     UV map, corner colour and generic corner attribute bmesh can write."""
     L = it["tri_loops"]  # (nf, 3) mesh loops of the chart's triangles
+    shared = _shared_edges(it["F"])
     out = []
     for uv in mesh.uv_layers:
         a = np.empty(2 * len(mesh.loops), np.float32)
         uv.data.foreach_get("uv", a)
-        out.append((("uv", uv.name), _island_corners(it["V"], it["F"], a.reshape(-1, 2)[L], r)))
+        out.append((("uv", uv.name), _island_corners(it["V"], it["F"], a.reshape(-1, 2)[L], r, shared)))
     for att in mesh.color_attributes:
         if att.domain == 'CORNER':
             a = np.empty(4 * len(mesh.loops), np.float32)
             # bmesh's byte-colour layers hold the stored (sRGB) values; `color` is linear.
             att.data.foreach_get("color_srgb" if att.data_type == 'BYTE_COLOR' else "color", a)
             kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
-            out.append(((kind, att.name), _island_corners(it["V"], it["F"], a.reshape(-1, 4)[L], r)))
+            out.append(((kind, att.name), _island_corners(it["V"], it["F"], a.reshape(-1, 4)[L], r, shared)))
     # Other corner attributes that bmesh exposes (3.4: float, vector, int): blended like the
     # colours, integers taken from the nearest input corner.
     colors = {a.name for a in mesh.color_attributes}
@@ -400,11 +401,12 @@ def _corner_values(mesh, it, r):
         kind, k = bridge.BMESH_LAYER_KIND.get(att.data_type, (None, 0))
         if att.domain != 'CORNER' or kind is None or att.name in colors | uvs or att.name.startswith("."):
             continue
-        a = np.empty(k * len(mesh.loops), np.float64 if kind == "float" or kind == "float_vector" else np.int64)
+        # Blender's own types: other buffer types go through a per-element conversion
+        a = np.empty(k * len(mesh.loops), np.float32 if kind == "float" or kind == "float_vector" else np.int32)
         att.data.foreach_get("vector" if kind == "float_vector" else "value", a)
         C = a.reshape(-1, k)[L]
         if kind in ("float", "float_vector"):
-            vals = _island_corners(it["V"], it["F"], C, r)
+            vals = _island_corners(it["V"], it["F"], C, r, shared)
         else:  # no blend of integers: the input corner with the largest barycentric weight
             T = r.F
             s = r.source_face[T]
@@ -413,19 +415,11 @@ def _corner_values(mesh, it, r):
     return out
 
 
-def _island_corners(V, F, C, r):
-    """Corner values of the output triangles from the input's corner values C (nf, 3, k).
-
-    Each output vertex lies on an input triangle (source_face / source_bary). Where the input's
-    corner values jump across an edge (a UV seam: the islands on either side), an output triangle
-    whose corners lie on different islands takes all three from one island, its home (the island of
-    two of its corners, else the first's): a corner elsewhere gets the home triangle's affine map
-    extended to its position. So does a corner whose own value is farther from that extension than
-    the triangle's extent in the map (across a seam that ends inside the region, whose two sides
-    are one island). Blending each corner on its own side gave such triangles corners on both sides
-    of the seam (a triangle stretched across the UV map)."""
+def _shared_edges(F):
+    """The chart's interior edges as (face a, face b, and the corners of each face at the edge's
+    two ends): the same for every corner layer (computed once: per layer it was half of the
+    corner work of a 1M-triangle Remesh)."""
     nf = len(F)
-    # Islands: triangles joined across edges whose two shared corners carry the same values.
     e_f = np.repeat(np.arange(nf), 3)
     e_i = np.tile(np.arange(3), nf)
     u, v = F[e_f, e_i], F[e_f, (e_i + 1) % 3]
@@ -439,9 +433,25 @@ def _island_corners(V, F, C, r):
     def corner_of(f, x):
         return np.argmax(F[f] == x[:, None], axis=1)
 
+    return fa, fb, corner_of(fa, ua), corner_of(fb, ua), corner_of(fa, va), corner_of(fb, va)
+
+
+def _island_corners(V, F, C, r, shared=None):
+    """Corner values of the output triangles from the input's corner values C (nf, 3, k).
+
+    Each output vertex lies on an input triangle (source_face / source_bary). Where the input's
+    corner values jump across an edge (a UV seam: the islands on either side), an output triangle
+    whose corners lie on different islands takes all three from one island, its home (the island of
+    two of its corners, else the first's): a corner elsewhere gets the home triangle's affine map
+    extended to its position. So does a corner whose own value is farther from that extension than
+    the triangle's extent in the map (across a seam that ends inside the region, whose two sides
+    are one island). Blending each corner on its own side gave such triangles corners on both sides
+    of the seam (a triangle stretched across the UV map)."""
+    nf = len(F)
+    # Islands: triangles joined across edges whose two shared corners carry the same values.
+    fa, fb, ka_u, kb_u, ka_v, kb_v = _shared_edges(F) if shared is None else shared
     tol = 1e-6 * max(1.0, float(np.abs(C).max(initial=0.0)))
-    cont = (np.abs(C[fa, corner_of(fa, ua)] - C[fb, corner_of(fb, ua)]).max(-1) <= tol) & \
-           (np.abs(C[fa, corner_of(fa, va)] - C[fb, corner_of(fb, va)]).max(-1) <= tol)
+    cont = (np.abs(C[fa, ka_u] - C[fb, kb_u]).max(-1) <= tol) & (np.abs(C[fa, ka_v] - C[fb, kb_v]).max(-1) <= tol)
     lab = chart_labels(nf, np.stack([fa[cont], fb[cont]], 1))
     T = r.F
     s = r.source_face[T]  # (m, 3) source triangle of each corner
