@@ -222,6 +222,23 @@ struct Sample {
 // maximises the minimum angle), allowed only when both new triangles keep their orientation in the
 // triangulation map, so the mesh stays an embedding of the chart. Boundary edges never flip.
 // Returns the number of flips.
+// The twin half-edges after flipping the edge a -> b held by triangle f (half-edge 3 f + k) and
+// b -> a by g (3 g + l), f = (a, b, c) and g = (b, a, d), to f = (a, d, c) and g = (d, b, c): half-edges
+// f0 a->d, f1 d->c, f2 c->a; g0 d->b, g1 b->c, g2 c->d. Read before the triangles are rewritten.
+void relink_flipped(std::vector<int>& opp, int f, int k, int g, int l) {
+  const int o_bc = opp[3 * f + (k + 1) % 3], o_ca = opp[3 * f + (k + 2) % 3];
+  const int o_ad = opp[3 * g + (l + 1) % 3], o_db = opp[3 * g + (l + 2) % 3];
+  auto link = [&](int x, int y) {
+    opp[x] = y;
+    if (y >= 0) opp[y] = x;
+  };
+  link(3 * f + 0, o_ad);
+  link(3 * f + 1, 3 * g + 2);
+  link(3 * f + 2, o_ca);
+  link(3 * g + 0, o_db);
+  link(3 * g + 1, o_bc);
+}
+
 int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient_sign) {
   const int nf = int(F.rows());
   std::vector<int> opp(3 * nf, -1);
@@ -300,22 +317,9 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
         if (!(m_old > kSliverCos && m_new < m_old && c_new >= kSliverDihedralCos)) continue;
       }
     }
-    // Outer half-edges: b->c, c->a in f; a->d, d->b in g.
-    const int h_bc = 3 * f + (k + 1) % 3, h_ca = 3 * f + (k + 2) % 3;
-    const int h_ad = 3 * g + (l + 1) % 3, h_db = 3 * g + (l + 2) % 3;
-    const int o_bc = opp[h_bc], o_ca = opp[h_ca], o_ad = opp[h_ad], o_db = opp[h_db];
-    // New f = (a, d, c), new g = (d, b, c): half-edges f0 a->d, f1 d->c, f2 c->a; g0 d->b, g1 b->c, g2 c->d.
+    relink_flipped(opp, f, k, g, l);
     F.row(f) << a, d, c;
     F.row(g) << d, b, c;
-    auto link = [&](int x, int y) {
-      opp[x] = y;
-      if (y >= 0) opp[y] = x;
-    };
-    link(3 * f + 0, o_ad);
-    link(3 * f + 1, 3 * g + 2);
-    link(3 * f + 2, o_ca);
-    link(3 * g + 0, o_db);
-    link(3 * g + 1, o_bc);
     ++flips;
     for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
   }
@@ -373,20 +377,9 @@ int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
     const double s = orient(a, b, c);
     if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) continue;
     if (!(orient(a, d, c) * s > 0) || !(orient(d, b, c) * s > 0) || edges.count(key(c, d))) continue;
-    const int h_bc = 3 * f + (k + 1) % 3, h_ca = 3 * f + (k + 2) % 3;
-    const int h_ad = 3 * g + (l + 1) % 3, h_db = 3 * g + (l + 2) % 3;
-    const int o_bc = opp[h_bc], o_ca = opp[h_ca], o_ad = opp[h_ad], o_db = opp[h_db];
+    relink_flipped(opp, f, k, g, l);
     T[f] = {a, d, c};
     T[g] = {d, b, c};
-    auto link = [&](int x, int y) {
-      opp[x] = y;
-      if (y >= 0) opp[y] = x;
-    };
-    link(3 * f + 0, o_ad);
-    link(3 * f + 1, 3 * g + 2);
-    link(3 * f + 2, o_ca);
-    link(3 * g + 0, o_db);
-    link(3 * g + 1, o_bc);
     edges.erase(key(a, b));
     edges.insert(key(c, d));
     ++flips;

@@ -37,12 +37,11 @@ def _co(mesh):
     return co.reshape(-1, 3)
 
 
-@pytest.fixture
-def override_sphere(tmp_path):
-    """A sphere linked from another file as a library override with its mesh overridden too (a
-    character made editable with Make Library Override), in an overridden collection."""
+def _overridden_sphere(tmp_path):
+    """A sphere (with UVs: Stretch Map needs them) in a collection of another file, linked and made
+    editable with Make Library Override: the override object, in the overridden collection."""
     bpy.ops.wm.read_homefile(use_empty=True)
-    obj = _sphere("LibSphere")  # with UVs (Stretch Map needs them)
+    obj = _sphere("LibSphere")
     col = bpy.data.collections.new("LibCol")
     bpy.context.scene.collection.children.link(col)
     for c in obj.users_collection:
@@ -59,8 +58,13 @@ def override_sphere(tmp_path):
     bpy.context.scene.collection.objects.link(inst)
     select("Inst")
     bpy.ops.object.make_override_library()
-    obj = next(o for o in bpy.context.scene.objects if o.type == 'MESH')
-    obj.data.override_create(remap_local_usages=True)
+    return next(o for o in bpy.context.scene.objects if o.type == 'MESH')
+
+
+@pytest.fixture
+def override_sphere(tmp_path):
+    """The overridden sphere with its mesh overridden too (a character made editable)."""
+    _overridden_sphere(tmp_path).data.override_create(remap_local_usages=True)
     obj = next(o for o in bpy.context.scene.objects if o.type == 'MESH')
     assert obj.data.library is None and obj.data.override_library is not None
     select(obj.name)
@@ -84,25 +88,7 @@ def test_library_override_mesh_is_refused(override_sphere, op):
 def test_new_objects_go_to_an_editable_collection(tmp_path):
     """A local mesh in an overridden collection: Multires Preview raised a traceback after writing its
     attributes and leaving an orphan control object; the crest curve failed the same way."""
-    bpy.ops.wm.read_homefile(use_empty=True)
-    obj = _sphere("S")
-    col = bpy.data.collections.new("LibCol")
-    bpy.context.scene.collection.children.link(col)
-    for c in obj.users_collection:
-        c.objects.unlink(obj)
-    col.objects.link(obj)
-    lib = tmp_path / "lib.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(lib))
-    bpy.ops.wm.read_homefile(use_empty=True)
-    with bpy.data.libraries.load(str(lib), link=True) as (src, dst):
-        dst.collections = ["LibCol"]
-    inst = bpy.data.objects.new("Inst", None)
-    inst.instance_type = 'COLLECTION'
-    inst.instance_collection = dst.collections[0]
-    bpy.context.scene.collection.objects.link(inst)
-    select("Inst")
-    bpy.ops.object.make_override_library()
-    obj = next(o for o in bpy.context.scene.objects if o.type == 'MESH')
+    obj = _overridden_sphere(tmp_path)
     obj.make_local()
     obj.data = obj.data.copy()  # a local mesh in the overridden collection
     coll = obj.users_collection[0]
