@@ -217,28 +217,47 @@ struct Sample {
   double w0, w1, w2;
 };
 
+// Lawson's edge-flip loop (Lawson 1977) over twin half-edges `opp` (h = 3 f + k runs corner k to
+// corner k + 1 of triangle f; -1 on the boundary, which never flips), from the half-edges on
+// `stack`: the edge a -> b of f = (a, b, c), held b -> a by g = (b, a, d), flips when
+// accept(a, b, c, d) says so; the pair becomes f = (a, d, c), g = (d, b, c) (set(f, g, ...)), the
+// twins are relinked and the four outer half-edges pushed. At most max_flips; returns the count.
+template <class Corner, class Set, class Accept>
+int lawson_flips(std::vector<int>& opp, std::vector<int> stack, long max_flips, Corner corner, Set set,
+                 Accept accept) {
+  auto link = [&](int x, int y) {
+    opp[x] = y;
+    if (y >= 0) opp[y] = x;
+  };
+  int flips = 0;
+  while (!stack.empty() && flips < max_flips) {
+    const int h = stack.back();
+    stack.pop_back();
+    const int o = opp[h];
+    if (o < 0) continue;
+    const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
+    const int a = corner(f, k), b = corner(f, (k + 1) % 3), c = corner(f, (k + 2) % 3), d = corner(g, (l + 2) % 3);
+    if (!accept(a, b, c, d)) continue;
+    // New half-edges f0 a->d, f1 d->c, f2 c->a; g0 d->b, g1 b->c, g2 c->d.
+    const int o_bc = opp[3 * f + (k + 1) % 3], o_ca = opp[3 * f + (k + 2) % 3];
+    const int o_ad = opp[3 * g + (l + 1) % 3], o_db = opp[3 * g + (l + 2) % 3];
+    set(f, g, a, b, c, d);
+    link(3 * f + 0, o_ad);
+    link(3 * f + 1, 3 * g + 2);
+    link(3 * f + 2, o_ca);
+    link(3 * g + 0, o_db);
+    link(3 * g + 1, o_bc);
+    ++flips;
+    for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
+  }
+  return flips;
+}
+
 // Beyond the thesis: edge flips towards a Delaunay triangulation of the lifted 3D mesh (flip an
 // interior edge when its two opposite 3D angles sum to more than pi, the Delaunay criterion that
 // maximises the minimum angle), allowed only when both new triangles keep their orientation in the
 // triangulation map, so the mesh stays an embedding of the chart. Boundary edges never flip.
 // Returns the number of flips.
-// The twin half-edges after flipping the edge a -> b held by triangle f (half-edge 3 f + k) and
-// b -> a by g (3 g + l), f = (a, b, c) and g = (b, a, d), to f = (a, d, c) and g = (d, b, c): half-edges
-// f0 a->d, f1 d->c, f2 c->a; g0 d->b, g1 b->c, g2 c->d. Read before the triangles are rewritten.
-void relink_flipped(std::vector<int>& opp, int f, int k, int g, int l) {
-  const int o_bc = opp[3 * f + (k + 1) % 3], o_ca = opp[3 * f + (k + 2) % 3];
-  const int o_ad = opp[3 * g + (l + 1) % 3], o_db = opp[3 * g + (l + 2) % 3];
-  auto link = [&](int x, int y) {
-    opp[x] = y;
-    if (y >= 0) opp[y] = x;
-  };
-  link(3 * f + 0, o_ad);
-  link(3 * f + 1, 3 * g + 2);
-  link(3 * f + 2, o_ca);
-  link(3 * g + 0, o_db);
-  link(3 * g + 1, o_bc);
-}
-
 int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient_sign) {
   const int nf = int(F.rows());
   std::vector<int> opp(3 * nf, -1);
@@ -282,48 +301,41 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
   };
   std::vector<int> stack(3 * nf);
   for (int h = 0; h < 3 * nf; ++h) stack[h] = h;
-  const long max_flips = 20L * nf;
-  int flips = 0;
-  while (!stack.empty() && flips < max_flips) {
-    const int h = stack.back();
-    stack.pop_back();
-    const int o = opp[h];
-    if (o < 0) continue;
-    const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
-    const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3), d = F(g, (l + 2) % 3);
-    if (!opposite_angles_exceed_pi(c, a, b, d)) continue;
-    if (orient(a, d, c) <= 0 || orient(d, b, c) <= 0) continue;
-    // Only where the four points are nearly coplanar: the edge before or after the flip has a
-    // dihedral below ~20 degrees, so flips never cut across a crease or a thin feature and the
-    // surface stays where the samples put it. (The new edge is tested too because a near-degenerate
-    // obtuse triangle has an unreliable normal, so its old dihedral can look sharp on a flat piece.)
-    {
-      auto dihedral_cos = [&](int p, int q, int r, int s) {  // triangles (p, q, r) and (q, p, s)
-        const Vec3 n1 = (row3(X, q) - row3(X, p)).cross(row3(X, r) - row3(X, p));
-        const Vec3 n2 = (row3(X, p) - row3(X, q)).cross(row3(X, s) - row3(X, q));
-        const double nn = n1.norm() * n2.norm();
-        return nn > 0 ? n1.dot(n2) / nn : -1.0;
-      };
-      const double c_old = dihedral_cos(a, b, c, d), c_new = dihedral_cos(d, c, a, b);
-      // A flip that unfolds a fold (the new pair within 60 degrees of coplanar and much flatter
-      // than the old one) is allowed too: such folds are the scan defects' needles and caps.
-      // So is one that makes a moderately bent pair (within ~37 degrees) no sharper.
-      const bool unfold = (c_new >= 0.5 && c_new - c_old >= 0.5) || (c_new >= 0.8 && c_new >= c_old);
-      if (c_old < kFlipCos && c_new < kFlipCos && !unfold) {
-        // A sliver across a bent edge (kSliverCos): flipped only if the pair's smallest angle grows.
-        auto tri_max_cos = [&](int p, int q, int r) { return min_angle_cos(row3(X, p), row3(X, q), row3(X, r)); };
-        const double m_old = std::max(tri_max_cos(a, b, c), tri_max_cos(b, a, d));
-        const double m_new = std::max(tri_max_cos(a, d, c), tri_max_cos(d, b, c));
-        if (!(m_old > kSliverCos && m_new < m_old && c_new >= kSliverDihedralCos)) continue;
-      }
-    }
-    relink_flipped(opp, f, k, g, l);
-    F.row(f) << a, d, c;
-    F.row(g) << d, b, c;
-    ++flips;
-    for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
-  }
-  return flips;
+  return lawson_flips(
+      opp, std::move(stack), 20L * nf, [&](int f, int k) { return F(f, k); },
+      [&](int f, int g, int a, int b, int c, int d) {
+        F.row(f) << a, d, c;
+        F.row(g) << d, b, c;
+      },
+      [&](int a, int b, int c, int d) {
+        if (!opposite_angles_exceed_pi(c, a, b, d)) return false;
+        if (orient(a, d, c) <= 0 || orient(d, b, c) <= 0) return false;
+        // Only where the four points are nearly coplanar: the edge before or after the flip has a
+        // dihedral below ~20 degrees, so flips never cut across a crease or a thin feature and the
+        // surface stays where the samples put it. (The new edge is tested too because a near-degenerate
+        // obtuse triangle has an unreliable normal, so its old dihedral can look sharp on a flat piece.)
+        {
+          auto dihedral_cos = [&](int p, int q, int r, int s) {  // triangles (p, q, r) and (q, p, s)
+            const Vec3 n1 = (row3(X, q) - row3(X, p)).cross(row3(X, r) - row3(X, p));
+            const Vec3 n2 = (row3(X, p) - row3(X, q)).cross(row3(X, s) - row3(X, q));
+            const double nn = n1.norm() * n2.norm();
+            return nn > 0 ? n1.dot(n2) / nn : -1.0;
+          };
+          const double c_old = dihedral_cos(a, b, c, d), c_new = dihedral_cos(d, c, a, b);
+          // A flip that unfolds a fold (the new pair within 60 degrees of coplanar and much flatter
+          // than the old one) is allowed too: such folds are the scan defects' needles and caps.
+          // So is one that makes a moderately bent pair (within ~37 degrees) no sharper.
+          const bool unfold = (c_new >= 0.5 && c_new - c_old >= 0.5) || (c_new >= 0.8 && c_new >= c_old);
+          if (c_old < kFlipCos && c_new < kFlipCos && !unfold) {
+            // A sliver across a bent edge (kSliverCos): flipped only if the pair's smallest angle grows.
+            auto tri_max_cos = [&](int p, int q, int r) { return min_angle_cos(row3(X, p), row3(X, q), row3(X, r)); };
+            const double m_old = std::max(tri_max_cos(a, b, c), tri_max_cos(b, a, d));
+            const double m_new = std::max(tri_max_cos(a, d, c), tri_max_cos(d, b, c));
+            if (!(m_old > kSliverCos && m_new < m_old && c_new >= kSliverDihedralCos)) return false;
+          }
+        }
+        return true;
+      });
 }
 
 // Lawson flips (Lawson 1977) towards the Delaunay triangulation of the map P, starting from the
@@ -365,27 +377,19 @@ int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
     auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(k, -1));
     if (it != he.end() && it->first == k) stack.push_back(it->second);
   }
-  const long max_flips = 20L * nt + 100;
-  int flips = 0;
-  while (!stack.empty() && flips < max_flips) {
-    const int h = stack.back();
-    stack.pop_back();
-    const int o = opp[h];
-    if (o < 0) continue;
-    const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
-    const int a = T[f][k], b = T[f][(k + 1) % 3], c = T[f][(k + 2) % 3], d = T[g][(l + 2) % 3];
-    const double s = orient(a, b, c);
-    if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) continue;
-    if (!(orient(a, d, c) * s > 0) || !(orient(d, b, c) * s > 0) || edges.count(key(c, d))) continue;
-    relink_flipped(opp, f, k, g, l);
-    T[f] = {a, d, c};
-    T[g] = {d, b, c};
-    edges.erase(key(a, b));
-    edges.insert(key(c, d));
-    ++flips;
-    for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
-  }
-  return flips;
+  return lawson_flips(
+      opp, std::move(stack), 20L * nt + 100, [&](int f, int k) { return T[f][k]; },
+      [&](int f, int g, int a, int b, int c, int d) {
+        T[f] = {a, d, c};
+        T[g] = {d, b, c};
+        edges.erase(key(a, b));
+        edges.insert(key(c, d));
+      },
+      [&](int a, int b, int c, int d) {
+        const double s = orient(a, b, c);
+        if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) return false;
+        return orient(a, d, c) * s > 0 && orient(d, b, c) * s > 0 && !edges.count(key(c, d));
+      });
 }
 
 // Point location in a parameter map U of the chart (V, F): walk from face f across the edge opposite

@@ -339,6 +339,14 @@ def on_mirror_planes(V, V0, axes):
     return V
 
 
+def mirror_plane_bits(V, axes):
+    """Per vertex, bit k set when it lies on the mirror plane of axis k (``mirror_axes``'s axes)."""
+    bits = np.zeros(len(V), np.int32)
+    for k, tol in axes:
+        bits[np.abs(V[:, k]) <= tol] |= 1 << k
+    return bits
+
+
 def mesh_has_modifiers(obj):
     """True if the object's displayed mesh differs from its datablock's
     because of enabled modifiers."""
@@ -347,6 +355,20 @@ def mesh_has_modifiers(obj):
 
 # Generic attribute types that Blender 3.4's bmesh exposes as layers: (layer group, components).
 BMESH_LAYER_KIND = {'FLOAT': ("float", 1), 'INT': ("int", 1), 'FLOAT_VECTOR': ("float_vector", 3)}
+
+
+def _vertex_references(mesh):
+    """(children parented to vertices of objects using ``mesh``, their Hook modifiers with vertex
+    indices)."""
+    users = {o for o in bpy.data.objects if o.data == mesh}
+    children = [o for o in bpy.data.objects if o.parent in users and o.parent_type in {'VERTEX', 'VERTEX_3'}]
+    hooks = [m for o in users for m in o.modifiers if m.type == 'HOOK' and len(m.vertex_indices)]
+    return children, hooks
+
+
+def has_vertex_references(mesh):
+    """Whether a renumbering of ``mesh``'s vertices needs :func:`remap_vertex_references`."""
+    return any(_vertex_references(mesh))
 
 
 def remap_vertex_references(mesh, new_index, fallback=None):
@@ -362,15 +384,11 @@ def remap_vertex_references(mesh, new_index, fallback=None):
         j = int(new_index[i])
         return j if j >= 0 or fallback is None else int(fallback(i))
 
-    users = {o for o in bpy.data.objects if o.data == mesh}
-    for o in bpy.data.objects:
-        if o.parent in users and o.parent_type in {'VERTEX', 'VERTEX_3'}:
-            o.parent_vertices = [j if (j := new(i)) >= 0 else i for i in o.parent_vertices]
-    for o in users:
-        for m in o.modifiers:
-            if m.type == 'HOOK' and len(m.vertex_indices):
-                idx = sorted({new(i) for i in m.vertex_indices} - {-1})
-                m.vertex_indices_set(idx)
+    children, hooks = _vertex_references(mesh)
+    for o in children:
+        o.parent_vertices = [j if (j := new(i)) >= 0 else i for i in o.parent_vertices]
+    for m in hooks:
+        m.vertex_indices_set(sorted({new(i) for i in m.vertex_indices} - {-1}))
 
 
 def bmesh_point_layers(bm):

@@ -435,9 +435,7 @@ def _read_for_decimation(obj):
                 hide=(_get(mesh.vertices, "hide", bool), _get(mesh.polygons, "hide", bool)))
     # A half modelled with a Mirror modifier: no face may end up lying in a mirror plane, where the
     # mirrored half puts its twin (the mirrored mesh would tear there).
-    planes = np.zeros(nv, dtype=np.int32)
-    for k, tol in bridge.mirror_axes(obj, data["arrays"].V)[0]:
-        planes[np.abs(data["arrays"].V[:, k]) <= tol] |= 1 << k
+    planes = bridge.mirror_plane_bits(data["arrays"].V, bridge.mirror_axes(obj, data["arrays"].V)[0])
     data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked, planes=planes,
                 uv_active=mesh.uv_layers.active_index,
                 uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))

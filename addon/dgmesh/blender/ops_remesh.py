@@ -195,8 +195,10 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         with bridge.object_mode(context):
             for it in items:
                 mesh = bpy.data.objects[it["name"]].data
-                new_index, out_index = _replace_region(mesh, it, select_new=edit)
-                bridge.remap_vertex_references(mesh, new_index, _nearest_output(it, out_index))
+                refs = bridge.has_vertex_references(mesh)
+                new_index, out_index = _replace_region(mesh, it, select_new=edit, renumbering=refs)
+                if refs:
+                    bridge.remap_vertex_references(mesh, new_index, _nearest_output(it, out_index))
                 r = it["result"]
                 lines.append(f"'{it['name']}': {len(it['ids'])} -> {len(r.V)} vertices, "
                              f"{len(it['F'])} -> {len(r.F)} triangles, min angle {_min_angle_deg(r.V, r.F):.1f} deg")
@@ -215,11 +217,12 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         return {'FINISHED'}
 
 
-def _replace_region(mesh, it, select_new):
+def _replace_region(mesh, it, select_new, renumbering=False):
     """Deletes the region's faces and inner vertices and adds the new triangulation, reusing the
     region's boundary vertices (kept) so the stitch is exact. Works on a BMesh copy written back
     only at the end; the new faces' corner data and flags are written in bulk after that. Returns
-    (the new index of each old vertex, -1 for removed ones; the mesh vertex of each output vertex)."""
+    (with ``renumbering``, else None: the new index of each old vertex, -1 for removed ones, a
+    Python loop over the whole mesh; the mesh vertex of each output vertex)."""
     r = it["result"]
     ids = it["ids"]
     # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
@@ -231,7 +234,7 @@ def _replace_region(mesh, it, select_new):
         bm.from_mesh(mesh)
         bm.verts.ensure_lookup_table()
         bm.faces.ensure_lookup_table()
-        old = bm.verts[:]
+        old = bm.verts[:] if renumbering else None
         faces = [bm.faces[p] for p in it["polys"]]
         region_edges = {e for f in faces for e in f.edges}
         kept = [bm.verts[int(ids[s])] for s in r.boundary_source]
@@ -252,7 +255,7 @@ def _replace_region(mesh, it, select_new):
         # The indices to_mesh gives (bmesh reuses freed slots: new faces are not simply appended).
         bm.verts.index_update()
         bm.faces.index_update()
-        new_index = np.array([v.index if v.is_valid else -1 for v in old], dtype=np.int64)
+        new_index = None if old is None else np.array([v.index if v.is_valid else -1 for v in old], dtype=np.int64)
         out_index = np.array([v.index for v in vmap], dtype=np.int64)
         polys = np.array([f.index for f in made], dtype=np.int64)
         bm.to_mesh(mesh)
@@ -310,9 +313,7 @@ def flip_off_mirror_planes(V, F, axes):
     three boundary vertices in a row). Each such triangle's edge shared with a triangle off the
     plane is flipped, when the two new triangles face the way the pair did. Returns the new F."""
     F = np.array(F)
-    on = np.zeros(len(V), np.int64)
-    for k, tol in axes:
-        on[np.abs(V[:, k]) <= tol] |= 1 << k
+    on = bridge.mirror_plane_bits(V, axes)
     bad = np.flatnonzero(on[F[:, 0]] & on[F[:, 1]] & on[F[:, 2]])
     if not len(bad):
         return F
