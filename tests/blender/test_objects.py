@@ -311,3 +311,19 @@ def test_every_reading_operator_reports_the_shown_shape(op, monkeypatch):
         monkeypatch.setattr(module, "report_shown_shape", lambda _op, objs: seen.extend(o.name for o in objs))
     assert getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT', **MESH_OPERATORS.get(op, {})) == {'FINISHED'}
     assert seen == ["S"]
+
+
+@pytest.mark.parametrize("op", ["multires_preview", "similarity_map"])
+def test_active_object_operators_refuse_a_hidden_active_object(op, capsys):
+    """A hidden object stays the active one (the eye icon keeps it active); the operators that act on
+    the active object refuse it, as Blender's own do, instead of changing what the user cannot see."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    obj = _sphere("S", 2)
+    obj.hide_set(True)
+    assert bpy.context.active_object == obj
+    assert not getattr(bpy.ops.dgmesh, op).poll()
+    with pytest.raises(RuntimeError, match="hidden"):
+        getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT', **MESH_OPERATORS[op])
+    assert not [a for a in obj.data.attributes if a.name.startswith("dg_")]
+    obj.hide_set(False)
+    assert getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT', **MESH_OPERATORS[op]) == {'FINISHED'}

@@ -129,4 +129,7 @@ def poll_active_mesh(cls, context, edit_mode=False):
     obj = context.active_object
     if obj is None or obj.type != 'MESH':
         return poll_fail(cls, "The active object must be a mesh")
+    # As Blender's own active-object operators: a hidden object stays active but is not edited.
+    if context.mode == 'OBJECT' and not obj.visible_get():
+        return poll_fail(cls, "The active object is hidden")
     return True
