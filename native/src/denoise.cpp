@@ -202,9 +202,6 @@ void build_neighbourhoods(const KdTree& tree, const std::vector<int>& act, int n
 #pragma omp for schedule(static)
     for (int a = 0; a < na; ++a) {
       tree.radius(prow(Q, a), R, hits);
-      std::sort(hits.begin(), hits.end(), [](const auto& p, const auto& q) {
-        return p.second < q.second || (p.second == q.second && p.first < q.first);
-      });
       int c2 = 0, c3 = 0;
       const double R2 = r2ball * r2ball, R3 = r3ball * r3ball;
       for (const auto& h : hits) {
@@ -216,6 +213,13 @@ void build_neighbourhoods(const KdTree& tree, const std::vector<int>& act, int n
       // the 2*sigma3 ball is widened to the nearest kMinPatch points within the query radius.
       c3 = std::min(std::max(c3, std::min<int>(kMinPatch, static_cast<int>(hits.size()))), cap3);
       const int keep = std::max(c2, c3);
+      // Only the nearest `keep` are used: with large radii a ball holds thousands of points beyond
+      // the caps, and sorting them all dominated the run (ties by index, so the order is total).
+      const auto closer = [](const auto& p, const auto& q) {
+        return p.second < q.second || (p.second == q.second && p.first < q.first);
+      };
+      if (keep < static_cast<int>(hits.size())) std::nth_element(hits.begin(), hits.begin() + keep, hits.end(), closer);
+      std::sort(hits.begin(), hits.begin() + keep, closer);
       for (int k = 0; k < keep; ++k) out.push_back(act[hits[k].first]);
       const int x = act[a];
       nb.len[x] = keep;
