@@ -2,6 +2,8 @@
 
 #include <atomic>
 
+#include <dlfcn.h>
+
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -9,11 +11,21 @@
 namespace dgmesh {
 namespace {
 std::atomic<int> g_threads{-1};  // -1: never set (OpenMP's default: OMP_NUM_THREADS or all cores)
+
+// CHOLMOD's supernodal factorisation and UMFPACK's fronts run in the BLAS, which keeps a thread
+// pool of its own (OpenBLAS: every core, whatever OpenMP is told). Looked up at run time, so any
+// BLAS links; one without this entry point is left as it is.
+void set_blas_threads(int n) {
+  using SetFn = void (*)(int);
+  static const auto fn = reinterpret_cast<SetFn>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  if (fn) fn(n);
+}
 }
 
 void set_num_threads(int n) {
 #ifdef _OPENMP
   g_threads = n > 0 ? n : omp_get_num_procs();
+  set_blas_threads(g_threads);
   apply_num_threads();
 #else
   (void)n;

@@ -109,6 +109,22 @@ def test_threads_setting():
     assert dgmesh.num_threads() >= 1
 
 
+def test_threads_setting_reaches_the_blas():
+    """CHOLMOD and UMFPACK factor in the BLAS, whose own thread pool must follow the setting too."""
+    import ctypes
+    try:
+        blas = ctypes.CDLL("libopenblas.so.0")  # the copy the native module loaded, if it is OpenBLAS
+    except OSError:
+        pytest.skip("the BLAS is not OpenBLAS")
+    try:
+        dgmesh.set_num_threads(1)
+        assert blas.openblas_get_num_threads() == 1
+        dgmesh.set_num_threads(2)
+        assert blas.openblas_get_num_threads() == 2
+    finally:
+        dgmesh.set_num_threads(0)
+
+
 def test_gil_released_during_native_work():
     # A Python thread keeps counting while the native call runs only if the call released the GIL.
     import sys
