@@ -167,16 +167,27 @@ def uv_metrics(V, F, UV, *, zero_area_eps=1e-10) -> dict:
     return dict(_native.uv_metrics(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0)))
 
 
-def uv_stretch(V, F, UV, *, per="vertex", zero_area_eps=1e-10) -> np.ndarray:
+def uv_stretch(V, F, UV, *, uv_faces=None, per="vertex", zero_area_eps=1e-10) -> np.ndarray:
     """Sander's stretch (normalised, 1 = no stretch) per triangle (``per="face"``) or per vertex
     (``per="vertex"``: eq. 5.1, area-weighted over the incident triangles). UV as in
-    :func:`uv_metrics`. Zero-area UV triangles have infinite stretch."""
+    :func:`uv_metrics`; or, with ``uv_faces`` (m, 3), any (k, 2) array whose row ``uv_faces[i, j]``
+    is corner j of triangle i (a Blender UV map and the loop triangles' loops, without copying
+    the UVs per triangle). Zero-area UV triangles have infinite stretch."""
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
     if per not in ("vertex", "face"):
         raise MeshError(f"per must be 'vertex' or 'face', got {per!r}")
-    Vs, Fs, UVs = _as_uv(V, F, UV)
-    fs = np.asarray(_native.uv_face_stretch(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0)))
+    eps = as_real(zero_area_eps, "zero_area_eps", 0.0)
+    if uv_faces is None:
+        fs = np.asarray(_native.uv_face_stretch(*_as_uv(V, F, UV), eps))
+    else:
+        UV = np.ascontiguousarray(UV, dtype=np.float64)
+        if UV.ndim != 2 or UV.shape[1] != 2:
+            raise MeshError(f"UV with uv_faces must have shape (k, 2), got {UV.shape}")
+        G = as_faces(uv_faces, name="uv_faces", n=len(UV))
+        if len(G) != len(F):
+            raise MeshError(f"uv_faces must have one row per triangle ({len(F)}), got {len(G)}")
+        fs = np.asarray(_native.uv_face_stretch_indexed(V, F, UV, G, eps))
     if per == "face":
         return fs
     a = 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)

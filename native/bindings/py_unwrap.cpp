@@ -130,6 +130,14 @@ void bind_unwrap(pb::module_& m) {
       pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps") = 1e-10);
 
   m.def(
+      "uv_face_stretch_indexed",
+      [](InV V, InF F, InUV UV, InF FUV, double eps) {
+        NativeScope nogil;
+        return uv_face_stretch(V, F, UV, FUV, eps);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("FUV"), pb::arg("zero_area_eps") = 1e-10);
+
+  m.def(
       "uv_vertex_stretch",
       [](InV V, InF F, InUV UV, double eps) {
         NativeScope nogil;

@@ -120,7 +120,9 @@ struct FaceData {
   double sum_area3 = 0, sum_area_uv = 0, signed_area_uv = 0;
 };
 
-FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_faces) {
+// UV rows of the corners: FUV(f, k) when given (UVs indexed apart from the vertices), else F(f, k).
+FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_faces, const MatX3i* FUV = nullptr) {
+  const MatX3i& G = FUV ? *FUV : F;
   FaceData d;
   d.tri.resize(n_faces);
   d.area3.resize(n_faces);
@@ -129,7 +131,7 @@ FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_fac
   for (int f = 0; f < n_faces; ++f) {
     const int i = F(f, 0), j = F(f, 1), k = F(f, 2);
     const Vec3 q1 = V.row(i), q2 = V.row(j), q3 = V.row(k);
-    d.tri[f] = tri_stretch(q1, q2, q3, UV.row(i), UV.row(j), UV.row(k));
+    d.tri[f] = tri_stretch(q1, q2, q3, UV.row(G(f, 0)), UV.row(G(f, 1)), UV.row(G(f, 2)));
     d.area3[f] = 0.5 * (q2 - q1).cross(q3 - q1).norm();
     s3 += d.area3[f];
     suv += 0.5 * std::abs(d.tri[f].uv_area2);
@@ -215,6 +217,47 @@ void check_uv_input(const MatX3d& V, const MatX3i& F, const MatX2d& UV) {
     throw MeshError("UV must have one row per vertex: " + std::to_string(V.rows()) + " vertices, " +
                     std::to_string(UV.rows()) + " UV rows");
   if (!UV.allFinite()) throw MeshError("UV has NaN or infinite coordinates");
+}
+
+// check_uv_input for UVs indexed by FUV: indices in range, finite vertices and UVs where the
+// triangles use them (a loose vertex is not looked at, as in the triangle soup this replaces).
+void check_indexed_uv_input(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i& FUV) {
+  validate(V, F, kNonEmpty | kIndices);
+  if (FUV.rows() != F.rows())
+    throw MeshError("FUV must have one row per triangle: " + std::to_string(F.rows()) + " triangles, " +
+                    std::to_string(FUV.rows()) + " FUV rows");
+  const int nuv = static_cast<int>(UV.rows());
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k)
+      if (FUV(f, k) < 0 || FUV(f, k) >= nuv)
+        throw MeshError("FUV: triangle " + std::to_string(f) + " refers to UV row " + std::to_string(FUV(f, k)) +
+                        ", but UV has " + std::to_string(nuv) + " rows");
+  int bad_v = 0, first_v = -1;
+  bool bad_uv = false;
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      if (!V.row(F(f, k)).allFinite()) {
+        if (first_v < 0 || F(f, k) < first_v) first_v = F(f, k);
+        ++bad_v;
+      }
+      bad_uv = bad_uv || !UV.row(FUV(f, k)).allFinite();
+    }
+  if (bad_v)
+    throw MeshError("vertex coordinates are NaN or infinite at " + std::to_string(bad_v) +
+                    " triangle corner(s) (first: vertex " + std::to_string(first_v) + ")");
+  if (bad_uv) throw MeshError("UV has NaN or infinite coordinates");
+}
+
+VecXd face_stretch_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i* FUV,
+                        double zero_area_eps) {
+  const int nf = static_cast<int>(F.rows());
+  const FaceData d = face_data(V, F, UV, nf, FUV);
+  const double norm = d.sum_area3 > 0 ? d.sum_area_uv / d.sum_area3 : 0.0;
+  VecXd s(nf);
+#pragma omp parallel for schedule(static)
+  for (int f = 0; f < nf; ++f)
+    s[f] = is_zero_area(d.tri[f], d.sum_area_uv, zero_area_eps) ? kInf : std::sqrt(norm * d.tri[f].l2sq);
+  return s;
 }
 
 // The stretch part of the metrics (L2, Linf, flips, zero area, area distortion) from the face data
@@ -1358,14 +1401,13 @@ UvMetrics uv_metrics(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double 
 
 VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps) {
   check_uv_input(V, F, UV);
-  const int nf = static_cast<int>(F.rows());
-  const FaceData d = face_data(V, F, UV, nf);
-  const double norm = d.sum_area3 > 0 ? d.sum_area_uv / d.sum_area3 : 0.0;
-  VecXd s(nf);
-#pragma omp parallel for schedule(static)
-  for (int f = 0; f < nf; ++f)
-    s[f] = is_zero_area(d.tri[f], d.sum_area_uv, zero_area_eps) ? kInf : std::sqrt(norm * d.tri[f].l2sq);
-  return s;
+  return face_stretch_impl(V, F, UV, nullptr, zero_area_eps);
+}
+
+VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i& FUV,
+                      double zero_area_eps) {
+  check_indexed_uv_input(V, F, UV, FUV);
+  return face_stretch_impl(V, F, UV, &FUV, zero_area_eps);
 }
 
 VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps) {

@@ -56,23 +56,30 @@ def empty():
     bpy.ops.wm.read_homefile(use_empty=True)
 
 
-def test_unwrap_in_edit_mode_leaves_pinned_charts_in_place(empty):
+@pytest.mark.parametrize("pinned_first", [False, True])
+def test_unwrap_in_edit_mode_leaves_pinned_charts_in_place(empty, pinned_first):
     """Packing took every UV island with a selected face on every edited object, pinned charts
-    (reported as left alone) included."""
+    (reported as left alone) included. Edit mode packs with only the unwrapped corners' UVs
+    selected: the other edited object's UV selection is put back, whichever comes first."""
     a, p = _grid("A"), _grid("P", offset=(3, 0, 0), seed=1)
     layer = p.data.uv_layers.active
     for i, loop in enumerate(p.data.loops):
         co = p.data.vertices[loop.vertex_index].co
         layer.data[i].uv = (0.3 + 0.05 * co.x, 0.2 + 0.05 * co.y)
         layer.data[i].pin_uv = True
+        layer.data[i].select = i % 3 == 0
     before = np.array([d.uv[:] for d in layer.data])
-    _edit(a, p)
+    uv_sel = np.array([d.select for d in layer.data])
+    _edit(*((p, a) if pinned_first else (a, p)))  # the active object comes first
     _select_faces(a, _middle_faces(a))
     _select_faces(p, list(range(len(p.data.polygons))))
+    assert bpy.context.objects_in_mode_unique_data[0] == (p if pinned_first else a)
     assert bpy.ops.dgmesh.unwrap('EXEC_DEFAULT', pack=True) == {'FINISHED'}
     assert sorted(o.name for o in bpy.context.objects_in_mode) == ["A", "P"]
     bpy.ops.object.mode_set(mode='OBJECT')
-    assert np.abs(np.array([d.uv[:] for d in p.data.uv_layers.active.data]) - before).max() < 1e-7
+    layer = p.data.uv_layers.active
+    assert np.abs(np.array([d.uv[:] for d in layer.data]) - before).max() < 1e-7
+    assert np.array_equal([d.select for d in layer.data], uv_sel)
 
 
 def test_edited_object_with_nothing_selected_is_no_target_even_with_shape_keys(empty):

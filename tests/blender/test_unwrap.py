@@ -1,5 +1,6 @@
 """dgmesh.unwrap and dgmesh.stretch_map inside Blender (thesis chapter 5)."""
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
@@ -323,6 +324,27 @@ def test_object_mode_several_objects_and_stretch_map_with_checker(dg, capsys):
     assert list(mesh.materials) == own and [p.material_index for p in mesh.polygons] == index.tolist()
 
 
+def test_stretch_map_checker_on_every_selected_linked_duplicate():
+    """Linked duplicates share one mesh (one target) but not their object-linked slots: the checker
+    showed on the first selected one only."""
+    open_fixture("shapes")
+    bpy.ops.mesh.primitive_uv_sphere_add()
+    a = bpy.context.object
+    own = bpy.data.materials.new("Own")
+    a.data.materials.append(own)
+    b, c = a.copy(), a.copy()  # linked duplicates: the same mesh
+    for o in (b, c):
+        bpy.context.scene.collection.objects.link(o)
+    bpy.context.view_layer.update()
+    select(a.name, b.name, active=b.name)
+    assert stretch_map(checker=True) == {'FINISHED'}
+    mat = bpy.data.materials["DG Checker"]
+    assert [s.material for s in a.material_slots] == [mat]
+    assert [s.material for s in b.material_slots] == [mat]
+    assert [s.material for s in c.material_slots] == [own]  # not selected
+    assert list(a.data.materials) == [own]
+
+
 def test_stretch_map_without_uvs_is_an_error():
     open_fixture("shapes")
     select("QuadSphere")
@@ -461,20 +483,102 @@ def test_object_mode_packs_hidden_faces_too_and_keeps_them_hidden():
 
 @pytest.mark.parametrize("edit", [False, True])
 def test_uv_selection_survives_packing(edit):
+    """The packer works on selected UVs: the UV vertex and edge selection are put back (the edge
+    flags were left all set)."""
     obj, _ = _seamed_grid(6)
     mesh = obj.data
     layer = mesh.uv_layers.active
     sel = np.arange(len(mesh.loops)) % 3 == 0
+    sel_edge = np.arange(len(mesh.loops)) % 4 == 1
     layer.data.foreach_set("select", sel)
+    layer.data.foreach_set("select_edge", sel_edge)
     if edit:
         bpy.ops.object.mode_set(mode='EDIT')
         bpy.ops.mesh.select_all(action='SELECT')
     assert unwrap(pack=True) == {'FINISHED'}
     if edit:
         bpy.ops.object.mode_set(mode='OBJECT')
-    after = np.empty(len(mesh.loops), bool)
-    mesh.uv_layers.active.data.foreach_get("select", after)
-    assert np.array_equal(after, sel)
+    for key, want in (("select", sel), ("select_edge", sel_edge)):
+        after = np.empty(len(mesh.loops), bool)
+        mesh.uv_layers.active.data.foreach_get(key, after)
+        assert np.array_equal(after, want), key
+
+
+def test_edit_mode_unwrap_stays_in_edit_mode(dg, capsys):
+    """Edit mode is never left: each round trip rebuilt the edit-mesh (seconds on a mesh of a
+    million triangles) and invalidated a script's bmesh of it. Only the selected faces' UVs change
+    and they are packed; mesh selection, UV selection and the faces left out stay as they were."""
+    obj, left = _seamed_grid(8)
+    mesh = obj.data
+    layer = mesh.uv_layers.active
+    rng = np.random.default_rng(2)
+    layer.data.foreach_set("uv", (3 * rng.random(2 * len(mesh.loops))).astype(np.float32))
+    layer.data.foreach_set("select", rng.random(len(mesh.loops)) < 0.5)
+    layer.data.foreach_set("select_edge", rng.random(len(mesh.loops)) < 0.5)
+    mesh.polygons.foreach_set("select", left)
+    mesh.vertices.foreach_set("select", np.zeros(len(mesh.vertices), bool))
+    mesh.edges.foreach_set("select", np.zeros(len(mesh.edges), bool))
+    mesh.update()
+    before = layer_uv(mesh).copy()
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.context.tool_settings.mesh_select_mode = (False, False, True)
+    bm = bmesh.from_edit_mesh(mesh)
+    bm.faces.ensure_lookup_table()
+    face = bm.faces[0]
+    uv = bm.loops.layers.uv.active
+
+    def flags():
+        return ([v.select for v in bm.verts], [e.select for e in bm.edges], [f.select for f in bm.faces],
+                [(l[uv].select, l[uv].select_edge) for f in bm.faces for l in f.loops])
+
+    sel_before = flags()
+    assert unwrap(pack=True) == {'FINISHED'}
+    assert "Unwrapped 1 chart(s) on 1 object(s)" in capsys.readouterr().out
+    assert bm.is_valid and face.is_valid and bpy.context.mode == 'EDIT_MESH'
+    assert flags() == sel_before
+    bpy.ops.object.mode_set(mode='OBJECT')
+    after = layer_uv(mesh)
+    loop_left = np.repeat(left, [p.loop_total for p in mesh.polygons])
+    assert after[~loop_left].tobytes() == before[~loop_left].tobytes()
+    assert after[loop_left].min() >= 0 and after[loop_left].max() <= 1  # packed into the unit square
+    check_charts(dg, obj, [set(np.flatnonzero(left))])
+
+
+def test_edit_mode_without_uv_map_creates_it(dg, capsys):
+    obj = ngon_cylinder_with_seams()
+    select("NgonCylinder")
+    assert obj.data.uv_layers.active is None
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+    assert unwrap() == {'FINISHED'}
+    out = capsys.readouterr().out
+    assert "Unwrapped 3 chart(s) on 1 object(s)" in out and "(no UV map before)" in out
+    assert "0 flipped, 0 zero-area, packed" in out
+    bpy.ops.object.mode_set(mode='OBJECT')
+    assert [layer.name for layer in obj.data.uv_layers] == ["UVMap"]
+    check_charts(dg, obj, chart_faces(obj.data))
+
+
+def test_undo_in_edit_mode_restores_the_uv_map():
+    """Edit mode writes the UVs into the edit-mesh: one undo step, in Edit mode, takes them back."""
+    obj = ngon_cylinder_with_seams()
+    select("NgonCylinder")
+    obj.data.uv_layers.new(name="UVMap")
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_all(action='SELECT')
+
+    def edit_uvs():
+        bm = bmesh.from_edit_mesh(bpy.context.object.data)
+        uv = bm.loops.layers.uv.active
+        return [l[uv].uv[:] for f in bm.faces for l in f.loops]
+
+    before = edit_uvs()
+    bpy.ops.ed.undo_push(message="before")
+    assert unwrap() == {'FINISHED'}
+    assert edit_uvs() != before
+    assert bpy.ops.ed.undo() == {'FINISHED'}
+    assert bpy.context.mode == 'EDIT_MESH'
+    assert edit_uvs() == before
 
 
 def test_failed_packing_restores_the_selection(capsys):

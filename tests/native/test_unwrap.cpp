@@ -86,6 +86,52 @@ TEST(Unwrap, MetricsOfKnownMaps) {
   EXPECT_TRUE(std::isfinite(m.stretch_l2_finite));
 }
 
+TEST(Unwrap, IndexedFaceStretchEqualsTheTriangleSoup) {
+  // UVs per triangle corner, indexed by FUV (rows shuffled, one collapsed triangle) give exactly the
+  // values of the triangle soup; a loose vertex with NaN coordinates is not looked at by either.
+  const TriMesh g = grid(6, 5);
+  const int nf = static_cast<int>(g.F.rows());
+  ASSERT_EQ(nf, 60);
+  MatX2d corner(3 * nf, 2);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 p = g.V.row(g.F(f, k));
+      corner.row(3 * f + k) << 2.0 * p.x() + 0.1 * f, p.y() - 0.3 * p.x() * p.x();
+    }
+  corner.row(5) = 0.5 * (corner.row(3) + corner.row(4));  // triangle 1: zero UV area
+  MatX3d Vs(3 * nf, 3);
+  MatX3i Fs(nf, 3);
+  for (int f = 0; f < nf; ++f)
+    for (int k = 0; k < 3; ++k) {
+      Vs.row(3 * f + k) = g.V.row(g.F(f, k));
+      Fs(f, k) = 3 * f + k;
+    }
+  const VecXd want = uv_face_stretch(Vs, Fs, corner);
+  MatX2d UV(3 * nf, 2);
+  MatX3i FUV(nf, 3);
+  for (int c = 0; c < 3 * nf; ++c) {
+    const int row = (7 * c + 3) % (3 * nf);  // a permutation: 7 is coprime with 3 * nf = 180
+    UV.row(row) = corner.row(c);
+    FUV(c / 3, c % 3) = row;
+  }
+  MatX3d V(g.V.rows() + 1, 3);
+  V << g.V, Eigen::RowVector3d::Constant(std::nan(""));
+  const VecXd got = uv_face_stretch(V, g.F, UV, FUV);
+  ASSERT_EQ(got.size(), nf);
+  EXPECT_TRUE(std::isinf(got[1]));
+  for (int f = 0; f < nf; ++f) EXPECT_EQ(got[f], want[f]) << f;
+  MatX3i bad = FUV;
+  bad(2, 1) = 3 * nf;
+  EXPECT_THROW(uv_face_stretch(V, g.F, UV, bad), MeshError);
+  EXPECT_THROW(uv_face_stretch(V, g.F, UV, MatX3i(FUV.topRows(nf - 1))), MeshError);
+  MatX2d nan_uv = UV;
+  nan_uv(FUV(4, 2), 0) = std::nan("");
+  EXPECT_THROW(uv_face_stretch(V, g.F, nan_uv, FUV), MeshError);
+  MatX3i uses_nan = g.F;
+  uses_nan(0, 0) = static_cast<int>(g.V.rows());
+  EXPECT_THROW(uv_face_stretch(V, uses_nan, UV, FUV), MeshError);
+}
+
 TEST(Unwrap, HemisphereReachesLowStretchWithoutFlips) {
   const TriMesh s = icosphere(4);
   const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.05; });

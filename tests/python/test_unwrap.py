@@ -75,6 +75,36 @@ def test_uv_stretch_per_face_and_vertex():
     np.testing.assert_allclose(vs, np.sqrt(1.25))
 
 
+def test_uv_stretch_with_uv_faces_equals_corner_uvs():
+    """UVs indexed by uv_faces (a Blender UV map and the loop triangles' loops) give exactly what
+    the (m, 3, 2) corner UVs give, per face and per vertex, zero-area UV triangles included; a loose
+    vertex with NaN coordinates is ignored by both."""
+    V, F = shapes.grid(6, 5)
+    rng = np.random.default_rng(1)
+    corner = V[F][:, :, :2] * np.array([2.0, 1.0]) + 0.05 * rng.random((len(F), 3, 2))
+    corner[1, 2] = 0.5 * (corner[1, 0] + corner[1, 1])  # zero UV area: infinite stretch
+    order = rng.permutation(3 * len(F))
+    UV = np.empty((3 * len(F), 2))
+    UV[order] = corner.reshape(-1, 2)
+    G = order.reshape(-1, 3)
+    Vn = np.vstack([V, [np.nan] * 3])
+    for per in ("face", "vertex"):
+        want = dgmesh.uv_stretch(Vn, F, corner, per=per)
+        got = dgmesh.uv_stretch(Vn, F, UV, uv_faces=G, per=per)
+        assert got.tobytes() == want.tobytes(), per
+    assert np.isinf(dgmesh.uv_stretch(V, F, UV, uv_faces=G, per="face")[1])
+    with pytest.raises(dgmesh.MeshError, match="uv_faces"):
+        dgmesh.uv_stretch(V, F, UV, uv_faces=np.where(G == 5, len(UV), G))
+    with pytest.raises(dgmesh.MeshError, match="one row per triangle"):
+        dgmesh.uv_stretch(V, F, UV, uv_faces=G[1:])
+    with pytest.raises(dgmesh.MeshError, match=r"shape \(k, 2\)"):
+        dgmesh.uv_stretch(V, F, corner, uv_faces=G)
+    bad = UV.copy()
+    bad[G[3, 1]] = np.nan
+    with pytest.raises(dgmesh.MeshError, match="UV has NaN"):
+        dgmesh.uv_stretch(V, F, bad, uv_faces=G)
+
+
 def test_hemisphere_u0_u1_uopt():
     V, F = hemisphere()
     r0 = dgmesh.unwrap(V, F, iterations=0)

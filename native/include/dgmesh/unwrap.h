@@ -66,6 +66,11 @@ UvMetrics uv_metrics(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double 
 // uv_metrics (inf for zero-area UV triangles).
 VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
 
+// The same with UVs indexed apart from the vertices: corner k of triangle f has UV row FUV(f, k)
+// (UVs per face corner, e.g. a Blender UV map with seams, without building a triangle soup).
+VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i& FUV,
+                      double zero_area_eps = 1e-10);
+
 // Per-vertex stretch of eq. 5.1: sqrt(sum A(T) sigma(U)^2 / sum A(T)) over the incident triangles.
 VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
 
