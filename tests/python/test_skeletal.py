@@ -111,6 +111,19 @@ def test_projection_restores_twist_thickness(rig, mesh):
     assert np.abs(rig.deform(REST, projection=1) - V).max() < 1e-9
 
 
+def test_projection_reaches_the_other_limbs_balls(rig, mesh):
+    # The projection passes move each vertex onto its rest distance to the union of the posed medial
+    # balls (eq. 6.13), which takes the ball that minimises it: in a bend's inner crease that is a
+    # ball of the other limb, not one of the nearest centres (searched among those, the crease
+    # vertices stayed up to 1% of the radius inside the other limb's balls).
+    V = mesh[0]
+    pose = np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]])
+    f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
+    X = rig.deform(pose, bone_clearance=0)
+    f = dgmesh.union_of_balls_distance(X, rig.skeleton_pose(pose), rig.radii)
+    assert np.abs(f - f0).max() < 1e-6
+
+
 def test_deform_into_buffer(rig, mesh):
     pose = np.array([REST[0], rot((0, 0, 1), np.pi / 3) @ REST[1]])
     out = np.zeros((rig.n_vertices, 3))
@@ -373,7 +386,11 @@ def test_multires_surface_bone_clearance():
         assert (np.linalg.norm(X - X0, axis=1) > 1e-12).sum() < 0.3 * len(V)
         Sd = whole.skeleton_pose(pose)
         e0, e = (((dgmesh.union_of_balls_distance(P, Sd, whole.radii) - f_rest) ** 2).sum() for P in (X0, X))
-        assert e < 1.2 * e0
+        # The clearance's cost in thickness error. Measured (twist): 1.213 -> 1.275 before the projection
+        # passes took the exact deepest ball, 1.121 -> 1.485 since: the exact passes put the control
+        # mesh's crease vertices at their medial distance, nearer the bones, so the clearance pushes
+        # them further (the whole-mesh rig lost 60-99% of its error on the bench's limbs).
+        assert e < 1.4 * e0
     _assert_rest_and_rigid_unpushed(rig, V)
 
 
