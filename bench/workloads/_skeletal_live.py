@@ -159,7 +159,7 @@ def show(bound):
     modifier; the other object is out of the depsgraph and, for the reference, our handlers are off.
     The first frames after a switch (relations rebuilt) are not timed."""
     obj.hide_viewport, ref_obj.hide_viewport = not bound, bound
-    (ops_skeletal._add_handlers if bound else ops_skeletal._remove_handlers)()
+    ops_skeletal.set_handlers(ops_skeletal._HANDLERS, add=bound)
     ops_skeletal._last_pose.clear()
     lens = {k: len(v) for k, v in parts.items()}
     sc.frame_set(NFRAMES + 20)
@@ -210,9 +210,9 @@ dgmesh.set_num_threads(nthreads)
 
 # Blender's own per-frame work on the bound mesh, without our handler: ~0 unless something still ties
 # the mesh to the pose (a disabled Armature modifier with its object set did: one more evaluation).
-ops_skeletal._remove_handlers()
+ops_skeletal.set_handlers(ops_skeletal._HANDLERS, add=False)
 idle_ms, idle_cpu_ms = play()
-ops_skeletal._add_handlers()
+ops_skeletal.set_handlers(ops_skeletal._HANDLERS)
 
 # The write alone: the helper's vertices (this version), the attribute (the previous one), a shape
 # key (the first one).
