@@ -78,7 +78,10 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         the mesh keeps its topology. A hole filled without interior vertices (one n-gon, a fan)
         needs ``faces`` and ``subdivisions >= 1``: the new edge midpoints are the ones that move.
     boundary: "fixed" or "sliding" (boundary vertices slide along the boundary curve).
-    subdivisions: coarse-to-fine levels: fair, refine 1-to-4 (linear), fair again (fig. 3.5).
+    subdivisions: coarse-to-fine levels: fair, refine 1-to-4 (linear), fair again (fig. 3.5); each
+        refined level first puts its new midpoints at the minimiser of the linearised (cotangent
+        bi-Laplacian) energy with the old vertices held, when that lowers the energy (counted as
+        an iteration), so it does not spend its iterations on the split's creases.
     tolerance: stop when the relative energy change over a window of flow time falls below it
         (semi-implicit: also when 16 accepted steps found no energy lower by this fraction than
         the lowest before them; ``converged`` is then False if the energy had crept up).

@@ -607,3 +607,66 @@ def test_whole_object_subdivision_blends_point_data_from_nearby_vertices():
     new = np.empty(3 * len(me.vertices), np.float32)
     me.vertices.foreach_get("co", new)
     assert np.abs(x[n:] - new.reshape(-1, 3)[n:, 0]).max() < 0.05  # about the new vertex's own x
+
+
+def test_new_corners_blend_the_corners_of_the_polygon_they_replace():
+    """Each corner of a new face takes inverse-square-distance weights over the corners of the
+    polygon it replaces (exact at a shared vertex), integers the nearest corner's value. Random
+    values per corner, so a wrong weight, polygon, corner order or colour space shows."""
+    obj = _fresh_sphere()
+    mesh = obj.data
+    rng = np.random.default_rng(3)
+    nl = len(mesh.loops)
+    uv = rng.random((nl, 2)).astype(np.float32)
+    mesh.uv_layers.active.data.foreach_set("uv", uv.ravel())
+    ci = rng.integers(0, 1000, nl).astype(np.int32)
+    mesh.attributes.new("ci", 'INT', 'CORNER').data.foreach_set("value", ci)
+    col = rng.random((nl, 4)).astype(np.float32)
+    mesh.color_attributes.new("bc", 'BYTE_COLOR', 'CORNER').data.foreach_set("color_srgb", col.ravel())
+    col = np.empty(4 * nl, np.float32)  # as stored (bytes)
+    mesh.color_attributes["bc"].data.foreach_get("color_srgb", col)
+    col = col.reshape(-1, 4)
+    # The source polygon of each new face: a face attribute the new faces copy from it.
+    mesh.attributes.new("pid", 'INT', 'FACE').data.foreach_set("value", np.arange(len(mesh.polygons), dtype=np.int32))
+    corners = [[(mesh.loops[i].vertex_index, i) for i in p.loop_indices] for p in mesh.polygons]
+    sel = np.array([p.center.z > 0.5 for p in mesh.polygons])
+    assert {len(corners[p]) for p in np.flatnonzero(sel)} == {3, 4}  # the pole's triangles and quads
+    for coll in (mesh.vertices, mesh.edges):
+        coll.foreach_set("select", np.zeros(len(coll), bool))
+    mesh.polygons.foreach_set("select", sel)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_mode(type='FACE')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', subdivisions=1) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    V = _positions(mesh)
+    uv2 = np.empty(2 * len(mesh.loops), np.float32)
+    mesh.uv_layers.active.data.foreach_get("uv", uv2)
+    ci2 = np.empty(len(mesh.loops), np.int32)
+    mesh.attributes["ci"].data.foreach_get("value", ci2)
+    col2 = np.empty(4 * len(mesh.loops), np.float32)
+    mesh.color_attributes["bc"].data.foreach_get("color_srgb", col2)
+    pid = np.empty(len(mesh.polygons), np.int32)
+    mesh.attributes["pid"].data.foreach_get("value", pid)
+    new = [p for p in mesh.polygons if p.select]
+    assert len(new) > 3 * sel.sum() and all(sel[pid[p.index]] for p in new)
+    checked_int = 0
+    for p in new:
+        src = corners[pid[p.index]]
+        Q = V[[v for v, _ in src]]
+        for i in p.loop_indices:
+            d = np.linalg.norm(Q - V[mesh.loops[i].vertex_index], axis=1)
+            w = np.zeros(len(d))
+            if d.min() < 1e-12:
+                w[d.argmin()] = 1.0
+            else:
+                w = 1.0 / d ** 2
+            w /= w.sum()
+            loops = [l for _, l in src]
+            assert np.allclose(uv2.reshape(-1, 2)[i], w @ uv[loops], atol=1e-5)
+            assert np.allclose(col2.reshape(-1, 4)[i], w @ col[loops], atol=1 / 255 + 1e-6)
+            near = np.sort(d)
+            if near[1] > near[0] * (1 + 1e-4):  # not a tie (rounding could pick either)
+                assert ci2[i] == ci[loops[d.argmin()]]
+                checked_int += 1
+    assert checked_int > len(new)  # most new corners have one nearest corner

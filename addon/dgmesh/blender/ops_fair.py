@@ -464,48 +464,43 @@ def _modifier_note(t):
             + ")") if names else ""
 
 
-def _corner_layers(bm):
-    """(layer, kind) of the corner data new faces interpolate: UV maps, colours and the generic
-    float, vector and integer attributes (Blender 3.4's bmesh reaches no other corner types)."""
-    out = [(layer, "uv") for layer in bm.loops.layers.uv.values()]
-    for kind in ("color", "float_color", "float_vector", "float", "int"):
-        group = getattr(bm.loops.layers, kind, None)
-        if group is not None:
-            out += [(layer, kind) for layer in group.values() if not layer.name.startswith(".")]
-    return out
+def _corner_weights(P, Q):
+    """Weights (t, 3, k) of new corners P (t, 3, 3) over the k corners Q (t, k, 3) of the polygon
+    each triangle replaces: inverse squared distances, normalised; all on the first corner at the
+    same place (exact at shared vertices)."""
+    d = np.linalg.norm(P[:, :, None, :] - Q[:, None, :, :], axis=-1)
+    exact = d < 1e-12
+    w = 1.0 / np.maximum(d, 1e-12) ** 2
+    hit = np.nonzero(exact.any(-1))
+    w[hit] = 0.0
+    w[hit + (exact[hit].argmax(-1),)] = 1.0
+    return w / w.sum(-1, keepdims=True)
 
 
-def _interpolate_corners(face, src, layers):
-    """Corner data (UVs, colours, generic attributes) of a new face from the polygon it replaces:
-    inverse-distance weights to the old polygon's corners (exact at shared vertices); integers
-    come from the nearest corner.
-    (BMLoop.copy_from_face_interp would do this but fails on Blender 3.4 with Python 3.11.)"""
-    if not layers:
-        return
-    corners = list(src.loops)
-    pos = [c.vert.co.copy() for c in corners]
-    for loop in face.loops:
-        p = loop.vert.co
-        d = [(p - q).length for q in pos]
-        exact = [i for i, x in enumerate(d) if x < 1e-12]
-        w = [0.0] * len(d)
-        if exact:
-            w[exact[0]] = 1.0
-        else:
-            w = [1.0 / (x * x) for x in d]
-        total = sum(w)
-        for layer, key in layers:
-            if key == "uv":
-                u = sum(wi * c[layer].uv[0] for wi, c in zip(w, corners)) / total
-                v = sum(wi * c[layer].uv[1] for wi, c in zip(w, corners)) / total
-                loop[layer].uv = (u, v)
-            elif key == "int":
-                loop[layer] = corners[max(range(len(w)), key=w.__getitem__)][layer]
-            elif key == "float":
-                loop[layer] = sum(wi * c[layer] for wi, c in zip(w, corners)) / total
-            else:
-                n = len(corners[0][layer])
-                loop[layer] = [sum(wi * c[layer][k] for wi, c in zip(w, corners)) / total for k in range(n)]
+def _interpolate_corners(V, tris, src, loop_start, loop_total, loop_vertex, layers, chunk=1 << 20):
+    """Corner data (UVs, colours, generic attributes) of new triangles from the polygons they
+    replace: corner j of triangle t (at V[tris[t, j]]) blends the corners of polygon src[t] (its
+    loops from loop_start/loop_total, their vertices loop_vertex, as read before the write) by
+    _corner_weights; integers come from the nearest corner. ``layers``: [(key, (loops, k) values)];
+    returns [(key, (t, 3, k) values)]. All triangles at once, grouped by polygon size: with a Python
+    loop per face, writing 25K new faces with 7 corner layers took 1.6 s, now 0.2 s
+    (BMLoop.copy_from_face_interp would do it per face but fails on Blender 3.4 with Python 3.11)."""
+    out = [np.zeros((len(tris), 3, C.shape[1]), C.dtype if C.dtype.kind == "i" else float) for _, C in layers]
+    size = loop_total[src]
+    for k in np.unique(size).tolist():
+        rows_k = np.flatnonzero(size == k)
+        for s in range(0, len(rows_k), max(1, chunk // (3 * k))):  # bounded memory for large n-gons
+            rows = rows_k[s:s + max(1, chunk // (3 * k))]
+            loops = loop_start[src[rows]][:, None] + np.arange(k)
+            W = _corner_weights(V[tris[rows]], V[loop_vertex[loops]])
+            near = W.argmax(-1)
+            for o, (_key, C) in zip(out, layers):
+                Cs = C[loops]  # (g, k, width)
+                if C.dtype.kind == "i":
+                    o[rows] = Cs[np.arange(len(rows))[:, None], near]
+                else:
+                    o[rows] = np.einsum("gjk,gkw->gjw", W, Cs)
+    return [(key, o) for (key, _C), o in zip(layers, out)]
 
 
 def _nearest_sources(Q, P, k=16, dense=2_000_000):
@@ -540,6 +535,12 @@ def _write_subdivided(t, select):
     poly_of_row = tri_poly[origin]
     rows = np.flatnonzero(np.isin(poly_of_row, polys))
 
+    # The replaced polygons' corners and corner data, read before bmesh renumbers the loops.
+    layers = [(key, bridge.read_corners(mesh, *key, k)) for key, k in bridge.corner_layers(mesh)]
+    loop_start = bridge.get_array(mesh.polygons, "loop_start", np.int32).astype(np.int64)
+    loop_total = bridge.get_array(mesh.polygons, "loop_total", np.int32).astype(np.int64)
+    loop_vertex = bridge.get_array(mesh.loops, "vertex_index", np.int32)
+
     bm = bmesh.new()
     try:
         bm.from_mesh(mesh)
@@ -549,12 +550,11 @@ def _write_subdivided(t, select):
         for i in moved:
             bm.verts[i].co = V[i]
         verts = list(bm.verts)
-        for j in range(n_old, len(V)):
-            verts.append(bm.verts.new(V[j]))
+        for co in V[n_old:].tolist():
+            verts.append(bm.verts.new(co))
         bm.verts.index_update()
         by_poly = {int(p): bm.faces[int(p)] for p in polys}
         old_faces = list(by_poly.values())
-        layers = _corner_layers(bm)
         vlayers, deform = bridge.bmesh_point_layers(bm)
         # New vertices: inverse fourth-power distance weights over the replaced polygons' vertices
         # (Shepard interpolation over the hole's rim: a fill's flips make the polygon a new vertex
@@ -566,23 +566,20 @@ def _write_subdivided(t, select):
             d2 = ((V[n_old:, None, :] - Q[idx]) ** 2).sum(-1)
             W = 1.0 / np.maximum(d2, 1e-300) ** 2
             bridge.blend_point_data(verts[n_old:], src, idx, W / W.sum(1, keepdims=True), vlayers, deform)
-        new_faces, kept = [], set()
+        # Faces one by one (bmesh has no bulk creation); their corner data and selection are
+        # written in bulk after to_mesh, by the indices bmesh gives them.
+        made, made_rows, kept = [], [], set()
         old_set = set(old_faces)
-        for row in rows:
-            src = by_poly[int(poly_of_row[row])]
+        for row in rows.tolist():
             fv = [verts[k] for k in F[row]]
             same = bm.faces.get(fv)
             if same is not None and same in old_set:
                 # An input triangle the refinement kept (a fill triangle its flips restored): keep
                 # the face itself rather than a second one on the same vertices.
                 kept.add(same)
-                same.select = select
-                new_faces.append(same)
                 continue
-            f = bm.faces.new(fv, src)  # example face: material, smooth
-            _interpolate_corners(f, src, layers)
-            f.select = select
-            new_faces.append(f)
+            made.append(bm.faces.new(fv, by_poly[int(poly_of_row[row])]))  # example face: material, smooth
+            made_rows.append(row)
         old_faces = [f for f in old_faces if f not in kept]
         old_edges = {e for f in old_faces for e in f.edges}
         bmesh.ops.delete(bm, geom=old_faces, context='FACES_ONLY')
@@ -590,15 +587,40 @@ def _write_subdivided(t, select):
         loose = [e for e in old_edges if e.is_valid and not e.link_faces]
         if loose:
             bmesh.ops.delete(bm, geom=loose, context='EDGES')
-        if select:
-            for f in new_faces:
-                for v in f.verts:
-                    v.select = True
+        bm.verts.index_update()
+        bm.faces.index_update()
+        vindex = np.array([v.index for v in verts], dtype=np.int64)
+        made_polys = np.array([f.index for f in made], dtype=np.int64)
+        kept_polys = np.array([f.index for f in kept], dtype=np.int64)
         bm.normal_update()
         bm.to_mesh(mesh)
     finally:
         bm.free()
+    made_rows = np.array(made_rows, dtype=np.int64)
+    if len(made_rows):
+        loops = bridge.new_face_loops(mesh, made_polys, vindex[F[made_rows]])
+        if layers:
+            corner = _interpolate_corners(V, F[made_rows], poly_of_row[made_rows], loop_start, loop_total,
+                                          loop_vertex, layers)
+            bridge.write_corners(mesh, loops, corner)
+    _select_faces(mesh, np.concatenate([made_polys, kept_polys]), select)
     mesh.update()
+
+
+def _select_faces(mesh, polys, select):
+    """Selects (or deselects) the faces ``polys`` with their edges and vertices, as bmesh's
+    face.select does; other elements keep their state."""
+    if not len(polys):
+        return
+    start = bridge.get_array(mesh.polygons, "loop_start", np.int32).astype(np.int64)[polys]
+    total = bridge.get_array(mesh.polygons, "loop_total", np.int32).astype(np.int64)[polys]
+    loops = np.repeat(start - np.cumsum(total) + total, total) + np.arange(total.sum())
+    for coll, idx in ((mesh.polygons, polys),
+                      (mesh.edges, bridge.get_array(mesh.loops, "edge_index", np.int32)[loops]),
+                      (mesh.vertices, bridge.get_array(mesh.loops, "vertex_index", np.int32)[loops])):
+        sel = bridge.get_array(coll, "select", bool)
+        sel[idx] = select
+        coll.foreach_set("select", sel)
 
 
 class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):

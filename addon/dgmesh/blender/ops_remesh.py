@@ -272,26 +272,8 @@ def _write_new_faces(mesh, polys, want, corner, material, smooth, select_new):
     alone. Each loop's vertex says which corner it is. In bulk: a Python loop per face and corner
     took half of a 100K-vertex Remesh."""
     npoly = len(mesh.polygons)
-    start = bridge.get_array(mesh.polygons, "loop_start", np.int32)[polys]
-    got = bridge.get_array(mesh.loops, "vertex_index", np.int32)[start[:, None] + np.arange(3)]
-    pos = np.argmax(got[:, None, :] == want[:, :, None], axis=2)  # corner j is loop pos[t, j] of face t
-    if not np.array_equal(np.take_along_axis(got, pos, 1), want):
-        raise RuntimeError("the new faces' corners were not found")
-    loops = (start[:, None] + pos).ravel()
-    for (kind, name), values in corner:
-        if kind == "uv":
-            data, key = mesh.uv_layers[name].data, "uv"
-        elif kind in ("float_color", "color"):
-            att = mesh.color_attributes[name]
-            # bmesh's byte-colour layers held the stored (sRGB) values, as _corner_values read them
-            data, key = att.data, "color_srgb" if att.data_type == 'BYTE_COLOR' else "color"
-        else:
-            data, key = mesh.attributes[name].data, "vector" if kind == "float_vector" else "value"
-        k = values.shape[2] if values.ndim == 3 else 1
-        a = np.empty(k * len(mesh.loops), np.int32 if kind == "int" else np.float32)
-        data.foreach_get(key, a)
-        a.reshape(-1, k)[loops] = values.reshape(-1, k)
-        data.foreach_set(key, a)
+    loops = bridge.new_face_loops(mesh, polys, want).ravel()
+    bridge.write_corners(mesh, loops, corner)
     for key, values in (("material_index", material), ("use_smooth", smooth)):
         a = bridge.get_array(mesh.polygons, key, values.dtype)
         a[polys] = values
@@ -383,36 +365,14 @@ def _corner_values(mesh, it, r):
     L = it["tri_loops"]  # (nf, 3) mesh loops of the chart's triangles
     shared = _shared_edges(it["F"])
     out = []
-    for uv in mesh.uv_layers:
-        a = np.empty(2 * len(mesh.loops), np.float32)
-        uv.data.foreach_get("uv", a)
-        out.append((("uv", uv.name), _island_corners(it["V"], it["F"], a.reshape(-1, 2)[L], r, shared)))
-    for att in mesh.color_attributes:
-        if att.domain == 'CORNER':
-            a = np.empty(4 * len(mesh.loops), np.float32)
-            # bmesh's byte-colour layers hold the stored (sRGB) values; `color` is linear.
-            att.data.foreach_get("color_srgb" if att.data_type == 'BYTE_COLOR' else "color", a)
-            kind = "float_color" if att.data_type == 'FLOAT_COLOR' else "color"
-            out.append(((kind, att.name), _island_corners(it["V"], it["F"], a.reshape(-1, 4)[L], r, shared)))
-    # Other corner attributes that bmesh exposes (3.4: float, vector, int): blended like the
-    # colours, integers taken from the nearest input corner.
-    colors = {a.name for a in mesh.color_attributes}
-    uvs = {u.name for u in mesh.uv_layers}
-    for att in mesh.attributes:
-        kind, k = bridge.BMESH_LAYER_KIND.get(att.data_type, (None, 0))
-        if att.domain != 'CORNER' or kind is None or att.name in colors | uvs or att.name.startswith("."):
-            continue
-        # Blender's own types: other buffer types go through a per-element conversion
-        a = np.empty(k * len(mesh.loops), np.float32 if kind == "float" or kind == "float_vector" else np.int32)
-        att.data.foreach_get("vector" if kind == "float_vector" else "value", a)
-        C = a.reshape(-1, k)[L]
-        if kind in ("float", "float_vector"):
+    for (kind, name), k in bridge.corner_layers(mesh):
+        C = bridge.read_corners(mesh, kind, name, k)[L]
+        if kind != "int":
             vals = _island_corners(it["V"], it["F"], C, r, shared)
         else:  # no blend of integers: the input corner with the largest barycentric weight
             T = r.F
-            s = r.source_face[T]
-            vals = C[s, np.argmax(r.source_bary[T], axis=-1)]
-        out.append(((kind, att.name), vals[..., 0] if k == 1 else vals))
+            vals = C[r.source_face[T], np.argmax(r.source_bary[T], axis=-1)]
+        out.append(((kind, name), vals[..., 0] if k == 1 else vals))
     return out
 
 

@@ -45,7 +45,9 @@ struct FairOptions {
   // without a vertex mask). Edges between a refined and an unrefined face are never split, so
   // the faces outside the region keep their topology.
   std::vector<char> face_mask;
-  int subdivisions = 0;       // coarse-to-fine levels (thesis fig. 3.5)
+  // Coarse-to-fine levels (thesis fig. 3.5). After each split the new midpoints start at the
+  // minimiser of the linearised energy with the old vertices held, when that lowers the energy.
+  int subdivisions = 0;
   double tolerance = 1e-4;    // relative energy change per unit of flow time (see fair.cpp)
   int max_iterations = 5000;  // per level
   double max_seconds = 0;     // wall-clock budget for the whole run; 0 = none
