@@ -890,7 +890,8 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
   // balls, which needs the ball that minimises eq. 6.13, not a near one: the local candidates
   // (rest minimiser's ring, the k nearest centres) miss the large balls of the other limb that a
   // joint's crease runs into, and the vertex stays inside them. Armadillo knee bent 90 degrees (bench
-  // skeletal_limb): sum (f - f_rest)^2 276 -> 83 (DQS 1197); the exact pass costs ~5% of a deform.
+  // skeletal_limb): sum (f - f_rest)^2 276 -> 83 (DQS 1197). Its cost (skeletal_speed): the 2502-vertex
+  // control mesh deforms in 4.2 ms instead of 3.3, a whole 178K-vertex deform in 9.7 instead of 8.6.
   std::optional<BallTree> balls;
   if (opt.projection > 0) balls.emplace(Sd, radii, reps);
   MatX3d G(n, 3);
