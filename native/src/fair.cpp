@@ -1723,8 +1723,8 @@ double willmore_energy(const MatX3d& V, const MatX3i& F) {
   return energy_of(w, g);
 }
 
-FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
-  check_input(V, F, opt.vertex_mask, &opt.face_mask);
+namespace {
+FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
   if (opt.subdivisions < 0 || opt.subdivisions > 6) throw MeshError("subdivisions must be between 0 and 6");
   if (!(opt.tolerance >= 0)) throw MeshError("tolerance must be >= 0");
   if (opt.max_iterations < 0) throw MeshError("max_iterations must be >= 0");
@@ -1850,6 +1850,43 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
   }
   progress(1.0);
   return res;
+}
+}  // namespace
+
+FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
+  check_input(V, F, opt.vertex_mask, &opt.face_mask);
+  if (!opt.refine && opt.subdivisions == 0) return fair_rows(V, F, opt, progress_fn);
+  // Refinement and subdivision make, flip and split faces in the order they meet them, so the
+  // result depended on the order of the input's rows, which Blender does not keep from one run of
+  // an Edit-mode fill to the next (same triangles, other rows: 578, 598 or 610 vertices after
+  // refining one sphere-cap fill). They run on the faces sorted by their vertices (each rotated to
+  // start at its smallest), and the rows are put back.
+  const int m = static_cast<int>(F.rows());
+  std::vector<std::array<int, 3>> key(m);
+  for (int f = 0; f < m; ++f) {
+    int k = 0;
+    for (int j = 1; j < 3; ++j)
+      if (F(f, j) < F(f, k)) k = j;
+    key[f] = {F(f, k), F(f, (k + 1) % 3), F(f, (k + 2) % 3)};
+  }
+  std::vector<int> perm(m);
+  std::iota(perm.begin(), perm.end(), 0);
+  std::stable_sort(perm.begin(), perm.end(), [&](int a, int b) { return key[a] < key[b]; });
+  MatX3i Fs(m, 3);
+  FairOptions o = opt;
+  for (int i = 0; i < m; ++i) {
+    Fs.row(i) = F.row(perm[i]);
+    if (!opt.face_mask.empty()) o.face_mask[i] = opt.face_mask[perm[i]];
+  }
+  FairResult r = fair_rows(V, Fs, o, progress_fn);
+  MatX3i Fo = r.F;
+  VecXi origin = r.face_origin;
+  for (int i = 0; i < static_cast<int>(Fo.rows()); ++i) {
+    const int row = i < m ? perm[i] : i;  // the first m rows are the input's faces, in place
+    r.F.row(row) = Fo.row(i);
+    r.face_origin[row] = perm[origin[i]];
+  }
+  return r;
 }
 
 MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt, const ProgressFn& progress_fn) {
