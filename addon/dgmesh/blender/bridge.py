@@ -184,6 +184,13 @@ def get_array(collection, key, dtype=bool, width=1):
     return a.reshape(-1, width) if width > 1 else a
 
 
+def ranges(start, count):
+    """The concatenated index ranges [start[i], start[i] + count[i]) (e.g. the loops of polygons
+    from their loop_start and loop_total), without a Python loop."""
+    start, count = np.asarray(start), np.asarray(count)
+    return np.repeat(start - np.cumsum(count) + count, count) + np.arange(count.sum())
+
+
 def has_selection(obj, domain="vertices"):
     """Edit mode: whether the object has a shown, selected element of ``domain`` ("vertices" or
     "polygons"); one with none is no target of an operator, whatever else it holds."""

@@ -225,7 +225,7 @@ def _route_edges(pairs, edges, lookup, n_vertices):
     # Every neighbour c of each a, grouped by pair in adjacency order; the first one joined to b.
     count = start[a + 1] - start[a]
     pair = np.repeat(np.arange(len(pairs)), count)
-    c = nbr[np.repeat(start[a], count) + np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)]
+    c = nbr[bridge.ranges(start[a], count)]
     cb = _find_edges(np.column_stack([c, b[pair]]), lookup, n_vertices)
     hit = np.flatnonzero(cb >= 0)
     two, first = np.unique(pair[hit], return_index=True)
@@ -514,7 +514,7 @@ def _moved_vertex_lookup(tri_loops, V, F, V2, vertex_map, moved):
     order = np.argsort(fv, kind="stable")
     start = np.searchsorted(fv[order], np.arange(len(V) + 1))
     count = start[merged + 1] - start[merged]
-    pos = np.repeat(start[merged], count) + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))
+    pos = bridge.ranges(start[merged], count)
     face = order[pos] // 3
     v = np.repeat(merged, count)
     w = vertex_map[v]
@@ -579,7 +579,7 @@ def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex,
         lo, hi = start[v], start[v + 1]
         count = hi - lo
         group = np.repeat(np.arange(changed.size), count)
-        cand = order[np.repeat(lo, count) + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count))]
+        cand = order[bridge.ranges(lo, count)]
         dist = ((uv[cand] - flat[changed][group]) ** 2).sum(1)
         pick = np.lexsort((dist, group))
         first = pick[np.r_[0, np.flatnonzero(np.diff(group[pick])) + 1]] if pick.size else pick

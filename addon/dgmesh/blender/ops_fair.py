@@ -614,7 +614,7 @@ def _select_faces(mesh, polys, select):
         return
     start = bridge.get_array(mesh.polygons, "loop_start", np.int32).astype(np.int64)[polys]
     total = bridge.get_array(mesh.polygons, "loop_total", np.int32).astype(np.int64)[polys]
-    loops = np.repeat(start - np.cumsum(total) + total, total) + np.arange(total.sum())
+    loops = bridge.ranges(start, total)
     for coll, idx in ((mesh.polygons, polys),
                       (mesh.edges, bridge.get_array(mesh.loops, "edge_index", np.int32)[loops]),
                       (mesh.vertices, bridge.get_array(mesh.loops, "vertex_index", np.int32)[loops])):

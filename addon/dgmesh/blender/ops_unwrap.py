@@ -447,7 +447,7 @@ def _edit_corners(mesh, it):
         return None
     loops = [l for f in faces for l in f.loops]
     total = it["poly_total"]
-    index = np.repeat(it["poly_start"] - np.cumsum(total) + total, total) + np.arange(len(loops))
+    index = bridge.ranges(it["poly_start"], total)
     if np.any(np.diff(index) <= 0):
         loops = [loops[i] for i in np.argsort(index).tolist()]
     return mesh, bm, bm.loops.layers.uv.active, loops
