@@ -670,3 +670,51 @@ def test_new_corners_blend_the_corners_of_the_polygon_they_replace():
                 assert ci2[i] == ci[loops[d.argmin()]]
                 checked_int += 1
     assert checked_int > len(new)  # most new corners have one nearest corner
+
+
+def _attribute(mesh, name, key, k, dtype):
+    att = mesh.attributes[name]
+    a = np.empty(k * len(att.data), dtype)
+    att.data.foreach_get(key, a)
+    return a.reshape(-1, k) if k > 1 else a
+
+
+def test_new_vertices_and_corners_take_2d_vector_boolean_and_byte_attributes():
+    """Blender 3.4's bmesh reaches neither 2D-vector nor boolean layers, so new vertices and corners
+    got (0, 0) and False there (and 8-bit integers went through bmesh's int layers); they are now
+    read and written in bulk like the others: blended (2D vectors) or from the nearest source."""
+    obj = _fresh_sphere()
+    mesh = obj.data
+    V = _positions(mesh)
+    n, nl = len(V), len(mesh.loops)
+    mesh.attributes.new("xy", 'FLOAT2', 'POINT').data.foreach_set("vector", V[:, :2].astype(np.float32).ravel())
+    mesh.attributes.new("up", 'BOOLEAN', 'POINT').data.foreach_set("value", V[:, 2] > 0)
+    mesh.attributes.new("b8", 'INT8', 'POINT').data.foreach_set("value", np.where(V[:, 2] > 0, -7, 3).astype(np.int32))
+    lv = np.empty(nl, np.int32)
+    mesh.loops.foreach_get("vertex_index", lv)
+    mesh.attributes.new("cxy", 'FLOAT2', 'CORNER').data.foreach_set("vector", V[lv, :2].astype(np.float32).ravel())
+    mesh.attributes.new("cup", 'BOOLEAN', 'CORNER').data.foreach_set("value", V[lv, 2] > 0)
+    sel = np.array([p.center.z > 0.5 for p in mesh.polygons])
+    for coll in (mesh.vertices, mesh.edges):
+        coll.foreach_set("select", np.zeros(len(coll), bool))
+    mesh.polygons.foreach_set("select", sel)
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_mode(type='FACE')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', subdivisions=1) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    mesh = obj.data
+    V2 = _positions(mesh)
+    assert len(V2) > n + 50
+    new = slice(n, None)
+    xy = _attribute(mesh, "xy", "vector", 2, np.float32)
+    assert np.abs(xy[new] - V2[new, :2]).max() < 0.05  # about the new vertex's own x, y
+    assert np.allclose(xy[:n], V[:, :2], atol=1e-6)  # the old vertices keep theirs
+    assert _attribute(mesh, "up", "value", 1, bool)[new].all()
+    assert (_attribute(mesh, "b8", "value", 1, np.int32)[new] == -7).all()
+    lv2 = np.empty(len(mesh.loops), np.int32)
+    mesh.loops.foreach_get("vertex_index", lv2)
+    corners = np.flatnonzero(lv2 >= n)  # corners at new vertices
+    assert len(corners) > 100
+    cxy = _attribute(mesh, "cxy", "vector", 2, np.float32)
+    assert np.abs(cxy[corners] - V2[lv2[corners], :2]).max() < 0.05
+    assert _attribute(mesh, "cup", "value", 1, bool)[corners].all()

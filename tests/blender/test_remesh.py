@@ -275,6 +275,14 @@ def test_new_vertices_carry_uvs_and_vertex_weights():
         group.add([v.index], 0.5 + 0.2 * v.co.x - 0.1 * v.co.y, 'REPLACE')
     col = me.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')  # stored as sRGB bytes
     col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(me.loops)).astype(np.float32))
+    # Types Blender 3.4's bmesh does not reach (new vertices and corners had (0, 0) and False).
+    co = coords(me)
+    me.attributes.new("xy", 'FLOAT2', 'POINT').data.foreach_set("vector", co[:, :2].ravel())
+    me.attributes.new("left", 'BOOLEAN', 'POINT').data.foreach_set("value", co[:, 0] < 0)
+    lv = np.empty(len(me.loops), np.int32)
+    me.loops.foreach_get("vertex_index", lv)
+    me.attributes.new("cxy", 'FLOAT2', 'CORNER').data.foreach_set("vector", co[lv, :2].ravel())
+    me.attributes.new("on", 'BOOLEAN', 'CORNER').data.foreach_set("value", np.ones(len(me.loops), bool))
     bpy.ops.object.mode_set(mode='EDIT')
     bm = bmesh.from_edit_mesh(me)
     for f in bm.faces:
@@ -300,6 +308,19 @@ def test_new_vertices_carry_uvs_and_vertex_weights():
     c = np.empty(4 * len(me.loops), np.float32)
     me.color_attributes["Col"].data.foreach_get("color_srgb", c)
     assert np.abs(c.reshape(-1, 4) - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255  # not darkened
+    a = np.empty(2 * len(me.vertices), np.float32)
+    me.attributes["xy"].data.foreach_get("vector", a)
+    assert np.abs(a.reshape(-1, 2) - co[:, :2]).max() < 1e-5  # affine: exact
+    b = np.empty(len(me.vertices), bool)
+    me.attributes["left"].data.foreach_get("value", b)
+    off_axis = np.abs(co[:, 0]) > 0.2  # a grid spacing off: the heaviest source is on the same side
+    assert np.array_equal(b[off_axis], co[off_axis, 0] < 0)
+    a = np.empty(2 * len(me.loops), np.float32)
+    me.attributes["cxy"].data.foreach_get("vector", a)
+    assert np.abs(a.reshape(-1, 2) - co[lv, :2]).max() < 1e-5
+    b = np.empty(len(me.loops), bool)
+    me.attributes["on"].data.foreach_get("value", b)
+    assert b.all()
 
 
 def test_triangles_across_a_uv_seam_take_one_side_of_it():

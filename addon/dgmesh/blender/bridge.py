@@ -360,8 +360,30 @@ def mesh_has_modifiers(obj):
     return any(m.show_viewport or m.show_render for m in obj.modifiers)
 
 
-# Generic attribute types that Blender 3.4's bmesh exposes as layers: (layer group, components).
-BMESH_LAYER_KIND = {'FLOAT': ("float", 1), 'INT': ("int", 1), 'FLOAT_VECTOR': ("float_vector", 3)}
+# Generic attribute types that operators making new vertices or faces carry onto them, read and
+# written in bulk: data_type -> (foreach key, components, dtype). Integers and booleans are copied
+# from one source, the others blended. (Blender 3.4's bmesh reaches neither booleans nor 2D vectors.)
+ATTRIBUTE_TYPES = {
+    'FLOAT': ("value", 1, np.float32), 'FLOAT2': ("vector", 2, np.float32),
+    'FLOAT_VECTOR': ("vector", 3, np.float32), 'FLOAT_COLOR': ("color", 4, np.float32),
+    # bytes as stored (sRGB): `color` would convert them to linear and back
+    'BYTE_COLOR': ("color_srgb", 4, np.float32),
+    'INT': ("value", 1, np.int32), 'INT8': ("value", 1, np.int32), 'BOOLEAN': ("value", 1, bool),
+}
+
+
+def _carried(att, domain):
+    """Whether new elements of ``domain`` should take attribute ``att`` from their sources: the user's
+    generic attributes, not Blender's internal ones ('.select_vert', Blender 4's 'position')."""
+    return (att.domain == domain and att.data_type in ATTRIBUTE_TYPES and not att.name.startswith(".")
+            and att.name != "position")
+
+
+def _read_attribute(att):
+    key, k, dtype = ATTRIBUTE_TYPES[att.data_type]
+    a = np.empty(k * len(att.data), dtype)
+    att.data.foreach_get(key, a)
+    return a.reshape(-1, k)
 
 
 def _vertex_references(mesh):
@@ -398,72 +420,64 @@ def remap_vertex_references(mesh, new_index, fallback=None):
         m.vertex_indices_set(sorted({new(i) for i in m.vertex_indices} - {-1}))
 
 
-def bmesh_point_layers(bm):
-    """The point-domain layers an operator that adds vertices should fill in: ([(layer, kind)],
-    the active deform (vertex-group) layer or None). Blender 3.4's bmesh cannot reach boolean and
-    2D-vector point attributes."""
-    out = []
-    for kind in ("float", "float_vector", "float_color", "color", "int"):
-        group = getattr(bm.verts.layers, kind, None)
-        if group is not None:
-            out += [(layer, kind) for layer in group.values()]
-    return out, bm.verts.layers.deform.active
+def point_attributes(mesh):
+    """[(name, (n, k) values)] of the generic point attributes (colours included) that vertices an
+    operator adds should take from the ones they are made from: read before the mesh changes."""
+    return [(att.name, _read_attribute(att)) for att in mesh.attributes if _carried(att, 'POINT')]
 
 
-def blend_point_data(new_verts, src_verts, idx, w, layers, deform):
-    """Point data of new bmesh vertices blended from existing ones: new vertex i gets
-    sum_k w[i, k] * value(src_verts[idx[i, k]]) for every layer of ``bmesh_point_layers`` (integers:
-    the heaviest source's) and for the vertex-group weights (``deform``). Read all at once, so the
-    sources must still exist."""
-    if not len(new_verts) or not len(src_verts) or (not layers and deform is None):
+def blend_points(values, idx, w):
+    """Values of new vertices from ``point_attributes``: new vertex i gets sum_k w[i, k] *
+    values[idx[i, k]] (integers and booleans: the heaviest source's)."""
+    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
+    heavy = idx[np.arange(len(idx)), w.argmax(1)]
+    return [(name, a[heavy] if a.dtype.kind in "ib" else np.einsum("nk,nkd->nd", w, a[idx].astype(float)))
+            for name, a in values]
+
+
+def write_points(mesh, rows, blended):
+    """Writes ``blend_points``' values at vertices ``rows`` of the changed mesh."""
+    for name, values in blended:
+        att = mesh.attributes[name]
+        a = _read_attribute(att)
+        a[rows] = values
+        att.data.foreach_set(ATTRIBUTE_TYPES[att.data_type][0], a.ravel())
+
+
+def blend_vertex_groups(new_verts, src_verts, idx, w, deform):
+    """Vertex-group weights of new bmesh vertices (``deform``: the bmesh deform layer) blended from
+    existing ones: new vertex i gets sum_k w[i, k] * weights(src_verts[idx[i, k]]). Read all at
+    once, so the sources must still exist. (No bulk access to vertex groups: bmesh per vertex.)"""
+    if deform is None or not len(new_verts) or not len(src_verts):
         return
     idx, w = np.asarray(idx), np.asarray(w, dtype=float)
     # Only the sources some new vertex reads are read (each one is a Python access).
     used, idx = np.unique(idx, return_inverse=True)
     idx = idx.reshape(w.shape)
     src_verts = [src_verts[i] for i in used.tolist()]
-    heavy = idx[np.arange(len(idx)), w.argmax(1)]
-
-    def blend(A):
-        return np.einsum("nk,nkd->nd", w, np.asarray(A, dtype=float).reshape(len(src_verts), -1)[idx])
-
-    for layer, kind in layers:
-        if kind == "int":
-            vals = [src_verts[j][layer] for j in heavy]
-        elif kind == "float":
-            vals = blend([v[layer] for v in src_verts])[:, 0].tolist()
-        else:
-            vals = blend([tuple(v[layer]) for v in src_verts]).tolist()
-        for v, x in zip(new_verts, vals):
-            v[layer] = x
-    if deform is not None:
-        groups = sorted({g for v in src_verts for g in v[deform].keys()})
-        if groups:
-            col = {g: k for k, g in enumerate(groups)}
-            A = np.zeros((len(src_verts), len(groups)))
-            for j, v in enumerate(src_verts):
-                for g, x in v[deform].items():
-                    A[j, col[g]] = x
-            for v, row in zip(new_verts, blend(A)):
-                dv = v[deform]
-                for g, x in zip(groups, row.tolist()):
-                    if x > 0:
-                        dv[g] = x
+    groups = sorted({g for v in src_verts for g in v[deform].keys()})
+    if not groups:
+        return
+    col = {g: k for k, g in enumerate(groups)}
+    A = np.zeros((len(src_verts), len(groups)))
+    for j, v in enumerate(src_verts):
+        for g, x in v[deform].items():
+            A[j, col[g]] = x
+    for v, row in zip(new_verts, np.einsum("nk,nkd->nd", w, A[idx]).tolist()):
+        dv = v[deform]
+        for g, x in zip(groups, row):
+            if x > 0:
+                dv[g] = x
 
 
 def corner_layers(mesh):
     """((kind, name), width) of the corner data that faces an operator makes should take from the
-    faces they replace: UV maps ('uv'), corner colours ('float_color', 'color' for bytes) and the
-    generic float, vector and integer corner attributes (the corner types Blender 3.4's bmesh
-    reaches; kinds are its layer groups)."""
+    faces they replace: UV maps ('uv') and the generic corner attributes, colours included
+    ('attr')."""
     out = [(("uv", uv.name), 2) for uv in mesh.uv_layers]
-    out += [(("float_color" if att.data_type == 'FLOAT_COLOR' else "color", att.name), 4)
-            for att in mesh.color_attributes if att.domain == 'CORNER']
-    skip = {a.name for a in mesh.color_attributes} | {u.name for u in mesh.uv_layers}
-    for att in mesh.attributes:
-        kind, k = BMESH_LAYER_KIND.get(att.data_type, (None, 0))
-        if att.domain == 'CORNER' and kind is not None and att.name not in skip and not att.name.startswith("."):
-            out.append(((kind, att.name), k))
+    uvs = {u.name for u in mesh.uv_layers}  # Blender 3.5+ lists UV maps among the attributes too
+    out += [(("attr", att.name), ATTRIBUTE_TYPES[att.data_type][1]) for att in mesh.attributes
+            if _carried(att, 'CORNER') and att.name not in uvs]
     return out
 
 
@@ -471,12 +485,9 @@ def _corner_data(mesh, kind, name):
     """(data collection, foreach key, dtype) of a corner layer named as corner_layers names it."""
     if kind == "uv":
         return mesh.uv_layers[name].data, "uv", np.float32
-    if kind in ("float_color", "color"):
-        att = mesh.color_attributes[name]
-        # bmesh's byte-colour layers hold the stored (sRGB) values; `color` is linear
-        return att.data, "color_srgb" if att.data_type == 'BYTE_COLOR' else "color", np.float32
-    key = "vector" if kind == "float_vector" else "value"
-    return mesh.attributes[name].data, key, np.int32 if kind == "int" else np.float32
+    att = mesh.attributes[name]
+    key, _k, dtype = ATTRIBUTE_TYPES[att.data_type]
+    return att.data, key, dtype
 
 
 def read_corners(mesh, kind, name, width):

@@ -481,11 +481,11 @@ def _interpolate_corners(V, tris, src, loop_start, loop_total, loop_vertex, laye
     """Corner data (UVs, colours, generic attributes) of new triangles from the polygons they
     replace: corner j of triangle t (at V[tris[t, j]]) blends the corners of polygon src[t] (its
     loops from loop_start/loop_total, their vertices loop_vertex, as read before the write) by
-    _corner_weights; integers come from the nearest corner. ``layers``: [(key, (loops, k) values)];
-    returns [(key, (t, 3, k) values)]. All triangles at once, grouped by polygon size: with a Python
-    loop per face, writing 25K new faces with 7 corner layers took 1.6 s, now 0.2 s
+    _corner_weights; integers and booleans come from the nearest corner. ``layers``: [(key, (loops,
+    k) values)]; returns [(key, (t, 3, k) values)]. All triangles at once, grouped by polygon size:
+    with a Python loop per face, writing 25K new faces with 7 corner layers took 1.6 s, now 0.2 s
     (BMLoop.copy_from_face_interp would do it per face but fails on Blender 3.4 with Python 3.11)."""
-    out = [np.zeros((len(tris), 3, C.shape[1]), C.dtype if C.dtype.kind == "i" else float) for _, C in layers]
+    out = [np.zeros((len(tris), 3, C.shape[1]), C.dtype if C.dtype.kind in "ib" else float) for _, C in layers]
     size = loop_total[src]
     for k in np.unique(size).tolist():
         rows_k = np.flatnonzero(size == k)
@@ -496,7 +496,7 @@ def _interpolate_corners(V, tris, src, loop_start, loop_total, loop_vertex, laye
             near = W.argmax(-1)
             for o, (_key, C) in zip(out, layers):
                 Cs = C[loops]  # (g, k, width)
-                if C.dtype.kind == "i":
+                if C.dtype.kind in "ib":
                     o[rows] = Cs[np.arange(len(rows))[:, None], near]
                 else:
                     o[rows] = np.einsum("gjk,gkw->gjw", W, Cs)
@@ -540,6 +540,7 @@ def _write_subdivided(t, select):
     loop_start = bridge.get_array(mesh.polygons, "loop_start", np.int32).astype(np.int64)
     loop_total = bridge.get_array(mesh.polygons, "loop_total", np.int32).astype(np.int64)
     loop_vertex = bridge.get_array(mesh.loops, "vertex_index", np.int32)
+    points = bridge.point_attributes(mesh)
 
     bm = bmesh.new()
     try:
@@ -555,17 +556,20 @@ def _write_subdivided(t, select):
         bm.verts.index_update()
         by_poly = {int(p): bm.faces[int(p)] for p in polys}
         old_faces = list(by_poly.values())
-        vlayers, deform = bridge.bmesh_point_layers(bm)
+        deform = bm.verts.layers.deform.active
         # New vertices: inverse fourth-power distance weights over the replaced polygons' vertices
         # (Shepard interpolation over the hole's rim: a fill's flips make the polygon a new vertex
         # was traced to a poor guide).
         src = list({v for f in old_faces for v in f.verts})
-        if len(V) > n_old and src and (vlayers or deform is not None):
+        new_points = []
+        if len(V) > n_old and src and (points or deform is not None):
             Q = np.array([v.co[:] for v in src])
             idx = _nearest_sources(Q, V[n_old:])
             d2 = ((V[n_old:, None, :] - Q[idx]) ** 2).sum(-1)
             W = 1.0 / np.maximum(d2, 1e-300) ** 2
-            bridge.blend_point_data(verts[n_old:], src, idx, W / W.sum(1, keepdims=True), vlayers, deform)
+            W /= W.sum(1, keepdims=True)
+            new_points = bridge.blend_points(points, np.array([v.index for v in src])[idx], W)
+            bridge.blend_vertex_groups(verts[n_old:], src, idx, W, deform)
         # Faces one by one (bmesh has no bulk creation); their corner data and selection are
         # written in bulk after to_mesh, by the indices bmesh gives them.
         made, made_rows, kept = [], [], set()
@@ -596,6 +600,7 @@ def _write_subdivided(t, select):
         bm.to_mesh(mesh)
     finally:
         bm.free()
+    bridge.write_points(mesh, vindex[n_old:], new_points)
     made_rows = np.array(made_rows, dtype=np.int64)
     if len(made_rows):
         loops = bridge.new_face_loops(mesh, made_polys, vindex[F[made_rows]])

@@ -228,6 +228,9 @@ def _replace_region(mesh, it, select_new, renumbering=False):
     # Corner data (UV maps, corner colours) and point data (vertex groups, point attributes)
     # of the new vertices, blended from the input face each lies on (source_face/bary).
     corner = _corner_values(mesh, it, r)
+    nb = len(r.boundary_source)
+    points = bridge.blend_points(bridge.point_attributes(mesh), np.asarray(ids)[it["F"][r.source_face[nb:]]],
+                                 r.source_bary[nb:])
     material, smooth = _face_flags(mesh, it, r)
     bm = bmesh.new()
     try:
@@ -240,10 +243,9 @@ def _replace_region(mesh, it, select_new, renumbering=False):
         kept = [bm.verts[int(ids[s])] for s in r.boundary_source]
         inner = [bm.verts[int(v)] for v in ids[it["inner"]]]
         sources = [bm.verts[int(v)] for v in ids]  # the chart's vertices, inner ones included
-        nb = len(kept)
         new = [bm.verts.new(co) for co in r.V[nb:].tolist()]  # before the inner vertices go
-        vlayers, deform = bridge.bmesh_point_layers(bm)
-        bridge.blend_point_data(new, sources, it["F"][r.source_face[nb:]], r.source_bary[nb:], vlayers, deform)
+        bridge.blend_vertex_groups(new, sources, it["F"][r.source_face[nb:]], r.source_bary[nb:],
+                                   bm.verts.layers.deform.active)
         bmesh.ops.delete(bm, geom=faces, context='FACES_ONLY')
         bmesh.ops.delete(bm, geom=inner, context='VERTS')
         vmap = kept + new
@@ -261,6 +263,7 @@ def _replace_region(mesh, it, select_new, renumbering=False):
         bm.to_mesh(mesh)
     finally:
         bm.free()
+    bridge.write_points(mesh, out_index[nb:], points)
     _write_new_faces(mesh, polys, out_index[r.F], corner, material, smooth, select_new)
     mesh.update()
     return new_index, out_index
@@ -360,16 +363,16 @@ def _face_flags(mesh, it, r):
 
 
 def _corner_values(mesh, it, r):
-    """((bmesh layer group, name), (m_out, 3[, k]) values of each output triangle's corners) for each
-    UV map, corner colour and generic corner attribute bmesh can write."""
+    """((kind, name), (m_out, 3[, k]) values of each output triangle's corners) for each layer of
+    bridge.corner_layers (UV maps, generic corner attributes, colours included)."""
     L = it["tri_loops"]  # (nf, 3) mesh loops of the chart's triangles
     shared = _shared_edges(it["F"])
     out = []
     for (kind, name), k in bridge.corner_layers(mesh):
         C = bridge.read_corners(mesh, kind, name, k)[L]
-        if kind != "int":
+        if C.dtype.kind not in "ib":
             vals = _island_corners(it["V"], it["F"], C, r, shared)
-        else:  # no blend of integers: the input corner with the largest barycentric weight
+        else:  # no blend of integers or booleans: the input corner with the largest barycentric weight
             T = r.F
             vals = C[r.source_face[T], np.argmax(r.source_bary[T], axis=-1)]
         out.append(((kind, name), vals[..., 0] if k == 1 else vals))
