@@ -65,6 +65,14 @@ def select_faces(mesh, mask):
     mesh.update()
 
 
+def bridge_array(polygons, key, dtype, attribute=False):
+    """One property of every polygon, or (``attribute``) the face attribute named ``key``."""
+    data = polygons.id_data.attributes[key].data if attribute else polygons
+    a = np.empty(len(data), dtype)
+    data.foreach_get("value" if attribute else key, a)
+    return a
+
+
 def grid_object():
     return bmesh_object("Grid", lambda bm: bmesh.ops.create_grid(bm, x_segments=24, y_segments=24, size=1.0))
 
@@ -399,7 +407,9 @@ def test_triangles_across_a_seam_that_ends_inside_the_region_are_not_stretched()
     assert (worst_ratio(obj.data) > limit).sum() <= 2
 
 
-def test_materials_and_smooth_shading_follow_the_source_faces():
+def test_materials_smooth_shading_and_face_attributes_follow_the_source_faces():
+    """New triangles take material, shading and the face attributes (they had none: 0 and False)
+    of the input polygon under most of their corners."""
     fresh_scene()
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, size=2)
     obj = bpy.context.object
@@ -409,7 +419,15 @@ def test_materials_and_smooth_shading_follow_the_source_faces():
     for p in me.polygons:
         p.material_index = int(p.center.x > 0)
         p.use_smooth = p.center.x > 0
+    right = bridge_array(me.polygons, "material_index", np.int32) == 1
+    me.attributes.new("right", 'BOOLEAN', 'FACE').data.foreach_set("value", right)
+    me.attributes.new("side", 'FLOAT', 'FACE').data.foreach_set("value", np.where(right, 2.5, -1.0).astype(np.float32))
     assert remesh(target_vertices=200) == {'FINISHED'}
+    me = obj.data
+    flag = bridge_array(me.polygons, "right", bool, attribute=True)
+    side = bridge_array(me.polygons, "side", np.float32, attribute=True)
+    assert np.array_equal(flag, bridge_array(me.polygons, "material_index", np.int32) == 1)
+    assert np.array_equal(side, np.where(flag, 2.5, -1.0))
     area = [0.0, 0.0]
     for p in obj.data.polygons:
         area[p.material_index] += p.area

@@ -372,11 +372,17 @@ ATTRIBUTE_TYPES = {
 }
 
 
+# Blender's own data stored as attributes (3.4: material_index; 4.x: more), which operators set
+# themselves or which bmesh writes as flags and may drop as attributes.
+BUILTIN_ATTRIBUTES = {"position", "material_index", "sharp_face", "sharp_edge", "crease_vert", "crease_edge",
+                      "bevel_weight_vert", "bevel_weight_edge"}
+
+
 def _carried(att, domain):
     """Whether new elements of ``domain`` should take attribute ``att`` from their sources: the user's
-    generic attributes, not Blender's internal ones ('.select_vert', Blender 4's 'position')."""
+    generic attributes, not Blender's internal ('.select_vert') or built-in ones."""
     return (att.domain == domain and att.data_type in ATTRIBUTE_TYPES and not att.name.startswith(".")
-            and att.name != "position")
+            and att.name not in BUILTIN_ATTRIBUTES)
 
 
 def _read_attribute(att):
@@ -420,14 +426,15 @@ def remap_vertex_references(mesh, new_index, fallback=None):
         m.vertex_indices_set(sorted({new(i) for i in m.vertex_indices} - {-1}))
 
 
-def point_attributes(mesh):
-    """[(name, (n, k) values)] of the generic point attributes (colours included) that vertices an
-    operator adds should take from the ones they are made from: read before the mesh changes."""
-    return [(att.name, _read_attribute(att)) for att in mesh.attributes if _carried(att, 'POINT')]
+def read_attributes(mesh, domain):
+    """[(name, (n, k) values)] of the generic attributes of ``domain`` (colours included) that new
+    elements an operator makes should take from the ones they are made from: read before the mesh
+    changes."""
+    return [(att.name, _read_attribute(att)) for att in mesh.attributes if _carried(att, domain)]
 
 
-def blend_points(values, idx, w):
-    """Values of new vertices from ``point_attributes``: new vertex i gets sum_k w[i, k] *
+def blend_attributes(values, idx, w):
+    """Values of new elements from ``read_attributes``: new element i gets sum_k w[i, k] *
     values[idx[i, k]] (integers and booleans: the heaviest source's)."""
     idx, w = np.asarray(idx), np.asarray(w, dtype=float)
     heavy = idx[np.arange(len(idx)), w.argmax(1)]
@@ -435,12 +442,12 @@ def blend_points(values, idx, w):
             for name, a in values]
 
 
-def write_points(mesh, rows, blended):
-    """Writes ``blend_points``' values at vertices ``rows`` of the changed mesh."""
-    for name, values in blended:
+def write_attributes(mesh, rows, values):
+    """Writes values [(name, (len(rows), k))] at elements ``rows`` of the changed mesh."""
+    for name, v in values:
         att = mesh.attributes[name]
         a = _read_attribute(att)
-        a[rows] = values
+        a[rows] = v
         att.data.foreach_set(ATTRIBUTE_TYPES[att.data_type][0], a.ravel())
 
 

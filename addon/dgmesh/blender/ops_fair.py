@@ -540,7 +540,7 @@ def _write_subdivided(t, select):
     loop_start = bridge.get_array(mesh.polygons, "loop_start", np.int32).astype(np.int64)
     loop_total = bridge.get_array(mesh.polygons, "loop_total", np.int32).astype(np.int64)
     loop_vertex = bridge.get_array(mesh.loops, "vertex_index", np.int32)
-    points = bridge.point_attributes(mesh)
+    points = bridge.read_attributes(mesh, 'POINT')
 
     bm = bmesh.new()
     try:
@@ -568,7 +568,7 @@ def _write_subdivided(t, select):
             d2 = ((V[n_old:, None, :] - Q[idx]) ** 2).sum(-1)
             W = 1.0 / np.maximum(d2, 1e-300) ** 2
             W /= W.sum(1, keepdims=True)
-            new_points = bridge.blend_points(points, np.array([v.index for v in src])[idx], W)
+            new_points = bridge.blend_attributes(points, np.array([v.index for v in src])[idx], W)
             bridge.blend_vertex_groups(verts[n_old:], src, idx, W, deform)
         # Faces one by one (bmesh has no bulk creation); their corner data and selection are
         # written in bulk after to_mesh, by the indices bmesh gives them.
@@ -600,7 +600,7 @@ def _write_subdivided(t, select):
         bm.to_mesh(mesh)
     finally:
         bm.free()
-    bridge.write_points(mesh, vindex[n_old:], new_points)
+    bridge.write_attributes(mesh, vindex[n_old:], new_points)
     made_rows = np.array(made_rows, dtype=np.int64)
     if len(made_rows):
         loops = bridge.new_face_loops(mesh, made_polys, vindex[F[made_rows]])

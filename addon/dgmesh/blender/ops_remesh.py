@@ -229,9 +229,12 @@ def _replace_region(mesh, it, select_new, renumbering=False):
     # of the new vertices, blended from the input face each lies on (source_face/bary).
     corner = _corner_values(mesh, it, r)
     nb = len(r.boundary_source)
-    points = bridge.blend_points(bridge.point_attributes(mesh), np.asarray(ids)[it["F"][r.source_face[nb:]]],
-                                 r.source_bary[nb:])
-    material, smooth = _face_flags(mesh, it, r)
+    points = bridge.blend_attributes(bridge.read_attributes(mesh, 'POINT'),
+                                     np.asarray(ids)[it["F"][r.source_face[nb:]]], r.source_bary[nb:])
+    source = _source_polygons(mesh, it, r)
+    face_values = [(name, a[source]) for name, a in bridge.read_attributes(mesh, 'FACE')]
+    material, smooth = (bridge.get_array(mesh.polygons, key, t)[source]
+                        for key, t in (("material_index", np.int32), ("use_smooth", bool)))
     bm = bmesh.new()
     try:
         bm.from_mesh(mesh)
@@ -263,7 +266,8 @@ def _replace_region(mesh, it, select_new, renumbering=False):
         bm.to_mesh(mesh)
     finally:
         bm.free()
-    bridge.write_points(mesh, out_index[nb:], points)
+    bridge.write_attributes(mesh, out_index[nb:], points)
+    bridge.write_attributes(mesh, polys, face_values)
     _write_new_faces(mesh, polys, out_index[r.F], corner, material, smooth, select_new)
     mesh.update()
     return new_index, out_index
@@ -346,20 +350,16 @@ def _nearest_output(it, out_index):
     return nearest
 
 
-def _face_flags(mesh, it, r):
-    """Material index and smooth flag of each output triangle: those of the input polygon under
-    most of its corners (each output vertex lies on an input face: source_face), so a region
-    across material or shading borders keeps them."""
-    mat = np.empty(len(mesh.polygons), np.int32)
-    smooth = np.empty(len(mesh.polygons), bool)
-    mesh.polygons.foreach_get("material_index", mat)
-    mesh.polygons.foreach_get("use_smooth", smooth)
+def _source_polygons(mesh, it, r):
+    """The input polygon each output triangle takes its material, smooth flag and face attributes
+    from: the one under most of its corners (each output vertex lies on an input face: source_face),
+    so a region across material or shading borders keeps them."""
+    mat = bridge.get_array(mesh.polygons, "material_index", np.int32)
     src = np.asarray(r.source_face)
     poly = np.where(src >= 0, it["tri_poly"][np.maximum(src, 0)], it["polys"][0])[np.asarray(r.F)]  # (m, 3)
     m = mat[poly]
     k = np.where((m[:, 0] == m[:, 1]) | (m[:, 0] == m[:, 2]), 0, np.where(m[:, 1] == m[:, 2], 1, 0))
-    chosen = poly[np.arange(len(poly)), k]
-    return mat[chosen], smooth[chosen]
+    return poly[np.arange(len(poly)), k]
 
 
 def _corner_values(mesh, it, r):
