@@ -615,9 +615,9 @@ def test_route_edges_take_the_breadth_first_path(make):
     assert {2, 3, 4, None} <= steps  # bulk two-step routes, searched ones and unreachable pairs
 
 
-def test_crest_curve_for_every_selected_linked_duplicate(cube):
+def test_crest_curve_for_every_selected_linked_duplicate(cube, capsys):
     """Linked duplicates share the mesh, so both show the marked edges: each selected one gets its
-    curve, in its place (the second got none)."""
+    curve, in its place (the second got none), and the report says so (it said '1 object')."""
     twin = cube.copy()
     twin.location = (3.0, 0.0, 0.0)
     bpy.context.scene.collection.objects.link(twin)
@@ -632,5 +632,7 @@ def test_crest_curve_for_every_selected_linked_duplicate(cube):
         assert [(c.parent, c.get("dgmesh_crest_lines_of")) for c in curves()] == [(cube, cube), (twin, twin)]
         assert curves()[0].data == curves()[1].data and len(curves()[0].data.splines) > 0
         assert [c.matrix_world for c in curves()] == [cube.matrix_world, twin.matrix_world]
+        out = capsys.readouterr().out
+        assert "Crest lines on 1 object:" in out and "curves for 2 objects" in out
     assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=1e9, create_curves=True) == {'FINISHED'}
     assert curves() == [] and len(bpy.data.curves) == 0

@@ -410,7 +410,8 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
                 _remove_curve_object(owner)
         n_r = int((lines.line_kind == dg.crest.RIDGE).sum())
         return {"lines": len(lines), "ridges": n_r, "length": lines.total_length,
-                "ridge_edges": int(ridge.sum()), "valley_edges": int(valley.sum())}
+                "ridge_edges": int(ridge.sum()), "valley_edges": int(valley.sum()),
+                "curves": len(owners) if self.create_curves and len(lines) else 0}
 
     def summary(self, written):
         tot = {k: sum(w[k] for w in written) for k in written[0]}
@@ -418,6 +419,8 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
                 f"{tot['lines'] - tot['ridges']} valleys), total length {tot['length']:.4g}; marked "
                 f"{tot['ridge_edges']} ridge and {tot['valley_edges']} valley edges "
                 f"(threshold T {self.threshold:g}, rings {self.rings})"
+                # linked duplicates: one mesh computed, a curve object for each of them
+                + (f"; curves for {tot['curves']} objects" if tot["curves"] > len(written) else "")
                 + ("; Ridges and Valleys are both off" if not (self.ridges or self.valleys) else ""))
 
 
