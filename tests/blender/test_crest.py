@@ -104,6 +104,61 @@ def test_decimate_features(cube):
     dgmesh.validate(arrays.V, arrays.F, allow_loose_vertices=False)
 
 
+def _values(data, key, k, dtype):
+    a = np.empty(k * len(data), dtype)
+    data.foreach_get(key, a)
+    return a.reshape(-1, k) if k > 1 else a
+
+
+def test_decimate_features_carries_vertex_groups_and_attributes(cube):
+    """Rebuilding the geometry cleared the vertex groups (names too) and every generic attribute.
+    They are linear in the position here (or constant per side), so the carried values can be
+    checked against the new positions: kept vertices exactly, moved ones by the nearest input
+    triangle's barycentrics (to the rounded cube's curvature)."""
+    mesh = cube.data
+    V = _values(mesh.vertices, "co", 3, np.float32)
+    g = cube.vertex_groups.new(name="Bone")
+    cube.vertex_groups.new(name="Locked").lock_weight = True
+    for i, x in enumerate(V[:, 0].tolist()):
+        g.add([i], 0.5 + 0.25 * x, 'REPLACE')
+    mesh.attributes.new("x", 'FLOAT', 'POINT').data.foreach_set("value", V[:, 0].copy())
+    mesh.attributes.new("xy", 'FLOAT2', 'POINT').data.foreach_set("vector", V[:, :2].ravel())
+    mesh.attributes.new("top", 'BOOLEAN', 'POINT').data.foreach_set("value", V[:, 2] > 0)
+    up = _values(mesh.polygons, "center", 3, np.float32)[:, 2] > 0
+    mesh.attributes.new("face_up", 'INT', 'FACE').data.foreach_set("value", np.where(up, 7, -2).astype(np.int32))
+    mesh.attributes.new("on", 'FLOAT', 'EDGE').data.foreach_set("value", np.ones(len(mesh.edges), np.float32))
+    col = mesh.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')
+    col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(mesh.loops)).astype(np.float32))
+    mesh.color_attributes.new("Other", 'FLOAT_COLOR', 'POINT')
+    from dgmesh.blender import bridge
+    bridge.set_active_color(mesh, "Other")  # active and render
+    mesh.color_attributes.active_color = mesh.color_attributes["Col"]
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.2, feature_weight=6.0) == {'FINISHED'}
+    mesh = cube.data
+    n = len(mesh.vertices)
+    assert n < len(V) / 2
+    V2 = _values(mesh.vertices, "co", 3, np.float32)
+    assert [(x.name, x.lock_weight) for x in cube.vertex_groups] == [("Bone", False), ("Locked", True)]
+    w = np.array([[e.weight for e in v.groups if e.group == 0] for v in mesh.vertices])
+    assert w.shape == (n, 1) and np.abs(w[:, 0] - (0.5 + 0.25 * V2[:, 0])).max() < 0.01
+    assert not any(e.group == 1 for v in mesh.vertices for e in v.groups)
+    assert np.abs(_values(mesh.attributes["x"].data, "value", 1, np.float32) - V2[:, 0]).max() < 0.04
+    assert np.abs(_values(mesh.attributes["xy"].data, "vector", 2, np.float32) - V2[:, :2]).max() < 0.04
+    top = _values(mesh.attributes["top"].data, "value", 1, bool)
+    clear = np.abs(V2[:, 2]) > 0.2
+    assert np.array_equal(top[clear], V2[clear, 2] > 0)
+    face_up = _values(mesh.attributes["face_up"].data, "value", 1, np.int32)
+    z = _values(mesh.polygons, "center", 3, np.float32)[:, 2]
+    far = np.abs(z) > 0.3  # a triangle takes the value of the input face it was (as its material)
+    assert set(face_up.tolist()) == {7, -2} and (face_up[far] == np.where(z > 0, 7, -2)[far]).mean() > 0.95
+    on = _values(mesh.attributes["on"].data, "value", 1, np.float32)
+    assert set(on.tolist()) <= {0.0, 1.0} and on.sum() > len(on) / 4  # surviving edges: 1, new ones 0
+    c = _values(mesh.color_attributes["Col"].data, "color_srgb", 4, np.float32)
+    assert np.abs(c - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255
+    colors = mesh.color_attributes
+    assert colors.active_color.name == "Col" and colors[colors.render_color_index].name == "Other"
+
+
 def test_operators_work_on_every_selected_object():
     bpy.ops.wm.read_homefile(use_empty=True)
     V, quads = shapes.rounded_cube(10, quads=True)

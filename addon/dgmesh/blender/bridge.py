@@ -19,6 +19,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Optional
 
+import bmesh
 import bpy
 import numpy as np
 
@@ -258,21 +259,24 @@ def write_point_color(mesh, name, rgba, data_type='FLOAT_COLOR', make_active=Tru
     return mesh.attributes[name]
 
 
-def set_active_color(mesh, name):
-    """Make colour attribute ``name`` the active and the render (default) colour."""
+def set_active_color(mesh, name, render=None):
+    """Make colour attribute ``name`` the active and the render (default) colour (or ``render``
+    the render one)."""
     colors = mesh.color_attributes
     names = [a.name for a in colors]
-    if name not in names:
-        raise KeyError(f"{mesh.name!r} has no colour attribute {name!r}")
+    render = name if render is None else render
+    for n in (name, render):
+        if n not in names:
+            raise KeyError(f"{mesh.name!r} has no colour attribute {n!r}")
     props = colors.bl_rna.properties
     if not props["active_color_name"].is_readonly:
         # 4.x: the names are writable and are the documented way.
         colors.active_color_name = name
-        colors.default_color_name = name
+        colors.default_color_name = render
     else:
         # 3.4: the *_name properties are read-only; use pointer and index.
         colors.active_color = colors[name]
-        colors.render_color_index = names.index(name)
+        colors.render_color_index = names.index(render)
 
 
 def active_color_name(mesh):
@@ -449,6 +453,53 @@ def write_attributes(mesh, rows, values):
         a = _read_attribute(att)
         a[rows] = v
         att.data.foreach_set(ATTRIBUTE_TYPES[att.data_type][0], a.ravel())
+
+
+def read_vertex_groups(obj):
+    """The object's vertex groups (names, lock flags, the active one) and weights as (vertex, group,
+    weight) arrays, or None without groups; for an operator that rebuilds the geometry, which
+    clears them. A Python loop over the vertices: Blender has no bulk access to the weights."""
+    groups = obj.vertex_groups
+    if not len(groups):
+        return None
+    v, g, w = [], [], []
+    for vert in obj.data.vertices:
+        for e in vert.groups:
+            v.append(vert.index)
+            g.append(e.group)
+            w.append(e.weight)
+    return {"names": [x.name for x in groups], "locks": [x.lock_weight for x in groups],
+            "active": groups.active_index, "vertex": np.array(v, np.int64), "group": np.array(g, np.int64),
+            "weight": np.array(w, float)}
+
+
+def write_vertex_groups(obj, groups, o, src, w):
+    """Writes ``read_vertex_groups``' groups on the object's rebuilt mesh: output vertex o gets the
+    sum of w * (weights of input vertex src) over its (o, src, w) triples."""
+    mesh = obj.data
+    for name, lock in zip(groups["names"], groups["locks"]):
+        obj.vertex_groups.new(name=name).lock_weight = lock
+    obj.vertex_groups.active_index = groups["active"]
+    ev, eg, ew = groups["vertex"], groups["group"], groups["weight"]
+    order = np.argsort(ev, kind="stable")
+    ev, eg, ew = ev[order], eg[order], ew[order]
+    start = np.searchsorted(ev, np.arange(int(src.max(initial=-1)) + 2))
+    count = start[src + 1] - start[src]
+    at = ranges(start[src], count)
+    key = np.repeat(o, count) * len(groups["names"]) + eg[at]
+    key, inv = np.unique(key, return_inverse=True)
+    weight = np.bincount(inv, np.repeat(w, count) * ew[at])
+    vert, group = np.divmod(key, len(groups["names"]))
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(mesh)
+        deform = bm.verts.layers.deform.verify()
+        bm.verts.ensure_lookup_table()
+        for i, g, x in zip(vert.tolist(), group.tolist(), weight.tolist()):
+            bm.verts[i][deform][g] = x
+        bm.to_mesh(mesh)
+    finally:
+        bm.free()
 
 
 def blend_vertex_groups(new_verts, src_verts, idx, w, deform):

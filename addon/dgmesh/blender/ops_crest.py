@@ -18,10 +18,11 @@ surviving vertex's UV on the same side of the seam; a vertex moved to its quadri
 UV interpolated at its new position in the nearest original triangle), material index and smooth
 flag per face (from the input face the output triangle was), UV seams and material borders
 exactly (their vertices are locked), the seam and sharp flags of edges that survive, hidden faces'
-hide flags, and loose vertices and wire edges as they are (a wire edge follows the surface vertex
-it hangs from). It drops:
-vertex groups, colour and other generic attributes, custom split normals, creases and quads/n-gons
-(the result is triangles); it refuses shape keys.
+hide flags, loose vertices and wire edges as they are (a wire edge follows the surface vertex
+it hangs from), vertex groups and generic attributes (colours included: point data from the
+vertex each output vertex was, blended like the UVs where it moved; face data from the input face;
+edge data where the edge survives; corner data as the UVs). It drops: custom split normals, creases,
+bevel weights and quads/n-gons (the result is triangles); it refuses shape keys.
 
 Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the threshold
 or the marking flags only re-filter the traced lines.
@@ -473,32 +474,79 @@ def _read_for_decimation(obj):
     data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked, planes=planes,
                 uv_active=mesh.uv_layers.active_index,
                 uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))
+    # Generic attributes (colours included) and vertex groups: rebuilding the geometry clears them
+    # (names too), so they are read here and written back for the new elements.
+    uv_names = {name for name, _uv in uvs}  # Blender 3.5+ lists UV maps among the attributes
+    attrs = []
+    for domain in ('POINT', 'EDGE', 'FACE', 'CORNER'):
+        for name, values in bridge.read_attributes(mesh, domain):
+            if name not in uv_names:
+                attrs.append((name, mesh.attributes[name].data_type, domain, values))
+    colors = mesh.color_attributes
+    data.update(attributes=attrs, active_color=bridge.active_color_name(mesh),
+                render_color=colors[colors.render_color_index].name if len(colors) else None,
+                vertex_groups=bridge.read_vertex_groups(obj))
     return data
 
 
-def _carry_edge_flags(mesh, data, vertex_map):
-    """Seams and sharp edges of the input that survive the decimation (both ends kept and still
-    joined by an edge; vertices on UV seams are locked, so an unwrapped mesh keeps all its seams)
-    keep their flag on the new mesh."""
-    flags = {prop: f for prop, f in data["edge_flags"].items() if f.any()}
-    if not flags or not len(mesh.edges):
-        return
-    out = np.empty(2 * len(mesh.edges), dtype=np.int32)
-    mesh.edges.foreach_get("vertices", out)
-    out = out.reshape(-1, 2).astype(np.int64)
+def _surviving_edges(mesh, data, vertex_map):
+    """(output edges, input edges) of the input edges that survive the decimation: both ends kept
+    and still joined by an edge (vertices on UV seams are locked, so an unwrapped mesh keeps all its
+    seams)."""
+    out = _get(mesh.edges, "vertices", np.int32, 2).astype(np.int64)
     n = len(mesh.vertices)
     key_out = out.min(1) * n + out.max(1)
     order = np.argsort(key_out)
     sorted_keys = key_out[order]
     a, b = (vertex_map[data["edges"][:, k]].astype(np.int64) for k in (0, 1))
     key_in = np.minimum(a, b) * n + np.maximum(a, b)
-    pos = np.clip(np.searchsorted(sorted_keys, key_in), 0, len(sorted_keys) - 1)
-    hit = (a >= 0) & (b >= 0) & (a != b) & (sorted_keys[pos] == key_in)
-    for prop, flag in flags.items():
-        mask = np.zeros(len(out), bool)
-        mask[order[pos[hit & flag]]] = True
+    pos = np.clip(np.searchsorted(sorted_keys, key_in), 0, max(len(sorted_keys) - 1, 0))
+    hit = np.flatnonzero((a >= 0) & (b >= 0) & (a != b) & (sorted_keys[pos] == key_in)) if len(out) else []
+    return order[pos[hit]], np.asarray(hit, dtype=np.int64)
+
+
+def _carry_edge_flags(mesh, data, edge_pairs):
+    """Seams and sharp edges of the input keep their flag on the edges that survive."""
+    out_e, in_e = edge_pairs
+    for prop, flag in data["edge_flags"].items():
+        mask = np.zeros(len(mesh.edges), bool)
+        mask[out_e[flag[in_e]]] = True
         if mask.any():
             _or_edge_flag(mesh, prop, mask)
+
+
+def _vertex_sources(source_vertex, lookup, loop_vertex, loose, n_surface):
+    """Where each output vertex takes its point data and vertex-group weights: (output vertex,
+    input vertex, weight) triples. A vertex that kept its place takes its source vertex's; one moved
+    to its quadric optimum blends the nearest input triangle's by its barycentrics (the lookup its
+    UVs use); loose vertices keep their own."""
+    o = np.arange(n_surface)
+    src, w = np.asarray(source_vertex[:n_surface], dtype=np.int64), np.ones(n_surface)
+    if lookup is not None:
+        moved_out, loops, bary = lookup
+        keep = np.ones(n_surface, bool)
+        keep[moved_out] = False
+        o = np.concatenate([o[keep], np.repeat(moved_out, 3)])
+        src = np.concatenate([src[keep], loop_vertex[loops].ravel()])
+        w = np.concatenate([w[keep], bary.ravel()])
+    o = np.concatenate([o, n_surface + np.arange(len(loose))])
+    src = np.concatenate([src, loose])
+    w = np.concatenate([w, np.ones(len(loose))])
+    return o, src, w
+
+
+def _blend_by_triples(values, o, src, w, n_out):
+    """(n_out, k) values: sum of w * values[src] per output o; integers and booleans: the heaviest
+    source's."""
+    if values.dtype.kind in "ib":
+        order = np.lexsort((-w, o))
+        first = order[np.r_[True, o[order][1:] != o[order][:-1]]]
+        out = np.zeros((n_out, values.shape[1]), values.dtype)
+        out[o[first]] = values[src[first]]
+        return out
+    out = np.zeros((n_out, values.shape[1]))
+    np.add.at(out, o, w[:, None] * values[src])
+    return out
 
 
 def _moved_vertex_lookup(tri_loops, V, F, V2, vertex_map, moved):
@@ -554,8 +602,9 @@ def _moved_vertex_lookup(tri_loops, V, F, V2, vertex_map, moved):
 
 
 def _moved_vertex_uvs(uv, lookup, n):
-    """UV of each of the n output vertices that :func:`_moved_vertex_lookup` places (zero elsewhere)."""
-    out = np.zeros((n, 2))
+    """UV (or other corner values) of each of the n output vertices that :func:`_moved_vertex_lookup`
+    places (zero elsewhere)."""
+    out = np.zeros((n, uv.shape[1]))
     if lookup is not None:
         w, loops, bary = lookup
         out[w] = (bary[:, :, None] * uv[loops]).sum(1)
@@ -563,7 +612,7 @@ def _moved_vertex_uvs(uv, lookup, n):
 
 
 def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex, moved_uv=None, moved=None):
-    """UVs for the corners of the decimated triangles ((m2, 3, 2)).
+    """UVs (or other corner values, (n_loops, k)) for the corners of the decimated triangles ((m2, 3, k)).
 
     Output triangle j is input triangle face_map[j] with some corners now at a merged vertex.
     A corner that kept its vertex keeps its own UV. A corner now at another surviving vertex takes
@@ -573,7 +622,7 @@ def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex,
     ref = tri_loops[face_map]  # (m2, 3) input loops of the output corners
     out = uv[ref].astype(np.float64)
     src = source_vertex[F2]    # input vertex now at each corner
-    flat = out.reshape(-1, 2)
+    flat = out.reshape(-1, uv.shape[1])
     changed = np.flatnonzero((loop_vertex[ref] != src).ravel())
     if changed.size:
         order = np.argsort(loop_vertex, kind="stable")
@@ -593,18 +642,30 @@ def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex,
     return out
 
 
-def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
+def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     """Replaces the mesh's geometry in place (same datablock: its name, materials and users stay),
-    with UV maps, material indices, smooth and hide flags, and loose geometry carried over."""
+    with UV maps, generic attributes, vertex groups, material indices, smooth and hide flags, and
+    loose geometry carried over."""
+    mesh = obj.data
     arrays = data["arrays"]
     poly = arrays.tri_poly[face_map]
     moved = np.any(V2 != arrays.V[source_vertex], axis=1)
     uvs = []
-    lookup = _moved_vertex_lookup(arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved) if data["uvs"] else None
+    carried = data["uvs"] or data["attributes"] or data["vertex_groups"]
+    lookup = _moved_vertex_lookup(arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved) if carried else None
+
+    def corners(values):  # UVs and other corner values of the output triangles, (3 m2, k)
+        discrete = values.dtype.kind in "ib"
+        at_moved = _moved_vertex_uvs(values.astype(float), lookup, len(V2))
+        if discrete and lookup is not None:  # no blend: the corner with the largest barycentric
+            w, loops, bary = lookup
+            at_moved[w] = values[loops[np.arange(len(w)), bary.argmax(1)]]
+        out = transfer_corner_uvs(values.astype(float), arrays.tri_loops, data["loop_vertex"], F2, face_map,
+                                  source_vertex, at_moved, moved).reshape(-1, values.shape[1])
+        return out.astype(values.dtype) if discrete else out
+
     for name, uv in data["uvs"]:
-        moved_uv = _moved_vertex_uvs(uv, lookup, len(V2))
-        uvs.append((name, transfer_corner_uvs(uv, arrays.tri_loops, data["loop_vertex"], F2, face_map,
-                                              source_vertex, moved_uv, moved)))
+        uvs.append((name, corners(uv)))
     # Loose geometry (vertices and edges of no face) is not decimated but carried over, after the
     # surface's vertices; wire edges follow their ends.
     loose = np.flatnonzero(vertex_map < 0)
@@ -632,7 +693,8 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
                              np.sort(ev, axis=1).astype(np.int64) @ np.array([n, 1]))]
         mesh.edges.add(len(wire))
         mesh.edges.foreach_set("vertices", np.concatenate([ev.ravel(), wire.astype(np.int32).ravel()]))
-    _carry_edge_flags(mesh, data, vertex_map)
+    edge_pairs = _surviving_edges(mesh, data, vertex_map)
+    _carry_edge_flags(mesh, data, edge_pairs)
     # Hidden faces stay hidden, with the vertices and edges no shown face uses.
     vert_hide, poly_hide = data["hide"]
     if poly_hide.any() or vert_hide.any():
@@ -650,9 +712,37 @@ def _write_decimated(mesh, data, V2, F2, vertex_map, face_map, source_vertex):
     if len(mesh.uv_layers):
         mesh.uv_layers.active_index = min(max(data["uv_active"], 0), len(mesh.uv_layers) - 1)
         mesh.uv_layers[min(data["uv_render"], len(mesh.uv_layers) - 1)].active_render = True
+    o, src, w = _vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
+    _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners)
+    if data["vertex_groups"] is not None:
+        bridge.write_vertex_groups(obj, data["vertex_groups"], o, src, w)
     mesh.validate(verbose=False)
     mesh.update()
     bridge.remap_vertex_references(mesh, vertex_map)  # every input vertex went to one output vertex
+
+
+def _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners):
+    """The input's generic attributes on the decimated mesh: point data from ``_vertex_sources``'
+    triples, face data from the input polygon each triangle was, edge data where the edge survives
+    (new edges: zero), corner data as the UVs take theirs (``corners``); colours stay active."""
+    out_e, in_e = edge_pairs
+    for name, data_type, domain, values in data["attributes"]:
+        if domain == 'POINT':
+            new = _blend_by_triples(values, o, src, w, len(mesh.vertices))
+        elif domain == 'FACE':
+            new = values[poly]
+        elif domain == 'EDGE':
+            new = np.zeros((len(mesh.edges), values.shape[1]), values.dtype)
+            new[out_e] = values[in_e]
+        else:
+            new = corners(values)
+        mesh.attributes.new(name, data_type, domain)
+        key, _k, dtype = bridge.ATTRIBUTE_TYPES[data_type]
+        mesh.attributes[name].data.foreach_set(key, np.ascontiguousarray(new, dtype=dtype).ravel())
+    names = {a.name for a in mesh.color_attributes}
+    if data["active_color"] in names:
+        bridge.set_active_color(mesh, data["active_color"], render=data["render_color"] if data["render_color"] in names
+                                else data["active_color"])
 
 
 class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
@@ -662,9 +752,9 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         "Quadric decimation of the selected meshes that keeps density near salient crest lines "
         "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
         "shading are carried over (vertices on UV seams and material borders are kept in place), "
-        "seams and sharp edges where their edges survive, hidden faces, and loose vertices and "
-        "edges as they are; other attributes (vertex groups, "
-        "colour attributes, custom normals) are dropped"
+        "seams and sharp edges where their edges survive, vertex groups, colour and other "
+        "attributes, hidden faces, and loose vertices and edges as they are; custom normals, "
+        "creases and bevel weights are dropped"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
@@ -717,7 +807,7 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
 
     def write(self, context, obj, data, result):
         V2, F2, vmap, fmap, src, n_lines = result
-        _write_decimated(obj.data, data, V2, F2, vmap, fmap, src)
+        _write_decimated(obj, data, V2, F2, vmap, fmap, src)
         return {"before": len(data["arrays"].F), "after": len(F2), "lines": n_lines, "uv": len(data["uvs"]),
                 "locked": int(data["locked"].sum())}
 
@@ -725,8 +815,8 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         tot = {k: sum(w[k] for w in written) for k in written[0]}
         return (f"Decimated {_plural(len(written), 'object')}: {tot['before']} -> {tot['after']} triangles "
                 f"(feature weight {self.feature_weight:g}, {tot['lines']} crest lines; "
-                f"{_plural(tot['uv'], 'UV map')} and materials carried over, {tot['locked']} vertices on UV "
-                f"seams / material borders kept; other attributes dropped)")
+                f"{_plural(tot['uv'], 'UV map')}, materials, vertex groups and attributes carried over, "
+                f"{tot['locked']} vertices on UV seams / material borders kept)")
 
 
 class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
