@@ -103,7 +103,7 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         features, whose vertices only move to lift such an angle) and stars still holding one get a
         max-min-angle pattern search; each sweep is followed by the 3D flips when ``flip_3d`` and by
         the removal of interior valence-3/4 vertices whose star holds an angle under 20 degrees
-        (``n_removed``). Default 3; 0 (with
+        (``n_removed``), then a closing sweep without flips. Default 3; 0 (with
         ``flip_3d=False, lloyd_iterations=0``) is the thesis's scheme as published.
     boundary_clearance, eta, uopt_steps, domain: see RemeshOptions in remesh.h.
     """

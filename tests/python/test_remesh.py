@@ -516,3 +516,15 @@ def test_unstitchable_kept_boundary_is_a_mesh_error(monkeypatch):
         dgmesh.remesh(V, F, target_vertices=100)
     with pytest.raises(dgmesh.Error, match="internal error"):
         dgmesh.remesh(V, F, target_vertices=100, boundary="resample")
+
+
+def test_post_processing_ends_with_smoothing_at_creases(cgal):
+    # three_peaks is a coarse grid (columns 1 apart) whose peaks end in ridges bent 90-124 degrees
+    # across one input edge, finer than the target spacing: output triangles straddling a ridge fold in
+    # 3D, and the last sweep's unfolding flips left slivers nothing smoothed (single_u0 at 4025: 5.1
+    # degrees; double at 5900: 6.0) before the closing smoothing pass (31.5 and 31.7).
+    V, F = dgmesh.read_mesh(cgal / "three_peaks.off")
+    for mode, target in (("single_u0", 4025), ("double", 5900)):
+        r = dgmesh.remesh_full(V, F, target_vertices=target, mode=mode, boundary="resample", resolution=256)
+        check_disk(r.V, r.F)
+        assert angles_deg(r.V, r.F).min() > 20, (mode, target, angles_deg(r.V, r.F).min())

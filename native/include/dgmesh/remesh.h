@@ -81,7 +81,8 @@ struct RemeshOptions {
   // below 35 degrees (33 at vertices on sharp features, which only move to lift such an angle), and
   // stars still holding one get a max-min-angle pattern search), each followed by the 3D flips when flip_3d is
   // on and by the removal of interior valence-3/4 vertices whose star holds an angle under 20
-  // degrees (RemeshResult::n_removed; the count drops by a few per mille at most).
+  // degrees (RemeshResult::n_removed; the count drops by a few per mille at most), then a closing
+  // smoothing sweep on the final connectivity.
   // 0: off. The same post-processing for all three modes (bench remesh_quality).
   int smooth_iterations = 3;
   RemeshRelaxMetric relax_metric = RemeshRelaxMetric::Surface;
