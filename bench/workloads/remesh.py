@@ -273,9 +273,14 @@ def remesh_quality(quick):
         "whose pixels are small on the surface (the separation drops the crowded samples), hence its edge CV "
         "and Hausdorff: the thesis's fig. 5.8 point. The minimum angle is one triangle: without smoothing it "
         "sits at a sharp fold, a crease of a coarse input or a scan defect; the default smoothing lifts every "
-        "star it can to 35 degrees (33 on sharp features), so where every mode reaches the goal they tie. It "
-        "stays noisy at the creases of three_peaks (coarse input, steep slopes compressed in U0), see the "
-        "table at other counts. The smoothing trades some fidelity at sharp features for angles and "
+        "star it can to 35 degrees (33 on sharp features), so where every mode reaches the goal they tie. On "
+        "three_peaks it is set by 3D folds: the peaks end in ridges bent 90-124 degrees across one input edge "
+        "of a grid 1 apart, finer than the target spacing (0.37-0.45), and output triangles straddling them "
+        "fold; a search over the whole allowed region of each of the worst triangle's vertices, and every flip "
+        "of its edges, finds nothing better (measured at 4000 and 6000). So it is noise there: over targets "
+        "3800-4200 and 5800-6200 in steps of 25, double against the better single won 14, tied 5, lost 15 on "
+        "the minimum angle while winning 32 of 34 on edge CV (a helper's sweep, /tmp/rm, not this bench). The "
+        "smoothing trades some fidelity at sharp features for angles and "
         "uniformity (compare the Hausdorff of '+flips' and '+smooth').",
         "",
         "Reproduce: `/usr/bin/python3 bench/run.py remesh_quality`",
