@@ -489,7 +489,10 @@ def write_vertex_groups(obj, groups, o, src, w):
     key = np.repeat(o, count) * len(groups["names"]) + eg[at]
     key, inv = np.unique(key, return_inverse=True)
     weight = np.bincount(inv, np.repeat(w, count) * ew[at])
-    vert, group = np.divmod(key, len(groups["names"]))
+    # A member with weight 0 stays one where a source counts (not for a zero barycentric).
+    counted = np.bincount(inv, np.repeat(w, count)) > 0
+    vert, group = np.divmod(key[counted], len(groups["names"]))
+    weight = weight[counted]
     bm = bmesh.new()
     try:
         bm.from_mesh(mesh)

@@ -740,9 +740,9 @@ def _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners):
         key, _k, dtype = bridge.ATTRIBUTE_TYPES[data_type]
         mesh.attributes[name].data.foreach_set(key, np.ascontiguousarray(new, dtype=dtype).ravel())
     names = {a.name for a in mesh.color_attributes}
-    if data["active_color"] in names:
-        bridge.set_active_color(mesh, data["active_color"], render=data["render_color"] if data["render_color"] in names
-                                else data["active_color"])
+    active, render = data["active_color"], data["render_color"]
+    if active in names:
+        bridge.set_active_color(mesh, active, render=render if render in names else active)
 
 
 class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
