@@ -797,8 +797,9 @@ namespace {
 
 // Bind the points V to the limit surface for control positions X: closest points seeded by the
 // nearest limit sample (a (2^level+1)-per-edge grid on every face), then Gauss-Newton.
+// `home` (optional, per point): the control vertex the point was merged into by the decimation.
 void bind_points(Multires::Impl& m, const MatX3d& X, const MatX3d& V, int iterations, bool warm_start,
-                 Progress& progress, double f0, double f1) {
+                 Progress& progress, double f0, double f1, const std::vector<int>* home = nullptr) {
   const LimitSurface& L = m.surf;
   MatX4d P;
   L.points_exact(X, P);
@@ -825,8 +826,42 @@ void bind_points(Multires::Impl& m, const MatX3d& X, const MatX3d& V, int iterat
     const KdTree tree(samples);
     m.face.resize(nd);
     m.st.resize(nd, 2);
+    const Topology& topo = L.topo;
     parallel_blocks(nd, progress, f0 + 0.2 * (f1 - f0), f0 + 0.4 * (f1 - f0), [&](int i) {
-      const int s = tree.nearest(V.row(i).transpose());
+      const Vec3 x = V.row(i).transpose();
+      int s = tree.nearest(x);
+      // The nearest sample can lie on another part of the surface that touches this one (the
+      // camel's front legs, which the closest-point walk then never leaves): a seed whose face has
+      // no corner within two rings of the point's own control vertex is replaced by the nearest
+      // sample on the faces around that vertex and its ring.
+      const int h = home && s >= 0 ? (*home)[i] : -1;
+      if (h >= 0) {
+        const int f = sample_loc[s].f;
+        auto near2 = [&](int c) {
+          if (c == h) return true;
+          for (int k = topo.vv_offset[h]; k < topo.vv_offset[h + 1]; ++k) {
+            const int a = topo.vv_index[k];
+            if (a == c) return true;
+            for (int q = topo.vv_offset[a]; q < topo.vv_offset[a + 1]; ++q)
+              if (topo.vv_index[q] == c) return true;
+          }
+          return false;
+        };
+        if (!near2(L.F(f, 0)) && !near2(L.F(f, 1)) && !near2(L.F(f, 2))) {
+          double best = std::numeric_limits<double>::infinity();
+          auto faces_of = [&](int c) {
+            for (int q = topo.vf_offset[c]; q < topo.vf_offset[c + 1]; ++q) {
+              const int g = topo.vf_index[q];
+              for (int k = g * per_face; k < (g + 1) * per_face; ++k) {
+                const double d2 = (samples.row(k).transpose() - x).squaredNorm();
+                if (d2 < best) best = d2, s = k;
+              }
+            }
+          };
+          faces_of(h);
+          for (int k = topo.vv_offset[h]; k < topo.vv_offset[h + 1]; ++k) faces_of(topo.vv_index[k]);
+        }
+      }
       const Loc l = sample_loc[std::max(0, s)];
       m.face[i] = l.f;
       m.st(i, 0) = l.s;
@@ -986,7 +1021,8 @@ Multires Multires::build(const Mesh& dense, const MultiresOptions& opt, const Pr
   // 2. Bind, fit, re-bind (warm started from the previous base points).
   const int rounds = opt.fit_iterations;
   const double span = 0.55 / (1 + rounds);
-  bind_points(m, m.control_V, dense.V, opt.projection_iterations, false, progress, 0.4, 0.4 + span);
+  bind_points(m, m.control_V, dense.V, opt.projection_iterations, false, progress, 0.4, 0.4 + span,
+              &dec.vertex_map);
   m.timings.bind = lap();
   for (int r = 0; r < rounds; ++r) {
     m.control_V = fit_control(m, m.control_V, dense.V, opt.fit_regularization);

@@ -845,12 +845,15 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
   // static split can hand most of them to one thread.
 #pragma omp parallel for schedule(dynamic, 4096) if (n >= kParallelMin)
   for (int i = 0; i < n; ++i) {
-    if (dense_rigid[i]) continue;
+    // A vertex that one bone moves rigidly skips the thickness step but not the bone clearance: the
+    // global solve's small spread moves it slightly, which matters next to its bone (camel shin,
+    // 1.7 mm from the bone: bones min ratio 0.84 in bench skeletal_limb's twist without it).
+    if (dense_rigid[i] && !clear) continue;
     Vec3 x = out.row(i).transpose().template cast<double>();
     // Repeated like the control mesh's step (a vertex pushed out of one ball may land in another);
     // each pass adds the previous minimiser's ring to the candidates.
     int prev = -1;
-    for (int pass = 0; pass < passes; ++pass) {
+    for (int pass = 0; pass < (dense_rigid[i] ? 0 : passes); ++pass) {
       int arg = dense_arg[i];
       double best = (x - row3(Sd, arg)).norm() - radii[arg];
       auto consider = [&](int j) {
@@ -1105,9 +1108,23 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
   if (have_w) {
     Eigen::MatrixXd Wc(nc, B);
     if (impl->multires) {
-      // Control vertices take the weights of their nearest dense vertex.
+      // Control vertices take the weights of their nearest dense vertex among those bound to the
+      // faces around them (a Euclidean nearest can lie on another part that touches this one: three
+      // control vertices of the camel's leg took the other leg's weights); the nearest of all where
+      // none is bound there.
+      const VecXi& face = impl->multires->base_face();
+      const MatX3i& Fc = impl->control.F;
+      std::vector<int> near(nc, -1);
+      std::vector<double> near_d2(nc, std::numeric_limits<double>::infinity());
+      for (int i = 0; i < n; ++i)
+        for (int k = 0; k < 3; ++k) {
+          const int c = Fc(face[i], k);
+          const double d2 = (row3(V, i) - row3(impl->control.V, c)).squaredNorm();
+          if (d2 < near_d2[c]) near_d2[c] = d2, near[c] = i;
+        }
       const KdTree tree(V);
-      for (int i = 0; i < nc; ++i) Wc.row(i) = weights.row(tree.nearest(row3(impl->control.V, i)));
+      for (int i = 0; i < nc; ++i)
+        Wc.row(i) = weights.row(near[i] >= 0 ? near[i] : tree.nearest(row3(impl->control.V, i)));
     } else {
       Wc = weights;
     }
