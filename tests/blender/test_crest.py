@@ -111,7 +111,8 @@ def _values(data, key, k, dtype):
 
 
 def test_decimate_features_carries_vertex_groups_and_attributes(cube):
-    """Rebuilding the geometry cleared the vertex groups (names too) and every generic attribute.
+    """Rebuilding the geometry cleared the vertex groups (names too), every generic attribute, edge
+    creases and bevel weights.
     They are linear in the position here (or constant per side), so the carried values can be
     checked against the new positions: kept vertices exactly, moved ones by the nearest input
     triangle's barycentrics (to the rounded cube's curvature)."""
@@ -127,6 +128,10 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     up = _values(mesh.polygons, "center", 3, np.float32)[:, 2] > 0
     mesh.attributes.new("face_up", 'INT', 'FACE').data.foreach_set("value", np.where(up, 7, -2).astype(np.int32))
     mesh.attributes.new("on", 'FLOAT', 'EDGE').data.foreach_set("value", np.ones(len(mesh.edges), np.float32))
+    ev = _values(mesh.edges, "vertices", 2, np.int32)
+    top_edge = (V[ev, 2] > 0).all(1)  # creased, bevel-weighted where both ends are above z = 0
+    for prop, value in (("crease", 0.75), ("bevel_weight", 0.5)):
+        mesh.edges.foreach_set(prop, np.where(top_edge, value, 0.0).astype(np.float32))
     col = mesh.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')
     col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(mesh.loops)).astype(np.float32))
     mesh.color_attributes.new("Other", 'FLOAT_COLOR', 'POINT')
@@ -153,6 +158,13 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     assert set(face_up.tolist()) == {7, -2} and (face_up[far] == np.where(z > 0, 7, -2)[far]).mean() > 0.95
     on = _values(mesh.attributes["on"].data, "value", 1, np.float32)
     assert set(on.tolist()) <= {0.0, 1.0} and on.sum() > len(on) / 4  # surviving edges: 1, new ones 0
+    z2 = V2[_values(mesh.edges, "vertices", 2, np.int32), 2]
+    for prop, value in (("crease", 0.75), ("bevel_weight", 0.5)):  # surviving edges keep theirs
+        w = _values(mesh.edges, prop, 1, np.float32)
+        assert set(np.round(w, 3).tolist()) == {0.0, value} and not (w[on == 0]).any()
+        upper = (on > 0) & (z2 > 0.3).all(1)
+        # (flat sides decimate to large triangles: a creased edge's image can reach far down them)
+        assert (w[upper] > 0).mean() > 0.9 and z2[w > 0].mean() > 0.3
     c = _values(mesh.color_attributes["Col"].data, "color_srgb", 4, np.float32)
     assert np.abs(c - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255
     colors = mesh.color_attributes

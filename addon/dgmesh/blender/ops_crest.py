@@ -17,12 +17,13 @@ It keeps: UV maps (per corner: a corner keeps its UV when its vertex survives, e
 surviving vertex's UV on the same side of the seam; a vertex moved to its quadric optimum gets the
 UV interpolated at its new position in the nearest original triangle), material index and smooth
 flag per face (from the input face the output triangle was), UV seams and material borders
-exactly (their vertices are locked), the seam and sharp flags of edges that survive, hidden faces'
+exactly (their vertices are locked), the seam and sharp flags, creases and bevel weights of edges
+that survive, hidden faces'
 hide flags, loose vertices and wire edges as they are (a wire edge follows the surface vertex
 it hangs from), vertex groups and generic attributes (colours included: point data from the
 vertex each output vertex was, blended like the UVs where it moved; face data from the input face;
-edge data where the edge survives; corner data as the UVs). It drops: custom split normals, creases,
-bevel weights and quads/n-gons (the result is triangles); it refuses shape keys.
+edge data where the edge survives; corner data as the UVs). It drops: custom split normals, vertex
+creases and quads/n-gons (the result is triangles); it refuses shape keys.
 
 Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the threshold
 or the marking flags only re-filter the traced lines.
@@ -464,9 +465,22 @@ def _read_for_decimation(obj):
         flags["sharp"] = _get(mesh.edges, "use_edge_sharp", bool)
     elif mesh.attributes.get("sharp_edge") is not None:  # a version without use_edge_sharp
         flags["sharp"] = _get(mesh.attributes["sharp_edge"].data, "value", bool)
+    # Edge creases and bevel weights, likewise (edge properties in Blender 3.4, the attributes
+    # crease_edge / bevel_weight_edge in 4.x).
+    weights = {}
+    for prop, attr in (("crease", "crease_edge"), ("bevel_weight", "bevel_weight_edge")):
+        rna = bpy.types.MeshEdge.bl_rna.properties.get(prop)
+        if rna is not None and not rna.is_readonly:
+            values = _get(mesh.edges, prop, np.float32)
+        elif mesh.attributes.get(attr) is not None:
+            values = _get(mesh.attributes[attr].data, "value", np.float32)
+        else:
+            continue
+        if values.any():
+            weights[(prop, attr)] = values
     wire = np.ones(len(mesh.edges), bool)  # edges of no face
     wire[_get(mesh.loops, "edge_index", np.int32)] = False
-    data.update(edges=edges.reshape(-1, 2), edge_flags=flags, wire=wire,
+    data.update(edges=edges.reshape(-1, 2), edge_flags=flags, edge_weights=weights, wire=wire,
                 hide=(_get(mesh.vertices, "hide", bool), _get(mesh.polygons, "hide", bool)))
     # A half modelled with a Mirror modifier: no face may end up lying in a mirror plane, where the
     # mirrored half puts its twin (the mirrored mesh would tear there).
@@ -506,13 +520,22 @@ def _surviving_edges(mesh, data, vertex_map):
 
 
 def _carry_edge_flags(mesh, data, edge_pairs):
-    """Seams and sharp edges of the input keep their flag on the edges that survive."""
+    """Seams, sharp edges, creases and bevel weights of the input stay on the edges that survive."""
     out_e, in_e = edge_pairs
     for prop, flag in data["edge_flags"].items():
         mask = np.zeros(len(mesh.edges), bool)
         mask[out_e[flag[in_e]]] = True
         if mask.any():
             _or_edge_flag(mesh, prop, mask)
+    for (prop, attr), values in data["edge_weights"].items():
+        new = np.zeros(len(mesh.edges), np.float32)
+        np.maximum.at(new, out_e, values[in_e])  # input edges merged into one: the largest (as seams OR)
+        rna = bpy.types.MeshEdge.bl_rna.properties.get(prop)
+        if rna is not None and not rna.is_readonly:
+            mesh.edges.foreach_set(prop, new)
+        else:
+            mesh.attributes.new(attr, 'FLOAT', 'EDGE')
+            mesh.attributes[attr].data.foreach_set("value", new)
 
 
 def _vertex_sources(source_vertex, lookup, loop_vertex, loose, n_surface):
@@ -752,9 +775,9 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         "Quadric decimation of the selected meshes that keeps density near salient crest lines "
         "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
         "shading are carried over (vertices on UV seams and material borders are kept in place), "
-        "seams and sharp edges where their edges survive, vertex groups, colour and other "
-        "attributes, hidden faces, and loose vertices and edges as they are; custom normals, "
-        "creases and bevel weights are dropped"
+        "seams, sharp edges, creases and bevel weights where their edges survive, vertex groups, "
+        "colour and other attributes, hidden faces, and loose vertices and edges as they are; "
+        "custom normals and vertex creases are dropped"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
