@@ -609,6 +609,20 @@ def test_whole_object_subdivision_blends_point_data_from_nearby_vertices():
     assert np.abs(x[n:] - new.reshape(-1, 3)[n:, 0]).max() < 0.05  # about the new vertex's own x
 
 
+def _fair_polar_cap(obj):
+    """Edit mode with exactly the faces above z = 0.5 selected, Fair with one subdivision, back to
+    Object mode; the object's mesh."""
+    mesh = obj.data
+    for coll in (mesh.vertices, mesh.edges):
+        coll.foreach_set("select", np.zeros(len(coll), bool))
+    mesh.polygons.foreach_set("select", np.array([p.center.z > 0.5 for p in mesh.polygons]))
+    bpy.ops.object.mode_set(mode='EDIT')
+    bpy.ops.mesh.select_mode(type='FACE')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', subdivisions=1) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return obj.data
+
+
 def test_new_corners_blend_the_corners_of_the_polygon_they_replace():
     """Each corner of a new face takes inverse-square-distance weights over the corners of the
     polygon it replaces (exact at a shared vertex), integers the nearest corner's value. Random
@@ -631,14 +645,7 @@ def test_new_corners_blend_the_corners_of_the_polygon_they_replace():
     corners = [[(mesh.loops[i].vertex_index, i) for i in p.loop_indices] for p in mesh.polygons]
     sel = np.array([p.center.z > 0.5 for p in mesh.polygons])
     assert {len(corners[p]) for p in np.flatnonzero(sel)} == {3, 4}  # the pole's triangles and quads
-    for coll in (mesh.vertices, mesh.edges):
-        coll.foreach_set("select", np.zeros(len(coll), bool))
-    mesh.polygons.foreach_set("select", sel)
-    bpy.ops.object.mode_set(mode='EDIT')
-    bpy.ops.mesh.select_mode(type='FACE')
-    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', subdivisions=1) == {'FINISHED'}
-    bpy.ops.object.mode_set(mode='OBJECT')
-    mesh = obj.data
+    mesh = _fair_polar_cap(obj)
     V = _positions(mesh)
     uv2 = np.empty(2 * len(mesh.loops), np.float32)
     mesh.uv_layers.active.data.foreach_get("uv", uv2)
@@ -694,15 +701,7 @@ def test_new_vertices_and_corners_take_2d_vector_boolean_and_byte_attributes():
     mesh.loops.foreach_get("vertex_index", lv)
     mesh.attributes.new("cxy", 'FLOAT2', 'CORNER').data.foreach_set("vector", V[lv, :2].astype(np.float32).ravel())
     mesh.attributes.new("cup", 'BOOLEAN', 'CORNER').data.foreach_set("value", V[lv, 2] > 0)
-    sel = np.array([p.center.z > 0.5 for p in mesh.polygons])
-    for coll in (mesh.vertices, mesh.edges):
-        coll.foreach_set("select", np.zeros(len(coll), bool))
-    mesh.polygons.foreach_set("select", sel)
-    bpy.ops.object.mode_set(mode='EDIT')
-    bpy.ops.mesh.select_mode(type='FACE')
-    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', subdivisions=1) == {'FINISHED'}
-    bpy.ops.object.mode_set(mode='OBJECT')
-    mesh = obj.data
+    mesh = _fair_polar_cap(obj)
     V2 = _positions(mesh)
     assert len(V2) > n + 50
     new = slice(n, None)
