@@ -1,5 +1,6 @@
 """Blender operators of thesis chapter 4: crest lines, feature decimation, segmentation."""
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
@@ -132,6 +133,14 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     top_edge = (V[ev, 2] > 0).all(1)  # creased, bevel-weighted where both ends are above z = 0
     for prop, value in (("crease", 0.75), ("bevel_weight", 0.5)):
         mesh.edges.foreach_set(prop, np.where(top_edge, value, 0.0).astype(np.float32))
+    # Vertex creases (3.4: a layer only bmesh makes) and bevel weights: 1 on the upper half.
+    bm = bmesh.new()
+    bm.from_mesh(mesh)
+    bm.verts.layers.crease.verify()
+    bm.to_mesh(mesh)
+    bm.free()
+    mesh.vertex_creases[0].data.foreach_set("value", (V[:, 2] > 0).astype(np.float32))
+    mesh.vertices.foreach_set("bevel_weight", (V[:, 2] > 0).astype(np.float32))
     col = mesh.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')
     col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(mesh.loops)).astype(np.float32))
     mesh.color_attributes.new("Other", 'FLOAT_COLOR', 'POINT')
@@ -165,6 +174,10 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
         upper = (on > 0) & (z2 > 0.3).all(1)
         # (flat sides decimate to large triangles: a creased edge's image can reach far down them)
         assert (w[upper] > 0).mean() > 0.9 and z2[w > 0].mean() > 0.3
+    # a merged vertex takes the largest of its sources': 1 above z = 0, 0 well below
+    for w in (_values(mesh.vertex_creases[0].data, "value", 1, np.float32),
+              _values(mesh.vertices, "bevel_weight", 1, np.float32)):
+        assert set(w.tolist()) == {0.0, 1.0} and (w[V2[:, 2] > 0.05] == 1).all() and not w[V2[:, 2] < -0.3].any()
     c = _values(mesh.color_attributes["Col"].data, "color_srgb", 4, np.float32)
     assert np.abs(c - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255
     colors = mesh.color_attributes

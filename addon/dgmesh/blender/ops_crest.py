@@ -22,8 +22,8 @@ that survive, hidden faces'
 hide flags, loose vertices and wire edges as they are (a wire edge follows the surface vertex
 it hangs from), vertex groups and generic attributes (colours included: point data from the
 vertex each output vertex was, blended like the UVs where it moved; face data from the input face;
-edge data where the edge survives; corner data as the UVs). It drops: custom split normals, vertex
-creases and quads/n-gons (the result is triangles); it refuses shape keys.
+edge data where the edge survives; corner data as the UVs), vertex creases and bevel weights. It
+drops custom split normals and quads/n-gons (the result is triangles); it refuses shape keys.
 
 Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the threshold
 or the marking flags only re-filter the traced lines.
@@ -39,6 +39,7 @@ only the strongest (bench/images/crest_lines_*.png), hence the default of 10.
 import colorsys
 import hashlib
 
+import bmesh
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, FloatProperty, IntProperty
@@ -480,7 +481,8 @@ def _read_for_decimation(obj):
             weights[(prop, attr)] = values
     wire = np.ones(len(mesh.edges), bool)  # edges of no face
     wire[_get(mesh.loops, "edge_index", np.int32)] = False
-    data.update(edges=edges.reshape(-1, 2), edge_flags=flags, edge_weights=weights, wire=wire,
+    data.update(edges=edges.reshape(-1, 2), edge_flags=flags, edge_weights=weights,
+                vertex_weights=_read_vertex_weights(mesh), wire=wire,
                 hide=(_get(mesh.vertices, "hide", bool), _get(mesh.polygons, "hide", bool)))
     # A half modelled with a Mirror modifier: no face may end up lying in a mirror plane, where the
     # mirrored half puts its twin (the mirrored mesh would tear there).
@@ -501,6 +503,47 @@ def _read_for_decimation(obj):
                 render_color=colors[colors.render_color_index].name if len(colors) else None,
                 vertex_groups=bridge.read_vertex_groups(obj))
     return data
+
+
+def _read_vertex_weights(mesh):
+    """Vertex creases and bevel weights, {"crease" / "bevel_weight": values} where any is set: in
+    Blender 3.4 a crease layer (Mesh.vertex_creases) and a vertex property, in 4.x the attributes
+    crease_vert / bevel_weight_vert."""
+    out = {}
+    if len(getattr(mesh, "vertex_creases", ())):
+        out["crease"] = _get(mesh.vertex_creases[0].data, "value", np.float32)
+    elif mesh.attributes.get("crease_vert") is not None:
+        out["crease"] = _get(mesh.attributes["crease_vert"].data, "value", np.float32)
+    rna = bpy.types.MeshVertex.bl_rna.properties.get("bevel_weight")
+    if rna is not None and not rna.is_readonly:
+        out["bevel_weight"] = _get(mesh.vertices, "bevel_weight", np.float32)
+    elif mesh.attributes.get("bevel_weight_vert") is not None:
+        out["bevel_weight"] = _get(mesh.attributes["bevel_weight_vert"].data, "value", np.float32)
+    return {k: v for k, v in out.items() if v.any()}
+
+
+def _write_vertex_weights(mesh, weights, o, src, w):
+    """``_read_vertex_weights``' values on the decimated mesh: each output vertex takes the largest
+    of its sources' (``_vertex_sources``' triples with a weight), as merged edges do."""
+    for key, values in weights.items():
+        new = np.zeros(len(mesh.vertices), np.float32)
+        np.maximum.at(new, o[w > 0], values[src[w > 0]])
+        if key == "crease" and hasattr(mesh, "vertex_creases"):
+            if not len(mesh.vertex_creases):  # 3.4: only bmesh makes the layer
+                bm = bmesh.new()
+                try:
+                    bm.from_mesh(mesh)
+                    bm.verts.layers.crease.verify()
+                    bm.to_mesh(mesh)
+                finally:
+                    bm.free()
+            mesh.vertex_creases[0].data.foreach_set("value", new)
+        elif key == "bevel_weight" and bpy.types.MeshVertex.bl_rna.properties.get("bevel_weight") is not None:
+            mesh.vertices.foreach_set("bevel_weight", new)
+        else:
+            name = "crease_vert" if key == "crease" else "bevel_weight_vert"
+            mesh.attributes.new(name, 'FLOAT', 'POINT')
+            mesh.attributes[name].data.foreach_set("value", new)
 
 
 def _surviving_edges(mesh, data, vertex_map):
@@ -739,6 +782,7 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners)
     if data["vertex_groups"] is not None:
         bridge.write_vertex_groups(obj, data["vertex_groups"], o, src, w)
+    _write_vertex_weights(mesh, data["vertex_weights"], o, src, w)
     mesh.validate(verbose=False)
     mesh.update()
     bridge.remap_vertex_references(mesh, vertex_map)  # every input vertex went to one output vertex
@@ -776,8 +820,8 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
         "shading are carried over (vertices on UV seams and material borders are kept in place), "
         "seams, sharp edges, creases and bevel weights where their edges survive, vertex groups, "
-        "colour and other attributes, hidden faces, and loose vertices and edges as they are; "
-        "custom normals and vertex creases are dropped"
+        "vertex creases, colour and other attributes, hidden faces, and loose vertices and edges as "
+        "they are; custom normals are dropped"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
