@@ -112,8 +112,8 @@ def _values(data, key, k, dtype):
 
 
 def test_decimate_features_carries_vertex_groups_and_attributes(cube):
-    """Rebuilding the geometry cleared the vertex groups (names too), every generic attribute, edge
-    creases and bevel weights.
+    """Rebuilding the geometry cleared the vertex groups (names too), every generic attribute,
+    creases, bevel weights and custom normals.
     They are linear in the position here (or constant per side), so the carried values can be
     checked against the new positions: kept vertices exactly, moved ones by the nearest input
     triangle's barycentrics (to the rounded cube's curvature)."""
@@ -141,6 +141,10 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     bm.free()
     mesh.vertex_creases[0].data.foreach_set("value", (V[:, 2] > 0).astype(np.float32))
     mesh.vertices.foreach_set("bevel_weight", (V[:, 2] > 0).astype(np.float32))
+    # Custom normals: every corner points along its vertex's position (not the surface normal).
+    lv = _values(mesh.loops, "vertex_index", 1, np.int32)
+    mesh.use_auto_smooth = True
+    mesh.normals_split_custom_set(V[lv] / np.linalg.norm(V[lv], axis=1, keepdims=True))
     col = mesh.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')
     col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(mesh.loops)).astype(np.float32))
     mesh.color_attributes.new("Other", 'FLOAT_COLOR', 'POINT')
@@ -174,6 +178,12 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
         upper = (on > 0) & (z2 > 0.3).all(1)
         # (flat sides decimate to large triangles: a creased edge's image can reach far down them)
         assert (w[upper] > 0).mean() > 0.9 and z2[w > 0].mean() > 0.3
+    assert mesh.has_custom_normals
+    mesh.calc_normals_split()
+    n = _values(mesh.loops, "normal", 3, np.float32)
+    p = V2[_values(mesh.loops, "vertex_index", 1, np.int32)]
+    cos = (n * p).sum(1) / np.linalg.norm(p, axis=1)
+    assert cos.min() > 0.999  # moved vertices: blended at their place in the nearest input triangle
     # a merged vertex takes the largest of its sources': 1 above z = 0, 0 well below
     for w in (_values(mesh.vertex_creases[0].data, "value", 1, np.float32),
               _values(mesh.vertices, "bevel_weight", 1, np.float32)):

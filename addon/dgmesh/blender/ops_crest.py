@@ -22,8 +22,9 @@ that survive, hidden faces'
 hide flags, loose vertices and wire edges as they are (a wire edge follows the surface vertex
 it hangs from), vertex groups and generic attributes (colours included: point data from the
 vertex each output vertex was, blended like the UVs where it moved; face data from the input face;
-edge data where the edge survives; corner data as the UVs), vertex creases and bevel weights. It
-drops custom split normals and quads/n-gons (the result is triangles); it refuses shape keys.
+edge data where the edge survives; corner data as the UVs), vertex creases and bevel weights, and
+custom split normals (per corner as the UVs). It drops quads/n-gons (the result is triangles); it
+refuses shape keys.
 
 Crest-line fitting is cached per mesh content and ``rings``, so redo-panel changes of the threshold
 or the marking flags only re-filter the traced lines.
@@ -499,7 +500,15 @@ def _read_for_decimation(obj):
             if name not in uv_names:
                 attrs.append((name, mesh.attributes[name].data_type, domain, values))
     colors = mesh.color_attributes
-    data.update(attributes=attrs, active_color=bridge.active_color_name(mesh),
+    # Custom split normals: carried per corner like the UVs (and set again after the rebuild).
+    normals = None
+    if mesh.has_custom_normals:
+        if hasattr(mesh, "corner_normals"):  # 4.1+
+            normals = _get(mesh.corner_normals, "vector", np.float32, 3)
+        else:
+            mesh.calc_normals_split()
+            normals = _get(mesh.loops, "normal", np.float32, 3)
+    data.update(attributes=attrs, normals=normals, active_color=bridge.active_color_name(mesh),
                 render_color=colors[colors.render_color_index].name if len(colors) else None,
                 vertex_groups=bridge.read_vertex_groups(obj))
     return data
@@ -778,6 +787,12 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     if len(mesh.uv_layers):
         mesh.uv_layers.active_index = min(max(data["uv_active"], 0), len(mesh.uv_layers) - 1)
         mesh.uv_layers[min(data["uv_render"], len(mesh.uv_layers) - 1)].active_render = True
+    if data["normals"] is not None:
+        normals = corners(data["normals"])
+        normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
+        if hasattr(mesh, "use_auto_smooth"):  # before 4.1 custom normals need it
+            mesh.use_auto_smooth = True
+        mesh.normals_split_custom_set(normals)
     o, src, w = _vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
     _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners)
     if data["vertex_groups"] is not None:
@@ -820,8 +835,8 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
         "(thesis 4.8). The result is triangles; UV maps, material slots per face and smooth "
         "shading are carried over (vertices on UV seams and material borders are kept in place), "
         "seams, sharp edges, creases and bevel weights where their edges survive, vertex groups, "
-        "vertex creases, colour and other attributes, hidden faces, and loose vertices and edges as "
-        "they are; custom normals are dropped"
+        "vertex creases, custom normals, colour and other attributes, hidden faces, and loose "
+        "vertices and edges as they are"
     )
     bl_options = {'REGISTER', 'UNDO'}
 
