@@ -209,6 +209,59 @@ def test_save_reload_bound(tmp_path):
     assert r[cyl].min() > 0.45
 
 
+def test_library_override_of_a_bound_character_deforms_live(tmp_path):
+    """A character bound in its own file, linked into a shot and overridden (Make Library Override,
+    how animators pose linked characters): its override helper's mesh was library data, which
+    ignores writes, so the character stayed at rest. The helper takes a local copy of its mesh (saved
+    with the shot); binding, unbinding and rebinding there are refused with a clear message."""
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    _pose_lower(arm, 1.0)
+    bpy.context.scene.frame_set(1)
+    expected = _evaluated_co(obj)  # the pose as the character's own file shows it
+    _pose_lower(arm, 0.0)
+    coll = bpy.data.collections.new("Char")
+    bpy.context.scene.collection.children.link(coll)
+    for o in list(bpy.context.scene.collection.objects):
+        coll.objects.link(o)
+        bpy.context.scene.collection.objects.unlink(o)
+    lib = str(tmp_path / "character.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=lib)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(lib, link=True) as (_src, dst):
+        dst.collections = ["Char"]
+    inst = bpy.data.objects.new("Char", None)
+    inst.instance_type, inst.instance_collection = 'COLLECTION', dst.collections[0]
+    bpy.context.scene.collection.objects.link(inst)
+    bpy.context.view_layer.objects.active = inst
+    inst.select_set(True)
+    assert bpy.ops.object.make_override_library() == {'FINISHED'}
+    objects = {o.name: o for o in bpy.context.scene.objects}
+    obj, arm = objects["Capsule"], objects["Rig"]
+    assert obj.override_library is not None and obj.data.library is not None
+    _pose_lower(arm, 1.0)
+    bpy.context.scene.frame_set(1)
+    assert np.abs(_evaluated_co(obj) - expected).max() < 1e-5
+    shot = str(tmp_path / "shot.blend")
+    bpy.ops.wm.save_as_mainfile(filepath=shot)
+    bpy.ops.wm.open_mainfile(filepath=shot)
+    objects = {o.name: o for o in bpy.context.scene.objects}
+    obj, arm = objects["Capsule"], objects["Rig"]
+    _pose_lower(arm, 0.0)
+    bpy.context.scene.frame_set(1)
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-5
+    _pose_lower(arm, 1.0)
+    bpy.context.scene.frame_set(1)
+    assert np.abs(_evaluated_co(obj) - expected).max() < 1e-5
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (obj, arm))
+    bpy.context.view_layer.objects.active = obj
+    for op in (bpy.ops.dgmesh.skeletal_unbind, bpy.ops.dgmesh.skeletal_rebind):
+        with pytest.raises(RuntimeError, match="bound in the library file 'character.blend'"):
+            op('EXEC_DEFAULT')
+    assert "dg_skeletal" in obj.keys()
+
+
 def test_bone_clearance_option():
     """The bind operator's Bone Clearance is stored with the binding and drives the live update: in
     the bend's inner crease each vertex keeps at least that fraction of its rest distance from the

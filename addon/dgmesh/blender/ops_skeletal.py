@@ -41,9 +41,11 @@ is cleared meanwhile too, because a disabled modifier still makes the mesh depen
 Blender would re-evaluate the whole mesh once more on every frame (measured: ~30 ms CPU per frame at
 178K vertices) before the handler's write.
 
-Live update covers local objects of the open file: a character linked from a library (collection
-instance or library override) is not in the scene's objects the handler walks, and its helper's
-mesh is library data; it stays at rest, so bake it in its own file (the cache plays when linked).
+Live update covers the objects of the open file's scenes, library overrides included: a character
+linked from a library and overridden (Make Library Override) deforms live once its override helper
+takes a local copy of its mesh (library data ignores writes); binding, unbinding and rebinding it
+are refused there (they belong to its own file). A plain collection instance cannot be posed, is not
+in the scene's objects and stays at rest: bake it in its own file (the cache plays when linked).
 
 Bake writes a frame range to a .pc2 point cache played by a Mesh Cache modifier, so renders and
 exports need no add-on: each frame as the stack evaluates it up to the live deformation (shape keys
@@ -68,7 +70,7 @@ from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
 from . import bridge
-from .common import editable_collections, plural, poll_fail as _poll_fail, set_handlers
+from .common import editable_collections, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
 KEY = "dg_skeletal"             # shape key of objects bound by earlier versions (legacy live target)
@@ -325,6 +327,28 @@ def _writes_helper(obj, helper):
     return True
 
 
+def _writable(helper, adopt=True):
+    """``helper``, or None when its vertices cannot be written. A character linked from a library and
+    overridden (Make Library Override) has an override helper whose mesh is still library data,
+    which ignores writes: the override takes a local copy once (``adopt``; saved with the file)."""
+    if helper.data.library is None:
+        return helper
+    if not adopt or helper.library is not None or helper.override_library is None:
+        return None
+    helper.data = helper.data.copy()
+    return helper
+
+
+def _from_library(obj):
+    """Why a bound object's binding cannot be changed here (it came with a character linked from a
+    library, overridden or not), or None."""
+    lib = obj.library or (obj.override_library.reference.library if obj.override_library else None)
+    if lib is None:
+        return None
+    return (f"{obj.name!r} is bound in the library file {bpy.path.basename(lib.filepath)!r}: unbind or rebind it "
+            "there (here it deforms live, and Skeletal Bake works)")
+
+
 def _own_helper(obj, info, shared):
     """A duplicate (Shift+D) reads the original's helper through a copy of its modifier: gives it a
     helper and a node group of its own, as the copy deforms by its own pose (its parent may be the
@@ -417,6 +441,8 @@ def _clear_live(obj, info, why, note):
     h = _helper_of(obj, info)
     if h is not None and not _writes_helper(obj, h):
         h = _own_helper(obj, info, h)  # an edited duplicate: the original's offsets are not its own
+    if h is not None:
+        h = _writable(h)
     if h is None:
         return
     h.data.vertices.foreach_set("co", np.zeros(3 * len(h.data.vertices), dtype=np.float32))
@@ -490,6 +516,8 @@ def _live_target(obj, info, adopt=True):
             h = _replace_helper(obj, info, n)
         elif h is not None and not _writes_helper(obj, h):
             h = _own_helper(obj, info, h) if adopt else None
+        if h is not None:
+            h = _writable(h, adopt)
         if h is None or len(h.data.vertices) != n:
             return none
         return h.data.vertices, "co", h.data
@@ -899,6 +927,10 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         if is_bound(obj):
             self.report({'ERROR'}, f"{obj.name!r} is already bound; unbind it first (DG Mesh > Skeletal Unbind)")
             return {'CANCELLED'}
+        reason = read_only_reason(obj)
+        if reason:
+            self.report({'ERROR'}, f"Cannot bind {obj.name!r}: its {reason} (bind it in its own file)")
+            return {'CANCELLED'}
         arm = _armature_of(context, obj)
         if arm is None:
             self.report({'ERROR'}, "No armature: select an armature together with the mesh (or give the mesh an "
@@ -1112,6 +1144,10 @@ painting its weights (the binding keeps what it read at bind)"""
             who = repr(self.object_name) if self.object_name else "The active object"
             self.report({'ERROR'}, f"{who} is not bound (DG Mesh > Skeletal Bind)")
             return {'CANCELLED'}
+        reason = _from_library(obj)
+        if reason:
+            self.report({'ERROR'}, reason)
+            return {'CANCELLED'}
         info = obj[PROP]
         arm = _armature(obj, info)
         if arm is None:
@@ -1150,6 +1186,10 @@ object and the stored data; the Armature modifiers are restored"""
         obj = context.active_object
         if not is_bound(obj):
             self.report({'ERROR'}, "The active object is not bound (DG Mesh > Skeletal Bind)")
+            return {'CANCELLED'}
+        reason = _from_library(obj)
+        if reason:
+            self.report({'ERROR'}, reason)
             return {'CANCELLED'}
         unbind(obj)
         _purge_orphans()
