@@ -638,6 +638,13 @@ def _on_load(*_args):
     for o in bpy.data.objects:  # helpers of files bound before they were disabled in viewports
         if OWNER in o.keys() and not o.hide_viewport and o.library is None:
             o.hide_viewport = True
+    # Overridden characters saved before any update gave their helper a local mesh: now, before a
+    # render (`blender -b shot.blend -a`), whose handler calls may not add data.
+    for o in bpy.data.objects:
+        if o.override_library is not None and is_bound(o) and _target(o[PROP]) == "HELPER":
+            h = _helper_of(o, o[PROP])
+            if h is not None:
+                _writable(h)
     _rest_ok.clear()
     _rigs.clear()
     _last_pose.clear()
