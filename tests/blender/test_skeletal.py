@@ -273,6 +273,13 @@ def test_library_override_of_a_bound_character_deforms_live(tmp_path):
         with pytest.raises(RuntimeError, match="bound in the library file 'character.blend'"):
             op('EXEC_DEFAULT')
     assert "dg_skeletal" in obj.keys()
+    other = objects["Capsule_skeleton"]  # an unbound overridden mesh: its data is the library's
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o in (other, arm))
+    bpy.context.view_layer.objects.active = other
+    with pytest.raises(RuntimeError, match="Cannot bind 'Capsule_skeleton': its mesh data is linked"):
+        _bind()
+    assert "dg_skeletal" not in other.keys()
 
 
 def test_bone_clearance_option():
