@@ -194,6 +194,20 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     assert colors.active_color.name == "Col" and colors[colors.render_color_index].name == "Other"
 
 
+def test_decimate_features_carries_custom_normals_alone(cube):
+    """Custom normals on a mesh with no UV map, vertex group or attribute: the vertices moved to
+    their quadric optimum got zero normals (Blender's own there), as the lookup that places them was
+    made only for those data."""
+    mesh = cube.data
+    mesh.use_auto_smooth = True
+    mesh.normals_split_custom_set(np.tile([0.0, 0.6, 0.8], (len(mesh.loops), 1)))
+    assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.2, feature_weight=6.0) == {'FINISHED'}
+    mesh = cube.data
+    mesh.calc_normals_split()
+    # (Blender stores custom normals to about 0.01)
+    assert np.abs(_values(mesh.loops, "normal", 3, np.float32) - [0.0, 0.6, 0.8]).max() < 0.02
+
+
 def test_operators_work_on_every_selected_object():
     bpy.ops.wm.read_homefile(use_empty=True)
     V, quads = shapes.rounded_cube(10, quads=True)

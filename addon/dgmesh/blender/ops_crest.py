@@ -726,7 +726,8 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     poly = arrays.tri_poly[face_map]
     moved = np.any(V2 != arrays.V[source_vertex], axis=1)
     uvs = []
-    carried = data["uvs"] or data["attributes"] or data["vertex_groups"]
+    carried = (data["uvs"] or data["attributes"] or data["vertex_groups"] or data["vertex_weights"]
+               or data["normals"] is not None)
     lookup = _moved_vertex_lookup(arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved) if carried else None
 
     def corners(values):  # UVs and other corner values of the output triangles, (3 m2, k)
