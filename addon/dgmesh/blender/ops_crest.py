@@ -686,35 +686,40 @@ def _moved_vertex_uvs(uv, lookup, n):
     return out
 
 
-def transfer_corner_uvs(uv, tri_loops, loop_vertex, F2, face_map, source_vertex, moved_uv=None, moved=None):
-    """UVs (or other corner values, (n_loops, k)) for the corners of the decimated triangles ((m2, 3, k)).
+def corner_plan(tri_loops, loop_vertex, F2, face_map, source_vertex):
+    """What carrying corner values to the decimated triangles needs that does not depend on the
+    values (once per decimation, not per UV map or corner layer): (input loop of each output corner,
+    the corners now at another vertex, for each of those its candidates' group and loops, output
+    vertex of each corner). Output triangle j is input triangle face_map[j] with some corners now
+    at a merged vertex."""
+    ref = tri_loops[face_map].ravel()  # input loops of the output corners
+    src = source_vertex[F2].ravel()    # input vertex now at each corner
+    changed = np.flatnonzero(loop_vertex[ref] != src)
+    order = np.argsort(loop_vertex, kind="stable")
+    start = np.searchsorted(loop_vertex[order], np.arange(int(loop_vertex.max(initial=-1)) + 2))
+    v = src[changed]
+    count = start[v + 1] - start[v]
+    group = np.repeat(np.arange(changed.size), count)
+    return ref, changed, group, order[bridge.ranges(start[v], count)], F2.ravel()
 
-    Output triangle j is input triangle face_map[j] with some corners now at a merged vertex.
-    A corner that kept its vertex keeps its own UV. A corner now at another surviving vertex takes
-    one of that vertex's original corner UVs: the one nearest (in UV space) to the corner's old UV,
-    i.e. the one on the same side of any seam. Vertices that moved (``moved``) take ``moved_uv``.
-    """
-    ref = tri_loops[face_map]  # (m2, 3) input loops of the output corners
-    out = uv[ref].astype(np.float64)
-    src = source_vertex[F2]    # input vertex now at each corner
-    flat = out.reshape(-1, uv.shape[1])
-    changed = np.flatnonzero((loop_vertex[ref] != src).ravel())
+
+def transfer_corner_values(values, plan, moved_values=None, moved=None):
+    """UVs (or other corner values, (n_loops, k)) for the corners of the decimated triangles
+    ((3 m2, k)), by ``corner_plan``. A corner that kept its vertex keeps its own value. A corner now
+    at another surviving vertex takes one of that vertex's original corner values: the one nearest
+    to the corner's old value, i.e. the one on the same side of any seam. Vertices that moved
+    (``moved``) take ``moved_values``."""
+    ref, changed, group, cand, corner_vertex = plan
+    flat = values[ref].astype(np.float64)
     if changed.size:
-        order = np.argsort(loop_vertex, kind="stable")
-        start = np.searchsorted(loop_vertex[order], np.arange(int(loop_vertex.max(initial=-1)) + 2))
-        v = src.ravel()[changed]
-        lo, hi = start[v], start[v + 1]
-        count = hi - lo
-        group = np.repeat(np.arange(changed.size), count)
-        cand = order[bridge.ranges(lo, count)]
-        dist = ((uv[cand] - flat[changed][group]) ** 2).sum(1)
+        dist = ((values[cand] - flat[changed][group]) ** 2).sum(1)
         pick = np.lexsort((dist, group))
         first = pick[np.r_[0, np.flatnonzero(np.diff(group[pick])) + 1]] if pick.size else pick
-        flat[changed[group[first]]] = uv[cand[first]]
+        flat[changed[group[first]]] = values[cand[first]]
     if moved is not None:
-        at_moved = moved[F2].ravel()
-        flat[at_moved] = moved_uv[F2.ravel()[at_moved]]
-    return out
+        at_moved = moved[corner_vertex]
+        flat[at_moved] = moved_values[corner_vertex[at_moved]]
+    return flat
 
 
 def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
@@ -730,14 +735,17 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
                or data["normals"] is not None)
     lookup = _moved_vertex_lookup(arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved) if carried else None
 
+    plan = []  # corner_plan, made for the first corner layer
+
     def corners(values):  # UVs and other corner values of the output triangles, (3 m2, k)
+        if not plan:
+            plan.append(corner_plan(arrays.tri_loops, data["loop_vertex"], F2, face_map, source_vertex))
         discrete = values.dtype.kind in "ib"
         at_moved = _moved_vertex_uvs(values.astype(float), lookup, len(V2))
         if discrete and lookup is not None:  # no blend: the corner with the largest barycentric
             w, loops, bary = lookup
             at_moved[w] = values[loops[np.arange(len(w)), bary.argmax(1)]]
-        out = transfer_corner_uvs(values.astype(float), arrays.tri_loops, data["loop_vertex"], F2, face_map,
-                                  source_vertex, at_moved, moved).reshape(-1, values.shape[1])
+        out = transfer_corner_values(values.astype(float), plan[0], at_moved, moved)
         return out.astype(values.dtype) if discrete else out
 
     for name, uv in data["uvs"]:
