@@ -730,18 +730,26 @@ class Driver {
   bool linear_start(Work& w) {
     if (nm_ == 0 || nm_ == w.topo.n_vertices) return false;
     const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
+    // U0^2 is not symmetric. A failed solve (e.g. a movable component without fixed neighbours)
+    // starts from the input.
+    return take_held_minimiser(w, SpMat(W * W), movable_idx_, nm_, SparseSolver::Kind::LU);
+  }
+
+  // Solves B P = 0 for the vertices with idx[v] >= 0 (ns of them), the others held, and takes the
+  // solution when it lowers the energy (take_if_lower); false when the solve fails.
+  bool take_held_minimiser(Work& w, const SpMat& B, const std::vector<int>& idx, int ns, SparseSolver::Kind kind) {
     SpMat Bmm, Bmf;
     MatX3d Xf;
-    split_fixed(SpMat(W * W), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
+    split_fixed(B, w.P, idx, ns, Bmm, Bmf, Xf);
     Eigen::MatrixXd x;
     try {
       SparseSolver solver;
-      solver.factor(Bmm, SparseSolver::Kind::LU);  // U0^2 is not symmetric
+      solver.factor(Bmm, kind);
       x = solver.solve(-(Bmf * Xf));
     } catch (const SolverError&) {
-      return false;  // e.g. a movable component without fixed neighbours: start from the input
+      return false;
     }
-    return take_if_lower(w, movable_idx_, x);
+    return take_if_lower(w, idx, x);
   }
 
   // A level after a subdivision. The linear 1-to-4 split leaves the coarse facets flat, and at the
@@ -768,18 +776,8 @@ class Driver {
     const VecXd M = mixed_areas(w.P, w.F, w.topo);
     if (!(M.minCoeff() > 0)) return false;
     const SpMat L = cotan_laplacian(w.P, w.F);
-    SpMat Bmm, Bmf;
-    MatX3d Xf;
-    split_fixed(SpMat(SpMat(L.transpose()) * M.cwiseInverse().asDiagonal() * L), w.P, idx, ns, Bmm, Bmf, Xf);
-    Eigen::MatrixXd x;
-    try {
-      SparseSolver solver;
-      solver.factor(Bmm, SparseSolver::Kind::Supernodal);
-      x = solver.solve(-(Bmf * Xf));
-    } catch (const SolverError&) {
-      return false;
-    }
-    return take_if_lower(w, idx, x);
+    return take_held_minimiser(w, SpMat(SpMat(L.transpose()) * M.cwiseInverse().asDiagonal() * L), idx, ns,
+                               SparseSolver::Kind::Supernodal);
   }
 
   // Moves the vertices with idx[v] >= 0 to the rows idx[v] of x when that lowers the discrete
