@@ -1122,9 +1122,14 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
           const double d2 = (row3(V, i) - row3(impl->control.V, c)).squaredNorm();
           if (d2 < near_d2[c]) near_d2[c] = d2, near[c] = i;
         }
-      const KdTree tree(V);
-      for (int i = 0; i < nc; ++i)
-        Wc.row(i) = weights.row(near[i] >= 0 ? near[i] : tree.nearest(row3(impl->control.V, i)));
+      std::optional<KdTree> tree;  // only for control vertices no dense vertex is bound near
+      for (int i = 0; i < nc; ++i) {
+        if (near[i] < 0) {
+          if (!tree) tree.emplace(V);
+          near[i] = tree->nearest(row3(impl->control.V, i));
+        }
+        Wc.row(i) = weights.row(near[i]);
+      }
     } else {
       Wc = weights;
     }
