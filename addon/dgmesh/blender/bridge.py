@@ -473,10 +473,12 @@ def read_vertex_groups(obj):
             "weight": np.array(w, float)}
 
 
-def write_vertex_groups(obj, groups, o, src, w):
-    """Writes ``read_vertex_groups``' groups on the object's rebuilt mesh: output vertex o gets the
-    sum of w * (weights of input vertex src) over its (o, src, w) triples."""
+def write_vertex_groups(obj, groups, idx, w):
+    """Writes ``read_vertex_groups``' groups on the object's rebuilt mesh: output vertex i gets
+    sum_k w[i, k] * (weights of input vertex idx[i, k]), as blend_attributes blends."""
     mesh = obj.data
+    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
+    o, src, w = np.repeat(np.arange(len(idx)), idx.shape[1]), idx.ravel(), w.ravel()
     for name, lock in zip(groups["names"], groups["locks"]):
         obj.vertex_groups.new(name=name).lock_weight = lock
     obj.vertex_groups.active_index = groups["active"]

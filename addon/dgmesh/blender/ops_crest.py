@@ -531,12 +531,11 @@ def _read_vertex_weights(mesh):
     return {k: v for k, v in out.items() if v.any()}
 
 
-def _write_vertex_weights(mesh, weights, o, src, w):
+def _write_vertex_weights(mesh, weights, idx, w):
     """``_read_vertex_weights``' values on the decimated mesh: each output vertex takes the largest
-    of its sources' (``_vertex_sources``' triples with a weight), as merged edges do."""
+    of its sources' (``_vertex_sources``, those with a weight), as merged edges do."""
     for key, values in weights.items():
-        new = np.zeros(len(mesh.vertices), np.float32)
-        np.maximum.at(new, o[w > 0], values[src[w > 0]])
+        new = np.where(w > 0, values[idx], 0.0).max(1).astype(np.float32)
         if key == "crease" and hasattr(mesh, "vertex_creases"):
             if not len(mesh.vertex_creases):  # 3.4: only bmesh makes the layer
                 bm = bmesh.new()
@@ -591,37 +590,19 @@ def _carry_edge_flags(mesh, data, edge_pairs):
 
 
 def _vertex_sources(source_vertex, lookup, loop_vertex, loose, n_surface):
-    """Where each output vertex takes its point data and vertex-group weights: (output vertex,
-    input vertex, weight) triples. A vertex that kept its place takes its source vertex's; one moved
-    to its quadric optimum blends the nearest input triangle's by its barycentrics (the lookup its
-    UVs use); loose vertices keep their own."""
-    o = np.arange(n_surface)
-    src, w = np.asarray(source_vertex[:n_surface], dtype=np.int64), np.ones(n_surface)
+    """Where each output vertex takes its point data and vertex-group weights: (n_out, 3) input
+    vertices and weights, as bridge.blend_attributes takes them. A vertex that kept its place takes
+    its source vertex's; one moved to its quadric optimum blends the nearest input triangle's by its
+    barycentrics (the lookup its UVs use); loose vertices keep their own."""
+    src = np.concatenate([np.asarray(source_vertex[:n_surface], dtype=np.int64), loose])
+    idx = np.repeat(src[:, None], 3, axis=1)
+    w = np.zeros(idx.shape)
+    w[:, 0] = 1.0
     if lookup is not None:
         moved_out, loops, bary = lookup
-        keep = np.ones(n_surface, bool)
-        keep[moved_out] = False
-        o = np.concatenate([o[keep], np.repeat(moved_out, 3)])
-        src = np.concatenate([src[keep], loop_vertex[loops].ravel()])
-        w = np.concatenate([w[keep], bary.ravel()])
-    o = np.concatenate([o, n_surface + np.arange(len(loose))])
-    src = np.concatenate([src, loose])
-    w = np.concatenate([w, np.ones(len(loose))])
-    return o, src, w
-
-
-def _blend_by_triples(values, o, src, w, n_out):
-    """(n_out, k) values: sum of w * values[src] per output o; integers and booleans: the heaviest
-    source's."""
-    if values.dtype.kind in "ib":
-        order = np.lexsort((-w, o))
-        first = order[np.r_[True, o[order][1:] != o[order][:-1]]]
-        out = np.zeros((n_out, values.shape[1]), values.dtype)
-        out[o[first]] = values[src[first]]
-        return out
-    out = np.zeros((n_out, values.shape[1]))
-    np.add.at(out, o, w[:, None] * values[src])
-    return out
+        idx[moved_out] = loop_vertex[loops]
+        w[moved_out] = bary
+    return idx, w
 
 
 def _moved_vertex_lookup(tri_loops, V, F, V2, vertex_map, moved):
@@ -802,24 +783,24 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
         if hasattr(mesh, "use_auto_smooth"):  # before 4.1 custom normals need it
             mesh.use_auto_smooth = True
         mesh.normals_split_custom_set(normals)
-    o, src, w = _vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
-    _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners)
+    idx, w = _vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
+    _write_attributes(mesh, data, idx, w, poly, edge_pairs, corners)
     if data["vertex_groups"] is not None:
-        bridge.write_vertex_groups(obj, data["vertex_groups"], o, src, w)
-    _write_vertex_weights(mesh, data["vertex_weights"], o, src, w)
+        bridge.write_vertex_groups(obj, data["vertex_groups"], idx, w)
+    _write_vertex_weights(mesh, data["vertex_weights"], idx, w)
     mesh.validate(verbose=False)
     mesh.update()
     bridge.remap_vertex_references(mesh, vertex_map)  # every input vertex went to one output vertex
 
 
-def _write_attributes(mesh, data, o, src, w, poly, edge_pairs, corners):
-    """The input's generic attributes on the decimated mesh: point data from ``_vertex_sources``'
-    triples, face data from the input polygon each triangle was, edge data where the edge survives
+def _write_attributes(mesh, data, idx, w, poly, edge_pairs, corners):
+    """The input's generic attributes on the decimated mesh: point data blended by
+    ``_vertex_sources``, face data from the input polygon each triangle was, edge data where the edge survives
     (new edges: zero), corner data as the UVs take theirs (``corners``); colours stay active."""
     out_e, in_e = edge_pairs
     for name, data_type, domain, values in data["attributes"]:
         if domain == 'POINT':
-            new = _blend_by_triples(values, o, src, w, len(mesh.vertices))
+            new = bridge.blend_attributes([(name, values)], idx, w)[0][1]
         elif domain == 'FACE':
             new = values[poly]
         elif domain == 'EDGE':
