@@ -446,33 +446,70 @@ class BallTree {
     for (int k = 0; k < n; ++k) c_[k] = row3(centers, ids[k]), r_[k] = radii[ids[k]], order_[k] = k;
     nodes_.reserve(2 * n / kLeaf + 2);
     if (n > 0) build(0, n);
+    // Leaves read their balls contiguously, in tree order.
+    std::vector<Vec3> c(n);
+    std::vector<double> r(n);
+    std::vector<int> idx(n);
+    for (int k = 0; k < n; ++k) c[k] = c_[order_[k]], r[k] = r_[order_[k]], idx[k] = idx_[order_[k]];
+    c_.swap(c);
+    r_.swap(r);
+    idx_.swap(idx);
+    order_ = {};
   }
   // Lowers (best, arg) to the minimum of |x - s_j| - r_j over the balls and its ball (an index of
   // `centers`); (best, arg) comes in as any ball's value, or +inf.
   void query(const Vec3& x, double& best, int& arg) const {
-    if (nodes_.empty()) return;
-    int stack[kStack];
-    int top = 0;
-    stack[top++] = 0;
-    while (top > 0) {
-      const Node& nd = nodes_[stack[--top]];
-      if (bound(nd, x) >= best) continue;
-      if (nd.left < 0) {
-        for (int k = nd.begin; k < nd.end; ++k) {
-          const int b = order_[k];
-          const double f = (x - c_[b]).norm() - r_[b];
-          if (f < best) best = f, arg = idx_[b];
-        }
-        continue;
-      }
-      // The child with the lower bound is visited first (pushed last).
-      const bool left_first = bound(nodes_[nd.left], x) <= bound(nodes_[nd.right], x);
-      stack[top++] = left_first ? nd.right : nd.left;
-      stack[top++] = left_first ? nd.left : nd.right;
-    }
+    visit(x, [&] { return best; }, [&](double f, int j) {
+      if (f < best) best = f, arg = j;
+    });
+  }
+  // The K deepest balls at x (lowest values |x - s_j| - r_j), deepest first: (ids, val)[0..K) come
+  // in as some balls' values, ascending (padded with -1 and +inf), e.g. nearby balls that make a
+  // tight first bound, and leave as the K deepest of all (-1 where there are fewer than K balls).
+  template <int K>
+  void deepest(const Vec3& x, int* ids, double* val) const {
+    visit(x, [&] { return val[K - 1]; }, [&](double f, int j) { insert_sorted<K>(f, j, ids, val); });
+  }
+  // Inserts ball j of value f into the ascending (ids, val)[0..K) unless it is there or not lower.
+  template <int K>
+  static void insert_sorted(double f, int j, int* ids, double* val) {
+    if (!(f < val[K - 1])) return;
+    for (int k = 0; k < K; ++k)
+      if (ids[k] == j) return;
+    int k = K - 1;
+    for (; k > 0 && val[k - 1] > f; --k) val[k] = val[k - 1], ids[k] = ids[k - 1];
+    val[k] = f, ids[k] = j;
   }
 
  private:
+  // Depth first, the child with the lower bound first; a node is skipped once its bound reaches
+  // limit() (which only falls). take(f, j) sees every ball below the limit when its leaf is visited.
+  template <class Limit, class Take>
+  void visit(const Vec3& x, Limit limit, Take take) const {
+    if (nodes_.empty()) return;
+    struct Item {
+      int id;
+      double lb;
+    };
+    Item stack[kStack];
+    int top = 0;
+    stack[top++] = {0, bound(nodes_[0], x)};
+    while (top > 0) {
+      const Item it = stack[--top];
+      if (it.lb >= limit()) continue;
+      const Node& nd = nodes_[it.id];
+      if (nd.left < 0) {
+        for (int k = nd.begin; k < nd.end; ++k) take((x - c_[k]).norm() - r_[k], idx_[k]);
+        continue;
+      }
+      const double bl = bound(nodes_[nd.left], x), br = bound(nodes_[nd.right], x);
+      const Item lo = bl <= br ? Item{nd.left, bl} : Item{nd.right, br};
+      const Item hi = bl <= br ? Item{nd.right, br} : Item{nd.left, bl};
+      if (hi.lb < limit()) stack[top++] = hi;
+      if (lo.lb < limit()) stack[top++] = lo;
+    }
+  }
+
   static constexpr int kLeaf = 8;
   static constexpr int kStack = 128;  // a balanced tree of depth log2(n / kLeaf) needs depth + 1
   struct Node {
@@ -512,6 +549,8 @@ class BallTree {
 // value is exact at rest and under rigid motions (fixed points of the fairing). `hint` adds a
 // ball and its ring (the previous projection pass's minimiser); `query` = false skips the kd-tree.
 constexpr int kUnionNeighbours = 4;
+// Deepest balls kept per control vertex for the dense vertices' thickness step (see project_dense).
+constexpr int kDenseBalls = 4;
 // `tree` holds the deformed centres `reps` (a subset of the skeletal vertices, see Impl::reps),
 // rebuilt per pose with small leaves; its queries are exact k nearest: an approximate search barely
 // prunes on a tube, whose collapsed skeleton puts hundreds of centres at almost the same distance
@@ -635,16 +674,16 @@ struct SkeletalRig::Impl {
   }
   std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const;
   void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
-                        std::vector<int>* args = nullptr) const;
+                        std::vector<int>* deep) const;
   template <class Follows>
   BoneClearance union_clearance(const MatX3d& P, Follows follows) const;
   template <class Out>
-  void project_dense(const MatX3d& Sd, const std::vector<int>& control_args, const std::vector<Mat4>& pose,
+  void project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
                      const SkeletalDeformOptions& opt, Out& out) const;
   MatX3d control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX3d* Sd_out,
-                      std::vector<int>* args) const;
+                      std::vector<int>* deep = nullptr) const;
   MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
-                     std::vector<int>* args = nullptr) const;
+                     std::vector<int>* deep) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
 };
 
@@ -779,7 +818,7 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
 }
 
 MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
-                                      std::vector<int>* args) const {
+                                      std::vector<int>* deep) const {
   const int n = static_cast<int>(S.rows());
   const std::vector<Mat3> R = triangle_rotations(Sd, lin);
   // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
@@ -804,7 +843,7 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
     b.row(i) = acc.transpose();
   }
   MatX3d X = solve(b);
-  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, args);
+  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, deep);
   return X;
 }
 
@@ -817,24 +856,28 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 // So the explicit step of the flow eq. 6.14 that ends the control mesh's fairing
 // (SkeletalDeformOptions::projection) is applied to the dense vertices as well: each moves by w
 // times its offset from its rest signed distance to the union of the control mesh's deformed medial
-// balls (eq. 6.13), along the direction from the minimising ball's centre. Candidate balls: the
-// vertex's rest minimiser and its skeletal 1-ring, plus the balls that minimised eq. 6.13 for the
-// three control vertices of the vertex's base face in the control mesh's last fairing step (which
-// searched the kd-tree: balls of other parts a pose brought close). With the rest minimiser's ring
-// alone a vertex in a bend's inner crease is pushed out of its own ball into the other limb's
-// (capsule bend: min ratio 0.81 instead of 0.85); a kd-tree query per dense vertex costs ~0.8 us.
-// At rest and under rigid motions f equals f_rest: a fixed point.
+// balls (eq. 6.13), along the direction from the minimising ball's centre, in up to
+// dense_projection_passes passes (a vertex pushed out of one ball may land in another).
+// Candidate balls: the vertex's rest minimiser and its skeletal 1-ring, the previous pass's
+// minimiser and its ring, and the kDenseBalls deepest balls at each of the three control vertices
+// of the vertex's base face (exact, from the control mesh's projection over all posed balls: balls
+// of other parts a pose brought close; see fair_variational). A tree query per dense vertex would
+// cost more than the rest of the deform (capsule of bench skeletal_speed: 27 instead of 11 ms); the
+// skeletal 1-ring alone misses where a pose folds or turns the medial sheet, whose graph neighbours
+// are then not its spatial ones (camel leg twisted 180 degrees through a 5000-face control mesh:
+// the worst vertices' deepest ball lay 2-5 rings from their rest one; with the corners' 1, 2, 4, 8
+// deepest balls, 0%, 92%, 99.6%, 100% of that error sat on vertices whose deepest ball was among
+// them). At rest and under rigid motions f equals f_rest: a fixed point.
 template <class Out>
-void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& control_args,
-                                      const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                      Out& out) const {
+void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
+                                      const SkeletalDeformOptions& opt, Out& out) const {
   const int n = static_cast<int>(out.rows());
   const Topology& topo = control.topo;
   const VecXi& face = multires->base_face();
   const MatX3i& F = control.F;
-  const bool have_args = static_cast<int>(control_args.size()) == static_cast<int>(control.V.rows());
   const double w = opt.projection;
   const int passes = w > 0 ? std::max(opt.dense_projection_passes, 1) : 0;
+  const bool have_deep = deep.size() == static_cast<size_t>(control.V.rows()) * kDenseBalls;
   // Then the surface bone clearance, as clear_surface does for the control vertices (a limit
   // surface rounds the control mesh's crease and comes closer to the bones than its vertices: camel
   // knee through a 5000-face control mesh, min ratio 0.19 without this step).
@@ -850,41 +893,51 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
     // 1.7 mm from the bone: bones min ratio 0.84 in bench skeletal_limb's twist without it).
     if (dense_rigid[i] && !clear) continue;
     Vec3 x = out.row(i).transpose().template cast<double>();
-    // Repeated like the control mesh's step (a vertex pushed out of one ball may land in another);
-    // each pass adds the previous minimiser's ring to the candidates.
     int prev = -1;
     for (int pass = 0; pass < (dense_rigid[i] ? 0 : passes); ++pass) {
       int arg = dense_arg[i];
       double best = (x - row3(Sd, arg)).norm() - radii[arg];
+      double second = std::numeric_limits<double>::infinity();
       auto consider = [&](int j) {
         const double f = (x - row3(Sd, j)).norm() - radii[j];
-        if (f < best) best = f, arg = j;
+        if (f < best) {
+          if (j != arg) second = best;
+          best = f, arg = j;
+        } else if (f < second && j != arg) {
+          second = f;
+        }
       };
       auto ring = [&](int c) {
         for (int k = topo.vv_offset[c]; k < topo.vv_offset[c + 1]; ++k) consider(topo.vv_index[k]);
       };
       ring(dense_arg[i]);
-      if (have_args)
+      if (have_deep)
         for (int k = 0; k < 3; ++k) {
-          const int a = control_args[F(face[i], k)];
-          if (a >= 0) consider(a);
+          const int* d = deep.data() + static_cast<size_t>(F(face[i], k)) * kDenseBalls;
+          for (int m = 0; m < kDenseBalls && d[m] >= 0; ++m) consider(d[m]);
         }
       if (prev >= 0) consider(prev), ring(prev);
-      prev = arg;
       const double f = best - dense_f_rest[i];
       if (std::abs(f) <= 1e-6 * r_max) break;
       const Vec3 d = x - row3(Sd, arg);
       const double len = d.norm();
       if (!(len > 1e-300)) break;
       x -= (w * f / len) * d;
+      // With w = 1 the vertex now lies at its target for this ball, and the move changed every
+      // ball's value by at most |f|. Another pass sees the same candidates unless the minimiser is
+      // new (its ring joins), and can only find one below its target if it was within |f| of it.
+      if (w == 1 && (arg == prev || arg == dense_arg[i]) && second - dense_f_rest[i] >= std::abs(f)) break;
+      prev = arg;
     }
     if (clear) x = dense_clearance.push(i, x, opt.bone_clearance, h, v);
     out.row(i) = x.transpose().template cast<typename Out::Scalar>();
   }
 }
 
+// deep: when given, receives n x kDenseBalls deepest balls per vertex from the first projection
+// pass (padded with -1; for project_dense).
 void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
-                                         std::vector<int>* args) const {
+                                         std::vector<int>* deep) const {
   const int n = static_cast<int>(X.rows());
   MatX3d C(static_cast<Eigen::Index>(reps.size()), 3);
   for (size_t r = 0; r < reps.size(); ++r) C.row(static_cast<Eigen::Index>(r)) = Sd.row(reps[r]);
@@ -897,8 +950,8 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
   // control mesh deforms in 4.2 ms instead of 3.3, a whole 178K-vertex deform in 9.7 instead of 8.6.
   std::optional<BallTree> balls;
   if (opt.projection > 0) balls.emplace(Sd, radii, reps);
+  if (deep) deep->assign(opt.projection > 0 ? static_cast<size_t>(n) * kDenseBalls : 0, -1);
   MatX3d G(n, 3);
-  if (args) args->assign(n, -1);
   // The explicit projection step is repeated (opt.projection_passes): in a bend's inner crease one
   // step moves a vertex out of one ball into a neighbour's (camel knee, 90 degrees: sum (f - f_rest)^2
   // 1.9e-4 after one pass, 8e-5 after three). A vertex whose pass moved it by less than `tol` has
@@ -941,13 +994,26 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
         p = rest_arg[i];
         f = (x - row3(Sd, p)).norm() - radii[p];
         balls->query(x, f, p);
+        if (deep && !extra) {
+          // Where the pose changed this vertex's thickness (by over 1% of its ball's radius), the
+          // kDenseBalls deepest balls, else the deepest alone: a K-deepest search prunes far less
+          // than the deepest's (on the capsule of bench skeletal_speed, 142 tree nodes per query
+          // against 35), and where the thickness is unchanged the pose has brought no ball close.
+          // Camel and armadillo legs (bench skeletal_limb): the same sum (f - f_rest)^2 with 1% or
+          // 3% as with every vertex; 10% lets the camel's twist rise from 0.20 to 0.26 of DQS's.
+          int* d = deep->data() + static_cast<size_t>(i) * kDenseBalls;
+          double val[kDenseBalls];
+          std::fill(val, val + kDenseBalls, std::numeric_limits<double>::infinity());
+          std::fill(d, d + kDenseBalls, -1);
+          d[0] = p, val[0] = f;
+          if (std::abs(f - f_rest[i]) > 0.01 * radii[i]) balls->template deepest<kDenseBalls>(x, d, val);
+        }
       } else {
         f = union_distance_local(tree, reps, Sd, radii, r_max, control.topo, x, rest_arg[i], p,
                                  step > 0 ? prev[i] : -1, query, cand.data() + static_cast<size_t>(i) * kUnionNeighbours);
       }
       f -= f_rest[i];
       prev[i] = p;
-      if (last && args) (*args)[i] = p;
       const Vec3 d = x - row3(Sd, p);
       const double len = d.norm();
       G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
@@ -1287,7 +1353,7 @@ MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
 }
 
 MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                       MatX3d* skeleton_out, std::vector<int>* args) const {
+                                       MatX3d* skeleton_out, std::vector<int>* deep) const {
   if (pose.size() != rest.size())
     throw MeshError("skeletal deform: expected " + std::to_string(rest.size()) + " pose matrices, got " +
                     std::to_string(pose.size()));
@@ -1302,7 +1368,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   clear_bones(Sd, pose);
   if (skeleton_out) *skeleton_out = Sd;
   if (opt.method != SkeletalMethod::Variational) return basic(Sd, opt);
-  MatX3d X = variational(Sd, lin, opt, args);
+  MatX3d X = variational(Sd, lin, opt, deep);
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
   if (opt.fairing_steps > 0) clear_surface(X, pose, opt.bone_clearance);
   return X;
@@ -1310,7 +1376,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
 
 MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                                    MatX3d* skeleton_out) const {
-  return impl_->control_pose(pose, opt, skeleton_out, nullptr);
+  return impl_->control_pose(pose, opt, skeleton_out);
 }
 
 namespace {
@@ -1331,11 +1397,11 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     throw MeshError("skeletal deform: the output needs " + std::to_string(n) + " rows, got " +
                     std::to_string(out.rows()));
   MatX3d Sd;
-  std::vector<int> args;
-  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, &args);
+  std::vector<int> deep;
+  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr);
   if (impl.multires) {
     impl.multires->reconstruct(Xc, out);
-    if (dense_projection(opt)) impl.project_dense(Sd, args, pose, opt, out);
+    if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, out);
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }

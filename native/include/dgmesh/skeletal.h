@@ -105,9 +105,10 @@ struct SkeletalDeformOptions {
   // Passes of that explicit step (a vertex pushed out of one ball may land in a neighbour's; the
   // passes after the first visit only the vertices the previous one moved).
   int projection_passes = 3;
-  // Passes of the dense mesh's explicit step (multiresolution layer): one keeps the per-pose budget
-  // (each pass costs ~3 ms at 178K vertices; bench skeletal_speed).
-  int dense_projection_passes = 1;
+  // Passes of the dense mesh's explicit step (multiresolution layer). A pass after the first visits
+  // only the vertices whose minimising ball changed or whose move may have taken them into another
+  // candidate ball, so three cost little more than one (bench skeletal_speed).
+  int dense_projection_passes = 3;
   // Skeletal mesh editing (6.2) by dual quaternion blending of the bone motions instead of the
   // linear blend of eq. 6.2: the linear blend pulls skeletal vertices that lie off a bone's axis
   // (a limb whose medial surface is a sheet, not a curve) towards it under a twist, by |w0 - w1|
