@@ -156,7 +156,8 @@ class SkeletalRig:
         pull towards the bones in a joint's inner crease.
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
-        (their union) is at least this fraction of its rest distance to them (a joint's crease where
+        and of their parent bones (their union) is at least this fraction of its rest distance to
+        them (a joint's crease where
         the medial surface is a sheet off the stick bones); through the multiresolution layer the
         dense vertices too (against the bones of their base face's control vertices); 0 = off,
         1 = every rest distance kept (costs thickness under twists).

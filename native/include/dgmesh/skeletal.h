@@ -119,7 +119,8 @@ struct SkeletalDeformOptions {
   bool dual_quaternion = false;
   // Surface bone clearance (variational method, fairing_steps > 0): after the thickness steps, each
   // control vertex is pushed radially out until its distance to the posed stick skeleton of the
-  // bones it has weight on (the union of their segments) is at least this fraction of its rest
+  // bones it has weight on and of their parents (the union of their segments; a child limb's flesh
+  // folds against the parent limb's, not onto its bone) is at least this fraction of its rest
   // distance to it: the surface counterpart of the skeletal vertices' clearance. Rest pose and rigid
   // motions: no push. Where a limb's medial surface is a sheet off the stick bones (camel leg), the
   // surface rebuilt on the SSD-posed sheet keeps its medial distance, but a few vertices in the
