@@ -135,7 +135,7 @@ class SkeletalRig:
         return cls(rig)
 
     def deform(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5, homotopy_steps=3,
-               fold_iterations=10, projection=1.0, out=None, dual_quaternion=False, bone_clearance=0.95):
+               fold_iterations=10, projection=1.0, out=None, dual_quaternion=True, bone_clearance=0.95):
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
@@ -148,9 +148,11 @@ class SkeletalRig:
         (variational method with fairing on): the layer's limit surface thins where a pose shears
         the coarse control triangles.
         ``dual_quaternion``: pose the skeletal mesh by dual quaternion blending of the bone motions
-        (rigid per skeletal vertex) instead of the linear blend of eq. 6.2, which pulls skeletal
-        vertices that lie off a bone's axis towards it under a twist; better for twists of limbs
-        whose medial surface is a sheet, about even in a bend (see bench/RESULTS.md). Either way the
+        (rigid per skeletal vertex; default) or, False, by the linear blend of eq. 6.2, which pulls
+        skeletal vertices that lie off a bone's axis towards it under a twist: where a limb's medial
+        surface is a sheet (most scanned limbs) the sheet collapses halfway through the joint's
+        blend and the mesh rebuilt on it tears open there; about even in a bend (see
+        bench/RESULTS.md). Either way the
         posed skeletal vertices are then pushed back out to their rest distance from the posed bone
         segments they have weight on (segments from the rest frames), which undoes most of the blend's
         pull towards the bones in a joint's inner crease.
@@ -179,7 +181,7 @@ class SkeletalRig:
                                 float(projection), out, bool(dual_quaternion), float(bone_clearance))
 
     def deform_control(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5,
-                       homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=False,
+                       homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=True,
                        bone_clearance=0.95):
         """(control mesh positions, deformed skeletal vertices) for a pose."""
         self._check_method(method)
@@ -270,11 +272,13 @@ def gaussian_bone_weights(P, heads, tails, sigma):
                                          float(sigma))
 
 
-def skeletal_subspace_deform(P, weights, bones_rest, bones_pose):
-    """Linear blend skinning / SSD (eq. 6.2) of points with (n, B) weights."""
+def skeletal_subspace_deform(P, weights, bones_rest, bones_pose, *, dual_quaternion=False):
+    """Linear blend skinning / SSD (eq. 6.2) of points with (n, B) weights, or with
+    ``dual_quaternion`` dual quaternion blending of the bone motions (how SkeletalRig poses its
+    skeletal mesh by default, before its bone clearance)."""
     R = _mats(bones_rest, "bones_rest")
     return _native.skeletal_subspace_deform(as_vertices(P), np.asarray(weights, dtype=np.float64), R,
-                                            _mats(bones_pose, "bones_pose", len(R)))
+                                            _mats(bones_pose, "bones_pose", len(R)), bool(dual_quaternion))
 
 
 def delaunay_3d(points):

@@ -143,7 +143,7 @@ def quality(quick):
                 data[f"{wname}|{pname}|{mname}"] = dict(zip(["sum_f2", "sum_df2", "min_ratio", "mean_ratio",
                                                              "volume_ratio"], row[3:]))
     md = ["### Skeletal deformation quality (capsule r 0.5, length 6, %d vertices, 2 bones)" % len(V), "",
-          "Thickness error sum f^2 of eq. 6.13 against the SSD-deformed skeletal mesh (exact union of balls), and "
+          "Thickness error sum f^2 of eq. 6.13 against our posed skeletal mesh (exact union of balls), and "
           "sum (f - f_rest)^2, its change from the rest pose (the rest mesh itself has sum f^2 > 0); ratio of each vertex's "
           "distance to the bone segments after / before; volume ratio. LBS and DQS are numpy re-implementations "
           "with the same weights (not Blender's modifier run). Ours binds the whole mesh (control_faces > F) "
@@ -306,7 +306,7 @@ def blender_quality(quick):
           "projection) bound to the same bone matrices on the whole mesh (no multires). Capsule r 0.5, length 6, "
           "bones (-3.5,0,0)-(0,0,0)-(3.5,0,0), ramp over x in [-0.5, 0.5]; armadillo (CGAL data, 26002 vertices), "
           "bones (0,-54,0)-(0,10,0)-(0,97,0), ramp over y in [0, 20] (the waist). Metrics as in skeletal_quality, "
-          "against our SSD-deformed skeletal mesh." % version, "",
+          "against our posed skeletal mesh." % version, "",
           table(["mesh", "pose", "method", "sum f^2", "sum (f-f_rest)^2", "min ratio", "mean ratio", "volume"], rows),
           "", "Does the pose drive the moved part into the still one? Vertices of the still part (all weight on "
           "the first bone) inside the medial balls of the moved part (all weight on the last bone) posed rigidly, "

@@ -104,6 +104,13 @@ def _render(name, panels, **meta):
         run_blender(RENDER_SCRIPT, [inp, IMAGES / name])
 
 
+def _max_edge_stretch(V, F, X):
+    """The longest edge after over its length before (a tear stretches a band of triangles)."""
+    E = np.unique(np.sort(np.r_[F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], axis=1), axis=0)
+    return float((np.linalg.norm(X[E[:, 0]] - X[E[:, 1]], axis=1) /
+                  np.maximum(np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1), 1e-300)).max())
+
+
 def _submesh(F, keep_face):
     Fk = F[keep_face]
     used = np.unique(Fk)
@@ -142,7 +149,8 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
     # their medial radius deep.
     inside = affected & (b0 >= 0.5 * rig.radii)
     # The skeletal mesh (thesis 6.1) as the second reference: rest = the rig's skeleton, posed = the
-    # same mesh deformed by plain SSD (eq. 6.2) with the rig's weights, for every method.
+    # same mesh posed as the rig poses it (dual quaternion blending of the bone motions, its default)
+    # without its bone clearance, for every method.
     S0, SF, SW = rig.skeleton_vertices, rig.skeleton_faces, rig.weights
     s0 = skeleton_distance(V[affected], S0, SF)
     vol0 = volume(V, F)
@@ -153,12 +161,15 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
         pose = res[f"pose{p}"]
         _, Sd = rig.deform_control(pose)
         Sd_mr = None if rig_mr is None else rig_mr.deform_control(pose)[1]
-        Sp = skeletal_subspace_deform(S0, SW, rest, pose)
+        Sp = skeletal_subspace_deform(S0, SW, rest, pose, dual_quaternion=True)
+        # The linear blend of eq. 6.2 (the rig's option), and its own posed skeleton: eq. 6.13 measures
+        # how well a surface follows a posed skeleton, so each skeleton is also a reference.
+        _, Sd_lin = rig.deform_control(pose, dual_quaternion=False)
         results = {"Blender Armature, linear blend": res[f"lbs{p}"],
                    "Blender Armature, Preserve Volume (DQS)": res[f"dqs{p}"],
                    "ours (2 fairing steps + projection)": rig.deform(pose),
                    "ours without the surface bone clearance (bone_clearance=0)": rig.deform(pose, bone_clearance=0),
-                   "ours, dual-quaternion skeleton": rig.deform(pose, dual_quaternion=True)}
+                   LINEAR: rig.deform(pose, dual_quaternion=False)}
         if rig_mr is not None:
             results["ours via multires (5000-face control)"] = rig_mr.deform(pose)
         panels = []
@@ -177,6 +188,9 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                                                          "min_ratio_inside", "skel_min_ratio", "skel_p1_ratio",
                                                          "skel_mean_ratio", "skel_n_below_0.9", "volume_ratio"],
                                                         row[3:]))
+            data[f"{model}|{pname}|{mname}"]["max_edge_stretch"] = _max_edge_stretch(V, F, X)
+            f_lin = dgmesh.union_of_balls_distance(X, Sd_lin, rig.radii)
+            data[f"{model}|{pname}|{mname}"]["sum_df2_linear_skeleton"] = float(((f_lin - f_rest) ** 2).sum())
             if Sd_mr is not None:
                 f_mr = dgmesh.union_of_balls_distance(X, Sd_mr, rig_mr.radii)
                 data[f"{model}|{pname}|{mname}"]["sum_df2_control_skeleton"] = float(((f_mr - f_rest_mr) ** 2).sum())
@@ -235,6 +249,7 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
     return rows, data, images, meta
 
 
+LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
 PANELS = ("Blender Armature, linear blend", "Blender Armature, Preserve Volume (DQS)", "ours (2 fairing steps + projection)")
 
 ARMADILLO_BONES = (  # the right leg (x > 0): hip (inside the body), thigh, shin
@@ -280,6 +295,27 @@ def limb_quality(quick):
             data.update(d)
             metas[model] = m
     data["meta"] = metas
+    blend = []
+    for model in metas:
+        for pose in ("bend 90", "twist 180"):
+            o, li, q = (data[f"{model}|{pose}|{k}"] for k in (ours, LINEAR, dq))
+            blend.append("%s %s: dual quaternion %.3g / %.3g, linear %.3g / %.3g; longest edge %.1f / %.1f (DQS %.1f)" % (
+                model, pose, o["sum_df2"] / max(q["sum_df2"], 1e-300),
+                o["sum_df2_linear_skeleton"] / max(q["sum_df2_linear_skeleton"], 1e-300),
+                li["sum_df2"] / max(q["sum_df2"], 1e-300),
+                li["sum_df2_linear_skeleton"] / max(q["sum_df2_linear_skeleton"], 1e-300),
+                o["max_edge_stretch"], li["max_edge_stretch"], q["max_edge_stretch"]))
+    md += ["The skeleton's blend. Eq. 6.13 measures how well a surface follows a posed skeleton, not whether "
+           "that skeleton is sound, so each posing of the skeletal mesh favours itself. Ours / DQS sum (f - "
+           "f_rest)^2 against the dual-quaternion-posed skeleton / against the linearly posed one, for the "
+           "rig with each blend, and the longest edge after over its rest length (dual quaternion / linear): "
+           "%s. Under the twist the linear blend of eq. 6.2 collapses a sheet-like medial surface onto the "
+           "bone halfway through the knee's blend; the bone clearance pushes its skeletal vertices back out "
+           "in directions the collapse left arbitrary, and the mesh rebuilt on that skeleton follows it "
+           "closely (a small error against it) but tears open around the knee (the longest edge). The dual "
+           "quaternion blend turns each skeletal vertex rigidly, which is also what DQS does to the surface, "
+           "and is the rig's default since this run (Skeleton Blend in Blender; meshes bound before keep the "
+           "linear blend)." % "; ".join(blend), ""]
     mc = metas["capsule"]
     md = ["### Limb quality against Blender's Armature modifier (automatic weights)", "",
           "Blender %s. Each mesh is parented to its bone chain with Blender's Parent with Automatic Weights "
@@ -308,17 +344,19 @@ def limb_quality(quick):
                "most of the shin); %d vertices carry weight of the moving bone, %d had no automatic weight."
                % (ma["V"], ma["n_affected"], ma["n_unweighted"]), ""]
     md += ["Thickness error: sum over all vertices of f^2, f the signed distance to the union of medial balls "
-           "(eq. 6.13) around our SSD-deformed skeletal mesh (thesis fig. 6.29), and sum (f - f_rest)^2, its change "
+           "(eq. 6.13) around our posed skeletal mesh (thesis fig. 6.29; the rig's default posing: dual quaternion "
+           "blending of the bone motions, then its bone clearance), and sum (f - f_rest)^2, its change "
            "from the rest pose (the rest mesh itself is not exactly on the union, so sum f^2 has a floor). Ratios: "
            "each vertex's distance to the nearest posed bone segment after / before, over the vertices with "
            "weight > 0.01 on the moving bone (minimum, 1st percentile, mean; 'bone inside': the minimum over those "
            "of them whose rest distance to the bone is at least half their medial radius, %s); and each vertex's "
            "distance to the skeletal mesh (thesis 6.1, its triangles, exact point-triangle distances) after / "
            "before over the same vertices: rest = our rig's skeleton_vertices / skeleton_faces, posed = that "
-           "mesh deformed by plain SSD (eq. 6.2) with the rig's weights and the same pose, the one reference "
+           "mesh posed by dual quaternion blending with the rig's weights and the same pose, the one reference "
            "skeleton for every method (without the rig's bone clearance, which only ours applies). Volume: enclosed "
-           "volume after / before (the whole mesh). 'ours, dual-quaternion skeleton': the skeletal mesh posed by "
-           "dual quaternion blending instead of eq. 6.2's linear blend (`deform(..., dual_quaternion=True)`); "
+           "volume after / before (the whole mesh). 'ours, linear-blend skeleton': the skeletal mesh posed by "
+           "the linear blend of eq. 6.2 instead (`deform(..., dual_quaternion=False)`, the thesis's and until "
+           "this run the rig's default); "
            "'via multires': `bind(..., control_faces=5000)`, the control mesh deformed and the dense mesh "
            "reconstructed through the multiresolution layer, its dense vertices then given the same explicit "
            "thickness step (eq. 6.14) against the control mesh's medial balls and the same surface bone "
@@ -475,8 +513,7 @@ def limb_quality(quick):
                "keep its distance to its own balls and still come closer to the bone; the surface bone "
                "clearance (above) handles those few vertices. The straight shin bone also runs along the bowed leg within 3 mm of its surface "
                "(6% of the median medial radius), where the ratio divides by almost nothing (the 'bone inside' "
-               "column leaves those vertices out). Dual quaternions for the skeleton help the twist (no "
-               "collapse to undo) and are about even in the bend: the option stays off by default. "
+               "column leaves those vertices out). "
                "Through the multiresolution layer the camel does worse: a 5000-face control mesh of the whole "
                "camel leaves the thin leg only a few triangles across (2502 control vertices for the whole "
                "camel), and the limit surface rounds the coarse crease towards the bones. Before the dense "

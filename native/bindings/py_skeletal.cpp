@@ -40,7 +40,7 @@ SkeletalMethod method_from(const std::string& s) {
 
 SkeletalDeformOptions deform_options(const std::string& method, int fairing_steps, double fairing_step,
                                      int homotopy_steps, int fold_iterations, double projection = 1.0,
-                                     bool dual_quaternion = false, double bone_clearance = -1) {
+                                     bool dual_quaternion = true, double bone_clearance = -1) {
   SkeletalDeformOptions o;
   if (!(bone_clearance < 0)) o.bone_clearance = bone_clearance;  // negative: the default; NaN is refused
   o.projection = projection;
@@ -112,11 +112,12 @@ void bind_skeletal(pb::module_& m) {
     NativeScope nogil;
     return gaussian_bone_weights(P, heads, tails, sigma);
   });
-  m.def("skeletal_subspace_deform", [](InV P, const Eigen::MatrixXd& W, const Mats& rest, const Mats& pose) {
+  m.def("skeletal_subspace_deform", [](InV P, const Eigen::MatrixXd& W, const Mats& rest, const Mats& pose,
+                                       bool dual_quaternion) {
     const auto r = to_mats(rest, "bones_rest"), p = to_mats(pose, "bones_pose");
     NativeScope nogil;
-    return skeletal_subspace_deform(P, W, r, p);
-  });
+    return skeletal_subspace_deform(P, W, r, p, nullptr, dual_quaternion);
+  }, pb::arg("P"), pb::arg("W"), pb::arg("rest"), pb::arg("pose"), pb::arg("dual_quaternion") = false);
 
   pb::class_<SkeletalRig>(m, "SkeletalRig")
       .def_static(
@@ -171,7 +172,7 @@ void bind_skeletal(pb::module_& m) {
           },
           pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-          pb::arg("out") = pb::none(), pb::arg("dual_quaternion") = false, pb::arg("bone_clearance") = -1.0)
+          pb::arg("out") = pb::none(), pb::arg("dual_quaternion") = true, pb::arg("bone_clearance") = -1.0)
       .def("deform_control",
            [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs,
               int fi, double proj, bool dq, double bc) {
@@ -186,7 +187,7 @@ void bind_skeletal(pb::module_& m) {
            },
            pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
            pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-           pb::arg("dual_quaternion") = false, pb::arg("bone_clearance") = -1.0)
+           pb::arg("dual_quaternion") = true, pb::arg("bone_clearance") = -1.0)
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");

@@ -1044,6 +1044,24 @@ def test_skeleton_blend_dual_quaternion_is_stored_used_live_and_kept_by_rebind()
     assert obj["dg_skeletal"]["skeleton_blend"] == 'DUAL_QUATERNION'
 
 
+def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear():
+    """A new bind blends the skeleton by dual quaternions (the linear blend tears thick limbs
+    twisted far, see test_a_sheet_limb_twisted_far_does_not_tear); a mesh bound before the option
+    existed (no skeleton_blend in its bind data) keeps deforming as it did, by the linear blend."""
+    from dgmesh.blender import ops_skeletal
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    assert obj["dg_skeletal"]["skeleton_blend"] == 'DUAL_QUATERNION'
+    del obj["dg_skeletal"]["skeleton_blend"]
+    _pose_lower(arm, math.pi / 2)
+    bpy.context.view_layer.update()
+    pose = ops_skeletal._pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
+    rig = ops_skeletal._rig(obj)
+    X = _evaluated_co(obj)
+    assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95, dual_quaternion=False)).max() < 1e-4
+    assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95)).max() > 1e-3  # not vacuous
+
+
 def test_mesh_with_an_armature_modifier_duplicated_with_its_rig_follows_the_copy():
     """Not parented, only an Armature modifier (which bind clears): Shift+D of mesh and rig. The copy
     follows the copied rig, as Blender remaps the Armature modifier of such a copy; rebind and unbind

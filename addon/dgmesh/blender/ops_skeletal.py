@@ -90,10 +90,11 @@ METHODS = (
     ('BASIC', "Basic", "Thesis 6.3: homotopy reconstruction with fold and self-intersection fairing (comparison)"),
 )
 SKELETON_BLENDS = (
-    ('LINEAR', "Linear", "Skeletal subspace deformation (eq. 6.2), as the thesis"),
-    ('DUAL_QUATERNION', "Dual Quaternion", "Rigid per skeletal vertex, as Preserve Volume: fewer "
-     "self-intersections where a thick limb twists far (a leg turned about itself); in bends the "
-     "thickness is kept a little less exactly"),
+    ('DUAL_QUATERNION', "Dual Quaternion", "Rigid per skeletal vertex, as Preserve Volume: a thick "
+     "limb turned far about itself keeps its shape (the linear blend collapses its medial surface "
+     "halfway through the joint and the mesh tears open there)"),
+    ('LINEAR', "Linear", "Skeletal subspace deformation (eq. 6.2), as the thesis: about even in bends, "
+     "tears thick limbs twisted far"),
 )
 
 _rigs = {}          # bind id -> SkeletalRig (rebuilt from the stored data after a reload)
@@ -479,7 +480,7 @@ def _deformed(obj, pose):
     pos, out, rest = buf
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
               bone_clearance=float(info.get("bone_clearance", 0.95)),  # files bound before the option: 0.95
-              dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')
+              dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')  # before the option: linear
     try:
         rig.deform(pose, out=pos, **kw)
     except (MeshError, TypeError):
@@ -909,7 +910,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                   "the bones it follows (a joint's inner crease); 0 = off, 1 = every rest distance "
                                   "(costs thickness under twists)")
     skeleton_blend: EnumProperty(
-        name="Skeleton Blend", items=SKELETON_BLENDS, default='LINEAR',
+        name="Skeleton Blend", items=SKELETON_BLENDS, default='DUAL_QUATERNION',
         description="How the bone motions are blended on the skeletal mesh where a vertex follows several bones")
 
     @classmethod
