@@ -867,10 +867,13 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 // of other parts a pose brought close; see fair_variational). A tree query per dense vertex would
 // cost more than the rest of the deform (capsule of bench skeletal_speed: 27 instead of 11 ms); the
 // skeletal 1-ring alone misses where a pose folds or turns the medial sheet, whose graph neighbours
-// are then not its spatial ones (camel leg twisted 180 degrees through a 5000-face control mesh:
-// the worst vertices' deepest ball lay 2-5 rings from their rest one; with the corners' 1, 2, 4, 8
-// deepest balls, 0%, 92%, 99.6%, 100% of that error sat on vertices whose deepest ball was among
-// them). At rest and under rigid motions f equals f_rest: a fixed point.
+// are then not its spatial ones (camel leg twisted 180 degrees through a 5000-face control mesh,
+// linear skeleton blend: the worst vertices' deepest ball lay 2-5 rings from their rest one; with the
+// corners' 1, 2, 4, 8 deepest balls, 0%, 92%, 99.6%, 100% of that error sat on vertices whose
+// deepest ball was among them). Bench skeletal_limb's legs through the layer, dual-quaternion
+// skeleton, sum (f - f_rest)^2 against the control skeleton over DQS's, without / with the corners'
+// balls: camel bend 0.16 / 0.019, twist 0.49 / 0.17; armadillo 0.25 / 0.034, 0.62 / 0.049. At rest
+// and under rigid motions f equals f_rest: a fixed point.
 template <class Out>
 void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
                                       const SkeletalDeformOptions& opt, Out& out) const {
@@ -1002,8 +1005,9 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
           // kDenseBalls deepest balls, else the deepest alone: a K-deepest search prunes far less
           // than the deepest's (on the capsule of bench skeletal_speed, 142 tree nodes per query
           // against 35), and where the thickness is unchanged the pose has brought no ball close.
-          // Camel and armadillo legs (bench skeletal_limb): the same sum (f - f_rest)^2 with 1% or
-          // 3% as with every vertex; 10% lets the camel's twist rise from 0.20 to 0.26 of DQS's.
+          // Camel and armadillo legs (bench skeletal_limb, linear skeleton blend): the same sum
+          // (f - f_rest)^2 with 1% or 3% as with every vertex; 10% lets the camel's twist rise from
+          // 0.20 to 0.26 of DQS's.
           int* d = deep->data() + static_cast<size_t>(i) * kDenseBalls;
           double val[kDenseBalls];
           std::fill(val, val + kDenseBalls, std::numeric_limits<double>::infinity());
