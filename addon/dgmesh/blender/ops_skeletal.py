@@ -480,7 +480,8 @@ def _deformed(obj, pose):
     pos, out, rest = buf
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
               bone_clearance=float(info.get("bone_clearance", 0.95)),  # files bound before the option: 0.95
-              dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')  # before the option: linear
+              # files bound before the option: the linear blend
+              dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')
     try:
         rig.deform(pose, out=pos, **kw)
     except (MeshError, TypeError):
