@@ -1560,6 +1560,9 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   res.source_bary.resize(nout, 3);
   for (int i = 0; i < nout; ++i) {
     const Sample& q = i < nb ? bnd_src[i] : out_s[i];
+    // Every sample was located on the input (data is carried over through these), so -1 is a bug.
+    if (q.face < 0)
+      throw Error("remesh: internal error, output vertex " + std::to_string(i) + " lies on no input face");
     res.source_face[i] = q.face;
     res.source_bary.row(i) << q.w0, q.w1, q.w2;
   }
