@@ -152,17 +152,15 @@ class SkeletalRig:
         skeletal vertices that lie off a bone's axis towards it under a twist: where a limb's medial
         surface is a sheet (most scanned limbs) the sheet collapses halfway through the joint's
         blend and the mesh rebuilt on it tears open there; about even in a bend (see
-        bench/RESULTS.md). Either way the
-        posed skeletal vertices are then pushed back out to their rest distance from the posed bone
-        segments they have weight on (segments from the rest frames), which undoes most of the blend's
-        pull towards the bones in a joint's inner crease.
+        bench/RESULTS.md). Either way the posed skeletal vertices are then pushed back out to their
+        rest distance from the posed bone segments they have weight on (segments from the rest
+        frames), which undoes most of the blend's pull towards the bones in a joint's inner crease.
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         and of their parent bones (their union) is at least this fraction of its rest distance to
-        them (a joint's crease where
-        the medial surface is a sheet off the stick bones); through the multiresolution layer the
-        dense vertices too (against the bones of their base face's control vertices); 0 = off,
-        1 = every rest distance kept (costs thickness under twists).
+        them (a joint's crease where the medial surface is a sheet off the stick bones); through the
+        multiresolution layer the dense vertices too (against the bones of their base face's control
+        vertices); 0 = off, 1 = every rest distance kept (costs thickness under twists).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
