@@ -476,35 +476,42 @@ def read_vertex_groups(obj):
 def write_vertex_groups(obj, groups, idx, w):
     """Writes ``read_vertex_groups``' groups on the object's rebuilt mesh: output vertex i gets
     sum_k w[i, k] * (weights of input vertex idx[i, k]), as blend_attributes blends."""
-    mesh = obj.data
-    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
-    o, src, w = np.repeat(np.arange(len(idx)), idx.shape[1]), idx.ravel(), w.ravel()
     for name, lock in zip(groups["names"], groups["locks"]):
         obj.vertex_groups.new(name=name).lock_weight = lock
     obj.vertex_groups.active_index = groups["active"]
-    ev, eg, ew = groups["vertex"], groups["group"], groups["weight"]
+    vert, group, weight, counted = _blend_group_weights(idx, w, groups["vertex"], groups["group"],
+                                                        groups["weight"], len(groups["names"]))
+    # A member with weight 0 stays one where a source counts (not for a zero barycentric).
+    vert, group, weight = vert[counted], group[counted], weight[counted]
+    bm = bmesh.new()
+    try:
+        bm.from_mesh(obj.data)
+        deform = bm.verts.layers.deform.verify()
+        bm.verts.ensure_lookup_table()
+        for i, g, x in zip(vert.tolist(), group.tolist(), weight.tolist()):
+            bm.verts[i][deform][g] = x
+        bm.to_mesh(obj.data)
+    finally:
+        bm.free()
+
+
+def _blend_group_weights(idx, w, ev, eg, ew, n_groups):
+    """Vertex-group weights blended from sources given as (vertex, group, weight) entries: output
+    vertex i gets sum_k w[i, k] * (weights of source idx[i, k]). Returns (vertex, group, weight,
+    counted) per output membership, counted where some source with a nonzero w is a member."""
+    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
+    o, src, w = np.repeat(np.arange(len(idx)), idx.shape[1]), idx.ravel(), w.ravel()
     order = np.argsort(ev, kind="stable")
     ev, eg, ew = ev[order], eg[order], ew[order]
     start = np.searchsorted(ev, np.arange(int(src.max(initial=-1)) + 2))
     count = start[src + 1] - start[src]
     at = ranges(start[src], count)
-    key = np.repeat(o, count) * len(groups["names"]) + eg[at]
+    key = np.repeat(o, count) * n_groups + eg[at]
     key, inv = np.unique(key, return_inverse=True)
     weight = np.bincount(inv, np.repeat(w, count) * ew[at])
-    # A member with weight 0 stays one where a source counts (not for a zero barycentric).
     counted = np.bincount(inv, np.repeat(w, count)) > 0
-    vert, group = np.divmod(key[counted], len(groups["names"]))
-    weight = weight[counted]
-    bm = bmesh.new()
-    try:
-        bm.from_mesh(mesh)
-        deform = bm.verts.layers.deform.verify()
-        bm.verts.ensure_lookup_table()
-        for i, g, x in zip(vert.tolist(), group.tolist(), weight.tolist()):
-            bm.verts[i][deform][g] = x
-        bm.to_mesh(mesh)
-    finally:
-        bm.free()
+    vert, group = np.divmod(key, n_groups)
+    return vert, group, weight, counted
 
 
 def blend_vertex_groups(new_verts, src_verts, idx, w, deform):
@@ -517,20 +524,14 @@ def blend_vertex_groups(new_verts, src_verts, idx, w, deform):
     # Only the sources some new vertex reads are read (each one is a Python access).
     used, idx = np.unique(idx, return_inverse=True)
     idx = idx.reshape(w.shape)
-    src_verts = [src_verts[i] for i in used.tolist()]
-    groups = sorted({g for v in src_verts for g in v[deform].keys()})
-    if not groups:
+    entries = [(j, g, x) for j, i in enumerate(used.tolist()) for g, x in src_verts[i][deform].items()]
+    if not entries:
         return
-    col = {g: k for k, g in enumerate(groups)}
-    A = np.zeros((len(src_verts), len(groups)))
-    for j, v in enumerate(src_verts):
-        for g, x in v[deform].items():
-            A[j, col[g]] = x
-    for v, row in zip(new_verts, np.einsum("nk,nkd->nd", w, A[idx]).tolist()):
-        dv = v[deform]
-        for g, x in zip(groups, row):
-            if x > 0:
-                dv[g] = x
+    ev, eg, ew = (np.array(c) for c in zip(*entries))
+    vert, group, weight, _counted = _blend_group_weights(idx, w, ev, eg, ew, int(eg.max()) + 1)
+    for i, g, x in zip(vert.tolist(), group.tolist(), weight.tolist()):
+        if x > 0:
+            new_verts[i][deform][g] = x
 
 
 def corner_layers(mesh):
