@@ -384,11 +384,10 @@ def limb_quality(quick):
             met = min(a, b) <= 0.2 or o["sum_df2"] <= metas[model]["error_floor"]
             trows.append([model, pose, a, b, "yes" if met else "no", o["min_ratio"],
                           "yes" if o["min_ratio"] >= 0.9 else "no", o["skel_min_ratio"], q["skel_min_ratio"]])
-    mr = MULTIRES
     mrows = []
     for model in metas:
         for pose in ("bend 90", "twist 180"):
-            o, q = data.get(f"{model}|{pose}|{mr}"), data[f"{model}|{pose}|{dq}"]
+            o, q = data.get(f"{model}|{pose}|{MULTIRES}"), data[f"{model}|{pose}|{dq}"]
             if o is None:
                 continue
             a = o["sum_df2_control_skeleton"] / max(q["sum_df2_control_skeleton"], 1e-300)
