@@ -1175,7 +1175,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       };
       for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
       const int nthreads = npix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
-      std::vector<double> acc(size_t(nthreads) * 3 * ng);
+      std::vector<double> acc(size_t(3) * ng);
       auto locate = [&](const Vec2& p, int f, Sample& out) { return locate_in_map(Us, F, topo, p, f, out); };
       // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
       // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
@@ -1221,15 +1221,14 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
         std::unique_ptr<KdTree> tree;
         if (it == 0) tree = std::make_unique<KdTree>(G);
         else build_adjacency();
-        std::fill(acc.begin(), acc.end(), 0.0);
+        // Labels in parallel; the mass sums after, in raster order: per-thread partial sums over a
+        // dynamic schedule made the centroids, and so the output, differ from run to run (at 100K
+        // samples on 1024^2 pixels).
   #pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
         for (int j = 0; j < R; ++j) {
-          double* a = acc.data() + size_t(thread_index()) * 3 * ng;
-          const double y = (j + 0.5) / R;
           for (int i = 0; i < R; ++i) {
             const long idx = long(j) * R + i;
             if (pix_face[idx] < 0) continue;
-            const double x = (i + 0.5) / R;
             const Vec3 qp = pix_point(idx);
             int g;
             if (tree) {
@@ -1253,14 +1252,21 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
               }
             }
             label[idx] = g;
-            const double m = pix_val[idx];
-            a[3 * g] += m;
-            a[3 * g + 1] += m * x;
-            a[3 * g + 2] += m * y;
           }
         }
-        for (int t = 1; t < nthreads; ++t)
-          for (size_t k = 0; k < size_t(3 * ng); ++k) acc[k] += acc[size_t(t) * 3 * ng + k];
+        std::fill(acc.begin(), acc.end(), 0.0);
+        for (int j = 0; j < R; ++j) {
+          const double y = (j + 0.5) / R;
+          for (int i = 0; i < R; ++i) {
+            const long idx = long(j) * R + i;
+            if (pix_face[idx] < 0) continue;
+            const double m = pix_val[idx], x = (i + 0.5) / R;
+            double* a = acc.data() + size_t(3) * label[idx];
+            a[0] += m;
+            a[1] += m * x;
+            a[2] += m * y;
+          }
+        }
         int moved = 0;
         for (int q = 0; q < ni; ++q) {
           const int g = nb + q;

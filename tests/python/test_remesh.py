@@ -528,3 +528,20 @@ def test_post_processing_ends_with_smoothing_at_creases(cgal):
         r = dgmesh.remesh_full(V, F, target_vertices=target, mode=mode, boundary="resample", resolution=256)
         check_disk(r.V, r.F)
         assert angles_deg(r.V, r.F).min() > 20, (mode, target, angles_deg(r.V, r.F).min())
+
+
+def test_relaxation_is_deterministic_across_runs_and_thread_counts():
+    # 8000 samples at 512^2 relax in parallel (over 65536 pixels). The Lloyd centroids were summed
+    # per thread over a dynamic schedule, so the output differed from run to run at 100K vertices.
+    V, F = polar_disk(rings=40)
+    before = dgmesh.num_threads()
+    outs = []
+    try:
+        for n in (2, 2, 1, 3):
+            dgmesh.set_num_threads(n)
+            outs.append(dgmesh.remesh_full(V, F, target_vertices=8000, resolution=512))
+    finally:
+        dgmesh.set_num_threads(before)
+    assert outs[0].resolution == 512
+    for o in outs[1:]:
+        assert np.array_equal(o.V, outs[0].V) and np.array_equal(o.F, outs[0].F)
