@@ -569,7 +569,7 @@ def quality(quick=False):
                  if data["models"][k]["cut"]]
     m = data["machine"]
     md = "\n".join([
-        "## unwrap_quality",
+        "### Unwrap: quality",
         "",
         f"Low-stretch unwrap (thesis ch. 5) vs Blender's unwrap on the disk scans of Debian's CGAL data and on "
         f"open parts cut from its closed scans. "
@@ -666,7 +666,7 @@ def speed(quick=False):
                                       stretch_l2=r.final["stretch_l2"]))
     m = data["machine"]
     md = "\n".join([
-        "## unwrap_speed",
+        "### Unwrap: speed",
         "",
         f"Uopt (the API's defaults: unit square, eta 1, as the thesis; and the operator's defaults: free "
         f"boundary, eta 0.5, sliding boundary) (Floater weights, stops when eq. 5.5 improves by < 0.1%; iterative solves "
@@ -760,7 +760,7 @@ def thesis(quick=False):
     m = data["machine"]
     thesis_rows = [[t[0], t[1], t[2], t[3] if t[3] is not None else "-", t[4], t[5], t[6]] for t in THESIS]
     md = "\n".join([
-        "## unwrap_thesis",
+        "### Unwrap: the thesis's setting and tables",
         "",
         "Our stretch equalization in the thesis's setting (unit square, Floater U0, eta 1, Uopt stops "
         "when eq. 5.5 stops decreasing) next to the thesis's figures (5.3, Tables 5.1-5.12), L2 stretch "

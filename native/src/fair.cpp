@@ -37,6 +37,7 @@
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
+#include "dgmesh/parallel.h"
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
@@ -48,7 +49,7 @@ namespace {
 // Below this many elements a loop runs serially. The per-vertex loops are a few hundred
 // flops each; on a loaded 2-core machine, waking (and spin-waiting) OpenMP threads around every
 // small loop slowed a 5K-vertex hole fill from 0.9 s to 17 s, so only large meshes go parallel.
-constexpr int kParallelMin = 1 << 16;
+constexpr int kFairParallelMin = 1 << 16;
 
 using Mat3Row = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
@@ -68,7 +69,7 @@ struct Geo {
 };
 
 void extend_to_boundary(VecXd& x, const Topology& t, const VecXd& interior) {
-#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
   for (int v = 0; v < t.n_vertices; ++v) {
     if (!t.on_boundary[v]) continue;
     double s = 0;
@@ -86,7 +87,7 @@ void compute_geometry(const MatX3d& P, const MatX3i& F, const Topology& t, Geo& 
   g.ang.resize(m, 3);
   g.fcross.resize(m, 3);
   g.farea.resize(m);
-#pragma omp parallel for schedule(static) if (m > kParallelMin)
+#pragma omp parallel for schedule(static) if (m > kFairParallelMin)
   for (int f = 0; f < m; ++f) {
     const Vec3 p[3] = {P.row(F(f, 0)), P.row(F(f, 1)), P.row(F(f, 2))};
     const Vec3 cr = (p[1] - p[0]).cross(p[2] - p[0]);
@@ -118,7 +119,7 @@ void compute_geometry(const MatX3d& P, const MatX3i& F, const Topology& t, Geo& 
   g.K.resize(n);
   g.N.resize(n, 3);
   g.LP.resize(n, 3);
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
+#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
   for (int v = 0; v < n; ++v) {
     double a = 0, angle = 0;
     Vec3 nn = Vec3::Zero(), lap = Vec3::Zero();
@@ -191,12 +192,10 @@ void prepare_level(Work& w, FairBoundary boundary) {
 }
 
 double energy_of(const Work& w, const Geo& g) {
-  double e = 0;
   const int n = w.topo.n_vertices;
-#pragma omp parallel for schedule(static) reduction(+ : e) if (n > kParallelMin)
-  for (int v = 0; v < n; ++v)
-    if (w.energy_set[v]) e += g.H[v] * g.H[v] * g.A[v];
-  return e;
+  return ordered_sums<1>(n, n > kFairParallelMin, [&](int v, std::array<double, 1>& e) {
+    if (w.energy_set[v]) e[0] += g.H[v] * g.H[v] * g.A[v];
+  })[0];
 }
 
 double min_area_near(const Work& w, const Geo& g) {
@@ -287,7 +286,7 @@ struct Tangential {
 
   void weights(const MatX3d& P, const Topology& t) {
     wts.assign(t.vv_index.size(), 0.0);
-#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
     for (int v = 0; v < t.n_vertices; ++v) {
       const int b = t.vv_offset[v], d = t.vv_offset[v + 1] - b;
       if (t.on_boundary[v] || d == 0) continue;  // U_area = 0 on the boundary (thesis)
@@ -308,7 +307,7 @@ struct Tangential {
   }
   void apply(const MatX3d& X, MatX3d& out, const Topology& t) const {
     out.resize(X.rows(), 3);
-#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
     for (int v = 0; v < t.n_vertices; ++v) {
       Vec3 s = Vec3::Zero();
       const Vec3 x = X.row(v);
@@ -321,7 +320,7 @@ struct Tangential {
     weights(P, t);
     apply(P, U, t);
     apply(U, U2, t);
-#pragma omp parallel for schedule(static) if (t.n_vertices > kParallelMin)
+#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
     for (int v = 0; v < t.n_vertices; ++v) {
       const Vec3 u = U2.row(v), nv = N.row(v);
       U2.row(v) = -(u - u.dot(nv) * nv);
@@ -377,19 +376,19 @@ class SurfaceProjector {
   KdTree tree_;
 };
 
-// Area-weighted unit vertex normals (eq. 3.7) and face areas, serial below kParallelMin.
+// Area-weighted unit vertex normals (eq. 3.7) and face areas, serial below kFairParallelMin.
 void area_normals(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& N, VecXd& farea, MatX3d& fcross) {
   const int m = static_cast<int>(F.rows()), n = t.n_vertices;
   fcross.resize(m, 3);
   farea.resize(m);
-#pragma omp parallel for schedule(static) if (m > kParallelMin)
+#pragma omp parallel for schedule(static) if (m > kFairParallelMin)
   for (int f = 0; f < m; ++f) {
     const Vec3 c = (P.row(F(f, 1)) - P.row(F(f, 0))).cross(P.row(F(f, 2)) - P.row(F(f, 0)));
     fcross.row(f) = c;
     farea[f] = 0.5 * c.norm();
   }
   N.resize(n, 3);
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
+#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
   for (int v = 0; v < n; ++v) {
     Vec3 s = Vec3::Zero();
     for (int i = t.vf_offset[v]; i < t.vf_offset[v + 1]; ++i) s += fcross.row(t.vf_index[i]).transpose();
@@ -415,7 +414,7 @@ double normal_speed(const Work& w, const Geo& g, FairMethod method, VecXd& speed
       if (w.movable[v] && h != 0 && h * h - k < 0) lambda = std::min(lambda, std::sqrt(h * h / k));
     }
   speed.setZero(n);
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
+#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
   for (int v = 0; v < n; ++v) {
     if (!w.movable[v] || w.sliding[v]) continue;
     double s = -laplace_scalar(w.F, w.topo, g, g.H, v);
@@ -612,7 +611,7 @@ class Driver {
   void tangential_step(Work& w, const MatX3d& N, double eps) {
     tan_.field(w.P, N, w.topo);
     const int n = w.topo.n_vertices;
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
+#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
     for (int v = 0; v < n; ++v)
       if (movable_idx_[v] >= 0) w.P.row(v) += eps * tan_.U2.row(v);
   }
@@ -862,7 +861,7 @@ class Driver {
         const double tau = opt_.step_scale * amin * amin / 150.0;
         if (opt_.tangential) tan_.field(w.P, g_.N, w.topo);
         const int n = w.topo.n_vertices;
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
+#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
         for (int v = 0; v < n; ++v) {
           if (movable_idx_[v] < 0) continue;
           Vec3 d = tau * speed_[v] * Vec3(g_.N.row(v));
@@ -1031,7 +1030,7 @@ class Driver {
       const MatX3d P_prev = w.P;
       if (!semi) {
         BP = B * w.P;
-#pragma omp parallel for schedule(static) if (n > kParallelMin)
+#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
         for (int v = 0; v < n; ++v)
           if (movable_idx_[v] >= 0) w.P.row(v) -= tau * BP.row(v);
       } else {
@@ -1931,7 +1930,7 @@ MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt
       for (int q = w.topo.vv_offset[v]; q < w.topo.vv_offset[v + 1]; ++q)
         ring2_min[v] = std::min(ring2_min[v], ring_min[w.topo.vv_index[q]]);
     tan.field(w.P, N, w.topo);
-#pragma omp parallel for schedule(static) if (nv > kParallelMin)
+#pragma omp parallel for schedule(static) if (nv > kFairParallelMin)
     for (int v = 0; v < nv; ++v) {
       if (!moves[v] || !std::isfinite(ring2_min[v])) continue;
       const double eps = opt.step_scale * 12.0 * ring2_min[v];

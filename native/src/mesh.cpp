@@ -273,9 +273,9 @@ void k_ring(const Topology& topo, int v, int k, std::vector<int>& out, std::vect
 double average_edge_length(const MatX3d& V, const Topology& topo) {
   const int ne = topo.n_edges();
   if (ne == 0) return 0.0;
-  double sum = 0.0;
-#pragma omp parallel for reduction(+ : sum) if (ne >= kParallelMin)
-  for (int e = 0; e < ne; ++e) sum += (V.row(topo.edges(e, 0)) - V.row(topo.edges(e, 1))).norm();
+  const double sum = ordered_sums<1>(ne, ne >= kParallelMin, [&](int e, std::array<double, 1>& s) {
+    s[0] += (V.row(topo.edges(e, 0)) - V.row(topo.edges(e, 1))).norm();
+  })[0];
   return sum / ne;
 }
 

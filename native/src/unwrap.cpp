@@ -18,6 +18,7 @@
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
+#include "dgmesh/parallel.h"
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/validate.h"
 
@@ -35,8 +36,13 @@ using Vec2 = Eigen::Vector2d;
 using Clock = std::chrono::steady_clock;
 // Loops over fewer rows (vertices; faces and ring entries are about 2x and 6x as many) run
 // serially: on a loaded machine OpenMP's fork/join and spin-waiting cost more than the work (see
-// kParallelMin in fair.cpp).
+// kFairParallelMin in fair.cpp).
 constexpr int kParallelRows = 20000;
+// Row blocks of the parallel multigrid smoother, fixed so that the sweep does not depend on the
+// thread count. More blocks make a weaker smoother (more of each sweep is Jacobi): with 8, the
+// 133K-vertex lion-head's free-boundary unwrap took 12 solves instead of 8 and ended at L2 stretch
+// 1.539 instead of 1.386 (bench unwrap_speed).
+constexpr int kSmootherBlocks = 2;
 
 inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 inline double seconds_since(Clock::time_point t0) {
@@ -126,20 +132,18 @@ FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_fac
   FaceData d;
   d.tri.resize(n_faces);
   d.area3.resize(n_faces);
-  double s3 = 0, suv = 0, ssigned = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s3, suv, ssigned) if (n_faces > 2 * kParallelRows)
-  for (int f = 0; f < n_faces; ++f) {
+  const auto sums = ordered_sums<3>(n_faces, n_faces > 2 * kParallelRows, [&](int f, std::array<double, 3>& s) {
     const int i = F(f, 0), j = F(f, 1), k = F(f, 2);
     const Vec3 q1 = V.row(i), q2 = V.row(j), q3 = V.row(k);
     d.tri[f] = tri_stretch(q1, q2, q3, UV.row(G(f, 0)), UV.row(G(f, 1)), UV.row(G(f, 2)));
     d.area3[f] = 0.5 * (q2 - q1).cross(q3 - q1).norm();
-    s3 += d.area3[f];
-    suv += 0.5 * std::abs(d.tri[f].uv_area2);
-    ssigned += 0.5 * d.tri[f].uv_area2;
-  }
-  d.sum_area3 = s3;
-  d.sum_area_uv = suv;
-  d.signed_area_uv = ssigned;
+    s[0] += d.area3[f];
+    s[1] += 0.5 * std::abs(d.tri[f].uv_area2);
+    s[2] += 0.5 * d.tri[f].uv_area2;
+  });
+  d.sum_area3 = sums[0];
+  d.sum_area_uv = sums[1];
+  d.signed_area_uv = sums[2];
   return d;
 }
 
@@ -160,29 +164,31 @@ UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n
   // Sander's normalisation: scale the UV map to the surface area, so sigma^2 scales by this.
   const double norm = d.sum_area_uv / d.sum_area3;
   const double orient = d.signed_area_uv >= 0 ? 1.0 : -1.0;
-  double l2 = 0, l2_area = 0, g2max = 0, angle = 0, area = 0;
-  int flipped = 0, zero = 0;
-#pragma omp parallel for schedule(static) reduction(+ : l2, l2_area, angle, area, flipped, zero) \
-    reduction(max : g2max) if (n_faces > 2 * kParallelRows)
-  for (int f = 0; f < n_faces; ++f) {
+  const bool par = n_faces > 2 * kParallelRows;
+  // Sums: L2 stretch, its area, angle and area distortion, flipped and zero-area counts.
+  const auto sums = ordered_sums<6>(n_faces, par, [&](int f, std::array<double, 6>& s) {
     const TriStretch& t = d.tri[f];
-    const bool degenerate = is_zero_area(t, d.sum_area_uv, eps);
-    if (degenerate) {
-      ++zero;
+    if (is_zero_area(t, d.sum_area_uv, eps)) {
+      s[5] += 1;
     } else {
-      l2 += d.area3[f] * t.l2sq;
-      l2_area += d.area3[f];
-      g2max = std::max(g2max, t.gamma2);
-      if (orient * t.uv_area2 < 0) ++flipped;
+      s[0] += d.area3[f] * t.l2sq;
+      s[1] += d.area3[f];
+      if (orient * t.uv_area2 < 0) s[4] += 1;
     }
-    area += std::abs(d.area3[f] / d.sum_area3 - 0.5 * std::abs(t.uv_area2) / d.sum_area_uv);
+    s[3] += std::abs(d.area3[f] / d.sum_area3 - 0.5 * std::abs(t.uv_area2) / d.sum_area_uv);
     for (int k = 0; k < 3; ++k) {
       const int a = F(f, k), b = F(f, (k + 1) % 3), c = F(f, (k + 2) % 3);
       const double th = angles3 ? (*angles3)[3 * f + k] : angle3(V.row(b) - V.row(a), V.row(c) - V.row(a));
       const double ph = angle2(UV.row(b) - UV.row(a), UV.row(c) - UV.row(a));
-      angle += std::abs(th - ph);
+      s[2] += std::abs(th - ph);
     }
-  }
+  });
+  const double l2 = sums[0], l2_area = sums[1], angle = sums[2], area = sums[3];
+  const int flipped = static_cast<int>(sums[4]), zero = static_cast<int>(sums[5]);
+  double g2max = 0;
+#pragma omp parallel for schedule(static) reduction(max : g2max) if (par)
+  for (int f = 0; f < n_faces; ++f)
+    if (!is_zero_area(d.tri[f], d.sum_area_uv, eps)) g2max = std::max(g2max, d.tri[f].gamma2);
   m.flipped = flipped;
   m.zero_area = zero;
   m.stretch_l2_finite = l2_area > 0 ? std::sqrt(norm * l2 / l2_area) : kInf;
@@ -192,21 +198,18 @@ UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n
   m.area = area;
 
   const int ne = static_cast<int>(edges.size());
-  double s3 = 0, suv = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s3, suv) if (ne > 3 * kParallelRows)
-  for (int e = 0; e < ne; ++e) {
-    s3 += (V.row(edges[e].first) - V.row(edges[e].second)).norm();
-    suv += (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
-  }
+  const auto len = ordered_sums<2>(ne, ne > 3 * kParallelRows, [&](int e, std::array<double, 2>& s) {
+    s[0] += (V.row(edges[e].first) - V.row(edges[e].second)).norm();
+    s[1] += (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
+  });
+  const double s3 = len[0], suv = len[1];
   double edge = 0;
-  if (s3 > 0 && suv > 0) {
-#pragma omp parallel for schedule(static) reduction(+ : edge) if (ne > 3 * kParallelRows)
-    for (int e = 0; e < ne; ++e) {
+  if (s3 > 0 && suv > 0)
+    edge = ordered_sums<1>(ne, ne > 3 * kParallelRows, [&](int e, std::array<double, 1>& s) {
       const double l3 = (V.row(edges[e].first) - V.row(edges[e].second)).norm();
       const double luv = (UV.row(edges[e].first) - UV.row(edges[e].second)).norm();
-      edge += std::abs(l3 / s3 - luv / suv);
-    }
-  }
+      s[0] += std::abs(l3 / s3 - luv / suv);
+    })[0];
   m.edge = edge;
   return m;
 }
@@ -815,10 +818,10 @@ Vec2 coldot(const Blk& a, const Blk& b) {
   const int n = static_cast<int>(a.rows());
   const double* x = a.data();
   const double* y = b.data();
-  double s0 = 0, s1 = 0;
-#pragma omp parallel for schedule(static) reduction(+ : s0, s1) if (n > 4 * kParallelRows)
-  for (int i = 0; i < n; ++i) s0 += x[2 * i] * y[2 * i], s1 += x[2 * i + 1] * y[2 * i + 1];
-  return Vec2(s0, s1);
+  const auto s = ordered_sums<2>(n, n > 4 * kParallelRows, [&](int i, std::array<double, 2>& a) {
+    a[0] += x[2 * i] * y[2 * i], a[1] += x[2 * i + 1] * y[2 * i + 1];
+  });
+  return Vec2(s[0], s[1]);
 }
 
 // Dense LU with partial pivoting of the coarsest multigrid level (at most kDenseCoarseRows rows),
@@ -1048,7 +1051,7 @@ class Amg {
   }
 
   // Hybrid Gauss-Seidel sweep (forward or backward) on both columns: Gauss-Seidel inside each
-  // thread's block of rows, Jacobi across blocks (values of other blocks are read from the copy
+  // block of rows, Jacobi across blocks (values of other blocks are read from the copy
   // xo), so the sweep runs in parallel without data races.
   static void gauss_seidel(Level& L, bool forward) {
     const int n = static_cast<int>(L.A.rows());
@@ -1076,15 +1079,12 @@ class Amg {
     }
     L.xo = L.x;
     const double* xo = L.xo.data();
-#pragma omp parallel if (par)
-    {
-#ifdef _OPENMP
-      const int nt = omp_get_num_threads(), tid = omp_get_thread_num();
-#else
-      const int nt = 1, tid = 0;
-#endif
-      const int lo = static_cast<int>(static_cast<long long>(n) * tid / nt);
-      const int hi = static_cast<int>(static_cast<long long>(n) * (tid + 1) / nt);
+    // A fixed number of row blocks, not one per thread: the sweep (Gauss-Seidel inside a block,
+    // Jacobi across blocks) then does not depend on the thread count.
+#pragma omp parallel for schedule(static) if (par)
+    for (int blk = 0; blk < kSmootherBlocks; ++blk) {
+      const int lo = static_cast<int>(static_cast<long long>(n) * blk / kSmootherBlocks);
+      const int hi = static_cast<int>(static_cast<long long>(n) * (blk + 1) / kSmootherBlocks);
       for (int k = lo; k < hi; ++k) {
         const int i = forward ? k : lo + hi - 1 - k;
         double s0 = b[2 * i], s1 = b[2 * i + 1];

@@ -501,3 +501,20 @@ def test_refined_or_subdivided_result_does_not_depend_on_the_face_order(kw):
     np.testing.assert_array_equal(r1.faces[: len(F2)], r0.faces[: len(F2)][perm])  # input rows in place
     key = lambda F: sorted(map(tuple, np.sort(F, axis=1).tolist()))  # noqa: E731
     assert key(r1.faces) == key(r0.faces)
+
+
+def test_willmore_energy_does_not_depend_on_the_thread_count():
+    # Above 65536 vertices the energy was an OpenMP reduction: its last bits followed the thread
+    # count (and, with 3 or more threads, the order the threads finished), and so could the flow's
+    # stopping test.
+    V, F = shapes.icosphere(7)
+    V = V * np.array([1.0, 1.3, 0.8])
+    before = dgmesh.num_threads()
+    try:
+        energies = []
+        for n in (1, 2, 3):
+            dgmesh.set_num_threads(n)
+            energies.append(dgmesh.willmore_energy(V, F))
+    finally:
+        dgmesh.set_num_threads(before)
+    assert len(V) > 65536 and energies[1] == energies[0] and energies[2] == energies[0]

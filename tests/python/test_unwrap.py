@@ -293,3 +293,24 @@ def test_auto_weights_fall_back_to_mean_value_on_a_chart_with_holes(cgal):
     assert r.n_holes == 1 and "mean-value weights (the chart has holes)" in r.warnings[0]
     np.testing.assert_array_equal(r.uv, dgmesh.unwrap(Vh, Fh, weights="mean_value").uv)
     assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+
+
+def test_unwrap_and_metrics_do_not_depend_on_the_thread_count():
+    # 24K vertices take the parallel paths (the multigrid smoother, the stretch sums). The smoother
+    # split its rows by thread and the sums were OpenMP reductions: the UVs moved by about 1e-3
+    # between 1 and 2 threads, and with 3 or more threads from run to run.
+    V, F = shapes.grid(154, 154)
+    x, y = V[:, 0] - 0.5, V[:, 1] - 0.5
+    V[:, 2] = 0.4 * np.exp(-12 * (x * x + y * y)) + 0.1 * np.sin(6 * x) * np.cos(5 * y)
+    before = dgmesh.num_threads()
+    outs = []
+    try:
+        for n in (1, 2, 3):
+            dgmesh.set_num_threads(n)
+            r = dgmesh.unwrap(V, F, boundary="free")
+            outs.append((r.uv, dgmesh.uv_metrics(V, F, r.uv)))
+    finally:
+        dgmesh.set_num_threads(before)
+    for uv, m in outs[1:]:
+        assert np.array_equal(uv, outs[0][0])
+        assert m == outs[0][1]

@@ -1,6 +1,10 @@
 // Thread count for the OpenMP loops (the add-on's preference); 0 means all cores.
 #pragma once
 
+#include <algorithm>
+#include <array>
+#include <vector>
+
 namespace dgmesh {
 // The count is process-wide; OpenMP's own setting is per thread, so entry points running native
 // work call apply_num_threads() on their thread (the Python bindings do, in NativeScope).
@@ -13,4 +17,26 @@ int thread_index();
 // for light per-item work on a busy 2-core machine, waking OpenMP threads and libgomp's
 // spin-waiting cost more than the loop (measured: 20-25 ms of an 8K-vertex unwrap call).
 constexpr int kParallelMin = 16384;
+
+// Sums over i in [0, n) that do not depend on the thread count or on the order threads finish:
+// add(i, acc) adds item i's terms into acc (K sums), fixed blocks of kSumBlock items are summed
+// serially and the block sums then in order. An OpenMP reduction(+) splits the items by thread
+// count, and with 3 or more threads libgomp adds the partial sums in finishing order, so a
+// floating-point result (and any stopping test reading it) changed from run to run.
+constexpr int kSumBlock = 4096;
+template <int K, class Add>
+std::array<double, K> ordered_sums(int n, bool parallel, Add&& add) {
+  const int nb = (n + kSumBlock - 1) / kSumBlock;
+  std::vector<std::array<double, K>> part(nb);
+#pragma omp parallel for schedule(static) if (parallel && nb > 1)
+  for (int b = 0; b < nb; ++b) {
+    std::array<double, K> s{};
+    for (int i = b * kSumBlock, end = std::min(n, i + kSumBlock); i < end; ++i) add(i, s);
+    part[b] = s;
+  }
+  std::array<double, K> total{};
+  for (const auto& s : part)
+    for (int k = 0; k < K; ++k) total[k] += s[k];
+  return total;
+}
 }  // namespace dgmesh
