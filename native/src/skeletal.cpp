@@ -660,7 +660,7 @@ struct SkeletalRig::Impl {
   // Bone clearance (see clear_bones): each bone's rest segment (head, axis scaled to its length)
   // and each skeletal vertex's rest distance to the segments of the bones it has weight on (-1: none).
   std::vector<Vec3> bone_head, bone_vec;
-  std::vector<int> parent;  // per bone, -1: none (see setup_clearance)
+  std::vector<std::vector<int>> children;  // per bone, the bones it is the parent of (see setup_clearance)
   Eigen::MatrixXd clearance;
 
   void setup();
@@ -1288,13 +1288,15 @@ void SkeletalRig::Impl::setup_clearance() {
   // the other, which is closer than at rest, and must (capsule, 90 degrees: 0.7 of its rest distance
   // to the other bone).
   // A bone's parent: the bone whose tail its head starts from (within a tenth of the shorter).
-  parent.assign(B, -1);
+  children.assign(B, {});
   for (int k = 0; k < B; ++k) {
     double best = std::numeric_limits<double>::infinity();
+    int parent = -1;
     for (int j = 0; j < B; ++j) {
       const double d = ((bone_head[j] + bone_vec[j]) - bone_head[k]).norm();
-      if (j != k && d <= 0.1 * std::min(bone_vec[j].norm(), bone_vec[k].norm()) && d < best) best = d, parent[k] = j;
+      if (j != k && d <= 0.1 * std::min(bone_vec[j].norm(), bone_vec[k].norm()) && d < best) best = d, parent = j;
     }
+    if (parent >= 0) children[parent].push_back(k);
   }
   surface_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_parent(W.row(i), j); });
 }
@@ -1308,8 +1310,8 @@ void SkeletalRig::Impl::setup_clearance() {
 // 33 times DQS's).
 bool SkeletalRig::Impl::follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const {
   if (w[j] > 1e-3) return true;
-  for (int k = 0; k < w.size(); ++k)
-    if (w[k] > 1e-3 && parent[k] == j) return true;
+  for (int k : children[j])
+    if (w[k] > 1e-3) return true;
   return false;
 }
 
