@@ -532,13 +532,15 @@ def fair_restore(quick):
     # The same flow on three fills of the same holes: a flow whose result is a property of the rim
     # gives the same mean on each; the uniform bi-umbrella's fixed point depends on the
     # connectivity, and the removed faces' connectivity (fill a) carries the removed shape.
+    # (the means over the scanned holes, from the loop above)
+    mean = {m: v for key, v in data.get("summary", {}).items() if key.startswith("mean/scanned holes/")
+            for m in [key.rsplit("/", 1)[1]]}
     fills = [(k, lab) for k, lab in (("", "our fill"), ("_rf", "CGAL's refined fill"), ("_fan", "fan + refine"))
-             if scans and all("willmore" + k in w[2] and "bilaplacian" + k in w[2] for w in scans)]
+             if "willmore" + k in mean and "bilaplacian" + k in mean]
     if len(fills) > 1:
-        by_fill = [f"{lab} " + " / ".join(f"{np.mean([w[2][m + k] for w in scans]):.4g}" for k, _ in fills)
+        by_fill = [f"{lab} " + " / ".join(f"{mean[m + k]:.4g}" for k, _ in fills)
                    for m, lab in (("willmore", "Willmore"), ("bilaplacian", "bilaplacian"))]
-        ratio = {m: np.mean([w[2][m + k] for w in scans for k, _ in fills[1:]]) / np.mean([w[2][m] for w in scans])
-                 for m in ("willmore", "bilaplacian")}
+        ratio = {m: np.mean([mean[m + k] for k, _ in fills[1:]]) / mean[m] for m in ("willmore", "bilaplacian")}
         lines.append("The fill's connectivity, mean over the scanned holes on " + " / ".join(l for _, l in fills)
                      + ": " + ", ".join(by_fill) + f". Mean on the user-like fills over the mean on our fill: "
                      f"Willmore {ratio['willmore']:.2f}, bilaplacian {ratio['bilaplacian']:.2f} (our fill keeps the "
