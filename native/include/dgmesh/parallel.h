@@ -27,16 +27,25 @@ constexpr int kSumBlock = 4096;
 template <int K, class Add>
 std::array<double, K> ordered_sums(int n, bool parallel, Add&& add) {
   const int nb = (n + kSumBlock - 1) / kSumBlock;
-  std::vector<std::array<double, K>> part(nb);
-#pragma omp parallel for schedule(static) if (parallel && nb > 1)
-  for (int b = 0; b < nb; ++b) {
+  auto block = [&](int b) {
     std::array<double, K> s{};
     for (int i = b * kSumBlock, end = std::min(n, i + kSumBlock); i < end; ++i) add(i, s);
-    part[b] = s;
-  }
+    return s;
+  };
   std::array<double, K> total{};
-  for (const auto& s : part)
+  auto add_block = [&](const std::array<double, K>& s) {
     for (int k = 0; k < K; ++k) total[k] += s[k];
+  };
+  if (parallel && nb > 1) {
+    std::vector<std::array<double, K>> part(nb);
+#pragma omp parallel for schedule(static)
+    for (int b = 0; b < nb; ++b) part[b] = block(b);
+    for (const auto& s : part) add_block(s);
+  } else {
+    // Serial: the same block sums in the same order, without the buffer (the multigrid solver's dot
+    // products call this several times an iteration).
+    for (int b = 0; b < nb; ++b) add_block(block(b));
+  }
   return total;
 }
 }  // namespace dgmesh
