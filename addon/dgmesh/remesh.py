@@ -80,14 +80,18 @@ class RemeshResult:
 
 def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double",
                 boundary="keep", domain="circle", boundary_clearance=0.5, flip_3d=True,
-                eta=1.0, uopt_steps=-1, lloyd_iterations=4, relax_metric="surface",
+                eta=1.0, uopt_steps=-1, lloyd_iterations=12, relax_metric="surface",
                 min_separation=0.35, smooth_iterations=3, progress=None) -> RemeshResult:
     """:func:`remesh` with all options and diagnostics; see there for the common ones.
 
     lloyd_iterations: density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the
         centroidal Voronoi sampling of Alliez et al. 2003, "Isotropic surface remeshing"): every interior sample moves to the control-map mass
-        centroid of its Voronoi cell over the sampling map's pixels, boundary samples fixed. 0 is the
-        thesis's plain error diffusion. The same step for all three modes.
+        centroid of its Voronoi cell (with the surface metric: the 3D centroid, within the cell's mean
+        tangent plane, pulled onto the surface),
+        integrated over a grid of the sampling map with ~32 points a cell (up to 1024^2), boundary
+        samples fixed. 0 is the thesis's plain error diffusion. The same step for all three modes;
+        default 12 (fewer leave the sampling map's own error-diffusion pattern, stretched on the
+        surface as the map is, in the samples).
     relax_metric: "surface" (Voronoi cells by 3D distance, default) or "map" (by distance in the
         sampling map, which is anisotropic on the surface where the map is).
     min_separation: after relaxing, interior samples closer in 3D than this fraction of the target

@@ -69,7 +69,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         default='DOUBLE',
     )
     relax: IntProperty(
-        name="Relaxation Steps", default=4, min=0, max=100,
+        name="Relaxation Steps", default=12, min=0, max=100,
         description="Density-weighted Lloyd steps after the error diffusion (evens out the vertex spacing; "
                     "0 = the thesis's plain error diffusion)")
     flips: BoolProperty(

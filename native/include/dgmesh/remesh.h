@@ -70,10 +70,14 @@ struct RemeshOptions {
   // smooth_iterations 0 and lloyd_iterations 0) reproduces the thesis's scheme exactly.
   bool flip_3d = true;
   // Density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the centroidal Voronoi
-  // sampling of a parameter map in Alliez et al. 2003, "Isotropic surface remeshing"): each interior sample moves to the control-map mass centroid, in the
-  // sampling map, of its Voronoi cell over the map's pixels; boundary samples are fixed generators.
-  // 0 reproduces the thesis's plain error diffusion.
-  int lloyd_iterations = 4;
+  // sampling of a parameter map in Alliez et al. 2003, "Isotropic surface remeshing"): each interior
+  // sample moves to the control-map mass centroid of its Voronoi cell (in the surface metric: the 3D
+  // centroid, within the cell's mean tangent plane, pulled onto the surface), integrated over a grid
+  // of the sampling map fine enough for ~32 points a cell (up to 1024^2); boundary samples are fixed
+  // generators. 12 steps: fewer leave the pattern of the sampling map's error diffusion (isotropic
+  // in the map, so stretched on the surface as the map is) in the samples. 0 reproduces the
+  // thesis's plain error diffusion.
+  int lloyd_iterations = 12;
   // Beyond the thesis: sweeps of tangential smoothing of the new mesh's interior vertices after the
   // triangulation (each vertex towards the area- and density-weighted mean of its triangles' 3D
   // circumcentres, the optimal-Delaunay step of Chen & Xu 2004, moved inside the triangulation map
@@ -82,7 +86,8 @@ struct RemeshOptions {
   // stars still holding one get a max-min-angle pattern search), each followed by the 3D flips when flip_3d is
   // on and by the removal of interior valence-3/4 vertices whose star holds an angle under 20
   // degrees (RemeshResult::n_removed; the count drops by a few per mille at most), then a closing
-  // smoothing sweep on the final connectivity.
+  // smoothing sweep on the final connectivity and flips of the near-flat pairs it left
+  // non-Delaunay where that lowers no angle.
   // 0: off. The same post-processing for all three modes (bench remesh_quality).
   int smooth_iterations = 3;
   RemeshRelaxMetric relax_metric = RemeshRelaxMetric::Surface;
