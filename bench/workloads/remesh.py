@@ -224,7 +224,8 @@ def remesh_quality(quick):
         "angle below 35 degrees (33 at vertices on sharp features, which only move to lift such an angle), and "
         "stars still holding one get a max-min-angle pattern search), each followed by the flips and by the "
         "removal of interior valence-3/4 vertices whose star holds an angle under 20 degrees, then a closing "
-        "smoothing sweep, after which only near-flat pairs left non-Delaunay are flipped, where that lowers no angle. All beyond "
+        "smoothing sweep, up to 3 repair rounds (flips, removals, smoothing) over the stars still holding an "
+        "angle under 33 degrees and their neighbours, after which only near-flat pairs left non-Delaunay are flipped, where that lowers no angle. All beyond "
         "'plain' is beyond the thesis. "
         "Angles in degrees; '<30' = share of triangles with an angle below 30 degrees; edge CV = standard "
         "deviation / mean of the edge lengths (sampling uniformity); area CV = the same for the interior "
@@ -316,10 +317,11 @@ def remesh_quality(quick):
         "follows the samples and swings from count to count. On three_peaks it sits at the peaks' fin crests, "
         "which turn about 120 degrees within a few target spacings (ridges bent 90-124 degrees across one input "
         "edge; crease samples placed along them, tried, lowered every mode's minimum angle); see the sweep line "
-        "above. On mannequin-devil double's worst triangles (31-32 degrees at 3000-4000) lie where U0 is "
-        "extremely compressed (one U0 pixel at 256^2 spans 7-45 target spacings on the surface there, one Uopt "
-        "pixel 0.3), so the U0 "
-        "embedding refuses the moves that would lift them. The smoothing trades some fidelity at sharp "
+        "above. Where U0 is extremely compressed (mannequin-devil's horns: one U0 pixel at 256^2 spans 7-45 "
+        "target spacings on the surface, one Uopt pixel 0.3) its embedding refuses most smoothing moves; the "
+        "repair rounds lift those stars to the sharp-feature goal (double at 3000 / 4000: 31.5 / 31.0 degrees "
+        "without them), and the modes reaching the goal tie (at 3000 double's worst is 33.2, at a sharp "
+        "feature, single (U0)'s 34.2). The smoothing trades some fidelity at sharp "
         "features for angles and uniformity (compare the Hausdorff of '+flips' and '+smooth').",
         "",
         "Reproduce: `/usr/bin/python3 bench/run.py remesh_quality`",
@@ -355,7 +357,7 @@ def remesh_speed(quick):
         f"Double-parameterization remesh to {target} vertices at {res}^2 (target: <= 3 s). Wall = median of "
         f"{1 if quick else 3} runs; CPU = user+sys of the process during that run (all threads); stages: both "
         "parameterizations (U0, Uopt), rasterization + error diffusion + sample mapping, 12 Lloyd steps + "
-        f"minimum separation (relax), Delaunay (Qhull) + lift (+ 3D flips and 3 tangential smoothing sweeps, the default "
+        f"minimum separation (relax), Delaunay (Qhull) + lift (+ 3D flips, 3 tangential smoothing sweeps and the repair rounds, the default "
         f"post-processing). {m['cpu']}, {m['threads']} threads, load {os.getloadavg()[0]:.1f}, {m['date']}, "
         f"commit {m['commit']}.",
         "",

@@ -38,6 +38,7 @@ constexpr double kFlipCos = 0.94;  // cos 20 degrees
 // five scans and its edge CV down 2-6%.
 constexpr double kSmoothMinAngle = 35 * kPi / 180;
 constexpr double kSmoothSharpMinAngle = 33 * kPi / 180;  // the goal at vertices on sharp features
+constexpr int kRepairRounds = 3;  // smoothing rounds after the closing pass, over stars below that goal
 // A pair of triangles across a bent edge (the flips' near-flat rule refuses it) whose smaller
 // angle is under 20 degrees is still flipped when that raises the pair's smallest angle and the new
 // pair is within 90 degrees of coplanar: at creases of a coarse input the triangulation map is
@@ -1625,14 +1626,44 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     // those were smoothed, and an unfolding flip may leave a sliver nothing repairs (three_peaks,
     // targets 3800-6200: down to 4.4 degrees, at 3D folds across creases of the coarse input);
     // smoothing moves keep every angle above min(35 degrees, its value before).
-    for (int it = 0; it <= o.smooth_iterations; ++it) {
+    // An angle still below the sharp-feature goal after the closing pass: up to kRepairRounds rounds
+    // of flips, removals and smoothing of only those triangles' vertices and their neighbours, as more
+    // sweeps would do at the cost of the few stars concerned. mannequin-devil, double at 3000 / 4000:
+    // worst angle 31.5 / 31.0 -> 33.2 / 33.1, where U0 is compressed so much (one U0 pixel at 256^2
+    // spans 7-45 target spacings) that its embedding refuses most of a sweep's moves.
+    const double cos_sharp_goal = std::cos(kSmoothSharpMinAngle);
+    // Marks the vertices of such triangles and their neighbours (the neighbours' moves free the
+    // space that lifts the angle); false when there is none.
+    auto bad_vertices = [&](std::vector<char>& mark) {
+      mark.assign(nout, 0);
+      bool any = false;
+      for (int t = 0; t < res.F.rows(); ++t)
+        if (min_angle_cos(row3(res.V, res.F(t, 0)), row3(res.V, res.F(t, 1)), row3(res.V, res.F(t, 2))) > cos_sharp_goal) {
+          for (int k = 0; k < 3; ++k) mark[res.F(t, k)] = 1;
+          any = true;
+        }
+      if (!any) return false;
+      std::vector<char> seed = mark;
+      for (int t = 0; t < res.F.rows(); ++t)
+        if (seed[res.F(t, 0)] || seed[res.F(t, 1)] || seed[res.F(t, 2)])
+          for (int k = 0; k < 3; ++k) mark[res.F(t, k)] = 1;
+      return true;
+    };
+    std::vector<char> active;
+    for (int it = 0;; ++it) {
       vertex_triangles(res.F, nout, ring_off, ring);  // rebuilt after flips and removals
+      const bool repair = it > o.smooth_iterations;
+      if (repair && !bad_vertices(active)) {
+        if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0, true);
+        break;
+      }
       // Greedy colouring of the interior vertices (neighbours = vertices of the star's triangles);
       // colour 64 collects the few the 64 colours cannot place (processed serially).
       constexpr int kColours = 64;
       std::fill(colour.begin(), colour.end(), -1);
       std::vector<int> count(kColours + 2, 0);
       for (int i = nb; i < nout; ++i) {
+        if (repair && !active[i]) continue;
         uint64_t used = 0;
         for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
           for (int k = 0; k < 3; ++k) {
@@ -1653,12 +1684,15 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
       groups.assign(group_off.back(), 0);
       {
         std::vector<int> fill(group_off.begin(), group_off.end() - 1);
-        for (int i = nb; i < nout; ++i) groups[fill[colour[i]]++] = i;
+        for (int i = nb; i < nout; ++i)
+          if (colour[i] >= 0) groups[fill[colour[i]]++] = i;
       }
       res.smooth_moves += smooth_in_map(V, F, topo, Ut, rho, ring_off, ring, groups, group_off, flip ? -1.0 : 1.0,
                                         res.F, res.V, res.uv, out_s, rho_out);
-      if (it == o.smooth_iterations) {
-        // The closing pass moved vertices, so a flat pair may have stopped being Delaunay: flip those
+      // After the closing pass (it == smooth_iterations, on the final connectivity) and each repair
+      // round: done unless an angle is still below the sharp-feature goal.
+      if (it >= o.smooth_iterations && (it == o.smooth_iterations + kRepairRounds || !bad_vertices(active))) {
+        // The last pass moved vertices, so a flat pair may have stopped being Delaunay: flip those
         // where that lowers no angle (a planar disk's output is Delaunay).
         if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0, true);
         break;

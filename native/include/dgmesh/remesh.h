@@ -86,8 +86,9 @@ struct RemeshOptions {
   // stars still holding one get a max-min-angle pattern search), each followed by the 3D flips when flip_3d is
   // on and by the removal of interior valence-3/4 vertices whose star holds an angle under 20
   // degrees (RemeshResult::n_removed; the count drops by a few per mille at most), then a closing
-  // smoothing sweep on the final connectivity and flips of the near-flat pairs it left
-  // non-Delaunay where that lowers no angle.
+  // smoothing sweep on the final connectivity, up to 3 repair rounds (flips, removals, smoothing)
+  // restricted to stars still holding an angle below 33 degrees and their neighbours, and flips of
+  // the near-flat pairs left non-Delaunay where that lowers no angle.
   // 0: off. The same post-processing for all three modes (bench remesh_quality).
   int smooth_iterations = 3;
   RemeshRelaxMetric relax_metric = RemeshRelaxMetric::Surface;
