@@ -80,7 +80,7 @@ class RemeshResult:
 
 def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double",
                 boundary="keep", domain="circle", boundary_clearance=0.5, flip_3d=True,
-                eta=1.0, uopt_steps=-1, lloyd_iterations=12, relax_metric="surface",
+                eta=1.0, uopt_steps=-1, lloyd_iterations=30, relax_metric="surface",
                 min_separation=0.35, smooth_iterations=3, progress=None) -> RemeshResult:
     """:func:`remesh` with all options and diagnostics; see there for the common ones.
 
@@ -89,9 +89,10 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         centroid of its Voronoi cell (with the surface metric: the 3D centroid, within the cell's mean
         tangent plane, pulled onto the surface),
         integrated over a grid of the sampling map with ~32 points a cell (up to 1024^2), boundary
-        samples fixed. 0 is the thesis's plain error diffusion. The same step for all three modes;
-        default 12 (fewer leave the sampling map's own error-diffusion pattern, stretched on the
-        surface as the map is, in the samples).
+        samples fixed. At most this many steps: they end when the samples' RMS move falls under
+        0.3% of the local target spacing (fewer leave the sampling map's own error-diffusion
+        pattern, stretched on the surface as the map is, in the samples). 0 is the thesis's plain
+        error diffusion. The same step for all three modes.
     relax_metric: "surface" (Voronoi cells by 3D distance, default) or "map" (by distance in the
         sampling map, which is anisotropic on the surface where the map is).
     min_separation: after relaxing, interior samples closer in 3D than this fraction of the target

@@ -74,7 +74,7 @@ void bind_remesh(pb::module_& m) {
       pb::arg("resolution") = 256, pb::arg("mode") = "double", pb::arg("boundary") = "keep",
       pb::arg("domain") = "circle", pb::arg("boundary_clearance") = 0.5, pb::arg("curvature_clip") = 8.0,
       pb::arg("flip_3d") = true, pb::arg("eta") = 1.0, pb::arg("uopt_steps") = -1,
-      pb::arg("lloyd_iterations") = 12, pb::arg("relax_metric") = "surface",
+      pb::arg("lloyd_iterations") = 30, pb::arg("relax_metric") = "surface",
       pb::arg("min_separation") = 0.35, pb::arg("smooth_iterations") = 3, pb::arg("progress") = pb::none());
 
   m.def(

@@ -324,7 +324,7 @@ def test_lloyd_relaxation_and_separation_on_a_scan(cgal):
                                min_separation=0, **post)
     r = dgmesh.remesh_full(V, F, target_vertices=3000, boundary="resample", **post)
     check_disk(r.V, r.F)
-    assert r.lloyd_iterations == 12
+    assert r.lloyd_iterations > 4
     assert abs(len(r.V) - 3000) <= 0.02 * 3000
     A, A0 = angles_deg(r.V, r.F).min(1), angles_deg(plain.V, plain.F).min(1)
     below, below0 = (A < 30).mean(), (A0 < 30).mean()
@@ -345,13 +345,13 @@ def test_lloyd_steps_reach_past_the_sampling_maps_pattern(cgal):
     """Error diffusion leaves a pattern that is isotropic in the sampling map, so stretched on the
     surface as the map is, and a stretched lattice is itself a Lloyd fixed point: 4 steps over the
     control map's own pixels (about 10 a cell at 256^2 and 5000 samples, where cells stop trading
-    pixels after ~6 steps) left it in place. 12 steps over a grid with ~32 points a cell: double's
-    edge CV at 5000 vertices is 0.115 on lion-head (0.130 before) and 0.099-0.103 on nefertiti
-    (0.111 before, when sampling on U0 was more uniform than on Uopt there)."""
+    pixels after ~6 steps) left it in place. Steps until the samples settle (18-26 here) over a grid
+    with ~32 points a cell: double's edge CV at 5000 vertices is 0.112 on lion-head (0.130 before)
+    and 0.103 on nefertiti (0.111 before, when sampling on U0 was more uniform than on Uopt there)."""
     for model, bound in (("lion-head", 0.122), ("nefertiti", 0.106)):
         V, F = dgmesh.read_mesh(cgal / f"{model}.off")
         r = dgmesh.remesh_full(V, F, target_vertices=5000, boundary="resample")
-        assert r.lloyd_iterations == 12
+        assert 4 < r.lloyd_iterations < 30
         assert edge_cv(r.V, r.F) < bound, (model, edge_cv(r.V, r.F))
 
 
@@ -365,6 +365,19 @@ def test_repair_rounds_lift_stars_the_sweeps_leave_below_the_goal(cgal):
     check_disk(r.V, r.F)
     assert abs(len(r.V) - 4000) <= 0.01 * 4000
     assert angles_deg(r.V, r.F).min() > 32.5
+
+
+def test_lloyd_steps_settle_where_cells_wrap_thin_features(cgal):
+    """mannequin-devil at 100K vertices: some Voronoi cells wrap the horns, so their pixels lie in
+    two far-apart parts of the sampling map and the map centroid of those pixels in neither. Started
+    from there, the Gauss-Newton pull onto the surface threw ~60 samples half a spacing or more at
+    every step and the RMS move stayed near 5% of the spacing for all 30 steps; started from the
+    sample, the steps settle (RMS move under 0.3%) after 13."""
+    V, F = dgmesh.read_mesh(cgal / "mannequin-devil.off")
+    r = dgmesh.remesh_full(V, F, target_vertices=100000, resolution=1024, boundary="resample",
+                           flip_3d=False, smooth_iterations=0)
+    assert abs(len(r.V) - 100000) <= 0.01 * 100000
+    assert r.lloyd_iterations < 20, r.lloyd_iterations
 
 
 def test_relaxation_options_are_checked():
@@ -409,13 +422,13 @@ def test_post_processing_at_creases_of_a_coarse_scan(cgal):
     strongly compressed on the steep slopes, so the Delaunay triangles of U0 lift to slivers across
     the input's creases, where the near-flat flips refuse to act. The sliver flips (a pair holding an
     angle under 20 degrees is flipped when that raises its smallest angle) and the 35-degree goal of
-    the smoothing lift the double scheme's worst triangle to 24-32 degrees over targets 4800-5200
-    (without the flips 8-10, without the smoothing 6-12), with the surface within 0.012 of the
-    diagonal (0.0129 with the crest defect below, 0.0098 now). The worst triangle sits at the peaks' fin crests, which turn about 120 degrees within
-    a few target spacings, so it swings by several degrees from one target to the next: hence the
-    sweep rather than one target. The Lloyd step's centroid is taken within the cell's tangent
-    plane: the 3D centroid itself lies inside the solid at a crest, and pulled onto the surface from
-    there it drove the samples off the crests (mean Hausdorff 0.0097 of the diagonal against 0.0064)."""
+    the smoothing lift the double scheme's worst triangle to 27.7-33.0 degrees over targets
+    4800-5200 (without the flips 6.6-11.4, without the smoothing 5.9-14.7). The worst triangle sits
+    at the peaks' fin crests, which turn about 120 degrees within a few target spacings, so it swings
+    by several degrees from one target to the next: hence the sweep rather than one target. The
+    Lloyd step's centroid is taken within the cell's tangent plane: the 3D centroid itself lies
+    inside the solid at a crest, and pulled onto the surface from there it drove the samples off the
+    crests (mean Hausdorff over the sweep 0.0080 of the diagonal, up to 0.0106; 0.0056 with it)."""
     V, F = dgmesh.read_mesh(cgal / "three_peaks.off")
     diag = np.linalg.norm(V.max(0) - V.min(0))
     worst, hs = [], []
@@ -427,8 +440,8 @@ def test_post_processing_at_creases_of_a_coarse_scan(cgal):
         h = max(dgmesh.point_mesh_distance(r.V, V, F).max(), dgmesh.point_mesh_distance(V, r.V, r.F).max())
         assert h / diag < 0.012, (target, h / diag)
         hs.append(h / diag)
-    assert min(worst) > 22 and np.median(worst) > 26, worst
-    assert np.mean(hs) < 0.008, hs
+    assert min(worst) > 24 and np.median(worst) > 27, worst
+    assert np.mean(hs) < 0.007, hs
 
 
 def test_low_valence_vertices_are_removed(cgal):

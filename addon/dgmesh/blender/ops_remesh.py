@@ -69,9 +69,9 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
         default='DOUBLE',
     )
     relax: IntProperty(
-        name="Relaxation Steps", default=12, min=0, max=100,
-        description="Density-weighted Lloyd steps after the error diffusion (evens out the vertex spacing; "
-                    "0 = the thesis's plain error diffusion)")
+        name="Relaxation Steps", default=30, min=0, max=100,
+        description="At most this many density-weighted Lloyd steps after the error diffusion (evens out the "
+                    "vertex spacing; they stop once the vertices settle; 0 = the thesis's plain error diffusion)")
     flips: BoolProperty(
         name="3D Delaunay Flips", default=True,
         description="After the Delaunay triangulation in the parameter plane, flip edges towards a Delaunay "
