@@ -34,9 +34,9 @@ MODES = ("single_u0", "single_uopt", "double")
 # Post-processing variants, the same for the three modes. "plain" is the thesis's scheme as published.
 VARIANTS = {
     "plain": dict(lloyd_iterations=0, min_separation=0.0, flip_3d=False, smooth_iterations=0),
-    "relaxed": dict(lloyd_iterations=12, min_separation=0.35, flip_3d=False, smooth_iterations=0),
-    "relaxed+flips": dict(lloyd_iterations=12, min_separation=0.35, flip_3d=True, smooth_iterations=0),
-    "relaxed+flips+smooth (default)": dict(lloyd_iterations=12, min_separation=0.35, flip_3d=True,
+    "relaxed": dict(lloyd_iterations=30, min_separation=0.35, flip_3d=False, smooth_iterations=0),
+    "relaxed+flips": dict(lloyd_iterations=30, min_separation=0.35, flip_3d=True, smooth_iterations=0),
+    "relaxed+flips+smooth (default)": dict(lloyd_iterations=30, min_separation=0.35, flip_3d=True,
                                            smooth_iterations=3),
 }
 
@@ -210,7 +210,7 @@ def remesh_quality(quick):
         f"data: {target} target vertices, {res}^2 control map, uniform density, boundary resampled at the "
         "target spacing, U0 = Floater on the unit circle, Uopt = stretch equalization (eta 1) from it. "
         "Variants, applied identically to the three modes: 'plain' = the thesis's scheme (error diffusion, "
-        "Delaunay in the triangulation map, lift); 'relaxed' = + 12 Lloyd steps after the error diffusion (each interior "
+        "Delaunay in the triangulation map, lift); 'relaxed' = + Lloyd steps after the error diffusion until the samples' RMS move is under 0.3% of the target spacing (at most 30; each interior "
         "sample moves to the control-map mass centroid of its Voronoi cell, cells and centroid in the surface metric "
         "(the 3D centroid, within the cell's mean tangent plane, pulled onto the surface), integrated over a grid of the sampling map with ~32 points a cell "
         "(up to 1024^2), boundary samples fixed; Lloyd 1982, as in Alliez et al. 2003 'Isotropic surface "
@@ -303,7 +303,7 @@ def remesh_quality(quick):
         "smoothing move fold the map and be refused; that is where double wins (lion-head, mannequin-devil, "
         "three_peaks: Uopt 3-5x anisotropic), and where Uopt is mildly anisotropic (mushroom, nefertiti) the two "
         "are the same mesh up to a few triangles: a structural tie, not something the double scheme can win "
-        "once the same 3D post-processing is applied to both. Against single (U0): the 12 Lloyd steps bring "
+        "once the same 3D post-processing is applied to both. Against single (U0): the Lloyd steps, run until the samples settle, bring "
         "every mode's samples close to a centroidal tessellation of the surface, so where U0 is itself nearly "
         "area-preserving (nefertiti, 299 vertices, nearly developable: see the distortion columns) the sampling "
         "map stops mattering and the modes tie on the means (within 0.7%); its single-count losses are by "
@@ -356,7 +356,7 @@ def remesh_speed(quick):
     md = "\n".join([
         f"Double-parameterization remesh to {target} vertices at {res}^2 (target: <= 3 s). Wall = median of "
         f"{1 if quick else 3} runs; CPU = user+sys of the process during that run (all threads); stages: both "
-        "parameterizations (U0, Uopt), rasterization + error diffusion + sample mapping, 12 Lloyd steps + "
+        "parameterizations (U0, Uopt), rasterization + error diffusion + sample mapping, Lloyd steps + "
         f"minimum separation (relax), Delaunay (Qhull) + lift (+ 3D flips, 3 tangential smoothing sweeps and the repair rounds, the default "
         f"post-processing). {m['cpu']}, {m['threads']} threads, load {os.getloadavg()[0]:.1f}, {m['date']}, "
         f"commit {m['commit']}.",
