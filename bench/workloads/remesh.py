@@ -306,8 +306,7 @@ def remesh_quality(quick):
         "once the same 3D post-processing is applied to both. Against single (U0): the Lloyd steps, run until the samples settle, bring "
         "every mode's samples close to a centroidal tessellation of the surface, so where U0 is itself nearly "
         "area-preserving (nefertiti, 299 vertices, nearly developable: see the distortion columns) the sampling "
-        "map stops mattering and the modes tie on the means (within 0.7%); its single-count losses are by "
-        "1.1-1.3% of edge CV, just past the 1% margin. Elsewhere single (U0) hits the count only by "
+        "map stops mattering and the modes tie (the means within 0.6%). Elsewhere single (U0) hits the count only by "
         "oversampling the parts of U0 whose pixels are small on the surface (the separation drops the crowded "
         "samples), hence its edge CV and Hausdorff: the thesis's fig. 5.8 point. The minimum angle is one "
         "triangle: without smoothing it sits at a sharp fold, a crease of a coarse input or a scan defect; the "
@@ -317,11 +316,11 @@ def remesh_quality(quick):
         "follows the samples and swings from count to count. On three_peaks it sits at the peaks' fin crests, "
         "which turn about 120 degrees within a few target spacings (ridges bent 90-124 degrees across one input "
         "edge; crease samples placed along them, tried, lowered every mode's minimum angle); see the sweep line "
-        "above. Where U0 is extremely compressed (mannequin-devil's horns: one U0 pixel at 256^2 spans 7-45 "
-        "target spacings on the surface, one Uopt pixel 0.3) its embedding refuses most smoothing moves; the "
-        "repair rounds lift those stars to the sharp-feature goal (double at 3000 / 4000: 31.5 / 31.0 degrees "
-        "without them), and the modes reaching the goal tie (at 3000 double's worst is 33.2, at a sharp "
-        "feature, single (U0)'s 34.2). The smoothing trades some fidelity at sharp "
+        "above. Where the triangulation map is strongly compressed (mannequin-devil's horns: one U0 pixel at "
+        "256^2 spans 7-45 target spacings on the surface, one Uopt pixel 0.3) its embedding refuses most "
+        "smoothing moves; the repair rounds lift those stars to the sharp-feature goal in every mode (without "
+        "them single (U0) stays at 29.1-31.4 degrees on lion-head, where double reaches 33.1-33.7 either way), "
+        "so the modes reaching the goal tie. The smoothing trades some fidelity at sharp "
         "features for angles and uniformity (compare the Hausdorff of '+flips' and '+smooth').",
         "",
         "Reproduce: `/usr/bin/python3 bench/run.py remesh_quality`",

@@ -1647,9 +1647,9 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     // smoothing moves keep every angle above min(35 degrees, its value before).
     // An angle still below the sharp-feature goal after the closing pass: up to kRepairRounds rounds
     // of flips, removals and smoothing of only those triangles' vertices and their neighbours, as more
-    // sweeps would do at the cost of the few stars concerned. mannequin-devil, double at 3000 / 4000:
-    // worst angle 31.5 / 31.0 -> 33.2 / 33.1, where U0 is compressed so much (one U0 pixel at 256^2
-    // spans 7-45 target spacings) that its embedding refuses most of a sweep's moves.
+    // sweeps would do at the cost of the few stars concerned. Where the triangulation map is strongly
+    // compressed its embedding refuses most of a sweep's moves: lion-head, single (U0) at 3000-6000:
+    // worst angle 29.1-31.4 -> 33.0-33.1; three_peaks, double at 4000 / 5000: 25.6 / 28.0 -> 30.2 / 31.5.
     const double cos_sharp_goal = std::cos(kSmoothSharpMinAngle);
     // Marks the vertices of such triangles and their neighbours (the neighbours' moves free the
     // space that lifts the angle); false when there is none.
