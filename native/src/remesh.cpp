@@ -1359,20 +1359,19 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
           const double* ag = acc.data() + kAcc * g;
           if (!(ag[0] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
           Sample& sm = samples[ids[q]];
-          Vec2 c(ag[1] / ag[0], ag[2] / ag[0]);
-          auto start_face = [&](const Vec2& p) {
-            const int pi = std::clamp(int(p.x() * RL), 0, RL - 1), pj = std::clamp(int(p.y() * RL), 0, RL - 1);
-            return lpix_face[long(pj) * RL + pi] >= 0 ? lpix_face[long(pj) * RL + pi] : sm.face;
-          };
           Sample next;
+          Vec2 c;
           if (relax_surface) {
             // Gauss-Newton from the sample itself: a cell can wrap a thin feature, its pixels then lie
             // in two far-apart parts of the map, and their map centroid in neither (from there ~60 of
             // 100K samples on mannequin-devil jumped by half a spacing or more at every step).
             next = sm;
             c = sample_s(sm);
-          } else if (!locate(c, start_face(c), next)) {
-            continue;
+          } else {
+            c = Vec2(ag[1] / ag[0], ag[2] / ag[0]);  // the map's own centroid
+            const int pi = std::clamp(int(c.x() * RL), 0, RL - 1), pj = std::clamp(int(c.y() * RL), 0, RL - 1);
+            const int start = lpix_face[long(pj) * RL + pi] >= 0 ? lpix_face[long(pj) * RL + pi] : sm.face;
+            if (!locate(c, start, next)) continue;
           }
           if (relax_surface) {
             // The 3D centroid's offset from the sample, within the cell's mean tangent plane: at a
