@@ -108,7 +108,7 @@ def denoise(V, F=None, normals=None, *, method="similarity", eta1=None, eta2=Non
     )
 
 
-def similarity(V, F, vertex, normals=None, *, eta1=0.4, eta3=0.75, mode="shape"):
+def similarity(V, F, vertex, normals=None, *, eta1=0.4, eta3=0.75, mode="shape", progress=None):
     """Similarity of every vertex to ``vertex`` (thesis fig. 2.1c): (n,) weights in [0, 1].
 
     The weight is w(x, y) = exp(-D(x, y) / (2 sigma1^2)) (eq. 2.7) with D of eq. 2.9: the
@@ -121,7 +121,8 @@ def similarity(V, F, vertex, normals=None, *, eta1=0.4, eta3=0.75, mode="shape")
     * ``"filter"``: exactly the weights the denoising filter uses, everything in x's frame with
       heights from x's tangent plane; they vanish away from x.
 
-    ``F=None`` means a point cloud with ``normals``. Vertices in no face get 0.
+    ``F=None`` means a point cloud with ``normals``. Vertices in no face get 0. ``progress``: as in
+    :func:`denoise` (callable(fraction) -> bool|None; False cancels with :class:`Cancelled`).
     """
     if mode not in ("shape", "filter"):
         raise MeshError(f"unknown mode {mode!r} (use 'shape' or 'filter')")
@@ -132,8 +133,9 @@ def similarity(V, F, vertex, normals=None, *, eta1=0.4, eta3=0.75, mode="shape")
         if normals is None:
             raise MeshError("a point cloud (F=None) needs per-point normals")
         return _native.similarity_points(V, as_vertices(normals, "normals"), vertex, float(eta1), float(eta3),
-                                         shape_only)
-    return _native.similarity_mesh(V, as_faces(F, n=len(V)), vertex, float(eta1), float(eta3), shape_only)
+                                         shape_only, progress)
+    return _native.similarity_mesh(V, as_faces(F, n=len(V)), vertex, float(eta1), float(eta3), shape_only,
+                                   progress)
 
 
 def residual_entropy(residual):

@@ -87,23 +87,27 @@ void bind_denoise(pb::module_& m) {
   };
   m.def(
       "similarity_mesh",
-      [similarity_options](InV V, InF F, int vertex, double eta1, double eta3, bool shape_only) {
+      [similarity_options](InV V, InF F, int vertex, double eta1, double eta3, bool shape_only,
+                           const pb::object& progress) {
         const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
+        const ProgressFn cb = progress_from(progress);
         NativeScope nogil;
-        return similarity(V, F, vertex, o);
+        return similarity(V, F, vertex, o, cb);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("vertex"), pb::arg("eta1"), pb::arg("eta3"),
-      pb::arg("shape_only"));
+      pb::arg("shape_only"), pb::arg("progress") = pb::none());
 
   m.def(
       "similarity_points",
-      [similarity_options](InV V, InV N, int vertex, double eta1, double eta3, bool shape_only) {
+      [similarity_options](InV V, InV N, int vertex, double eta1, double eta3, bool shape_only,
+                           const pb::object& progress) {
         const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
+        const ProgressFn cb = progress_from(progress);
         NativeScope nogil;
-        return similarity_points(V, N, vertex, o);
+        return similarity_points(V, N, vertex, o, cb);
       },
       pb::arg("V"), pb::arg("N"), pb::arg("vertex"), pb::arg("eta1"), pb::arg("eta3"),
-      pb::arg("shape_only"));
+      pb::arg("shape_only"), pb::arg("progress") = pb::none());
 
   m.def(
       "residual_entropy", [](const VecXd& r) { return residual_entropy(r); }, pb::arg("residual"));

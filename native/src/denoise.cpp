@@ -724,7 +724,10 @@ void check_cloud(const MatX3d& V, const MatX3d& N) {
 }
 
 // Similarity of every point to x. `cloud` selects the area element / e rule.
-VecXd similarity_welded(State& st, const MatX3i* F, bool cloud, int x, const SimilarityOptions& so) {
+VecXd similarity_welded(State& st, const MatX3i* F, bool cloud, int x, const SimilarityOptions& so,
+                        const ProgressFn& progress_fn) {
+  Progress progress(progress_fn);
+  progress(0.0);
   DenoiseOptions o;
   o.eta1 = so.eta1;
   o.eta3 = so.eta3;
@@ -744,14 +747,22 @@ VecXd similarity_welded(State& st, const MatX3i* F, bool cloud, int x, const Sim
   const Patch patch = s0->patch;
   const Vec3 px = prow(st.P, x);
   const int na = static_cast<int>(st.act.size());
-#pragma omp parallel
-  {
-    auto sp = std::make_unique<Scratch>(cap);  // large: keep it off worker stacks
-    Scratch& s = *sp;
-    s.patch = patch;
-    std::vector<double> wy;
-#pragma omp for schedule(dynamic, 256)
-    for (int a = 0; a < na; ++a) {
+  const int nt = num_threads();
+  std::vector<std::unique_ptr<Scratch>> scratch(nt);  // large: keep them off worker stacks
+  std::vector<std::vector<double>> wbuf(nt);
+  // Blocks of vertices, with progress (and cancellation) between them, as in the denoising loop.
+  const int block = std::max(2048, na / 50);
+  for (int start = 0; start < na; start += block) {
+    const int end = std::min(na, start + block);
+#pragma omp parallel for schedule(dynamic, 256) num_threads(nt)
+    for (int a = start; a < end; ++a) {
+      const int t = thread_index();
+      if (!scratch[t]) {
+        scratch[t] = std::make_unique<Scratch>(cap);
+        scratch[t]->patch = patch;
+      }
+      Scratch& s = *scratch[t];
+      std::vector<double>& wy = wbuf[t];
       const int y = st.act[a];
       s.seg.assign({0});
       // Translation invariant: heights of y's neighbourhood measured from y itself.
@@ -768,7 +779,9 @@ VecXd similarity_welded(State& st, const MatX3i* F, bool cloud, int x, const Sim
       segment_weights(s, S, so.eta1, so.eta3, wy);
       w(y) = wy[0];
     }
+    progress(static_cast<double>(end) / na);
   }
+  progress(1.0);
   return w;
 }
 
@@ -804,7 +817,8 @@ DenoiseResult denoise_points(const MatX3d& V, const MatX3d& N, const DenoiseOpti
   return run(V, nullptr, &N, opt, progress);
 }
 
-VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityOptions& opt) {
+VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityOptions& opt,
+                 const ProgressFn& progress) {
   check_surface(V, F);
   check_similarity_options(opt);
   if (vertex < 0 || vertex >= V.rows())
@@ -815,13 +829,14 @@ VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityO
     for (int k = 0; k < 3; ++k) Fw(f, k) = wd.rep[F(f, k)];
   State st;
   st.P = wd.P;
-  const VecXd w = similarity_welded(st, &Fw, false, wd.rep[vertex], opt);
+  const VecXd w = similarity_welded(st, &Fw, false, wd.rep[vertex], opt, progress);
   VecXd out(V.rows());
   for (Eigen::Index i = 0; i < V.rows(); ++i) out(i) = w(wd.rep[i]);
   return out;
 }
 
-VecXd similarity_points(const MatX3d& V, const MatX3d& N, int vertex, const SimilarityOptions& opt) {
+VecXd similarity_points(const MatX3d& V, const MatX3d& N, int vertex, const SimilarityOptions& opt,
+                        const ProgressFn& progress) {
   check_cloud(V, N);
   check_similarity_options(opt);
   if (V.rows() < 4) throw MeshError("a point cloud needs at least 4 points");
@@ -833,7 +848,7 @@ VecXd similarity_points(const MatX3d& V, const MatX3d& N, int vertex, const Simi
   st.N.setZero(st.P.rows(), 3);
   for (Eigen::Index i = 0; i < V.rows(); ++i) st.N.row(wd.rep[i]) += N.row(i).normalized();
   normalize_rows(st.N);
-  const VecXd w = similarity_welded(st, nullptr, true, wd.rep[vertex], opt);
+  const VecXd w = similarity_welded(st, nullptr, true, wd.rep[vertex], opt, progress);
   VecXd out(V.rows());
   for (Eigen::Index i = 0; i < V.rows(); ++i) out(i) = w(wd.rep[i]);
   return out;

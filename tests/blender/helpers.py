@@ -135,3 +135,58 @@ def keep_mirror_half(obj):
     bm.free()
     obj.data.update()
     obj.modifiers.new("Mirror", 'MIRROR')
+
+
+# Start of every windowed script: the add-on enabled, `state` and `out` dicts, invoke() and
+# esc_until_worker_ends() (state["threads"], state["t0"] and state["esc"] set when the run starts).
+WINDOWED_PRELUDE = r"""
+import sys, threading, time
+sys.path.insert(0, sys.argv[sys.argv.index("--") + 1])
+import bpy
+import run as runner
+runner.enable_addon()
+state = {"phase": 0}
+out = {}
+
+def invoke(opname, **props):
+    # bpy.ops.dgmesh.<opname> invoked over the first 3D view, as a click there would.
+    win = bpy.context.window_manager.windows[0]
+    area = next(a for a in win.screen.areas if a.type == 'VIEW_3D')
+    region = next(r for r in area.regions if r.type == 'WINDOW')
+    with bpy.context.temp_override(window=win, area=area, region=region):
+        return getattr(bpy.ops.dgmesh, opname)('INVOKE_DEFAULT', **props)
+
+def esc_until_worker_ends():
+    # Presses Esc while the run's worker thread lives; True once it ended (or after 120 s).
+    win = bpy.context.window_manager.windows[0]
+    if threading.active_count() > state["threads"] and state["esc"] < 10:
+        win.event_simulate(type='ESC', value='PRESS')
+        win.event_simulate(type='ESC', value='RELEASE')
+        state["esc"] += 1
+        return False
+    if threading.active_count() <= state["threads"]:
+        out["worker_seconds"] = round(time.time() - state["t0"], 2)
+        return True
+    return time.time() - state["t0"] > 120
+
+def report_and_quit():
+    print("MODAL_RESULT", out, flush=True)
+    bpy.ops.wm.quit_blender()
+"""
+
+
+def run_windowed(tmp_path, script_text, timeout=240):
+    """Runs WINDOWED_PRELUDE + ``script_text`` (which defines step(), a timer callback) in a
+    windowed Blender under Xvfb with event simulation (invoke, modal operators and Esc need a
+    window; the test session has none) and returns the dict report_and_quit() prints."""
+    import subprocess
+
+    script = tmp_path / "windowed.py"
+    script.write_text(WINDOWED_PRELUDE + script_text + "\nbpy.app.timers.register(step, first_interval=1.0)\n")
+    tests_dir = Path(__file__).resolve().parent
+    proc = subprocess.run(["xvfb-run", "-a", bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
+                           "--python", str(script), "--", str(tests_dir)],
+                          capture_output=True, text=True, timeout=timeout)
+    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("MODAL_RESULT")), None)
+    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
+    return eval(line[len("MODAL_RESULT"):])

@@ -4,7 +4,8 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import attribute_array, independent_arrays, keep_mirror_half, mesh_snapshot, open_fixture, select
+from helpers import (attribute_array, independent_arrays, keep_mirror_half, mesh_snapshot, open_fixture, run_windowed,
+                     select)
 from make_fixtures import add_mesh_object
 
 from dgmesh.blender import ops_denoise as ADDON  # noqa: E402
@@ -260,13 +261,7 @@ def test_similarity_map_object_and_edit_mode(dg):
 
 
 MODAL_SCRIPT = r'''
-import sys, threading, time
-sys.path.insert(0, sys.argv[sys.argv.index("--") + 1])
-import bpy, numpy as np
-import run as runner
-runner.enable_addon()
-state = {"phase": 0}
-out = {}
+import numpy as np
 
 def coords(mesh):
     co = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
@@ -284,19 +279,12 @@ def setup():
     obj.data.update()
     state["before"] = coords(obj.data).copy()
 
-def invoke(**props):
-    win = bpy.context.window_manager.windows[0]
-    area = next(a for a in win.screen.areas if a.type == 'VIEW_3D')
-    region = next(r for r in area.regions if r.type == 'WINDOW')
-    with bpy.context.temp_override(window=win, area=area, region=region):
-        return bpy.ops.dgmesh.denoise('INVOKE_DEFAULT', **props)
-
 def step():
     ph = state["phase"]
     mesh = bpy.context.active_object.data if bpy.context.active_object else None
     if ph == 0:
         setup()
-        out["first"] = sorted(invoke())
+        out["first"] = sorted(invoke('denoise', ))
         state["t0"], state["phase"] = time.time(), 1
     elif ph == 1:
         if not np.array_equal(coords(mesh), state["before"]):
@@ -310,29 +298,18 @@ def step():
     elif ph == 2:
         setup()
         state["threads"] = threading.active_count()
-        out["second"] = sorted(invoke(iterations=10))  # long enough to be cancelled midway
+        out["second"] = sorted(invoke('denoise', iterations=10))  # long enough to be cancelled midway
         state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
         return 0.0
     elif ph == 3:
-        win = bpy.context.window_manager.windows[0]
-        if threading.active_count() > state["threads"] and state["esc"] < 10:
-            win.event_simulate(type='ESC', value='PRESS')
-            win.event_simulate(type='ESC', value='RELEASE')
-            state["esc"] += 1
-        elif threading.active_count() <= state["threads"]:
-            out["worker_seconds"] = round(time.time() - state["t0"], 2)
-            state["phase"] = 4
-        elif time.time() - state["t0"] > 120:
+        if esc_until_worker_ends():
             state["phase"] = 4
         return 0.3
     else:
         out["unchanged_after_esc"] = bool(np.array_equal(coords(mesh), state["before"]))
-        print("MODAL_RESULT", out, flush=True)
-        bpy.ops.wm.quit_blender()
+        report_and_quit()
         return None
     return 0.2
-
-bpy.app.timers.register(step, first_interval=1.0)
 '''
 
 
@@ -340,21 +317,61 @@ bpy.app.timers.register(step, first_interval=1.0)
 def test_interactive_run_is_modal_and_esc_cancels(tmp_path):
     """With a window (Xvfb), invoke runs the work in a thread; a simulated Esc cancels a run and
     leaves the mesh unchanged. (The background test session has no event loop for this.)"""
-    import subprocess
-    from pathlib import Path
-
-    script = tmp_path / "modal.py"
-    script.write_text(MODAL_SCRIPT)
-    tests_dir = Path(__file__).resolve().parent
-    proc = subprocess.run(["xvfb-run", "-a", bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
-                           "--python", str(script), "--", str(tests_dir)],
-                          capture_output=True, text=True, timeout=240)
-    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("MODAL_RESULT")), None)
-    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
-    out = eval(line[len("MODAL_RESULT"):])
+    out = run_windowed(tmp_path, MODAL_SCRIPT)
     assert out["first"] == ['RUNNING_MODAL'] and out["moved"]
     assert out["last_operator"] == "DGMESH_OT_denoise"
     assert out["second"] == ['RUNNING_MODAL'] and out["unchanged_after_esc"]
+
+
+SIMILARITY_MODAL_SCRIPT = r"""
+
+def setup():
+    for o in list(bpy.data.objects):
+        bpy.data.objects.remove(o)
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=7)  # 40962 vertices
+
+def has_map():
+    return "dg_similarity" in bpy.context.active_object.data.attributes
+
+def step():
+    ph = state["phase"]
+    if ph == 0:
+        setup()
+        out["first"] = sorted(invoke('similarity_map', vertex=3))
+        state["t0"], state["phase"] = time.time(), 1
+    elif ph == 1:
+        if has_map():
+            ops = bpy.context.window_manager.operators
+            out["mapped"], out["last_operator"] = True, ops[-1].bl_idname if len(ops) else None
+            state["phase"] = 2
+        elif time.time() - state["t0"] > 60:
+            out["mapped"], state["phase"] = False, 2
+    elif ph == 2:
+        setup()
+        state["threads"] = threading.active_count()
+        out["second"] = sorted(invoke('similarity_map', vertex=3, eta3=20.0))  # seconds of work: cancelled midway
+        state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
+        return 0.0
+    elif ph == 3:
+        if esc_until_worker_ends():
+            state["phase"] = 4
+        return 0.3
+    else:
+        out["no_map_after_esc"] = not has_map()
+        report_and_quit()
+        return None
+    return 0.2
+"""
+
+
+@pytest.mark.skipif(not __import__("shutil").which("xvfb-run"), reason="needs xvfb-run for a windowed Blender")
+def test_similarity_map_runs_modal_and_esc_cancels(tmp_path):
+    """Similarity Map on a 41K-vertex sphere with a window (Xvfb): invoke works in a thread with
+    progress, registers for redo, and Esc during a long run (eta3 20) writes nothing."""
+    out = run_windowed(tmp_path, SIMILARITY_MODAL_SCRIPT)
+    assert out["first"] == ['RUNNING_MODAL'] and out["mapped"]
+    assert out["last_operator"] == "DGMESH_OT_similarity_map"
+    assert out["second"] == ['RUNNING_MODAL'] and out["no_map_after_esc"]
 
 
 def _noisy_grid(name, x=0.0):

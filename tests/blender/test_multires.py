@@ -4,7 +4,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import attribute_array, independent_arrays, mesh_snapshot, open_fixture, select
+from helpers import attribute_array, independent_arrays, mesh_snapshot, open_fixture, run_windowed, select
 
 OURS = ("dg_multires_displacement", "dg_multires_magnitude", "dg_multires_color")
 
@@ -120,26 +120,12 @@ def test_esc_midway_stops_the_worker_thread(dg):
 
 
 MODAL_SCRIPT = r'''
-import sys, threading, time
-sys.path.insert(0, sys.argv[sys.argv.index("--") + 1])
-import bpy
-import run as runner
-runner.enable_addon()
-state = {"phase": 0}
-out = {}
 
 def setup(subdivisions):
     for o in list(bpy.data.objects):
         bpy.data.objects.remove(o)
     bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=subdivisions)
     return bpy.context.active_object
-
-def invoke(**props):
-    win = bpy.context.window_manager.windows[0]
-    area = next(a for a in win.screen.areas if a.type == 'VIEW_3D')
-    region = next(r for r in area.regions if r.type == 'WINDOW')
-    with bpy.context.temp_override(window=win, area=area, region=region):
-        return bpy.ops.dgmesh.multires_preview('INVOKE_DEFAULT', **props)
 
 def done(obj):
     return "dg_multires_magnitude" in obj.data.attributes
@@ -148,7 +134,7 @@ def step():
     ph = state["phase"]
     if ph == 0:
         setup(6)
-        out["first"] = sorted(invoke(control_faces=1000))
+        out["first"] = sorted(invoke('multires_preview', control_faces=1000))
         state["t0"], state["phase"] = time.time(), 1
     elif ph == 1:
         obj = bpy.data.objects["Icosphere"]
@@ -158,30 +144,19 @@ def step():
     elif ph == 2:
         setup(8)  # 163842 vertices: a build of seconds, cancelled midway
         state["threads"] = threading.active_count()
-        out["second"] = sorted(invoke(control_faces=5000))
+        out["second"] = sorted(invoke('multires_preview', control_faces=5000))
         state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
         return 0.0
     elif ph == 3:
-        win = bpy.context.window_manager.windows[0]
-        if threading.active_count() > state["threads"] and state["esc"] < 10:
-            win.event_simulate(type='ESC', value='PRESS')
-            win.event_simulate(type='ESC', value='RELEASE')
-            state["esc"] += 1
-        elif threading.active_count() <= state["threads"]:
-            out["worker_seconds"] = round(time.time() - state["t0"], 2)
-            state["phase"] = 4
-        elif time.time() - state["t0"] > 120:
+        if esc_until_worker_ends():
             state["phase"] = 4
         return 0.3
     else:
         obj = bpy.data.objects["Icosphere"]
         out["unchanged_after_esc"] = not done(obj) and "Icosphere_control" not in bpy.data.objects
-        print("MODAL_RESULT", out, flush=True)
-        bpy.ops.wm.quit_blender()
+        report_and_quit()
         return None
     return 0.2
-
-bpy.app.timers.register(step, first_interval=1.0)
 '''
 
 
@@ -189,18 +164,7 @@ bpy.app.timers.register(step, first_interval=1.0)
 def test_interactive_run_is_modal_and_esc_cancels(tmp_path):
     """With a window (Xvfb), invoke builds in a worker thread and finishes on its own; a simulated
     Esc during a long build cancels it and writes nothing (no attributes, no control object)."""
-    import subprocess
-    from pathlib import Path
-
-    script = tmp_path / "modal.py"
-    script.write_text(MODAL_SCRIPT)
-    tests_dir = Path(__file__).resolve().parent
-    proc = subprocess.run(["xvfb-run", "-a", bpy.app.binary_path, "--factory-startup", "--enable-event-simulate",
-                           "--python", str(script), "--", str(tests_dir)],
-                          capture_output=True, text=True, timeout=300)
-    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("MODAL_RESULT")), None)
-    assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
-    out = eval(line[len("MODAL_RESULT"):])
+    out = run_windowed(tmp_path, MODAL_SCRIPT, timeout=300)
     assert out["first"] == ['RUNNING_MODAL'] and out["finished"]
     assert out["second"] == ['RUNNING_MODAL'] and out["unchanged_after_esc"]
 

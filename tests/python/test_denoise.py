@@ -183,6 +183,24 @@ def test_similarity_map():
 
 
 @pytest.mark.skipif(not (CGAL / "fandisk.off").exists(), reason="CGAL data not unpacked (scripts/cgal_data.sh)")
+def test_similarity_map_progress_and_cancel():
+    """Similarity Map reports progress over blocks of vertices (the add-on shows it and Esc cancels);
+    the weights are the same with or without a callback, for meshes and point clouds."""
+    V, F = shapes.icosphere(5, 1.0)  # 10242 vertices: several blocks of 2048
+    w0 = dgmesh.similarity(V, F, 10)
+    seen = []
+    w = dgmesh.similarity(V, F, 10, progress=lambda f: seen.append(f))
+    assert np.array_equal(w, w0)
+    assert seen[0] == 0.0 and seen[-1] == 1.0 and seen == sorted(seen)
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.similarity(V, F, 10, progress=lambda f: f == 0.0)  # cancels at the first block
+    seen = []
+    wp = dgmesh.similarity(V, None, 10, V, progress=lambda f: seen.append(f))
+    assert wp[10] == pytest.approx(1.0) and seen[-1] == 1.0
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.similarity(V, None, 10, V, progress=lambda f: False)
+
+
 def test_fandisk_similarity_beats_bilateral():
     """The thesis's model: noise of 0.2 e along the normals (fixed seed)."""
     V, F = dgmesh.read_mesh(CGAL / "fandisk.off")

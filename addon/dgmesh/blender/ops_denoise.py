@@ -284,7 +284,7 @@ def _active_vertex(obj):
     return None
 
 
-class DGMESH_OT_similarity_map(bpy.types.Operator):
+class DGMESH_OT_similarity_map(NativeJobOperator, bpy.types.Operator):
     bl_idname = "dgmesh.similarity_map"
     bl_label = "Similarity Map"
     bl_description = (
@@ -317,37 +317,49 @@ class DGMESH_OT_similarity_map(bpy.types.Operator):
     def poll(cls, context):
         return poll_active_mesh(cls, context, edit_mode=True)
 
-    def execute(self, context):
+    def prepare(self, context):
+        """Reads the active mesh (main thread); returns work(progress) or None after reporting."""
         dg = api()
         obj = context.active_object
-        mesh = obj.data
         reason = read_only_reason(obj)
         if reason:
             self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': {reason}")
-            return {'CANCELLED'}
+            return None
         vertex = self.vertex
         if obj.mode == 'EDIT':
             active = _active_vertex(obj)
             if active is None:
                 self.report({'ERROR'}, "Similarity map: select a vertex (the active one is compared)")
-                return {'CANCELLED'}
+                return None
             vertex = active
         try:
             arrays = bridge.read_object(obj)
             F, N = arrays.F, None
             if len(F) == 0:
-                F, N = None, read_point_normals(mesh)
+                F, N = None, read_point_normals(obj.data)
                 if N is None:
                     raise dg.MeshError(f"the mesh has no faces and no FLOAT_VECTOR point attribute "
                                        f"'{NORMAL_ATTRIBUTE}'")
-            w = dg.similarity(arrays.V, F, vertex, N, eta1=self.eta1, eta3=self.eta3, mode=self.mode.lower())
-        except dg.MeshError as exc:
-            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': {exc}")
+        except Exception as exc:  # reading must never take Blender down
+            detail = str(exc) if isinstance(exc, dg.MeshError) else f"internal error: {type(exc).__name__}: {exc}"
+            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': {detail}")
+            return None
+        self._target = (obj.name, vertex)
+        V, eta1, eta3, mode = arrays.V, self.eta1, self.eta3, self.mode.lower()
+
+        def work(progress):
+            """Any thread; numpy and dgmesh only."""
+            return dg.similarity(V, F, vertex, N, eta1=eta1, eta3=eta3, mode=mode, progress=progress)
+
+        return work
+
+    def finish(self, context, w):
+        name, vertex = self._target
+        obj = bpy.data.objects.get(name)
+        if obj is None or obj.type != 'MESH' or len(obj.data.vertices) != len(w):
+            self.report({'ERROR'}, f"Similarity map: '{name}' changed while it was running: nothing was written")
             return {'CANCELLED'}
-        except Exception as exc:
-            self.report({'ERROR'}, f"Similarity map failed on '{obj.name}': internal error: "
-                                   f"{type(exc).__name__}: {exc}")
-            return {'CANCELLED'}
+        mesh = obj.data
         with bridge.object_mode(context):
             bridge.write_point_float(mesh, ATTR_SIMILARITY, w)
             # The diverging palette's negative half runs from near-white (0) to deep blue (1).

@@ -81,8 +81,10 @@ struct SimilarityOptions {
 
 // Similarity w(x, y) in [0, 1] of every vertex y to vertex x = `vertex` (eq. 2.7, 2.9); 1 at x.
 // Vertices in no face get 0.
-VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityOptions& opt = {});
-VecXd similarity_points(const MatX3d& V, const MatX3d& N, int vertex, const SimilarityOptions& opt = {});
+VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityOptions& opt = {},
+                 const ProgressFn& progress = {});
+VecXd similarity_points(const MatX3d& V, const MatX3d& N, int vertex, const SimilarityOptions& opt = {},
+                        const ProgressFn& progress = {});
 
 // Shannon entropy (bits) of the distribution of residual magnitudes: the histogram of r / mean(r)
 // over [0, 4) in 64 bins plus one overflow bin, so it is independent of scale (0..log2(65)).
