@@ -138,6 +138,18 @@ def _verdict(double, best_single, tie):
     return "yes" if double > best_single + tie else "tie" if double >= best_single - tie else "no"
 
 
+def _tally(verdicts):
+    """'N won / N tied / N lost' of a list of _verdict results."""
+    return " / ".join(f"{sum(v == x for v in verdicts)} {word}"
+                      for x, word in (("yes", "won"), ("tie", "tied"), ("no", "lost")))
+
+
+def _default_modes(V, F, target, res):
+    """The three modes with the default options at `target` vertices: mode -> _metrics."""
+    return {mo: _metrics(V, F, dgmesh.remesh_full(V, F, target_vertices=target, resolution=res, mode=mo,
+                                                  boundary="resample"), target) for mo in MODES}
+
+
 def remesh_quality(quick):
     models = MODELS[:1] if quick else MODELS
     target, res = (2000, 256) if quick else (5000, 256)
@@ -176,10 +188,7 @@ def remesh_quality(quick):
                                      "double_shared_with_single_uopt": sv})
         # The default variant at other counts: are the verdicts at the table's count typical?
         for t_other in (() if quick else (3000, 4000, 6000)):
-            pm = {}
-            for mode in MODES:
-                r = dgmesh.remesh_full(V, F, target_vertices=t_other, resolution=res, mode=mode, boundary="resample")
-                pm[mode] = _metrics(V, F, r, t_other)
+            pm = _default_modes(V, F, t_other, res)
             data["models"][name][f"default@{t_other}"] = pm
             robust.append((name, t_other) + _verdicts(pm["double"], pm["single_u0"], pm["single_uopt"])[:3] +
                           tuple(f"{pm[mo]['min_angle']:.1f} / {pm[mo]['edge_cv']:.4f}" for mo in MODES))
@@ -188,8 +197,7 @@ def remesh_quality(quick):
     if not quick:
         V, F = cgal_mesh("three_peaks")
         for t_sw in list(range(3800, 4201, 50)) + list(range(5800, 6201, 50)):
-            pm = {mo: _metrics(V, F, dgmesh.remesh_full(V, F, target_vertices=t_sw, resolution=res, mode=mo,
-                                                         boundary="resample"), t_sw) for mo in MODES}
+            pm = _default_modes(V, F, t_sw, res)
             sweep.append((t_sw,) + _verdicts(pm["double"], pm["single_u0"], pm["single_uopt"])[:3] +
                          tuple(pm[mo]["min_angle"] for mo in MODES))
         data["three_peaks_sweep"] = sweep
@@ -244,9 +252,7 @@ def remesh_quality(quick):
         "",
         "Wins of double over both singles, per variant (out of %d models): " % len(models) + "; ".join(
             f"{v}: " + ", ".join(
-                f"{metric} {sum(w[k] == 'yes' for w in wins if w[1] == v)} won / "
-                f"{sum(w[k] == 'tie' for w in wins if w[1] == v)} tied / "
-                f"{sum(w[k] == 'no' for w in wins if w[1] == v)} lost"
+                f"{metric} {_tally([w[k] for w in wins if w[1] == v])}"
                 for k, metric in ((2, "min angle"), (3, "edge CV"), (4, "area CV"), (5, "share <30")))
             for v in VARIANTS) + ".",
         "",
@@ -270,12 +276,8 @@ def remesh_quality(quick):
             "",
             "Default variant over all counts (%d runs: 3000, 4000, %d, 6000 x %d models): " % (
                 4 * len(models), target, len(models)) + ", ".join(
-                f"{metric} {n_yes} won / {n_tie} tied / {n_no} lost" for metric, (n_yes, n_tie, n_no) in (
-                    (metric, tuple(sum(v == x for v in vals) for x in ("yes", "tie", "no")))
-                    for metric, vals in (
-                        ("min angle", [w[2] for w in wins if w[1] == default] + [r_[2] for r_ in robust]),
-                        ("edge CV", [w[3] for w in wins if w[1] == default] + [r_[3] for r_ in robust]),
-                        ("area CV", [w[4] for w in wins if w[1] == default] + [r_[4] for r_ in robust])))) + ".",
+                f"{metric} {_tally([w[k] for w in wins if w[1] == default] + [r_[k] for r_ in robust])}"
+                for k, metric in ((2, "min angle"), (3, "edge CV"), (4, "area CV"))) + ".",
             "",
             "The same, on each model's means over the four counts (min angle / edge CV / area CV of each mode; "
             "verdicts with the same tie margins):",
@@ -284,9 +286,8 @@ def remesh_quality(quick):
             "",
             "three_peaks over targets 3800-4200 and 5800-6200 in steps of 50 (%d runs), double against both "
             "singles: " % len(sweep) + ", ".join(
-                f"{metric} {sum(w[k] == 'yes' for w in sweep)} won / {sum(w[k] == 'tie' for w in sweep)} tied / "
-                f"{sum(w[k] == 'no' for w in sweep)} lost" for k, metric in ((1, "min angle"), (2, "edge CV"),
-                                                                             (3, "area CV"))) +
+                f"{metric} {_tally([w[k] for w in sweep])}" for k, metric in ((1, "min angle"), (2, "edge CV"),
+                                                                              (3, "area CV"))) +
             "; minimum angle, mean over the runs (range): " + ", ".join(
                 f"{mo} {np.mean([w[4 + i] for w in sweep]):.1f} ({min(w[4 + i] for w in sweep):.1f}-"
                 f"{max(w[4 + i] for w in sweep):.1f})" for i, mo in enumerate(MODES)) + ".",

@@ -137,8 +137,8 @@ def keep_mirror_half(obj):
     obj.modifiers.new("Mirror", 'MIRROR')
 
 
-# Start of every windowed script: the add-on enabled, `state` and `out` dicts, invoke() and
-# esc_until_worker_ends() (state["threads"], state["t0"] and state["esc"] set when the run starts).
+# Start of every windowed script: the add-on enabled, `state` and `out` dicts, invoke(), and
+# invoke_to_cancel() with esc_until_worker_ends() for a run cancelled by Esc.
 WINDOWED_PRELUDE = r"""
 import sys, threading, time
 sys.path.insert(0, sys.argv[sys.argv.index("--") + 1])
@@ -155,6 +155,13 @@ def invoke(opname, **props):
     region = next(r for r in area.regions if r.type == 'WINDOW')
     with bpy.context.temp_override(window=win, area=area, region=region):
         return getattr(bpy.ops.dgmesh, opname)('INVOKE_DEFAULT', **props)
+
+def invoke_to_cancel(opname, **props):
+    # Invokes a run to be cancelled: notes the threads before it and the start for esc_until_worker_ends.
+    state["threads"] = threading.active_count()
+    result = sorted(invoke(opname, **props))
+    state["t0"], state["esc"] = time.time(), 0
+    return result
 
 def esc_until_worker_ends():
     # Presses Esc while the run's worker thread lives; True once it ended (or after 120 s).

@@ -297,9 +297,8 @@ def step():
             state["phase"] = 2
     elif ph == 2:
         setup()
-        state["threads"] = threading.active_count()
-        out["second"] = sorted(invoke('denoise', iterations=10))  # long enough to be cancelled midway
-        state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
+        out["second"] = invoke_to_cancel('denoise', iterations=10)  # long enough to be cancelled midway
+        state["phase"] = 3
         return 0.0
     elif ph == 3:
         if esc_until_worker_ends():
@@ -348,9 +347,8 @@ def step():
             out["mapped"], state["phase"] = False, 2
     elif ph == 2:
         setup()
-        state["threads"] = threading.active_count()
-        out["second"] = sorted(invoke('similarity_map', vertex=3, eta3=20.0))  # seconds of work: cancelled midway
-        state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
+        out["second"] = invoke_to_cancel('similarity_map', vertex=3, eta3=20.0)  # seconds of work: cancelled midway
+        state["phase"] = 3
         return 0.0
     elif ph == 3:
         if esc_until_worker_ends():

@@ -143,9 +143,8 @@ def step():
             state["phase"] = 2
     elif ph == 2:
         setup(8)  # 163842 vertices: a build of seconds, cancelled midway
-        state["threads"] = threading.active_count()
-        out["second"] = sorted(invoke('multires_preview', control_faces=5000))
-        state["t0"], state["esc"], state["phase"] = time.time(), 0, 3
+        out["second"] = invoke_to_cancel('multires_preview', control_faces=5000)
+        state["phase"] = 3
         return 0.0
     elif ph == 3:
         if esc_until_worker_ends():
