@@ -1,29 +1,45 @@
 #!/usr/bin/env bash
-# Runs every test: native (GoogleTest via ctest), the same under ASan+UBSan, the numpy API
-# (pytest, Debian's python3), and the add-on inside `blender --background`. Does its own set-up.
+# Runs every test, in every lane: this machine (Debian bookworm, Blender 3.4) with native tests
+# (GoogleTest via ctest, also under ASan+UBSan), the numpy API (pytest) and the add-on inside
+# `blender --background`; then the same, without the sanitizer build, inside the Debian roots of
+# scripts/lanes.sh (trixie: Blender 4.3, sid: Blender 5.x). Does its own set-up.
+#   bash scripts/test.sh              everything (the README's test command; .ci/run)
+#   bash scripts/test.sh --here       this machine's lane only
+#   bash scripts/test.sh --lane SUITE what scripts/lanes.sh runs inside a root
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
-bash scripts/deps.sh
+mode=${1:-all}
+lane=bookworm
+[ "$mode" = --lane ] && lane=${2:?--lane takes the suite}
+
+step() { printf '\n=== [%s] %s\n' "$lane" "$*"; }
+if [ "$mode" = --lane ]; then bash scripts/deps.sh --lane; else bash scripts/deps.sh; fi
 bash scripts/cgal_data.sh >/dev/null
 
-step() { printf '\n=== %s\n' "$*"; }
 step "build (Release)"
 bash scripts/build.sh
 step "native tests"
 ctest --test-dir build -j"$(nproc)" --output-on-failure
 
-step "native tests under AddressSanitizer + UndefinedBehaviorSanitizer"
-asan=$root/build-asan
-[ -f "$asan/CMakeCache.txt" ] || cmake -S "$root" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-  -DDGMESH_SANITIZE=ON -DDGMESH_PYTHON=OFF >/dev/null
-cmake --build "$asan" -j"$(nproc)"
-# OpenMP's runtime keeps thread pools alive at exit: not our leak.
-ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
-  ctest --test-dir "$asan" -j"$(nproc)" --output-on-failure
+if [ "$mode" != --lane ]; then
+  step "native tests under AddressSanitizer + UndefinedBehaviorSanitizer"
+  asan=$root/build-asan
+  [ -f "$asan/CMakeCache.txt" ] || cmake -S "$root" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+    -DDGMESH_SANITIZE=ON -DDGMESH_PYTHON=OFF >/dev/null
+  cmake --build "$asan" -j"$(nproc)"
+  # OpenMP's runtime keeps thread pools alive at exit: not our leak.
+  ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
+    ctest --test-dir "$asan" -j"$(nproc)" --output-on-failure
+fi
 
 step "python tests (numpy API, plain /usr/bin/python3)"
 /usr/bin/python3 -m pytest -q tests/python
 
-step "blender tests (blender --background)"
+step "blender tests ($(blender --version 2>/dev/null | head -n 1), --background)"
 blender --background --factory-startup --python-exit-code 1 --python tests/blender/run.py -- -q tests/blender
+
+if [ "$mode" = all ]; then
+  step "test lanes in Debian roots"
+  bash scripts/lanes.sh
+fi

@@ -14,6 +14,30 @@ struct Cloud {
   bool kdtree_get_bbox(BBox&) const { return false; }
 };
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
+
+// Unsorted, exact search. nanoflann 1.5 renamed SearchParams(checks, eps, sorted) to
+// SearchParameters(eps, sorted) (bookworm ships 1.4, trixie 1.7, sid 1.12).
+#if NANOFLANN_VERSION >= 0x150
+const nanoflann::SearchParameters kUnsorted(0.0f, false);
+#else
+const nanoflann::SearchParams kUnsorted(32, 0.0f, false);
+#endif
+
+// A radius result set writing (index, squared distance) pairs; nanoflann's own changed its item
+// type in 1.5 (std::pair -> ResultItem). The members are those findNeighbors calls.
+struct RadiusPairs {
+  double radius2;
+  std::vector<std::pair<int, double>>& out;
+  size_t size() const { return out.size(); }
+  bool empty() const { return out.empty(); }
+  bool full() const { return true; }
+  double worstDist() const { return radius2; }
+  bool addPoint(double d, int i) {
+    if (d < radius2) out.emplace_back(i, d);
+    return true;
+  }
+  void sort() {}
+};
 }  // namespace
 
 struct KdTree::Impl {
@@ -44,8 +68,8 @@ int KdTree::size() const { return static_cast<int>(points_.rows()); }
 void KdTree::radius(const Vec3& q, double r, std::vector<std::pair<int, double>>& out) const {
   out.clear();
   if (points_.rows() == 0) return;
-  nanoflann::SearchParams params(32, 0.0f, false);
-  impl_->tree.radiusSearch(q.data(), r * r, out, params);  // nanoflann's L2 radius is squared
+  RadiusPairs rs{r * r, out};  // nanoflann's L2 distances are squared
+  impl_->tree.findNeighbors(rs, q.data(), kUnsorted);
 }
 
 int KdTree::knn(const Vec3& q, int k, std::vector<int>& idx, std::vector<double>& sq_dist) const {
@@ -65,7 +89,7 @@ int KdTree::knn(const Vec3& q, int k, int* idx, double* sq_dist, double bound2) 
   nanoflann::KNNResultSet<double, int> rs(cap);
   rs.init(idx, sq_dist);
   sq_dist[cap - 1] = bound2;  // the result set's worst distance until it fills: nothing farther enters
-  impl_->tree.findNeighbors(rs, q.data(), nanoflann::SearchParams(32, 0.0f, false));
+  impl_->tree.findNeighbors(rs, q.data(), kUnsorted);
   return static_cast<int>(rs.size());
 }
 
