@@ -14,13 +14,16 @@ lane=bookworm
 [ "$mode" = --lane ] && lane=${2:?--lane takes the suite}
 
 step() { printf '\n=== [%s] %s\n' "$lane" "$*"; }
+# A test step that fails is reported at the end; the later steps still run.
+failed=()
+check() { "$@" || failed+=("$current"); }
 if [ "$mode" = --lane ]; then bash scripts/deps.sh --lane; else bash scripts/deps.sh; fi
 bash scripts/cgal_data.sh >/dev/null
 
 step "build (Release)"
 bash scripts/build.sh
-step "native tests"
-ctest --test-dir build -j"$(nproc)" --output-on-failure
+step "native tests"; current="native tests"
+check ctest --test-dir build -j"$(nproc)" --output-on-failure
 
 if [ "$mode" != --lane ]; then
   step "native tests under AddressSanitizer + UndefinedBehaviorSanitizer"
@@ -29,17 +32,25 @@ if [ "$mode" != --lane ]; then
     -DDGMESH_SANITIZE=ON -DDGMESH_PYTHON=OFF >/dev/null
   cmake --build "$asan" -j"$(nproc)"
   # OpenMP's runtime keeps thread pools alive at exit: not our leak.
-  ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
+  current="native tests under ASan+UBSan"
+  check env ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
     ctest --test-dir "$asan" -j"$(nproc)" --output-on-failure
 fi
 
-step "python tests (numpy API, plain /usr/bin/python3)"
-/usr/bin/python3 -m pytest -q tests/python
+step "python tests (numpy API, plain /usr/bin/python3)"; current="python tests"
+check /usr/bin/python3 -m pytest -q tests/python
 
-step "blender tests ($(blender --version 2>/dev/null | head -n 1), --background)"
-blender --background --factory-startup --python-exit-code 1 --python tests/blender/run.py -- -q tests/blender
+step "blender tests ($(blender --version 2>/dev/null | head -n 1), --background)"; current="blender tests"
+check blender --background --factory-startup --python-exit-code 1 --python tests/blender/run.py -- -q tests/blender
 
+if ((${#failed[@]})); then
+  printf '\n!!! [%s] failed: %s\n' "$lane" "$(IFS=,; echo "${failed[*]}")"
+else
+  printf '\n=== [%s] every test passed\n' "$lane"
+fi
 if [ "$mode" = all ]; then
   step "test lanes in Debian roots"
-  bash scripts/lanes.sh
+  current="lanes"
+  check bash scripts/lanes.sh
 fi
+((${#failed[@]} == 0))

@@ -203,24 +203,28 @@ class SkeletalRig:
         # pickle / copy.deepcopy through the exact array round trip (e.g. to send it to another process)
         return (type(self).from_arrays, (self.to_arrays(),))
 
+    # Bind data entries that are single values (the rest are arrays).
+    _SCALARS = {"frame_regularization": float, "has_multires": bool, "mr_level": int}
+
     def to_arrays(self):
-        """The bind data as a dict of numpy arrays (np.savez-able); :meth:`from_arrays` restores it."""
-        d = self._rig.data()
-        out = {}
-        for k, v in d.items():
-            out[k] = np.ascontiguousarray(v)
-        return out
+        """The bind data as a dict of numpy arrays (np.savez-able); :meth:`from_arrays` restores it.
+        Single values are 0-d arrays."""
+        return {k: np.asarray(v) if k in self._SCALARS else np.ascontiguousarray(v) for k, v in self._rig.data().items()}
 
     @classmethod
     def from_arrays(cls, arrays):
-        d = {k: (v.item() if isinstance(v, np.ndarray) and v.ndim == 0 else v) for k, v in dict(arrays).items()}
+        d = dict(arrays)
+        for k, kind in cls._SCALARS.items():
+            # Data saved before 0-d arrays holds these as 1-element arrays (numpy 2.4 no longer
+            # converts those to scalars by itself).
+            if k in d:
+                v = np.asarray(d[k])
+                if v.size != 1:
+                    raise MeshError(f"bind data {k!r} must be a single value, got shape {v.shape}")
+                d[k] = kind(v.reshape(-1)[0])
         for k in ("control_F", "mr_control_F", "mr_face"):
             if k in d:
                 d[k] = np.ascontiguousarray(d[k], dtype=np.int32)
-        if "has_multires" in d:
-            d["has_multires"] = bool(d["has_multires"])
-        if "mr_level" in d:
-            d["mr_level"] = int(d["mr_level"])
         return cls(_native.SkeletalRig.from_data(d))
 
     def save(self, path):

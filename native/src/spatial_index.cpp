@@ -16,7 +16,8 @@ struct Cloud {
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
 
 // Unsorted, exact search. nanoflann 1.5 renamed SearchParams(checks, eps, sorted) to
-// SearchParameters(eps, sorted) (bookworm ships 1.4, trixie 1.7, sid 1.12).
+// SearchParameters(eps, sorted) (bookworm ships 1.4, trixie 1.7, sid 1.12; 1.12 writes its
+// version as 0x010C01, still above 0x150).
 #if NANOFLANN_VERSION >= 0x150
 const nanoflann::SearchParameters kUnsorted(0.0f, false);
 #else
@@ -26,6 +27,8 @@ const nanoflann::SearchParams kUnsorted(32, 0.0f, false);
 // A radius result set writing (index, squared distance) pairs; nanoflann's own changed its item
 // type in 1.5 (std::pair -> ResultItem). The members are those findNeighbors calls.
 struct RadiusPairs {
+  using DistanceType = double;
+  using IndexType = int;
   double radius2;
   std::vector<std::pair<int, double>>& out;
   size_t size() const { return out.size(); }

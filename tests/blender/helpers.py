@@ -23,6 +23,7 @@ def open_fixture(name):
 def select(*names, active=None):
     """Select exactly the named objects; the active one is ``active`` or the first."""
     names = set(names)
+    bpy.context.view_layer.update()  # bases of objects just made local or overridden
     for obj in bpy.context.view_layer.objects:
         obj.select_set(obj.name in names)
     active = active or (sorted(names)[0] if names else None)
@@ -135,6 +136,21 @@ def keep_mirror_half(obj):
     bm.free()
     obj.data.update()
     obj.modifiers.new("Mirror", 'MIRROR')
+
+
+def link_and_override(lib, collection):
+    """Links ``collection`` from the .blend ``lib`` and makes it a library override, as Make Library
+    Override does on a linked collection instance (its operator's poll needs a window in 4.x):
+    returns the overridden collection, linked into the scene."""
+    with bpy.data.libraries.load(str(lib), link=True) as (_src, dst):
+        dst.collections = [collection]
+    linked = dst.collections[0]
+    inst = bpy.data.objects.new(collection + " Instance", None)
+    inst.instance_type, inst.instance_collection = 'COLLECTION', linked
+    bpy.context.scene.collection.objects.link(inst)
+    over = linked.override_hierarchy_create(bpy.context.scene, bpy.context.view_layer, reference=inst)
+    bpy.data.objects.remove(inst)
+    return over
 
 
 # Start of every windowed script: the add-on enabled, `state` and `out` dicts, invoke(), and

@@ -1,12 +1,12 @@
 """Blender operators of thesis chapter 4: crest lines, feature decimation, segmentation."""
 
-import bmesh
 import bpy
 import numpy as np
 import pytest
 
 import helpers
 from dgmesh import shapes
+from dgmesh.blender import compat
 
 
 def make_object(name, V, faces):
@@ -49,9 +49,7 @@ def test_crest_lines_marks_real_edges_on_quads(cube):
     ev = np.array([e.vertices[:] for e in mesh.edges])
     band = (np.abs(co) > 0.65).sum(axis=1) >= 2
     assert band[ev[ridge]].all()
-    sharp = np.array([e.use_edge_sharp for e in mesh.edges]) if hasattr(mesh.edges[0], "use_edge_sharp") else None
-    if sharp is not None:
-        assert sharp[ridge].all()
+    assert compat.element_values(mesh, "sharp_edge")[ridge].all()
     curve = bpy.data.objects["RoundedCube Crest Lines"]
     assert curve.type == 'CURVE' and len(curve.data.splines) > 0
     assert all(s.material_index == 0 for s in curve.data.splines)  # ridges: the blue material
@@ -131,20 +129,14 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     mesh.attributes.new("on", 'FLOAT', 'EDGE').data.foreach_set("value", np.ones(len(mesh.edges), np.float32))
     ev = _values(mesh.edges, "vertices", 2, np.int32)
     top_edge = (V[ev, 2] > 0).all(1)  # creased, bevel-weighted where both ends are above z = 0
-    for prop, value in (("crease", 0.75), ("bevel_weight", 0.5)):
-        mesh.edges.foreach_set(prop, np.where(top_edge, value, 0.0).astype(np.float32))
-    # Vertex creases (3.4: a layer only bmesh makes) and bevel weights: 1 on the upper half.
-    bm = bmesh.new()
-    bm.from_mesh(mesh)
-    bm.verts.layers.crease.verify()
-    bm.to_mesh(mesh)
-    bm.free()
-    mesh.vertex_creases[0].data.foreach_set("value", (V[:, 2] > 0).astype(np.float32))
-    mesh.vertices.foreach_set("bevel_weight", (V[:, 2] > 0).astype(np.float32))
+    for name, value in (("crease_edge", 0.75), ("bevel_weight_edge", 0.5)):
+        compat.set_element_values(mesh, name, np.where(top_edge, value, 0.0))
+    # Vertex creases and bevel weights: 1 on the upper half.
+    for name in ("crease_vert", "bevel_weight_vert"):
+        compat.set_element_values(mesh, name, V[:, 2] > 0)
     # Custom normals: every corner points along its vertex's position (not the surface normal).
     lv = _values(mesh.loops, "vertex_index", 1, np.int32)
-    mesh.use_auto_smooth = True
-    mesh.normals_split_custom_set(V[lv] / np.linalg.norm(V[lv], axis=1, keepdims=True))
+    compat.set_custom_normals(mesh, V[lv] / np.linalg.norm(V[lv], axis=1, keepdims=True))
     col = mesh.color_attributes.new("Col", 'BYTE_COLOR', 'CORNER')
     col.data.foreach_set("color_srgb", np.tile([0.5, 0.2, 0.05, 1.0], len(mesh.loops)).astype(np.float32))
     mesh.color_attributes.new("Other", 'FLOAT_COLOR', 'POINT')
@@ -172,21 +164,19 @@ def test_decimate_features_carries_vertex_groups_and_attributes(cube):
     on = _values(mesh.attributes["on"].data, "value", 1, np.float32)
     assert set(on.tolist()) <= {0.0, 1.0} and on.sum() > len(on) / 4  # surviving edges: 1, new ones 0
     z2 = V2[_values(mesh.edges, "vertices", 2, np.int32), 2]
-    for prop, value in (("crease", 0.75), ("bevel_weight", 0.5)):  # surviving edges keep theirs
-        w = _values(mesh.edges, prop, 1, np.float32)
+    for name, value in (("crease_edge", 0.75), ("bevel_weight_edge", 0.5)):  # surviving edges keep theirs
+        w = compat.element_values(mesh, name)
         assert set(np.round(w, 3).tolist()) == {0.0, value} and not (w[on == 0]).any()
         upper = (on > 0) & (z2 > 0.3).all(1)
         # (flat sides decimate to large triangles: a creased edge's image can reach far down them)
         assert (w[upper] > 0).mean() > 0.9 and z2[w > 0].mean() > 0.3
     assert mesh.has_custom_normals
-    mesh.calc_normals_split()
-    n = _values(mesh.loops, "normal", 3, np.float32)
+    n = compat.corner_normals(mesh)
     p = V2[_values(mesh.loops, "vertex_index", 1, np.int32)]
     cos = (n * p).sum(1) / np.linalg.norm(p, axis=1)
     assert cos.min() > 0.999  # moved vertices: blended at their place in the nearest input triangle
     # a merged vertex takes the largest of its sources': 1 above z = 0, 0 well below
-    for w in (_values(mesh.vertex_creases[0].data, "value", 1, np.float32),
-              _values(mesh.vertices, "bevel_weight", 1, np.float32)):
+    for w in (compat.element_values(mesh, "crease_vert"), compat.element_values(mesh, "bevel_weight_vert")):
         assert set(w.tolist()) == {0.0, 1.0} and (w[V2[:, 2] > 0.05] == 1).all() and not w[V2[:, 2] < -0.3].any()
     c = _values(mesh.color_attributes["Col"].data, "color_srgb", 4, np.float32)
     assert np.abs(c - [0.5, 0.2, 0.05, 1.0]).max() < 2 / 255
@@ -199,13 +189,11 @@ def test_decimate_features_carries_custom_normals_alone(cube):
     their quadric optimum got zero normals (Blender's own there), as the lookup that places them was
     made only for those data."""
     mesh = cube.data
-    mesh.use_auto_smooth = True
-    mesh.normals_split_custom_set(np.tile([0.0, 0.6, 0.8], (len(mesh.loops), 1)))
+    compat.set_custom_normals(mesh, np.tile([0.0, 0.6, 0.8], (len(mesh.loops), 1)))
     assert bpy.ops.dgmesh.decimate_features('EXEC_DEFAULT', ratio=0.2, feature_weight=6.0) == {'FINISHED'}
     mesh = cube.data
-    mesh.calc_normals_split()
     # (Blender stores custom normals to about 0.01)
-    assert np.abs(_values(mesh.loops, "normal", 3, np.float32) - [0.0, 0.6, 0.8]).max() < 0.02
+    assert np.abs(compat.corner_normals(mesh) - [0.0, 0.6, 0.8]).max() < 0.02
 
 
 def test_operators_work_on_every_selected_object():

@@ -5,6 +5,7 @@ import bpy
 import numpy as np
 import pytest
 
+import helpers
 from helpers import select
 
 # Operators that change or annotate a mesh, with quick settings.
@@ -50,14 +51,7 @@ def _overridden_sphere(tmp_path):
     lib = tmp_path / "lib.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(lib))
     bpy.ops.wm.read_homefile(use_empty=True)
-    with bpy.data.libraries.load(str(lib), link=True) as (src, dst):
-        dst.collections = ["LibCol"]
-    inst = bpy.data.objects.new("Inst", None)
-    inst.instance_type = 'COLLECTION'
-    inst.instance_collection = dst.collections[0]
-    bpy.context.scene.collection.objects.link(inst)
-    select("Inst")
-    bpy.ops.object.make_override_library()
+    helpers.link_and_override(lib, "LibCol")
     return next(o for o in bpy.context.scene.objects if o.type == 'MESH')
 
 

@@ -7,6 +7,7 @@ import bpy
 import numpy as np
 import pytest
 
+import helpers
 from dgmesh.skeletal import capsule
 
 
@@ -228,13 +229,6 @@ def test_library_override_of_a_bound_character_deforms_live(tmp_path):
     lib = str(tmp_path / "character.blend")
     bpy.ops.wm.save_as_mainfile(filepath=lib)
     bpy.ops.wm.read_homefile(use_empty=True)
-    with bpy.data.libraries.load(lib, link=True) as (_src, dst):
-        dst.collections = ["Char"]
-    inst = bpy.data.objects.new("Char", None)
-    inst.instance_type, inst.instance_collection = 'COLLECTION', dst.collections[0]
-    bpy.context.scene.collection.objects.link(inst)
-    bpy.context.view_layer.objects.active = inst
-    inst.select_set(True)
     # Overridden while the add-on's update handler did not run (the add-on disabled) and saved:
     # loading gives the helper its local mesh, so a background render (whose handler calls may not
     # add data) deforms too.
@@ -242,7 +236,7 @@ def test_library_override_of_a_bound_character_deforms_live(tmp_path):
     handlers = bpy.app.handlers.depsgraph_update_post
     handlers.remove(ops_skeletal._on_update)
     try:
-        assert bpy.ops.object.make_override_library() == {'FINISHED'}
+        helpers.link_and_override(lib, "Char")
         assert {o.name: o for o in bpy.context.scene.objects}["Capsule_dg_offsets"].data.library is not None
         shot = str(tmp_path / "shot.blend")
         bpy.ops.wm.save_as_mainfile(filepath=shot)

@@ -169,7 +169,8 @@ def test_needle_ears_side_by_side_keep_their_boundary(shape):
             f = F[(F == t1).any(1)][0]
             a, b, c = V[f, :2]
             M = np.c_[np.r_[[a, b, c]] - V[t2, :2], (np.r_[[a, b, c]] - V[t2, :2]) ** 2 @ [1, 1]]
-            assert np.linalg.det(M) * np.cross(b - a, c - a) > 0  # t2 inside the circle through the ear
+            u, v = b - a, c - a
+            assert np.linalg.det(M) * (u[0] * v[1] - u[1] * v[0]) > 0  # t2 inside the circle through the ear
     else:
         V, F, pairs = needle_ears(lean=(-0.5, -2.5), height=(3.0, 3.0), lift=(0.0, 1.2))
     loop = dgmesh.topology(V, F)["boundary_loops"][0]

@@ -23,6 +23,8 @@ import bmesh
 import bpy
 import numpy as np
 
+from . import compat
+
 
 @dataclass
 class MeshArrays:
@@ -268,15 +270,7 @@ def set_active_color(mesh, name, render=None):
     for n in (name, render):
         if n not in names:
             raise KeyError(f"{mesh.name!r} has no colour attribute {n!r}")
-    props = colors.bl_rna.properties
-    if not props["active_color_name"].is_readonly:
-        # 4.x: the names are writable and are the documented way.
-        colors.active_color_name = name
-        colors.default_color_name = render
-    else:
-        # 3.4: the *_name properties are read-only; use pointer and index.
-        colors.active_color = colors[name]
-        colors.render_color_index = names.index(render)
+    compat.set_color_names(colors, name, render)
 
 
 def active_color_name(mesh):

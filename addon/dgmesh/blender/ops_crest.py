@@ -40,13 +40,12 @@ only the strongest (bench/images/crest_lines_*.png), hence the default of 10.
 import colorsys
 import hashlib
 
-import bmesh
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors
-from . import bridge
+from . import bridge, compat
 from .common import (editable_collection, plural as _plural, poll_mesh_targets, read_only_reason,
                      report_shown_shape, target_objects)
 from .jobs import NativeJobOperator
@@ -285,21 +284,13 @@ def _write_edge_bool(mesh, name, values):
 
 def _or_edge_flag(mesh, prop, mask):
     """Sets a boolean edge flag (seam, sharp) on the masked edges, keeping the existing ones."""
-    n = len(mesh.edges)
-    rna = bpy.types.MeshEdge.bl_rna.properties.get("use_edge_sharp")
-    if prop == "sharp" and (rna is None or rna.is_readonly):
-        # Newer Blender stores sharp edges as the attribute "sharp_edge"; use_edge_sharp still
-        # wraps it in 4.x, this is for a version that drops the wrapper.
-        attr = mesh.attributes.get("sharp_edge")
-        cur = np.zeros(n, bool)
-        if attr is not None:
-            attr.data.foreach_get("value", cur)
-        _write_edge_bool(mesh, "sharp_edge", cur | mask)
+    if prop == "sharp":
+        cur = compat.element_values(mesh, "sharp_edge")
+        compat.set_element_values(mesh, "sharp_edge", mask if cur is None else cur | mask)
         return
-    key = "use_seam" if prop == "seam" else "use_edge_sharp"
-    cur = np.zeros(n, bool)
-    mesh.edges.foreach_get(key, cur)
-    mesh.edges.foreach_set(key, cur | mask)
+    cur = np.zeros(len(mesh.edges), bool)
+    mesh.edges.foreach_get("use_seam", cur)
+    mesh.edges.foreach_set("use_seam", cur | mask)
 
 
 CURVE_KEY = "dgmesh_crest_lines_of"  # custom property of a crest-line curve: its mesh object
@@ -462,24 +453,15 @@ def _read_for_decimation(obj):
     edges = np.empty(2 * len(mesh.edges), dtype=np.int32)
     mesh.edges.foreach_get("vertices", edges)
     flags = {"seam": _get(mesh.edges, "use_seam", bool)}
-    rna = bpy.types.MeshEdge.bl_rna.properties.get("use_edge_sharp")
-    if rna is not None and not rna.is_readonly:
-        flags["sharp"] = _get(mesh.edges, "use_edge_sharp", bool)
-    elif mesh.attributes.get("sharp_edge") is not None:  # a version without use_edge_sharp
-        flags["sharp"] = _get(mesh.attributes["sharp_edge"].data, "value", bool)
-    # Edge creases and bevel weights, likewise (edge properties in Blender 3.4, the attributes
-    # crease_edge / bevel_weight_edge in 4.x).
+    sharp = compat.element_values(mesh, "sharp_edge")
+    if sharp is not None:
+        flags["sharp"] = sharp
+    # Edge creases and bevel weights, likewise.
     weights = {}
-    for prop, attr in (("crease", "crease_edge"), ("bevel_weight", "bevel_weight_edge")):
-        rna = bpy.types.MeshEdge.bl_rna.properties.get(prop)
-        if rna is not None and not rna.is_readonly:
-            values = _get(mesh.edges, prop, np.float32)
-        elif mesh.attributes.get(attr) is not None:
-            values = _get(mesh.attributes[attr].data, "value", np.float32)
-        else:
-            continue
-        if values.any():
-            weights[(prop, attr)] = values
+    for name in ("crease_edge", "bevel_weight_edge"):
+        values = compat.element_values(mesh, name)
+        if values is not None and values.any():
+            weights[name] = values
     wire = np.ones(len(mesh.edges), bool)  # edges of no face
     wire[_get(mesh.loops, "edge_index", np.int32)] = False
     data.update(edges=edges.reshape(-1, 2), edge_flags=flags, edge_weights=weights,
@@ -501,13 +483,7 @@ def _read_for_decimation(obj):
                 attrs.append((name, mesh.attributes[name].data_type, domain, values))
     colors = mesh.color_attributes
     # Custom split normals: carried per corner like the UVs (and set again after the rebuild).
-    normals = None
-    if mesh.has_custom_normals:
-        if hasattr(mesh, "corner_normals"):  # 4.1+
-            normals = _get(mesh.corner_normals, "vector", np.float32, 3)
-        else:
-            mesh.calc_normals_split()
-            normals = _get(mesh.loops, "normal", np.float32, 3)
+    normals = compat.corner_normals(mesh) if mesh.has_custom_normals else None
     data.update(attributes=attrs, normals=normals, active_color=bridge.active_color_name(mesh),
                 render_color=colors[colors.render_color_index].name if len(colors) else None,
                 vertex_groups=bridge.read_vertex_groups(obj))
@@ -515,43 +491,17 @@ def _read_for_decimation(obj):
 
 
 def _read_vertex_weights(mesh):
-    """Vertex creases and bevel weights, {"crease" / "bevel_weight": values} where any is set: in
-    Blender 3.4 a crease layer (Mesh.vertex_creases) and a vertex property, in 4.x the attributes
-    crease_vert / bevel_weight_vert."""
-    out = {}
-    if len(getattr(mesh, "vertex_creases", ())):
-        out["crease"] = _get(mesh.vertex_creases[0].data, "value", np.float32)
-    elif mesh.attributes.get("crease_vert") is not None:
-        out["crease"] = _get(mesh.attributes["crease_vert"].data, "value", np.float32)
-    rna = bpy.types.MeshVertex.bl_rna.properties.get("bevel_weight")
-    if rna is not None and not rna.is_readonly:
-        out["bevel_weight"] = _get(mesh.vertices, "bevel_weight", np.float32)
-    elif mesh.attributes.get("bevel_weight_vert") is not None:
-        out["bevel_weight"] = _get(mesh.attributes["bevel_weight_vert"].data, "value", np.float32)
-    return {k: v for k, v in out.items() if v.any()}
+    """Vertex creases and bevel weights, {"crease_vert" / "bevel_weight_vert": values} where any is
+    set."""
+    out = {name: compat.element_values(mesh, name) for name in ("crease_vert", "bevel_weight_vert")}
+    return {k: v for k, v in out.items() if v is not None and v.any()}
 
 
 def _write_vertex_weights(mesh, weights, idx, w):
     """``_read_vertex_weights``' values on the decimated mesh: each output vertex takes the largest
     of its sources' (``_vertex_sources``, those with a weight), as merged edges do."""
-    for key, values in weights.items():
-        new = np.where(w > 0, values[idx], 0.0).max(1).astype(np.float32)
-        if key == "crease" and hasattr(mesh, "vertex_creases"):
-            if not len(mesh.vertex_creases):  # 3.4: only bmesh makes the layer
-                bm = bmesh.new()
-                try:
-                    bm.from_mesh(mesh)
-                    bm.verts.layers.crease.verify()
-                    bm.to_mesh(mesh)
-                finally:
-                    bm.free()
-            mesh.vertex_creases[0].data.foreach_set("value", new)
-        elif key == "bevel_weight" and bpy.types.MeshVertex.bl_rna.properties.get("bevel_weight") is not None:
-            mesh.vertices.foreach_set("bevel_weight", new)
-        else:
-            name = "crease_vert" if key == "crease" else "bevel_weight_vert"
-            mesh.attributes.new(name, 'FLOAT', 'POINT')
-            mesh.attributes[name].data.foreach_set("value", new)
+    for name, values in weights.items():
+        compat.set_element_values(mesh, name, np.where(w > 0, values[idx], 0.0).max(1))
 
 
 def _surviving_edges(mesh, data, vertex_map):
@@ -578,15 +528,10 @@ def _carry_edge_flags(mesh, data, edge_pairs):
         mask[out_e[flag[in_e]]] = True
         if mask.any():
             _or_edge_flag(mesh, prop, mask)
-    for (prop, attr), values in data["edge_weights"].items():
+    for name, values in data["edge_weights"].items():
         new = np.zeros(len(mesh.edges), np.float32)
         np.maximum.at(new, out_e, values[in_e])  # input edges merged into one: the largest (as seams OR)
-        rna = bpy.types.MeshEdge.bl_rna.properties.get(prop)
-        if rna is not None and not rna.is_readonly:
-            mesh.edges.foreach_set(prop, new)
-        else:
-            mesh.attributes.new(attr, 'FLOAT', 'EDGE')
-            mesh.attributes[attr].data.foreach_set("value", new)
+        compat.set_element_values(mesh, name, new)
 
 
 def _vertex_sources(source_vertex, lookup, loop_vertex, loose, n_surface):
@@ -745,9 +690,7 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     mesh.loops.foreach_set("vertex_index", np.ascontiguousarray(F2, dtype=np.int32).ravel())
     mesh.polygons.add(len(F2))
     mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F2), 3, dtype=np.int32))
-    prop = bpy.types.MeshPolygon.bl_rna.properties.get("loop_total")
-    if prop is not None and not prop.is_readonly:  # 3.x; 4.x derives it from loop_start
-        mesh.polygons.foreach_set("loop_total", np.full(len(F2), 3, dtype=np.int32))
+    compat.set_loop_totals(mesh, np.full(len(F2), 3, dtype=np.int32))
     mesh.polygons.foreach_set("material_index", data["material_index"][poly])
     mesh.polygons.foreach_set("use_smooth", data["use_smooth"][poly])
     mesh.update(calc_edges=True)
@@ -780,9 +723,7 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     if data["normals"] is not None:
         normals = corners(data["normals"])
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-        if hasattr(mesh, "use_auto_smooth"):  # before 4.1 custom normals need it
-            mesh.use_auto_smooth = True
-        mesh.normals_split_custom_set(normals)
+        compat.set_custom_normals(mesh, normals)
     idx, w = _vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
     _write_attributes(mesh, data, idx, w, poly, edge_pairs, corners)
     if data["vertex_groups"] is not None:

@@ -69,7 +69,7 @@ from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 from .. import colors
 from ..core import MeshError
 from ..skeletal import SkeletalRig
-from . import bridge
+from . import bridge, compat
 from .common import editable_collections, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 
 PROP = "dg_skeletal"            # custom property (dict) on the mesh object
@@ -668,15 +668,7 @@ _HANDLERS = (("depsgraph_update_post", _on_update), ("frame_change_post", _on_up
 
 def _set_position_group():
     """A node group Group Input -> Set Position -> Group Output: (group, Set Position node)."""
-    ng = bpy.data.node_groups.new(NODE_GROUP, 'GeometryNodeTree')
-    if hasattr(ng, "interface"):  # 4.0+
-        ng.interface.new_socket("Geometry", in_out='INPUT', socket_type='NodeSocketGeometry')
-        ng.interface.new_socket("Geometry", in_out='OUTPUT', socket_type='NodeSocketGeometry')
-    else:
-        ng.inputs.new('NodeSocketGeometry', "Geometry")
-        ng.outputs.new('NodeSocketGeometry', "Geometry")
-    if hasattr(ng, "is_modifier"):  # 4.0+: listed in the modifier's node group menu
-        ng.is_modifier = True
+    ng = compat.new_geometry_node_group(NODE_GROUP)
     nodes = ng.nodes
     gi, go = nodes.new('NodeGroupInput'), nodes.new('NodeGroupOutput')
     sp = nodes.new('GeometryNodeSetPosition')
@@ -818,18 +810,7 @@ def _offset_node_group():
 
 def _move_first(obj, mod):
     """Puts a modifier first in the stack (shape keys apply before any modifier, so should we)."""
-    _move_to(obj, mod, 0)
-
-
-def _move_to(obj, mod, index):
-    idx = [m.name for m in obj.modifiers].index(mod.name)
-    if idx == index:
-        return
-    if hasattr(obj.modifiers, "move"):  # 3.5+
-        obj.modifiers.move(idx, index)
-        return
-    with bpy.context.temp_override(object=obj, active_object=obj):
-        bpy.ops.object.modifier_move_to_index(modifier=mod.name, index=index)
+    compat.move_modifier(obj, mod, 0)
 
 
 def _skeleton_object(context, obj, rig, space=None):
@@ -1320,7 +1301,7 @@ Cache modifier (renders and exports then need no add-on)"""
         # the stack: at the end, after a Subdivision, the cache reads a vertex count mismatch).
         shown = mod.show_viewport, mod.show_render
         mod.show_viewport = mod.show_render = False
-        _move_to(obj, mod, cut)
+        compat.move_modifier(obj, mod, cut)
         mod.cache_format = 'PC2'
         mod.deform_mode = 'OVERWRITE'
         mod.filepath = self.filepath

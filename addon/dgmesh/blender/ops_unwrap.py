@@ -26,7 +26,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
-from . import bridge
+from . import bridge, compat
 from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
@@ -316,12 +316,12 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                     continue
                 # A Python pass over the faces, but no toggle: 0.02 s at 500K faces.
                 loops = [l for f in bm.faces if f.select and not f.hide for l in f.loops]
-                saved.append((bm, lay, loops, _uv_flags(loops, lay)))  # bm keeps the loops valid
-                _set_uv_flags(loops, lay, False)
+                saved.append((bm, lay, loops, compat.bm_uv_flags(loops, lay)))  # bm keeps the loops valid
+                compat.bm_set_uv_flags(loops, lay, False)
             for _, _, lay, loops in corners.values():
-                _set_uv_flags(loops, lay, True)
+                compat.bm_set_uv_flags(loops, lay, True)
             tool.use_uv_select_sync = False
-            self._pack_islands()
+            compat.pack_islands(self.margin)
             return True
         except RuntimeError as exc:
             self.report({'WARNING'}, f"Packing failed: {exc}")
@@ -329,13 +329,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         finally:
             tool.use_uv_select_sync = sync
             for _, lay, loops, flags in saved:
-                _set_uv_flags(loops, lay, flags)
-
-    def _pack_islands(self):
-        kw = {}
-        if "shape_method" in bpy.ops.uv.pack_islands.get_rna_type().properties:
-            kw["shape_method"] = 'AABB'  # 3.6+: the packer of 3.4 (bounding boxes)
-        bpy.ops.uv.pack_islands(margin=self.margin, **kw)
+                compat.bm_set_uv_flags(loops, lay, flags)
 
     def _pack_objects(self, context, items):
         """Object mode: Blender's packer on the unwrapped faces only: Edit mode for the duration with
@@ -343,7 +337,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         selection, hiding, the UV selection (the packer selects every UV) and mode back as they were."""
         names = [it["name"] for it in items]
         saved = {}
-        uv_sel = {name: _uv_selection(bpy.data.objects[name].data) for name in names}
+        uv_sel = {name: compat.uv_selection(bpy.data.objects[name].data) for name in names}
         layer = context.view_layer
         active = layer.objects.active
         sel_objs = [o for o in layer.objects if o.select_get()]
@@ -361,7 +355,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             bpy.ops.object.mode_set(mode='EDIT')
             tool.use_uv_select_sync = False
             bpy.ops.uv.select_all(action='SELECT')
-            self._pack_islands()
+            compat.pack_islands(self.margin)
             return True
         except RuntimeError as exc:
             self.report({'WARNING'}, f"Packing failed: {exc}")
@@ -374,33 +368,10 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                 mesh = bpy.data.objects[name].data
                 _set_flags(mesh, "select", sel)
                 _set_flags(mesh, "hide", hide)
-                _uv_selection(mesh, uv_sel[name])
+                compat.set_uv_selection(mesh, uv_sel[name])
             for o in layer.objects:
                 o.select_set(o in sel_objs)
             layer.objects.active = active
-
-
-def _uv_selection(mesh, restore=None):
-    """The active UV map's corner selection, vertex and edge flags (Object mode), or restores it."""
-    layer = mesh.uv_layers.active
-    if layer is None:
-        return None
-    # 3.5+ also keeps them as bool layers beside the UVs (MeshUVLoop.select* are their deprecated views).
-    parts = ([(layer.data, "select"), (layer.data, "select_edge")]
-             if "select" in bpy.types.MeshUVLoop.bl_rna.properties else
-             [(layer.vertex_selection, "value"), (layer.edge_selection, "value")])
-    if restore is None:
-        saved = []
-        for coll, key in parts:
-            sel = np.zeros(len(mesh.loops), bool)
-            if len(coll) == len(sel):
-                coll.foreach_get(key, sel)
-            saved.append(sel)
-        return saved
-    for (coll, key), sel in zip(parts, restore):
-        if len(sel) == len(coll):
-            coll.foreach_set(key, sel)
-    return None
 
 
 def _area3(V, F):
@@ -468,24 +439,6 @@ def _edit_write_uvs(corners, uv):
     _, _, lay, loops = corners
     for l, p in zip(loops, uv.tolist()):
         l[lay].uv = p
-
-
-def _uv_flags(loops, lay):
-    """The UV vertex and edge selection of the loops."""
-    data = [l[lay] for l in loops]
-    return [d.select for d in data], [d.select_edge for d in data]
-
-
-def _set_uv_flags(loops, lay, flags):
-    """Sets the loops' UV selection: one bool for all, or the lists from :func:`_uv_flags`."""
-    if isinstance(flags, bool):
-        for l in loops:
-            d = l[lay]
-            d.select = d.select_edge = flags
-        return
-    for l, a, b in zip(loops, *flags):
-        d = l[lay]
-        d.select, d.select_edge = a, b
 
 
 def _read_charts(obj, edit, dg):
