@@ -6,6 +6,8 @@
 #   bash scripts/lanes.sh [SUITE...]            run the lanes (default: trixie sid)
 #   bash scripts/lanes.sh --refresh [SUITE...]  make those roots anew (the next run uses them)
 #   bash scripts/lanes.sh --shell SUITE         a shell inside a lane's root (mounts set up)
+#   bash scripts/lanes.sh --run SUITE CMD...    copy the tree in, run CMD in /src/dgmesh there
+#                                               (e.g. --run sid bash scripts/build.sh)
 #
 # Roots are made once with debootstrap and cached in $DGMESH_ROOTS (default
 # /var/cache/dgmesh/roots), then reused: each run copies the working tree into the root's
@@ -23,8 +25,14 @@ mode=run
 case "${1:-}" in
   --refresh) mode=refresh; shift ;;
   --shell) mode=shell; shift ;;
+  --run) mode=run_cmd; shift ;;
 esac
-suites=("$@")
+if [ "$mode" = run_cmd ] || [ "$mode" = shell ]; then
+  suites=("${1:?which suite}"); shift
+  cmd=("$@")
+else
+  suites=("$@")
+fi
 ((${#suites[@]})) || suites=(trixie sid)
 
 say() { printf '\n=== lane %s: %s\n' "$1" "$2"; }
@@ -115,6 +123,8 @@ for suite in "${suites[@]}"; do
   trap 'unmount_root "$r"' EXIT
   if [ "$mode" = shell ]; then
     in_root "$r" bash -c 'cd /src/dgmesh && exec bash -i' || true
+  elif [ "$mode" = run_cmd ]; then
+    in_root "$r" bash -c 'cd /src/dgmesh && exec "$@"' sh "${cmd[@]}" || status=$?
   else
     say "$suite" "build and test inside $r"
     start=$SECONDS

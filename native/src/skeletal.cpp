@@ -958,11 +958,11 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
   if (opt.projection > 0) balls.emplace(Sd, radii, reps);
   if (deep) deep->assign(opt.projection > 0 ? static_cast<size_t>(n) * kDenseBalls : 0, -1);
   MatX3d G(n, 3);
-  // The explicit projection step is repeated (opt.projection_passes): in a bend's inner crease one
-  // step moves a vertex out of one ball into a neighbour's (camel knee, 90 degrees: sum (f - f_rest)^2
-  // 1.9e-4 after one pass, 8e-5 after three). A vertex whose pass moved it by less than `tol` has
-  // converged (its balls are fixed; only its own move changes f) and is skipped: the extra passes
-  // cost only where the pose changed the thickness.
+  // The explicit projection step is repeated (at most opt.projection_passes, until a pass moves no
+  // vertex): in a bend's inner crease one step moves a vertex out of one ball into a neighbour's
+  // (camel knee, 90 degrees: sum (f - f_rest)^2 1.9e-4 after one pass, 8e-5 after three). A vertex
+  // whose pass moved it by less than `tol` has converged (its balls are fixed; only its own move
+  // changes f) and is skipped: the extra passes cost only where the pose changed the thickness.
   const int total = opt.fairing_steps + (opt.projection > 0 ? std::max(opt.projection_passes, 1) - 1 : 0);
   const double tol2 = 1e-12 * r_max * r_max;
   std::vector<int> prev(n, -1);
@@ -977,12 +977,13 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
   constexpr double kRequery2 = 1e-4;
   std::vector<int> cand(static_cast<size_t>(n) * kUnionNeighbours, -1);
   MatX3d Xq(n, 3);
-  for (int step = 0; step <= total; ++step) {
+  for (int step = 0, moved = 1; step <= total && moved; ++step) {
     const bool last = step >= opt.fairing_steps;
     if (last && !(opt.projection > 0)) break;
+    moved = 0;
     // F(u) = f grad f at the mesh vertices, 0 at the skeleton (eq. 6.14); f is measured against
     // its rest value so that the rest pose and rigid motions are fixed points.
-#pragma omp parallel for schedule(dynamic, 64) if (n >= kParallelHeavy)
+#pragma omp parallel for schedule(dynamic, 64) if (n >= kParallelHeavy) reduction(| : moved)
     for (int i = 0; i < n; ++i) {
       const bool extra = step > opt.fairing_steps;
       if (extra && G.row(i).squaredNorm() <= tol2) {
@@ -1024,6 +1025,7 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
       const Vec3 d = x - row3(Sd, p);
       const double len = d.norm();
       G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
+      moved |= !last || G.row(i).squaredNorm() > tol2;
     }
     if (last) {
       X -= opt.projection * G;  // explicit step (see SkeletalDeformOptions::projection)

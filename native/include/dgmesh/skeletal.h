@@ -102,9 +102,10 @@ struct SkeletalDeformOptions {
   // Through the multiresolution layer the dense vertices get the same step against the control
   // mesh's medial balls (the layer's limit surface thins where a pose shears the control mesh).
   double projection = 1.0;
-  // Passes of that explicit step (a vertex pushed out of one ball may land in a neighbour's; the
-  // passes after the first visit only the vertices the previous one moved).
-  int projection_passes = 3;
+  // Passes of that explicit step, at most: a vertex pushed out of one ball may land in a
+  // neighbour's. The passes after the first visit only the vertices the previous one moved, and
+  // stop once a pass moves none.
+  int projection_passes = 8;
   // Passes of the dense mesh's explicit step (multiresolution layer). A pass after the first visits
   // only the vertices whose minimising ball changed or whose move may have taken them into another
   // candidate ball, so three cost little more than one (bench skeletal_speed).
