@@ -5,6 +5,7 @@
 #
 #   bash scripts/lanes.sh [SUITE...]            run the lanes (default: trixie sid)
 #   bash scripts/lanes.sh --refresh [SUITE...]  make those roots anew (the next run uses them)
+#   bash scripts/lanes.sh --prepare [SUITE...]  make the roots that are missing, run nothing
 #   bash scripts/lanes.sh --shell SUITE         a shell inside a lane's root (mounts set up)
 #   bash scripts/lanes.sh --run SUITE CMD...    copy the tree in, run CMD in /src/dgmesh there
 #                                               (e.g. --run sid bash scripts/build.sh)
@@ -24,6 +25,7 @@ roots=${DGMESH_ROOTS:-/var/cache/dgmesh/roots}
 mode=run
 case "${1:-}" in
   --refresh) mode=refresh; shift ;;
+  --prepare) mode=prepare; shift ;;
   --shell) mode=shell; shift ;;
   --run) mode=run_cmd; shift ;;
 esac
@@ -117,7 +119,7 @@ for suite in "${suites[@]}"; do
     fi
     echo "root made in $((SECONDS - start)) s"
   fi
-  [ "$mode" = refresh ] && { summary+=("$suite: root made"); continue; }
+  if [ "$mode" = refresh ] || [ "$mode" = prepare ]; then summary+=("$suite: root ready"); continue; fi
   copy_tree "$r"
   mount_root "$r"
   trap 'unmount_root "$r"' EXIT

@@ -19,6 +19,12 @@ failed=()
 check() { "$@" || failed+=("$current"); }
 if [ "$mode" = --lane ]; then bash scripts/deps.sh --lane; else bash scripts/deps.sh; fi
 bash scripts/cgal_data.sh >/dev/null
+if [ "$mode" = all ]; then
+  # The lanes' roots (debootstrap and apt: mostly download and unpacking) are made meanwhile.
+  mkdir -p build
+  bash scripts/lanes.sh --prepare >build/lanes-prepare.log 2>&1 &
+  prepare=$!
+fi
 
 step "build (Release)"
 bash scripts/build.sh
@@ -49,7 +55,9 @@ else
   printf '\n=== [%s] every test passed\n' "$lane"
 fi
 if [ "$mode" = all ]; then
+  wait "$prepare" || true  # a root it could not make is made again, or skipped, by the run
   step "test lanes in Debian roots"
+  cat build/lanes-prepare.log
   current="lanes"
   check bash scripts/lanes.sh
 fi
