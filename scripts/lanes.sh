@@ -42,6 +42,7 @@ say() { printf '\n=== lane %s: %s\n' "$1" "$2"; }
 # Mounts proc, sys, dev and a private /dev/shm inside root $1; unmount_root undoes it.
 mount_root() {
   local r=$1
+  unmount_root "$r"  # what a run that was killed left mounted
   mount -t proc proc "$r/proc"
   mount -t sysfs sys "$r/sys"
   mount --rbind /dev "$r/dev"

@@ -66,6 +66,7 @@ _ATTR_LAYOUT = {
     'BYTE_COLOR': ("color", 4, np.float32),
     'INT32_2D': ("value", 2, np.int32),  # 4.x
     'QUATERNION': ("value", 4, np.float32),  # 4.x
+    'INT16_2D': ("value", 2, np.int32),  # 5.x: custom_normal
 }
 
 

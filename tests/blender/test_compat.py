@@ -106,9 +106,65 @@ def test_uv_selection_round_trip(cube):
         bpy.ops.object.mode_set(mode='OBJECT')
 
 
+def test_uv_select_state_survives_turning_synced_selection_off_and_on(cube):
+    """Edit mode: 5.x rewrites the UV flags when synced selection is turned off (from the mesh
+    selection, or flushed); the saved state puts every loop's flags back, as they were."""
+    mesh = cube.data
+    mesh.uv_layers.new(name="UVMap")
+    n = len(mesh.loops)
+    compat.set_uv_selection(mesh, [np.arange(n) % 3 == 0, np.arange(n) % 4 == 1])
+    tool = bpy.context.scene.tool_settings
+    tool.use_uv_select_sync = True
+    bpy.ops.object.mode_set(mode='EDIT')
+    try:
+        bpy.ops.mesh.select_all(action='SELECT')
+        bm = bmesh.from_edit_mesh(mesh)
+        lay = bm.loops.layers.uv.active
+        loops = [l for f in bm.faces for l in f.loops]
+        before = [list(f) for f in compat.bm_uv_flags(loops, lay)]
+        state = compat.bm_uv_select_state(bm, lay)
+        assert (state is None) == (bpy.app.version < (5, 0, 0))
+        tool.use_uv_select_sync = False
+        # 5.x: every face is selected, so are all UVs now; before 5.0 the flags stay as they were
+        assert ([list(f) for f in compat.bm_uv_flags(loops, lay)] == before) == (state is None)
+        tool.use_uv_select_sync = True
+        compat.bm_set_uv_select_state(bm, lay, state)
+        assert [list(f) for f in compat.bm_uv_flags(loops, lay)] == before
+        if state is not None:
+            assert bm.uv_select_sync_valid == state[2]
+    finally:
+        bpy.ops.object.mode_set(mode='OBJECT')
+
+
 def test_uv_selection_without_a_uv_map(cube):
     assert compat.uv_selection(cube.data) is None
     compat.set_uv_selection(cube.data, None)  # nothing to restore: no error
+
+
+def test_uv_pins_round_trip(cube):
+    """Pins set on a UV map that never had any (3.5+ makes their layer then), read back, seen by
+    Blender's own per-corner accessor and from Edit mode; the UV map taken afterwards is valid."""
+    mesh = cube.data
+    mesh.uv_layers.new(name="UVMap")
+    n = len(mesh.loops)
+    assert not compat.uv_pins(mesh).any()
+    pins = np.arange(n) % 3 == 0
+    compat.set_uv_pins(mesh, pins)
+    assert np.array_equal(compat.uv_pins(mesh), pins)
+    if "pin_uv" in bpy.types.MeshUVLoop.bl_rna.properties:  # Blender's own per-corner accessor
+        assert [d.pin_uv for d in mesh.uv_layers.active.data] == pins.tolist()
+    bpy.ops.object.mode_set(mode='EDIT')
+    try:
+        bm = bmesh.from_edit_mesh(mesh)
+        lay = bm.loops.layers.uv.active
+        loops = sorted((l for f in bm.faces for l in f.loops), key=lambda l: l.index)
+        assert [l[lay].pin_uv for l in loops] == pins.tolist()
+    finally:
+        bpy.ops.object.mode_set(mode='OBJECT')
+
+
+def test_uv_pins_without_a_uv_map(cube):
+    assert compat.uv_pins(cube.data) is None
 
 
 def test_geometry_node_group_and_modifier_order(cube):

@@ -511,6 +511,9 @@ def test_repair_ngon_triangles_gives_valid_consistent_triangles():
         np.add.at(out, a.tri_poly, cr)
         return out
     assert np.allclose(vector_area(fixed), vector_area(raw), atol=1e-9)
+    # No triangle is folded back against its polygon.
+    cr = np.cross(fixed.V[fixed.F[:, 1]] - fixed.V[fixed.F[:, 0]], fixed.V[fixed.F[:, 2]] - fixed.V[fixed.F[:, 0]])
+    assert (np.einsum("ij,ij->i", cr, vector_area(raw)[fixed.tri_poly]) > 0).all()
     # Every loop of every polygon is used by a triangle (nothing dropped).
     assert len(np.unique(fixed.tri_loops)) == len(obj.data.loops)
     # A clean mesh is returned as is.

@@ -8,6 +8,8 @@ import mathutils
 import numpy as np
 import pytest
 
+from dgmesh.blender import compat
+
 
 def _grid(name, offset=(0.0, 0.0, 0.0), n=14, seed=0):
     bm = bmesh.new()
@@ -62,14 +64,13 @@ def test_unwrap_in_edit_mode_leaves_pinned_charts_in_place(empty, pinned_first):
     (reported as left alone) included. Edit mode packs with only the unwrapped corners' UVs
     selected: the other edited object's UV selection is put back, whichever comes first."""
     a, p = _grid("A"), _grid("P", offset=(3, 0, 0), seed=1)
-    layer = p.data.uv_layers.active
-    for i, loop in enumerate(p.data.loops):
-        co = p.data.vertices[loop.vertex_index].co
-        layer.data[i].uv = (0.3 + 0.05 * co.x, 0.2 + 0.05 * co.y)
-        layer.data[i].pin_uv = True
-        layer.data[i].select = i % 3 == 0
+    co = np.array([p.data.vertices[loop.vertex_index].co[:2] for loop in p.data.loops])
+    p.data.uv_layers.active.data.foreach_set("uv", (np.array([0.3, 0.2]) + 0.05 * co).astype(np.float32).ravel())
+    compat.set_uv_pins(p.data, np.ones(len(p.data.loops), bool))
+    compat.set_uv_selection(p.data, [np.arange(len(p.data.loops)) % 3 == 0])
+    layer = p.data.uv_layers.active  # taken after the pin and selection layers were made
     before = np.array([d.uv[:] for d in layer.data])
-    uv_sel = np.array([d.select for d in layer.data])
+    uv_sel = compat.uv_selection(p.data)
     _edit(*((p, a) if pinned_first else (a, p)))  # the active object comes first
     _select_faces(a, _middle_faces(a))
     _select_faces(p, list(range(len(p.data.polygons))))
@@ -79,7 +80,7 @@ def test_unwrap_in_edit_mode_leaves_pinned_charts_in_place(empty, pinned_first):
     bpy.ops.object.mode_set(mode='OBJECT')
     layer = p.data.uv_layers.active
     assert np.abs(np.array([d.uv[:] for d in layer.data]) - before).max() < 1e-7
-    assert np.array_equal([d.select for d in layer.data], uv_sel)
+    assert all(np.array_equal(x, y) for x, y in zip(compat.uv_selection(p.data), uv_sel))
 
 
 def test_edited_object_with_nothing_selected_is_no_target_even_with_shape_keys(empty):

@@ -36,13 +36,7 @@ def _mesh_state(obj):
            "keys": [k.name for k in me.shape_keys.key_blocks] if me.shape_keys else None,
            "props": sorted(obj.keys()), "mesh_props": sorted(me.keys())}
     for a in me.attributes:
-        prop = {'FLOAT_VECTOR': "vector", 'FLOAT_COLOR': "color", 'BYTE_COLOR': "color",
-                'FLOAT2': "vector"}.get(a.data_type, "value")
-        width = {"vector": 3 if a.data_type == 'FLOAT_VECTOR' else 2, "color": 4}.get(prop, 1)
-        dt = {'INT': np.int32, 'BOOLEAN': bool, 'INT8': np.int8}.get(a.data_type, np.float32)
-        arr = np.empty(len(a.data) * width, dtype=dt)
-        a.data.foreach_get(prop, arr)
-        out["attr:" + a.name] = arr.tobytes()
+        out["attr:" + a.name] = helpers.attribute_array(a).tobytes()
     w = []
     for v in me.vertices:
         w.append(tuple((g.group, g.weight) for g in v.groups))
@@ -1120,14 +1114,14 @@ def test_live_modifier_moved_below_a_subdivision_shows_the_mesh_undeformed():
     """The offsets are per vertex of the base mesh: below a Subdivision Surface they scrambled the
     mesh. The live modifier now leaves a geometry with another point count as it is, and the
     sidebar panel asks to move it back to the top."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import compat, ops_skeletal
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     sub = obj.modifiers.new("Sub", 'SUBSURF')
     sub.levels = 1
     rest = _evaluated_co(obj)
     assert not ops_skeletal.live_modifier_misplaced(obj)
-    ops_skeletal._move_to(obj, sub, 0)
+    compat.move_modifier(obj, sub, 0)
     assert ops_skeletal.live_modifier_misplaced(obj)
     bpy.context.view_layer.update()
     below = _evaluated_co(obj)
@@ -1135,7 +1129,7 @@ def test_live_modifier_moved_below_a_subdivision_shows_the_mesh_undeformed():
     bpy.context.view_layer.update()
     X = _evaluated_co(obj)
     assert len(X) > len(V) and np.abs(X - below).max() < 1e-6  # not scrambled: undeformed
-    ops_skeletal._move_to(obj, obj.modifiers["dg_skeletal"], 0)
+    compat.move_modifier(obj, obj.modifiers["dg_skeletal"], 0)
     bpy.context.view_layer.update()
     X = _evaluated_co(obj)
     tip = np.argmax(rest[:, 0])

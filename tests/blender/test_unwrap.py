@@ -9,7 +9,7 @@ from helpers import attribute_array, mesh_snapshot, open_fixture, select
 import make_fixtures
 from make_fixtures import add_mesh_object
 
-from dgmesh.blender import bridge
+from dgmesh.blender import bridge, compat
 
 
 def unwrap(**props):
@@ -432,12 +432,14 @@ def test_charts_with_pinned_uvs_are_left_as_they_are(capsys):
     mesh = obj.data
     if mesh.uv_layers.active is None:
         mesh.uv_layers.new(name="UVMap")
-    layer = mesh.uv_layers.active
     cap = next(p for p in mesh.polygons if p.loop_total > 4)
     pinned = range(cap.loop_start, cap.loop_start + cap.loop_total)
-    for i in pinned:
-        layer.data[i].uv = (5.0, 5.0)
-        layer.data[i].pin_uv = True
+    uv = layer_uv(mesh)
+    uv[list(pinned)] = 5.0
+    mesh.uv_layers.active.data.foreach_set("uv", uv.ravel())
+    pins = np.zeros(len(mesh.loops), bool)
+    pins[list(pinned)] = True
+    compat.set_uv_pins(mesh, pins)
     select(obj.name)
     assert unwrap(pack=False) == {'FINISHED'}
     assert "1 chart(s) with pinned UVs left as they are" in capsys.readouterr().out
@@ -487,21 +489,17 @@ def test_uv_selection_survives_packing(edit):
     flags were left all set)."""
     obj, _ = _seamed_grid(6)
     mesh = obj.data
-    layer = mesh.uv_layers.active
     sel = np.arange(len(mesh.loops)) % 3 == 0
     sel_edge = np.arange(len(mesh.loops)) % 4 == 1
-    layer.data.foreach_set("select", sel)
-    layer.data.foreach_set("select_edge", sel_edge)
+    compat.set_uv_selection(mesh, [sel, sel_edge])
     if edit:
         bpy.ops.object.mode_set(mode='EDIT')
         bpy.ops.mesh.select_all(action='SELECT')
     assert unwrap(pack=True) == {'FINISHED'}
     if edit:
         bpy.ops.object.mode_set(mode='OBJECT')
-    for key, want in (("select", sel), ("select_edge", sel_edge)):
-        after = np.empty(len(mesh.loops), bool)
-        mesh.uv_layers.active.data.foreach_get(key, after)
-        assert np.array_equal(after, want), key
+    after = compat.uv_selection(mesh)
+    assert np.array_equal(after[0], sel) and np.array_equal(after[1], sel_edge)
 
 
 def test_edit_mode_unwrap_stays_in_edit_mode(dg, capsys):
@@ -513,8 +511,7 @@ def test_edit_mode_unwrap_stays_in_edit_mode(dg, capsys):
     layer = mesh.uv_layers.active
     rng = np.random.default_rng(2)
     layer.data.foreach_set("uv", (3 * rng.random(2 * len(mesh.loops))).astype(np.float32))
-    layer.data.foreach_set("select", rng.random(len(mesh.loops)) < 0.5)
-    layer.data.foreach_set("select_edge", rng.random(len(mesh.loops)) < 0.5)
+    compat.set_uv_selection(mesh, [rng.random(len(mesh.loops)) < 0.5, rng.random(len(mesh.loops)) < 0.5])
     mesh.polygons.foreach_set("select", left)
     mesh.vertices.foreach_set("select", np.zeros(len(mesh.vertices), bool))
     mesh.edges.foreach_set("select", np.zeros(len(mesh.edges), bool))
@@ -529,7 +526,7 @@ def test_edit_mode_unwrap_stays_in_edit_mode(dg, capsys):
 
     def flags():
         return ([v.select for v in bm.verts], [e.select for e in bm.edges], [f.select for f in bm.faces],
-                [(l[uv].select, l[uv].select_edge) for f in bm.faces for l in f.loops])
+                compat.bm_uv_flags([l for f in bm.faces for l in f.loops], uv))
 
     sel_before = flags()
     assert unwrap(pack=True) == {'FINISHED'}

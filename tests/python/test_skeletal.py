@@ -430,9 +430,11 @@ def test_a_sheet_limb_twisted_far_does_not_tear():
 def test_surface_bone_clearance_keeps_the_child_limb_off_the_parent_bone():
     """A vertex weighted to the child bone alone keeps its distance to the parent bone too (its
     flesh folds against the parent limb's, not onto its bone): capsule with a narrow weight ramp
-    bent 135 degrees, the child-only vertices' distance to the nearest bone after / before, minimum
-    0.894 with their own bone alone in the clearance, 0.922 with its parent (0.789 without the
-    clearance). The parent's own vertices do not get the child bone (see follows_or_parent)."""
+    bent 135 degrees, the child-only vertices' distance to the nearest bone after / before. The
+    clearance alone (no projection passes): minimum 0.80, 0.52 without it. By default the
+    projection passes, run until they settle, hold them at 0.96 with or without the clearance (0.922
+    when they stopped after 3). The parent's own vertices do not get the child bone (see
+    follows_or_parent)."""
     V, F = capsule(0.5, 6.0, 32, 6, 48)
     t = np.clip((V[:, 0] + 0.1) / 0.2, 0, 1)
     W = np.c_[1 - t, t]
@@ -442,8 +444,9 @@ def test_surface_bone_clearance_keeps_the_child_limb_off_the_parent_bone():
     d0 = d0[child]
     pose = np.array([REST[0], rot((0, 0, 1), np.radians(135)) @ REST[1]])
     ratio = lambda X: (_segment_dists(X, pose).min(1)[child] / d0).min()
-    assert ratio(rig.deform(pose, bone_clearance=0)) < 0.85  # not vacuous
-    assert ratio(rig.deform(pose)) > 0.91
+    assert ratio(rig.deform(pose, bone_clearance=0, projection=0)) < 0.6  # not vacuous
+    assert ratio(rig.deform(pose, projection=0)) > 0.75
+    assert ratio(rig.deform(pose)) > 0.95
     _assert_rest_and_rigid_unpushed(rig, V)
 
 

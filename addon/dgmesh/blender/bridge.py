@@ -78,6 +78,8 @@ def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
     vertex: the same triangle twice, back to back. Each such ear (a, b, c), b the corner whose two
     sides are polygon sides, shares its diagonal with another triangle (a, c, d) of its polygon;
     flipping that diagonal gives (b, c, d) and (b, d, a). Rounds repeat for runs of such corners.
+    With the mesh's edges (``read_object(edges=True)``), triangles folded against their polygon are
+    flipped too (:func:`_unfold_ngon_triangles`).
     Triangles, their loops and polygons stay consistent; the mesh is not touched. Returns new
     :class:`MeshArrays` (the same object when nothing needed repair); what cannot be repaired is
     left for validation to report.
@@ -148,9 +150,76 @@ def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
                 break
         if not progress:
             break
+    changed |= _unfold_ngon_triangles(arrays, F, L, multi, max_rounds)
     if not changed:
         return arrays
     return MeshArrays(arrays.V, F, L, P, arrays.edges)
+
+
+def _unfold_ngon_triangles(arrays, F, L, multi, max_rounds):
+    """Flips, in place in ``F`` and ``L``, diagonals of n-gon triangles (indices ``multi``) that face
+    against their polygon; returns whether any changed. A bent or concave n-gon may be cut into a
+    triangle folded back over its neighbour (how depends on the Blender version: 5.x triangulates
+    by vertex positions), and curvature estimated across the fold is garbage (a crest line along
+    a rounded edge of hexagons broke there). A polygon's normal is its vector area, the sum of
+    its triangles' (the same for every triangulation of it). Triangle (x, y, z) and its neighbour
+    (y, x, w) across diagonal x-y become (z, x, w) and (w, y, z) when both then face with the
+    polygon. Needs the mesh's edges to tell diagonals from polygon sides."""
+    E, V, P = arrays.edges, arrays.V, arrays.tri_poly
+    if E is None or not len(E) or multi.size == 0:
+        return False
+
+    def cross(f):  # (k, 3) index rows
+        return np.cross(V[f[:, 1]] - V[f[:, 0]], V[f[:, 2]] - V[f[:, 0]])
+
+    normal = np.zeros((int(P.max()) + 1, 3))
+    np.add.at(normal, P[multi], cross(F[multi]))
+    bad = multi[np.einsum("ij,ij->i", cross(F[multi]), normal[P[multi]]) <= 0]
+    if bad.size == 0:
+        return False
+    nv = int(len(V))
+    E = np.sort(E.astype(np.int64), axis=1)
+    real = set((E[:, 0] * nv + E[:, 1]).tolist())
+    suspects = np.flatnonzero(np.isin(P, np.unique(P[bad])))
+    members = {}
+    for t in suspects.tolist():
+        members.setdefault(int(P[t]), []).append(t)
+
+    def flip(t):
+        n = normal[P[t]]
+        if cross(F[t:t + 1])[0] @ n > 0:  # already unfolded by an earlier flip
+            return False
+        f = F[t].tolist()
+        for k in range(3):
+            x, y, z = f[k], f[(k + 1) % 3], f[(k + 2) % 3]
+            if min(x, y) * nv + max(x, y) in real:
+                continue
+            for u in members[int(P[t])]:
+                g = F[u].tolist()
+                j = next((j for j in range(3) if g[j] == y and g[(j + 1) % 3] == x), None)
+                if u == t or j is None:
+                    continue
+                w = g[(j + 2) % 3]
+                new = np.array([[z, x, w], [w, y, z]])
+                if w != z and (cross(new) @ n > 0).all():
+                    lx, ly, lz = (int(L[t, (k + i) % 3]) for i in range(3))
+                    lw = int(L[u, (j + 2) % 3])
+                    F[t], F[u] = new
+                    L[t], L[u] = (lz, lx, lw), (lw, ly, lz)
+                    return True
+                break
+        return False
+
+    changed = False
+    for _ in range(max_rounds):
+        progress = False
+        for t in bad.tolist():
+            progress |= flip(t)
+        changed |= progress
+        bad = suspects[np.einsum("ij,ij->i", cross(F[suspects]), normal[P[suspects]]) <= 0]
+        if not progress or bad.size == 0:
+            break
+    return changed
 
 
 def read_object(obj, evaluated=False, depsgraph=None, edges=False, sync=True):
@@ -370,10 +439,10 @@ ATTRIBUTE_TYPES = {
 }
 
 
-# Blender's own data stored as attributes (3.4: material_index; 4.x: more), which operators set
-# themselves or which bmesh writes as flags and may drop as attributes.
+# Blender's own data stored as attributes (3.4: material_index; 4.x: more; 5.x: uv_seam, the seam
+# flag), which operators set themselves or which bmesh writes as flags and may drop as attributes.
 BUILTIN_ATTRIBUTES = {"position", "material_index", "sharp_face", "sharp_edge", "crease_vert", "crease_edge",
-                      "bevel_weight_vert", "bevel_weight_edge"}
+                      "bevel_weight_vert", "bevel_weight_edge", "uv_seam"}
 
 
 def _carried(att, domain):

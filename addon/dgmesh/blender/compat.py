@@ -7,6 +7,9 @@ lane where it matters (scripts/lanes.sh: 3.4, 4.3, 5.x). Nothing else in the add
 version.
 
 What differs, by version:
+- 3.5: a UV map's selection and pins become bool layers beside it, made when a flag is first set;
+  making one moves the mesh's layers, so a UV map object held across it is invalid (4.x writes
+  through it into freed memory).
 - 4.0: edge creases and bevel weights become the attributes crease_edge / bevel_weight_edge (and
   vertex ones crease_vert / bevel_weight_vert; 3.4 keeps vertex creases in a crease layer);
   node groups declare sockets through ``interface``; ``is_modifier`` lists a group in the modifier.
@@ -160,10 +163,17 @@ def set_uv_selection(mesh, selection):
 def _uv_selection_parts(mesh, create=False):
     """[(collection, key, length)] holding the UV selection."""
     layer, n = mesh.uv_layers.active, len(mesh.loops)
-    if "select" in bpy.types.MeshUVLoop.bl_rna.properties:  # 3.4: the UV map's corner flags
+    # 3.4: the UV map's corner flags (3.5-4.x keep MeshUVLoop.select, but setting it makes a layer,
+    # which invalidates ``layer`` for the next part)
+    if "select" in bpy.types.MeshUVLoop.bl_rna.properties and not hasattr(layer, "vertex_selection"):
         return [(layer.data, "select", n), (layer.data, "select_edge", n)]
     if hasattr(layer, "vertex_selection"):  # 3.5-4.x: bool layers beside the UVs
-        return [(layer.vertex_selection, "value", n), (layer.edge_selection, "value", n)]
+        props = ("vertex_selection", "edge_selection")
+        if create:
+            _ensure_uv_bool_layers(mesh, props)
+            layer = mesh.uv_layers.active
+        return [(getattr(layer, prop), "value", n) if _has_uv_bool_layer(mesh, prop) else (None, None, n)
+                for prop in props]
     parts = []
     for name, domain, size in ((".uv_select_vert", 'CORNER', n), (".uv_select_edge", 'CORNER', n),
                                (".uv_select_face", 'FACE', len(mesh.polygons))):  # 5.0+: the mesh's
@@ -172,6 +182,53 @@ def _uv_selection_parts(mesh, create=False):
             att = mesh.attributes.new(name, 'BOOLEAN', domain)
         parts.append((att.data, "value", size) if att is not None else (None, None, size))
     return parts
+
+
+# 3.5+: the active UV map's bool layers by property of the map, and the attribute name prefix.
+_UV_BOOL_LAYERS = {"vertex_selection": ".vs.", "edge_selection": ".es.", "pin": ".pn."}
+
+
+def _has_uv_bool_layer(mesh, prop):
+    """3.5+: whether the active UV map has its bool layer ``prop`` (a key of _UV_BOOL_LAYERS). Not
+    by the length of the map's collection: 4.x gives every corner's count for a missing layer, and
+    reading or writing it does nothing."""
+    return mesh.attributes.get(_UV_BOOL_LAYERS[prop] + mesh.uv_layers.active.name) is not None
+
+
+def _ensure_uv_bool_layers(mesh, props):
+    """3.5+: makes the active UV map's bool layers ``props`` (keys of _UV_BOOL_LAYERS) that it lacks
+    (Blender makes them when a flag is first set). Adding a layer moves the mesh's layers: a UV map
+    (MeshUVLoopLayer) or one of its collections taken before points at freed memory afterwards (4.x
+    writes through it and corrupts the heap), so callers take the UV map again."""
+    for prop in props:
+        if not _has_uv_bool_layer(mesh, prop):
+            mesh.attributes.new(_UV_BOOL_LAYERS[prop] + mesh.uv_layers.active.name, 'BOOLEAN', 'CORNER')
+
+
+def uv_pins(mesh):
+    """Object mode: the pins of the active UV map's corners (bool array, all False when nothing was
+    ever pinned), or None without a UV map."""
+    layer = mesh.uv_layers.active
+    if layer is None:
+        return None
+    pins = np.zeros(len(mesh.loops), bool)
+    if not hasattr(layer, "pin"):  # 3.4: the UV map's corner flags
+        layer.data.foreach_get("pin_uv", pins)
+    elif _has_uv_bool_layer(mesh, "pin"):  # 3.5+: a bool layer beside the UVs, made when first pinned
+        layer.pin.foreach_get("value", pins)
+    return pins
+
+
+def set_uv_pins(mesh, pins):
+    """Object mode: sets the pins (bool per corner) of the active UV map. Never set them through a
+    UV map held across the call (``layer.data[i].pin_uv = True`` adds the pin layer in 3.5+ and
+    leaves ``layer`` pointing at freed memory)."""
+    pins = np.ascontiguousarray(pins, dtype=bool)
+    if not hasattr(mesh.uv_layers.active, "pin"):  # 3.4
+        mesh.uv_layers.active.data.foreach_set("pin_uv", pins)
+        return
+    _ensure_uv_bool_layers(mesh, ("pin",))
+    mesh.uv_layers.active.pin.foreach_set("value", pins)
 
 
 def bm_uv_flags(loops, uv_layer):
@@ -196,6 +253,26 @@ def bm_set_uv_flags(loops, uv_layer, flags):
     for l, v, e in zip(loops, flags[0], flags[1]):
         d = l[uv_layer]
         d.select, d.select_edge = v, e
+
+
+def bm_uv_select_state(bm, uv_layer):
+    """Edit mode: what turning synced UV selection on or off may rewrite in edit-mesh ``bm``, for
+    :func:`bm_set_uv_select_state`. 5.0+: every loop's UV flags (set from the mesh selection, or
+    flushed) and whether the UV selection is in use (``BMesh.uv_select_sync_valid``); a Python pass
+    over all loops. None before 5.0, where the toggle leaves the UV flags alone."""
+    if not hasattr(bmesh.types.BMesh, "uv_select_sync_valid"):
+        return None
+    loops = [l for f in bm.faces for l in f.loops]  # valid while ``bm``'s Python object lives
+    return loops, bm_uv_flags(loops, uv_layer), bm.uv_select_sync_valid
+
+
+def bm_set_uv_select_state(bm, uv_layer, state):
+    """Puts back what :func:`bm_uv_select_state` returned (None: nothing to do)."""
+    if state is None:
+        return
+    loops, flags, valid = state
+    bm_set_uv_flags(loops, uv_layer, flags)
+    bm.uv_select_sync_valid = valid
 
 
 def pack_islands(margin):

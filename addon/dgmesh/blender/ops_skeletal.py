@@ -612,9 +612,9 @@ def _on_update(scene, depsgraph=None):
     _updating = True
     try:
         wrote = False
-        for obj in scene.objects:
-            if not is_bound(obj):
-                continue
+        # The bound objects first: an update may unbind one (its live modifier removed), removing its
+        # helper and skeleton objects, and removing objects while iterating scene.objects crashes 4.x.
+        for obj in [o for o in scene.objects if is_bound(o)]:
             # In Edit mode the edit-mesh owns the data (attribute arrays are empty): wait for Object
             # mode. Edit and Sculpt mode may move or reorder the vertices (Sort Elements): check the
             # rest positions again when the object is back.

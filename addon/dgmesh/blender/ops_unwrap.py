@@ -302,7 +302,9 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         """Edit mode: Blender's packer takes the islands of the shown, selected faces of every edited
         object whose UVs are selected (the UV editor's selection, synced selection off). Select
         exactly the unwrapped corners' UVs for it (not the pinned charts left alone, nor other
-        edited objects'), then put the UV selection back."""
+        edited objects'), then put the UV selection back. Turning synced selection off rewrites the
+        UV flags in 5.x (from the mesh selection, or flushed): they are set after it, and every
+        edit-mesh's whole UV selection is put back."""
         tool = context.scene.tool_settings
         sync = tool.use_uv_select_sync
         saved = []
@@ -316,11 +318,13 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                     continue
                 # A Python pass over the faces, but no toggle: 0.02 s at 500K faces.
                 loops = [l for f in bm.faces if f.select and not f.hide for l in f.loops]
-                saved.append((bm, lay, loops, compat.bm_uv_flags(loops, lay)))  # bm keeps the loops valid
+                # bm keeps the loops valid
+                saved.append((bm, lay, loops, compat.bm_uv_flags(loops, lay), compat.bm_uv_select_state(bm, lay)))
+            tool.use_uv_select_sync = False
+            for _, lay, loops, _, _ in saved:
                 compat.bm_set_uv_flags(loops, lay, False)
             for _, _, lay, loops in corners.values():
                 compat.bm_set_uv_flags(loops, lay, True)
-            tool.use_uv_select_sync = False
             compat.pack_islands(self.margin)
             return True
         except RuntimeError as exc:
@@ -328,8 +332,9 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             return False
         finally:
             tool.use_uv_select_sync = sync
-            for _, lay, loops, flags in saved:
+            for bm, lay, loops, flags, state in saved:
                 compat.bm_set_uv_flags(loops, lay, flags)
+                compat.bm_set_uv_select_state(bm, lay, state)
 
     def _pack_objects(self, context, items):
         """Object mode: Blender's packer on the unwrapped faces only: Edit mode for the duration with
@@ -392,13 +397,7 @@ def _loop_uvs(mesh, loops, pins=True):
     uv = bridge.get_array(layer.data, "uv", np.float32, 2)[loops].astype(np.float64)
     if not pins:
         return uv, None
-    pin = np.zeros(len(mesh.loops), bool)
-    try:
-        layer.data.foreach_get("pin_uv", pin)
-    except (AttributeError, TypeError):  # Blender 4.x: a bool layer beside the UVs
-        if getattr(layer, "pin", None) is not None and len(layer.pin):
-            layer.pin.foreach_get("value", pin)
-    return uv, pin[loops]
+    return uv, compat.uv_pins(mesh)[loops]
 
 
 def _edit_corners(mesh, it):
