@@ -205,3 +205,9 @@ def test_color_names(cube):
     assert colors.active_color.name == "B" and colors[colors.render_color_index].name == "A"
     compat.set_color_names(colors, "A", "B")
     assert colors.active_color.name == "A" and colors[colors.render_color_index].name == "B"
+
+
+def test_shader_nodes_on_a_new_material():
+    mat = bpy.data.materials.new("DG Test Material")
+    compat.use_shader_nodes(mat)
+    assert mat.node_tree is not None and any(n.type == 'OUTPUT_MATERIAL' for n in mat.node_tree.nodes)

@@ -15,9 +15,10 @@ What differs, by version:
   node groups declare sockets through ``interface``; ``is_modifier`` lists a group in the modifier.
 - 4.1: corner normals are always available (``Mesh.corner_normals``); ``use_auto_smooth`` and
   ``calc_normals_split`` are gone.
-- 5.0: the UV selection moves from the UV map (MeshUVLoop.select*, the map's vertex_selection /
-  edge_selection layers, BMLoopUV.select*) to the mesh (``.uv_select_vert`` / ``.uv_select_edge``
-  corner attributes, BMLoop.uv_select_vert / uv_select_edge).
+- 5.0: materials always use nodes (``Material.use_nodes`` is deprecated); the UV selection moves
+  from the UV map (MeshUVLoop.select*, the map's vertex_selection / edge_selection layers,
+  BMLoopUV.select*) to the mesh (``.uv_select_vert`` / ``.uv_select_edge`` / ``.uv_select_face``
+  attributes, BMLoop.uv_select_vert / uv_select_edge, BMFace.uv_select).
 """
 
 import bmesh
@@ -281,6 +282,14 @@ def pack_islands(margin):
     if "shape_method" in bpy.ops.uv.pack_islands.get_rna_type().properties:  # 3.6+
         kw["shape_method"] = 'AABB'
     bpy.ops.uv.pack_islands(margin=margin, **kw)
+
+
+# --- materials ----------------------------------------------------------------------------------
+def use_shader_nodes(mat):
+    """Gives material ``mat`` its shader node tree (5.0+: every material has one; setting
+    ``use_nodes`` is deprecated there)."""
+    if VERSION < (5, 0, 0):
+        mat.use_nodes = True
 
 
 # --- node groups and modifiers --------------------------------------------------------------------

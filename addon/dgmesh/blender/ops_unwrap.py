@@ -642,7 +642,7 @@ class DGMESH_OT_stretch_map(bpy.types.Operator):
 def _assign_checker(mesh, objects):
     """The checker on every face of ``objects`` (the targeted users of ``mesh``)."""
     mat = bpy.data.materials.get("DG Checker") or bpy.data.materials.new("DG Checker")
-    mat.use_nodes = True
+    compat.use_shader_nodes(mat)
     nt = mat.node_tree
     if "DG Checker" not in nt.nodes:
         tex = nt.nodes.new("ShaderNodeTexChecker")
