@@ -132,14 +132,14 @@ fi
 if [ ! -f "$prefix/lib/libosdCPU.a" ]; then
   src_unpack opensubdiv
   log "building OpenSubdiv's CPU library (static, PIC)"
-  b=$cache/build/opensubdiv && rm -rf "$b"
+  b=$cache/build/opensubdiv   # kept: a run that stopped half-way resumes
   cmake -S "$cache/src/opensubdiv" -B "$b" -DCMAKE_BUILD_TYPE=Release -DCMAKE_POSITION_INDEPENDENT_CODE=ON \
     -DCMAKE_CXX_FLAGS="-fvisibility=hidden -fvisibility-inlines-hidden" \
     -DNO_EXAMPLES=ON -DNO_TUTORIALS=ON -DNO_REGRESSION=ON -DNO_PTEX=ON -DNO_DOC=ON -DNO_OMP=ON \
     -DNO_TBB=ON -DNO_CUDA=ON -DNO_OPENCL=ON -DNO_CLEW=ON -DNO_OPENGL=ON -DNO_METAL=ON -DNO_DX=ON \
     -DNO_TESTS=ON -DNO_GLTESTS=ON -DNO_GLEW=ON -DNO_GLFW=ON >/dev/null
   cmake --build "$b" -j"$jobs" --target osd_static_cpu >/dev/null
-  (cd "$cache/src/opensubdiv" && find opensubdiv -name '*.h' | cpio -pdm --quiet "$prefix/include")
+  (cd "$cache/src/opensubdiv" && find opensubdiv -name '*.h' -exec cp --parents {} "$prefix/include" \;)
   cp "$(find "$b" -name libosdCPU.a | head -n 1)" "$prefix/lib/"
 fi
 echo "$prefix"
