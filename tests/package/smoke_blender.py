@@ -44,6 +44,10 @@ shapes = importlib.import_module(args.module + ".shapes")
 skeletal = importlib.import_module(args.module + ".skeletal")
 
 
+def _fail(msg):
+    raise AssertionError(msg)
+
+
 def new_object(name, V, F):
     me = bpy.data.meshes.new(name)
     me.from_pydata([tuple(map(float, v)) for v in V], [], [tuple(map(int, f)) for f in F])
@@ -66,11 +70,26 @@ def coords(obj):
     return out
 
 
-def run(op, **props):
-    print(f"smoke: mode {bpy.context.mode}, selected {[o.name for o in bpy.context.selected_objects]}")
-    res = getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT', **props)
-    print(f"smoke: dgmesh.{op} -> {res}")
-    assert res == {'FINISHED'}, (op, res)
+failed = []
+
+
+def run(op, check=None, **props):
+    """Runs dgmesh.OP and CHECK(); a failure is recorded (and printed) and the next one runs."""
+    try:
+        res = getattr(bpy.ops.dgmesh, op)('EXEC_DEFAULT', **props)
+        assert res == {'FINISHED'}, res
+        if check:
+            check()
+        print(f"smoke: dgmesh.{op}: ok")
+    except Exception as e:  # noqa: BLE001  (every failure is reported at the end)
+        import traceback
+        traceback.print_exc()
+        print(f"smoke: dgmesh.{op}: FAILED: {e!r}")
+        failed.append(op)
+
+
+def assert_moved(obj, before, what):
+    assert not numpy.allclose(before, coords(obj)), f"{what} changed nothing"
 
 
 bpy.ops.wm.read_homefile(use_empty=True)
@@ -78,14 +97,11 @@ V, F = shapes.icosphere(3)
 rng = numpy.random.default_rng(1)
 sphere = new_object("Sphere", V + 0.01 * rng.standard_normal(V.shape), F)
 only(sphere)
-run("curvature_map")
-assert "dg_mean_curvature" in sphere.data.attributes
+run("curvature_map", lambda: ("dg_mean_curvature" in sphere.data.attributes) or _fail("no attribute"))
 before = coords(sphere)
-run("denoise")
-assert not numpy.allclose(before, coords(sphere)), "denoise changed nothing"
-before = coords(sphere)
-run("fair")
-assert not numpy.allclose(before, coords(sphere)), "fair changed nothing"
+run("denoise", lambda: assert_moved(sphere, before, "denoise"))
+before2 = coords(sphere)
+run("fair", lambda: assert_moved(sphere, before2, "fair"))
 run("crest_lines", threshold=0.0)
 
 # A bumpy open grid (a disk): Unwrap and Remesh need a boundary.
@@ -95,10 +111,10 @@ G = numpy.c_[x.ravel(), y.ravel(), 0.2 * numpy.sin(3 * x.ravel()) * numpy.cos(2 
 Fg = [(i * n + j, i * n + j + 1, (i + 1) * n + j + 1, (i + 1) * n + j) for i in range(n - 1) for j in range(n - 1)]
 grid = new_object("Grid", G, Fg)
 only(grid)
-run("unwrap")
-assert len(grid.data.uv_layers) > 0
-run("remesh", target_vertices=150, resolution=128)
-assert len(grid.data.vertices) != n * n, "remesh kept the vertex count"
+run("unwrap", lambda: len(grid.data.uv_layers) > 0 or _fail("no UV map"))
+only(grid)
+run("remesh", lambda: len(grid.data.vertices) != n * n or _fail("remesh kept the vertex count"),
+    target_vertices=150, resolution=128)
 
 # Skeletal Bind: a capsule with a two-bone armature and vertex groups, as tests/blender do.
 Vc, Fc = skeletal.capsule(0.5, 6.0, 24, 5, 32)
@@ -125,4 +141,6 @@ for i in range(len(Vc)):
 cap.modifiers.new("Armature", 'ARMATURE').object = arm
 only(cap, arm, active=cap)
 run("skeletal_bind")
+if failed:
+    raise SystemExit(f"smoke: FAILED in Blender {bpy.app.version_string}: {', '.join(failed)}")
 print("smoke: all operators ran from the installed add-on")
