@@ -3,8 +3,8 @@
 #   - a module for one of the ABIs in $DGMESH_ABIS (default: 311 313 314) is missing,
 #   - ldd finds a dependency outside the zip other than glibc's libraries, or one not found,
 #   - a shared object has a RUNPATH other than $ORIGIN, or any RPATH,
-#   - a module exports a dynamic symbol other than PyInit__native, or dgmesh_core one outside dgmesh::
-#     (libgomp-dgmesh.so.1 is GCC's libgomp renamed: its omp_/GOMP_ ABI is the point of it),
+#   - a module exports a dynamic symbol other than PyInit__native (libgomp-dgmesh.so.1 is GCC's
+#     libgomp renamed: its omp_/GOMP_ ABI is the point of it; any other shared object fails),
 #   - the extension zip lacks blender_manifest.toml at its root with platforms = ["linux-x64"],
 #     or the legacy zip lacks dgmesh/__init__.py, or the two hold different files.
 # Prints the glibc floor (the highest GLIBC_x.y any object needs).
@@ -43,8 +43,6 @@ for so in "$d"/*.so "$d"/*.so.*; do
   exported=$(nm -D --defined-only "$so" | awk '{print $3}')
   case $n in
     _native.*) others=$(grep -vx 'PyInit__native' <<<"$exported" || true) ;;
-    libdgmesh_core.so) others=$(c++filt <<<"$exported" |
-      grep -vE '^((typeinfo|typeinfo name|vtable) for )?dgmesh::' || true) ;;
     libgomp-dgmesh.so.1) others="" ;;
     *) others=$exported ;;
   esac

@@ -40,6 +40,13 @@ for m in (pkg, native):
     assert path.startswith(root + os.sep), f"{m.__name__} was not loaded from the installed copy {root}"
 import numpy  # noqa: E402
 print(f"smoke: numpy {numpy.__version__}, module {os.path.basename(native.__file__)}")
+# A native error must come through as the package's MeshError (an exception thrown in the C++
+# library and caught by the module's bindings).
+try:
+    pkg.validate(numpy.zeros((0, 3)), numpy.zeros((0, 3), numpy.int32))
+    raise AssertionError("validate accepted an empty mesh")
+except pkg.MeshError as e:
+    print(f"smoke: native MeshError comes through: {e}")
 shapes = importlib.import_module(args.module + ".shapes")
 skeletal = importlib.import_module(args.module + ".skeletal")
 
