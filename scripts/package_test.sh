@@ -31,15 +31,18 @@ echo "package_test: Blender $major.$minor, $zip"
 echo "=== package_test: tests/python against the unpacked zip ($(/usr/bin/python3 --version))"
 bash "$root/scripts/cgal_data.sh" >/dev/null   # meshes some tests read
 /usr/bin/python3 -c 'import sys, zipfile; zipfile.ZipFile(sys.argv[1]).extractall(sys.argv[2])' "$legacy" "$tmp/unpacked"
-(cd "$root" && DGMESH_PACKAGE_DIR=$tmp/unpacked /usr/bin/python3 -m pytest -q -p no:cacheprovider tests/python)
+status=0   # both steps run; either failing fails the script
+(cd "$root" && DGMESH_PACKAGE_DIR=$tmp/unpacked /usr/bin/python3 -m pytest -q -p no:cacheprovider tests/python) ||
+  { echo "package_test: FAILED: tests/python against the zip"; status=1; }
 
 echo "=== package_test: smoke test in Blender $major.$minor"
 smoke=(blender --background --python-exit-code 1 --python "$root/tests/package/smoke_blender.py" --)
 if ((major > 4 || (major == 4 && minor >= 2))); then
   if blender --command extension install-file -r user_default -e "$zip" >"$tmp/install.log" 2>&1; then
     cat "$tmp/install.log"
-    "${smoke[@]}" --module bl_ext.user_default.dgmesh --root "$tmp"
-    exit 0
+    "${smoke[@]}" --module bl_ext.user_default.dgmesh --root "$tmp" ||
+      { echo "package_test: FAILED: smoke test (extension)"; status=1; }
+    exit $status
   fi
   cat "$tmp/install.log"
   if ! grep -q "No module named 'cattrs'" "$tmp/install.log"; then
@@ -47,4 +50,6 @@ if ((major > 4 || (major == 4 && minor >= 2))); then
   fi
   echo "package_test: this Blender's extensions add-on cannot load (cattrs missing); installing the legacy zip instead"
 fi
-"${smoke[@]}" --module dgmesh --install-legacy "$legacy" --root "$tmp"
+"${smoke[@]}" --module dgmesh --install-legacy "$legacy" --root "$tmp" ||
+  { echo "package_test: FAILED: smoke test (legacy add-on)"; status=1; }
+exit $status
