@@ -29,6 +29,11 @@ for path in sorted(native.iterdir()):
         files[path.name] = path
 assert "blender_manifest.toml" in files and any(n.startswith("_native.") for n in files), files
 
+# The manifest names the one platform this zip's compiled modules are for.
+manifest = re.sub(r'^platforms = .*$', f'platforms = ["{platform}"]',
+                  files["blender_manifest.toml"].read_text(), count=1, flags=re.M)
+assert f'platforms = ["{platform}"]' in manifest
+
 out.mkdir(parents=True, exist_ok=True)
 for name, prefix in ((f"dgmesh-{version}-{platform}.zip", ""),
                      (f"dgmesh-{version}-{platform}-legacy.zip", "dgmesh/")):
@@ -36,5 +41,6 @@ for name, prefix in ((f"dgmesh-{version}-{platform}.zip", ""),
         for rel, path in files.items():
             info = zipfile.ZipInfo.from_file(path, prefix + rel)
             info.compress_type = zipfile.ZIP_DEFLATED
-            z.writestr(info, path.read_bytes(), compresslevel=9)
+            data = manifest.encode() if rel == "blender_manifest.toml" else path.read_bytes()
+            z.writestr(info, data, compresslevel=9)
     print(out / name)
