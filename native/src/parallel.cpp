@@ -15,11 +15,18 @@ std::atomic<int> g_threads{-1};  // -1: never set (OpenMP's default: OMP_NUM_THR
 // CHOLMOD's supernodal factorisation and UMFPACK's fronts run in the BLAS, which keeps a thread
 // pool of its own (OpenBLAS: every core, whatever OpenMP is told). Looked up at run time, so any
 // BLAS links; one without this entry point is left as it is.
+#if defined(DGMESH_STATIC_OPENBLAS)
+// The portable package (packaging/) links its own OpenBLAS, hidden: dlsym would find another
+// process-wide one (Blender's) or none, so call ours directly.
+extern "C" void openblas_set_num_threads(int);
+void set_blas_threads(int n) { openblas_set_num_threads(n); }
+#else
 void set_blas_threads(int n) {
   using SetFn = void (*)(int);
   static const auto fn = reinterpret_cast<SetFn>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
   if (fn) fn(n);
 }
+#endif
 }
 
 void set_num_threads(int n) {
