@@ -96,7 +96,8 @@ make_root() {
 }
 
 # Copies the working tree (tracked and untracked files git does not ignore) into the root's
-# /src/dgmesh, keeping its build folder and data cache.
+# /src/dgmesh, keeping its build folder and data cache, and the portable package's zips (dist/,
+# built on this machine by scripts/package.sh) for the lane's install test.
 copy_tree() {
   local dest=$1/src/dgmesh
   mkdir -p "$dest"
@@ -104,6 +105,9 @@ copy_tree() {
   (cd "$root" && git ls-files -z --cached --others --exclude-standard |
     xargs -0 -r sh -c 'for f; do [ -e "$f" ] && printf "%s\0" "$f"; done' sh |
     tar --null -T - -cf -) | tar -xf - -C "$dest"
+  if compgen -G "$root/dist/*-linux-x64*.zip" >/dev/null; then
+    mkdir -p "$dest/dist" && cp "$root"/dist/*-linux-x64*.zip "$dest/dist/"
+  fi
 }
 
 status=0

@@ -49,6 +49,15 @@ check /usr/bin/python3 -m pytest -q tests/python
 step "blender tests ($(blender --version 2>/dev/null | head -n 1), --background)"; current="blender tests"
 check blender --background --factory-startup --python-exit-code 1 --python tests/blender/run.py -- -q tests/blender
 
+# The portable package (scripts/package.sh, built here; the lanes get a copy of dist/): installed
+# into fresh user folders of this lane's Blender, one operator of each capability.
+if [ "$mode" != --lane ]; then
+  step "portable package: build and check (scripts/package.sh)"; current="portable package"
+  check bash scripts/package.sh
+fi
+step "portable package: installed in $(blender --version 2>/dev/null | head -n 1)"; current="portable package install"
+check bash scripts/package_test.sh
+
 if ((${#failed[@]})); then
   printf '\n!!! [%s] failed: %s\n' "$lane" "$(IFS=,; echo "${failed[*]}")"
 else
