@@ -83,9 +83,11 @@ make_root() {
   mkdir -p "$tmp/src/dgmesh/scripts"
   cp "$root/scripts/deps.sh" "$tmp/src/dgmesh/scripts/"
   mount_root "$tmp"
+  trap 'unmount_root "$tmp"' EXIT  # (a subshell: the caller reads the reason) also when killed
   local ok=0
   in_root "$tmp" bash /src/dgmesh/scripts/deps.sh --lane >"$roots/$suite.deps.log" 2>&1 || ok=$?
   unmount_root "$tmp"
+  trap - EXIT
   if [ "$ok" != 0 ]; then
     echo "installing the $suite packages failed: $(grep -E '^(E:|deps:)' "$roots/$suite.deps.log" | tail -n 3 | tr '\n' ' ')"
     rm -rf "$tmp"; return 1
