@@ -52,6 +52,7 @@ mount_root() {
 }
 unmount_root() {
   local r=$1 m
+  [[ "$r" == "$roots"/?* ]] || { echo "lanes: not a root: '$r'" >&2; return 1; }
   # Deepest first; lazily, so a process still holding a file does not leave a mount behind.
   for m in $(awk -v r="$r/" 'index($2, r) == 1 { print $2 }' /proc/mounts | sort -r); do
     umount -l "$m" 2>/dev/null || true
@@ -83,7 +84,7 @@ make_root() {
   mkdir -p "$tmp/src/dgmesh/scripts"
   cp "$root/scripts/deps.sh" "$tmp/src/dgmesh/scripts/"
   mount_root "$tmp"
-  trap 'unmount_root "$tmp"' EXIT  # (a subshell: the caller reads the reason) also when killed
+  trap "unmount_root '$tmp'" EXIT  # (a subshell: the caller reads the reason) also when killed
   local ok=0
   in_root "$tmp" bash /src/dgmesh/scripts/deps.sh --lane >"$roots/$suite.deps.log" 2>&1 || ok=$?
   unmount_root "$tmp"
