@@ -211,3 +211,22 @@ def test_shader_nodes_on_a_new_material():
     mat = bpy.data.materials.new("DG Test Material")
     compat.use_shader_nodes(mat)
     assert mat.node_tree is not None and any(n.type == 'OUTPUT_MATERIAL' for n in mat.node_tree.nodes)
+
+
+def test_file_path_options_register_and_take_blend_relative_paths():
+    class DGTestPathOp(bpy.types.Operator):
+        bl_idname = "dgmesh_test.path_options"
+        bl_label = "Path options"
+        filepath: bpy.props.StringProperty(subtype='FILE_PATH', options=compat.FILE_PATH_OPTIONS)
+
+        def execute(self, context):
+            return {'FINISHED'}
+
+    bpy.utils.register_class(DGTestPathOp)
+    try:
+        prop = bpy.ops.dgmesh_test.path_options.get_rna_type().properties["filepath"]
+        if "is_path_supports_blend_relative" in bpy.types.Property.bl_rna.properties:
+            assert prop.is_path_supports_blend_relative
+        assert bpy.ops.dgmesh_test.path_options(filepath="//cache.pc2") == {'FINISHED'}
+    finally:
+        bpy.utils.unregister_class(DGTestPathOp)

@@ -284,6 +284,14 @@ def pack_islands(margin):
     bpy.ops.uv.pack_islands(margin=margin, **kw)
 
 
+# --- properties -----------------------------------------------------------------------------------
+# Options of an operator's file path property: 5.x warns when a "//" (blend-relative) path is set
+# on one that does not declare PATH_SUPPORTS_BLEND_RELATIVE, which earlier versions do not know
+# (registering the operator fails there).
+FILE_PATH_OPTIONS = ({'PATH_SUPPORTS_BLEND_RELATIVE'}
+                     if "is_path_supports_blend_relative" in bpy.types.Property.bl_rna.properties else {'ANIMATABLE'})
+
+
 # --- materials ----------------------------------------------------------------------------------
 def use_shader_nodes(mat):
     """Gives material ``mat`` its shader node tree (5.0+: every material has one; setting

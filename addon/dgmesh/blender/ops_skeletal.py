@@ -1211,7 +1211,7 @@ Cache modifier (renders and exports then need no add-on)"""
     bl_label = "Skeletal Bake"
     bl_options = {'REGISTER', 'UNDO'}
 
-    filepath: StringProperty(name="File", subtype='FILE_PATH', default="", options={'PATH_SUPPORTS_BLEND_RELATIVE'},
+    filepath: StringProperty(name="File", subtype='FILE_PATH', default="", options=compat.FILE_PATH_OPTIONS,
                              description="The .pc2 file; empty: //<file>_<object>_skeletal.pc2 next to the .blend "
                              "(named after both, so two shots of one character in a folder keep their caches)")
     frame_start: IntProperty(name="Start", default=1, description="First frame (default: the scene's)")
