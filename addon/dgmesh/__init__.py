@@ -39,7 +39,7 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     validate,
     write_mesh,
 )
-from .denoise import DenoiseResult, denoise, similarity  # noqa: E402
+from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
 from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
@@ -51,7 +51,7 @@ from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # no
 __all__ = [
     "Cancelled", "Error", "MeshError", "MeshIOError", "SolverError",
     "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate", "write_mesh",
-    "DenoiseResult", "denoise", "similarity",
+    "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
     "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
     "FairResult", "fair", "regularize", "willmore_energy",
     "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",

@@ -124,6 +124,42 @@ def as_real(value, name, lo=-np.inf, hi=np.inf, lo_open=False):
     return float(value)
 
 
+def as_choice(value, enum, name):
+    """An enum option given as a member of the native ``enum`` or by its name (any case), else a
+    MeshError naming the option and the choices."""
+    if isinstance(value, enum):
+        return value
+    members = enum.__members__
+    if isinstance(value, str) and value.lower() in members:
+        return members[value.lower()]
+    raise MeshError(f"unknown {name} {value!r} (use {', '.join(repr(k) for k in members)})")
+
+
+def make_options(options, **values):
+    """Sets fields of a native options object (``_native.DenoiseOptions()``, ...), whose C++
+    initialisers are the defaults; None keeps a field's value. Enum fields take a member or its
+    name; a value of the wrong type is a MeshError naming the field. Returns ``options``."""
+    for name, value in values.items():
+        if value is None:
+            continue
+        current = getattr(options, name)
+        if hasattr(type(current), "__members__"):
+            value = as_choice(value, type(current), name)
+        value = _scalar(value)
+        if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
+            value = float(value)
+        try:
+            setattr(options, name, value)
+        except TypeError:
+            raise MeshError(f"{name} must be {type(current).__name__}, got {value!r}") from None
+    return options
+
+
+def fields(obj):
+    """The fields of a native options or result object as a dict (in declaration order)."""
+    return {name: getattr(obj, name) for name in type(obj).__fields__}
+
+
 def set_num_threads(n):
     """Threads for the native parallel loops, for the whole process (every thread); 0 means all
     cores."""

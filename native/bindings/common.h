@@ -8,6 +8,9 @@
 #include <pybind11/stl.h>
 
 #include <memory>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 #include "dgmesh/parallel.h"
 #include "dgmesh/progress.h"
@@ -53,6 +56,94 @@ inline ProgressFn progress_from(const pb::object& cb) {
 struct NativeScope {
   pb::gil_scoped_release release;
   NativeScope() { apply_num_threads(); }
+};
+
+// A numpy view of an Eigen array or a std::vector of numbers held by a bound object: no copy,
+// writable, and it keeps `owner` alive.
+template <class Scalar, int Rows, int Cols, int Options>
+pb::array array_view(Eigen::Matrix<Scalar, Rows, Cols, Options>& a, const pb::handle& owner) {
+  if (Cols == 1) return pb::array_t<Scalar>({a.rows()}, {sizeof(Scalar)}, a.data(), owner);
+  const auto r = static_cast<pb::ssize_t>(a.rowStride() * sizeof(Scalar));
+  const auto c = static_cast<pb::ssize_t>(a.colStride() * sizeof(Scalar));
+  return pb::array_t<Scalar>({a.rows(), a.cols()}, {r, c}, a.data(), owner);
+}
+template <class T, class = std::enable_if_t<std::is_arithmetic_v<T>>>
+pb::array array_view(std::vector<T>& a, const pb::handle& owner) {
+  return pb::array_t<T>({static_cast<pb::ssize_t>(a.size())}, {sizeof(T)}, a.data(), owner);
+}
+
+template <class M, class = void>
+struct is_array_field : std::false_type {};
+template <class M>
+struct is_array_field<M, std::void_t<decltype(array_view(std::declval<M&>(), pb::handle()))>> : std::true_type {};
+
+// Binds an options or result struct once, so Python sees the C++ contract itself: a default
+// constructor (the C++ initialisers are the defaults), the fields in order in `__fields__`, a
+// repr listing them, and equality by fields. Options fields are read/write (a wrong type raises
+// TypeError); result fields are read-only, arrays as writable numpy views without a copy.
+//   Struct<DenoiseOptions>(m, "DenoiseOptions", "...").field("eta1", &DenoiseOptions::eta1, "...");
+template <class T>
+class Struct {
+ public:
+  Struct(pb::module_& m, const char* name, const char* doc) : cls_(m, name, doc) {
+    cls_.def(pb::init<>());
+    cls_.attr("__fields__") = names_;
+    cls_.def("__repr__", [](const pb::object& self) {
+      std::string s = pb::str(self.get_type().attr("__name__")).cast<std::string>() + "(";
+      bool first = true;
+      for (const auto& f : self.attr("__fields__")) {
+        if (!first) s += ", ";
+        first = false;
+        const pb::object v = self.attr(f);
+        s += f.cast<std::string>() + "=";
+        if (pb::isinstance<pb::array>(v) && pb::array(v).size() > 8)  // arrays by shape and type
+          s += "<" + pb::str(v.attr("dtype")).cast<std::string>() + " " + pb::str(v.attr("shape")).cast<std::string>() + ">";
+        else
+          s += pb::repr(v).cast<std::string>();
+      }
+      return s + ")";
+    });
+    cls_.def("__eq__", [](const pb::object& self, const pb::object& other) {
+      if (!other.get_type().is(self.get_type())) return false;
+      for (const auto& f : self.attr("__fields__"))
+        if (!pb::module_::import("numpy").attr("array_equal")(self.attr(f), other.attr(f)).cast<bool>()) return false;
+      return true;
+    });
+    cls_.attr("__hash__") = pb::none();
+  }
+
+  // A read/write field (options).
+  template <class M>
+  Struct& field(const char* name, M T::*pm, const char* doc) {
+    if constexpr (is_array_field<M>::value) {
+      cls_.def_property(
+          name, [pm](const pb::object& self) { return array_view(self.cast<T&>().*pm, self); },
+          [pm](T& t, const M& v) { t.*pm = v; }, doc);
+    } else {
+      cls_.def_readwrite(name, pm, doc);
+    }
+    names_.append(name);
+    return *this;
+  }
+
+  // A read-only field (results): arrays are numpy views into the object.
+  template <class M>
+  Struct& result(const char* name, M T::*pm, const char* doc) {
+    if constexpr (is_array_field<M>::value) {
+      cls_.def_property_readonly(
+          name, [pm](const pb::object& self) { return array_view(self.cast<T&>().*pm, self); }, doc);
+    } else {
+      cls_.def_readonly(name, pm, doc);
+    }
+    names_.append(name);
+    return *this;
+  }
+
+  pb::class_<T>& cls() { return cls_; }
+
+ private:
+  pb::class_<T> cls_;
+  pb::list names_;  // the same list object as __fields__
 };
 
 void bind_core(pb::module_& m);

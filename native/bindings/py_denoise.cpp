@@ -1,4 +1,4 @@
-// Denoising (thesis ch. 2): thin wrappers; defaults and documentation live in addon/dgmesh/denoise.py.
+// Denoising (thesis ch. 2): the options, results and functions of dgmesh/denoise.h as they are.
 #include "common.h"
 #include "dgmesh/denoise.h"
 #include "dgmesh/errors.h"
@@ -7,19 +7,8 @@ namespace dgmesh::py {
 
 namespace {
 
-DenoiseOptions make_options(const std::string& method, double eta1, double eta2, double eta3, int iterations,
-                            const pb::object& mask, bool reestimate_normals, int max_patch, int max_window) {
-  DenoiseOptions o;
-  if (method == "similarity") o.method = DenoiseMethod::Similarity;
-  else if (method == "bilateral") o.method = DenoiseMethod::Bilateral;
-  else throw MeshError("unknown method '" + method + "' (use 'similarity' or 'bilateral')");
-  o.eta1 = eta1;
-  o.eta2 = eta2;
-  o.eta3 = eta3;
-  o.iterations = iterations;
-  o.reestimate_normals = reestimate_normals;
-  o.max_patch = max_patch;
-  o.max_window = max_window;
+// The mask is input data, not an option: a one-dimensional array of 0/1 flags or None.
+DenoiseOptions with_mask(DenoiseOptions o, const pb::object& mask) {
   if (!mask.is_none()) {
     auto a = pb::array_t<uint8_t, pb::array::c_style | pb::array::forcecast>::ensure(mask);
     if (!a || a.ndim() != 1) throw MeshError("mask must be a one-dimensional array of booleans");
@@ -28,86 +17,84 @@ DenoiseOptions make_options(const std::string& method, double eta1, double eta2,
   return o;
 }
 
-pb::dict to_dict(DenoiseResult&& r) {
-  pb::dict d;
-  d["vertices"] = std::move(r.vertices);
-  d["residual"] = std::move(r.residual);
-  d["residual_entropy"] = r.residual_entropy;
-  d["edge_length"] = r.edge_length;
-  d["iterations"] = r.iterations;
-  d["rbf_fallbacks"] = r.rbf_fallbacks;
-  d["welded"] = r.welded;
-  return d;
-}
-
 }  // namespace
 
 void bind_denoise(pb::module_& m) {
+  pb::enum_<DenoiseMethod>(m, "DenoiseMethod", "Denoising filter")
+      .value("similarity", DenoiseMethod::Similarity, "non-local means with RBF patches (thesis eq. 2.3-2.9)")
+      .value("bilateral", DenoiseMethod::Bilateral, "bilateral mesh denoising (Fleishman et al. 2003)");
+
+  Struct<DenoiseOptions>(m, "DenoiseOptions", "Options of denoise(); sigma_i = eta_i * average edge length")
+      .field("method", &DenoiseOptions::method, "the filter")
+      .field("eta1", &DenoiseOptions::eta1, "similarity: kernel deviation (2.7); bilateral: height Gaussian")
+      .field("eta2", &DenoiseOptions::eta2, "2*sigma2 = radius of the averaging domain (2.4)")
+      .field("eta3", &DenoiseOptions::eta3, "similarity: 2*sigma3 = patch radius (2.8); bilateral: spatial Gaussian")
+      .field("iterations", &DenoiseOptions::iterations, "filter passes")
+      .field("reestimate_normals", &DenoiseOptions::reestimate_normals,
+             "point clouds: re-estimate normals by PCA after the first iteration")
+      .field("weld_tolerance", &DenoiseOptions::weld_tolerance,
+             "vertices closer than this (relative to the bounding-box diagonal) are welded")
+      .field("max_patch", &DenoiseOptions::max_patch, "cap on RBF patch / compared points (0 = automatic)")
+      .field("max_window", &DenoiseOptions::max_window, "cap on averaging-domain points (0 = automatic)");
+  m.def("denoise_defaults", &denoise_defaults, pb::arg("method"),
+        "The defaults of a method: the thesis's suggested setting (similarity), table 2.1's (bilateral)");
+
+  Struct<DenoiseResult>(m, "DenoiseResult", "Result of denoise()")
+      .result("vertices", &DenoiseResult::vertices, "(n, 3) denoised positions")
+      .result("residual", &DenoiseResult::residual, "(n,) |x_noisy - x_smoothed| per vertex")
+      .result("residual_entropy", &DenoiseResult::residual_entropy,
+              "entropy in bits of the residual's distribution (see residual_entropy)")
+      .result("edge_length", &DenoiseResult::edge_length, "average edge length e of the last iteration")
+      .result("iterations", &DenoiseResult::iterations, "iterations run")
+      .result("rbf_fallbacks", &DenoiseResult::rbf_fallbacks, "RBF patches solved by the plane fallback")
+      .result("welded", &DenoiseResult::welded, "vertices merged into a coincident one for the computation");
+
   m.def(
       "denoise_mesh",
-      [](InV V, InF F, const std::string& method, double eta1, double eta2, double eta3, int iterations,
-         const pb::object& mask, const pb::object& progress, int max_patch, int max_window) {
-        DenoiseOptions o = make_options(method, eta1, eta2, eta3, iterations, mask, true, max_patch, max_window);
+      [](InV V, InF F, const DenoiseOptions& opt, const pb::object& mask, const pb::object& progress) {
+        const DenoiseOptions o = with_mask(opt, mask);
         const ProgressFn cb = progress_from(progress);
-        DenoiseResult r;
-        {
-          NativeScope nogil;
-          r = denoise(V, F, o, cb);
-        }
-        return to_dict(std::move(r));
+        NativeScope nogil;
+        return denoise(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("method"), pb::arg("eta1"), pb::arg("eta2"), pb::arg("eta3"),
-      pb::arg("iterations"), pb::arg("mask") = pb::none(), pb::arg("progress") = pb::none(),
-      pb::arg("max_patch") = 0, pb::arg("max_window") = 0);
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(),
+      pb::arg("progress") = pb::none());
 
   m.def(
       "denoise_points",
-      [](InV V, InV N, const std::string& method, double eta1, double eta2, double eta3, int iterations,
-         const pb::object& mask, const pb::object& progress, bool reestimate_normals, int max_patch, int max_window) {
-        DenoiseOptions o =
-            make_options(method, eta1, eta2, eta3, iterations, mask, reestimate_normals, max_patch, max_window);
+      [](InV V, InV N, const DenoiseOptions& opt, const pb::object& mask, const pb::object& progress) {
+        const DenoiseOptions o = with_mask(opt, mask);
         const ProgressFn cb = progress_from(progress);
-        DenoiseResult r;
-        {
-          NativeScope nogil;
-          r = denoise_points(V, N, o, cb);
-        }
-        return to_dict(std::move(r));
+        NativeScope nogil;
+        return denoise_points(V, N, o, cb);
       },
-      pb::arg("V"), pb::arg("N"), pb::arg("method"), pb::arg("eta1"), pb::arg("eta2"), pb::arg("eta3"),
-      pb::arg("iterations"), pb::arg("mask") = pb::none(), pb::arg("progress") = pb::none(),
-      pb::arg("reestimate_normals") = true, pb::arg("max_patch") = 0, pb::arg("max_window") = 0);
+      pb::arg("V"), pb::arg("N"), pb::arg("options"), pb::arg("mask") = pb::none(),
+      pb::arg("progress") = pb::none());
 
-  const auto similarity_options = [](double eta1, double eta3, bool shape_only) {
-    SimilarityOptions o;
-    o.eta1 = eta1;
-    o.eta3 = eta3;
-    o.shape_only = shape_only;
-    return o;
-  };
+  Struct<SimilarityOptions>(m, "SimilarityOptions", "Options of similarity()")
+      .field("eta1", &SimilarityOptions::eta1, "deviation of the similarity kernel (2.7)")
+      .field("eta3", &SimilarityOptions::eta3, "2*sigma3 = radius of the compared patches (2.8, 2.9)")
+      .field("shape_only", &SimilarityOptions::shape_only,
+             "true: compare shapes in each vertex's own frame (fig. 2.1c); false: the filter's weights")
+      .field("max_patch", &SimilarityOptions::max_patch, "as DenoiseOptions.max_patch");
+
   m.def(
       "similarity_mesh",
-      [similarity_options](InV V, InF F, int vertex, double eta1, double eta3, bool shape_only,
-                           const pb::object& progress) {
-        const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
+      [](InV V, InF F, int vertex, const SimilarityOptions& o, const pb::object& progress) {
         const ProgressFn cb = progress_from(progress);
         NativeScope nogil;
         return similarity(V, F, vertex, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("vertex"), pb::arg("eta1"), pb::arg("eta3"),
-      pb::arg("shape_only"), pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("F"), pb::arg("vertex"), pb::arg("options"), pb::arg("progress") = pb::none());
 
   m.def(
       "similarity_points",
-      [similarity_options](InV V, InV N, int vertex, double eta1, double eta3, bool shape_only,
-                           const pb::object& progress) {
-        const SimilarityOptions o = similarity_options(eta1, eta3, shape_only);
+      [](InV V, InV N, int vertex, const SimilarityOptions& o, const pb::object& progress) {
         const ProgressFn cb = progress_from(progress);
         NativeScope nogil;
         return similarity_points(V, N, vertex, o, cb);
       },
-      pb::arg("V"), pb::arg("N"), pb::arg("vertex"), pb::arg("eta1"), pb::arg("eta3"),
-      pb::arg("shape_only"), pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("N"), pb::arg("vertex"), pb::arg("options"), pb::arg("progress") = pb::none());
 
   m.def(
       "residual_entropy", [](const VecXd& r) { return residual_entropy(r); }, pb::arg("residual"));

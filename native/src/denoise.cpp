@@ -804,6 +804,10 @@ DenoiseOptions bilateral_defaults() {
   return o;
 }
 
+DenoiseOptions denoise_defaults(DenoiseMethod method) {
+  return method == DenoiseMethod::Bilateral ? bilateral_defaults() : DenoiseOptions{};
+}
+
 DenoiseResult denoise(const MatX3d& V, const MatX3i& F, const DenoiseOptions& opt, const ProgressFn& progress) {
   check_surface(V, F);
   check_options(opt, V.rows());

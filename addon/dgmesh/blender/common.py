@@ -133,3 +133,18 @@ def poll_active_mesh(cls, context, edit_mode=False):
     if context.mode == 'OBJECT' and not obj.visible_get():
         return poll_fail(cls, "The active object is hidden")
     return True
+
+
+def enum_items(enum, labels):
+    """EnumProperty items for a native enum (``_native.DenoiseMethod``, ...): the identifiers are
+    the member names in upper case, in the enum's order. ``labels`` maps every member name to
+    (label, description); a member missing or an unknown name raises ValueError at import."""
+    names = list(enum.__members__)
+    if set(labels) != set(names):
+        raise ValueError(f"{enum.__name__}: labels for {sorted(labels)}, members are {names}")
+    return tuple((name.upper(), *labels[name]) for name in names)
+
+
+def enum_id(member):
+    """The EnumProperty identifier of a native enum member."""
+    return member.name.upper()

@@ -23,8 +23,10 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
+from ..denoise import DenoiseMethod, DenoiseOptions, SimilarityOptions
+from ..denoise import defaults as method_defaults
 from . import bridge
-from .common import (plural as _plural, poll_active_mesh, poll_mesh_targets, read_only_reason, report_shown_shape,
+from .common import (enum_id, enum_items, plural as _plural, poll_active_mesh, poll_mesh_targets, read_only_reason, report_shown_shape,
                      target_objects)
 from .jobs import NativeJobOperator
 from .prefs import api
@@ -39,10 +41,12 @@ NORMAL_ATTRIBUTE_ALIASES = ("normal", "Normal", "normals", "N")
 # returns False, the native code raises Cancelled and nothing is written. Cleared when a run ends.
 cancel_event = threading.Event()
 
-METHOD_ITEMS = (
-    ('SIMILARITY', "Similarity", "Non-local means with RBF patches (thesis ch. 2): best at keeping features"),
-    ('BILATERAL', "Bilateral", "Bilateral mesh denoising (Fleishman et al. 2003): faster, rounds sharp edges"),
-)
+METHOD_ITEMS = enum_items(DenoiseMethod, {
+    "similarity": ("Similarity", "Non-local means with RBF patches (thesis ch. 2): best at keeping features"),
+    "bilateral": ("Bilateral", "Bilateral mesh denoising (Fleishman et al. 2003): faster, rounds sharp edges"),
+})
+DEFAULTS = DenoiseOptions()  # property defaults: the library's own (dgmesh/denoise.h)
+SIMILARITY_DEFAULTS = SimilarityOptions()
 
 
 def read_point_normals(mesh):
@@ -98,12 +102,10 @@ def _read_job(obj, edit_mode):
     return _Job(obj, arrays.V, arrays.F, None, mask)
 
 
-def _method_defaults(self, context):
+def load_method_defaults(self, context):
     """Switching the method loads its defaults (thesis table 2.1 / section 2.3)."""
-    from ..denoise import METHOD_DEFAULTS
-
-    e1, e2, e3, it = METHOD_DEFAULTS[self.method.lower()]
-    self.eta1, self.eta2, self.eta3, self.iterations = e1, e2, e3, it
+    d = method_defaults(self.method.lower())
+    self.eta1, self.eta2, self.eta3, self.iterations = d.eta1, d.eta2, d.eta3, d.iterations
 
 
 def _show_colors(context):
@@ -123,25 +125,25 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    method: EnumProperty(name="Method", items=METHOD_ITEMS, default='SIMILARITY', update=_method_defaults)
+    method: EnumProperty(name="Method", items=METHOD_ITEMS, default=enum_id(DEFAULTS.method), update=load_method_defaults)
     eta1: FloatProperty(
         name="Similarity \u03b71",
         description=("Similarity: deviation of the similarity kernel (about the noise level); bilateral: "
                      "deviation of the height kernel. In units of the average edge length"),
-        default=0.4, min=0.01, soft_max=2.0, max=20.0, step=5, precision=3,
+        default=DEFAULTS.eta1, min=0.01, soft_max=2.0, max=20.0, step=5, precision=3,
     )
     eta2: FloatProperty(
         name="Domain \u03b72",
         description="Half the radius of the averaging neighbourhood, in average edge lengths",
-        default=1.0, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
+        default=DEFAULTS.eta2, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
     )
     eta3: FloatProperty(
         name="Patch \u03b73",
         description=("Similarity: half the radius of the compared patches; bilateral: deviation of the "
                      "spatial kernel. In average edge lengths"),
-        default=0.75, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
+        default=DEFAULTS.eta3, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
     )
-    iterations: IntProperty(name="Iterations", default=3, min=0, soft_max=10, max=100)
+    iterations: IntProperty(name="Iterations", default=DEFAULTS.iterations, min=0, soft_max=10, max=100)
     show_residual: BoolProperty(
         name="Show Residual",
         description=(f"Store |x_noisy - x_smoothed| per vertex as '{ATTR_RESIDUAL}' and show it as the "
@@ -308,9 +310,9 @@ class DGMESH_OT_similarity_map(NativeJobOperator, bpy.types.Operator):
         ),
         default='SHAPE',
     )
-    eta1: FloatProperty(name="Similarity \u03b71", default=0.4, min=0.01, soft_max=2.0, max=20.0, precision=3,
+    eta1: FloatProperty(name="Similarity \u03b71", default=SIMILARITY_DEFAULTS.eta1, min=0.01, soft_max=2.0, max=20.0, precision=3,
                         description="Deviation of the similarity kernel, in average edge lengths")
-    eta3: FloatProperty(name="Patch \u03b73", default=0.75, min=0.1, soft_max=4.0, max=20.0, precision=2,
+    eta3: FloatProperty(name="Patch \u03b73", default=SIMILARITY_DEFAULTS.eta3, min=0.1, soft_max=4.0, max=20.0, precision=2,
                         description="Half the radius of the compared patches, in average edge lengths")
 
     @classmethod

@@ -46,6 +46,10 @@ struct DenoiseOptions {
 // Defaults of the bilateral filter from the thesis's Fandisk setting (table 2.1, [FDCO03]).
 DenoiseOptions bilateral_defaults();
 
+// The defaults of a method: DenoiseOptions{} (the thesis's suggested setting, section 2.3) for
+// Similarity, bilateral_defaults() for Bilateral.
+DenoiseOptions denoise_defaults(DenoiseMethod method);
+
 struct DenoiseResult {
   MatX3d vertices;          // denoised positions, one row per input vertex
   VecXd residual;           // |x_noisy - x_smoothed| per input vertex

@@ -1,0 +1,53 @@
+"""Operators start from the library's defaults: every property that names a field of the
+capability's native options object defaults to the C++ value, and enum properties offer exactly
+the C++ enum's members (identifiers in upper case)."""
+
+import bpy
+import pytest
+
+from dgmesh import _native
+
+# operator -> (its options object, {property: field} where the names differ)
+OPERATORS = {
+    "denoise": (lambda: _native.DenoiseOptions(), {}),
+    "similarity_map": (lambda: _native.SimilarityOptions(), {}),
+}
+
+
+def _properties(idname):
+    return getattr(bpy.ops.dgmesh, idname).get_rna_type().properties
+
+
+@pytest.mark.parametrize("idname", sorted(OPERATORS))
+def test_property_defaults_are_the_native_defaults(idname):
+    make, renames = OPERATORS[idname]
+    options = make()
+    fields = {f: getattr(options, f) for f in type(options).__fields__}
+    checked = []
+    for prop in _properties(idname):
+        field = renames.get(prop.identifier, prop.identifier)
+        if field not in fields:
+            continue
+        checked.append(field)
+        value = fields[field]
+        if prop.type == 'ENUM':
+            assert [i.identifier for i in prop.enum_items] == [m.upper() for m in type(value).__members__], idname
+            assert prop.default == value.name.upper(), (idname, prop.identifier)
+        elif prop.type == 'FLOAT':
+            assert prop.default == pytest.approx(value, rel=1e-6, abs=1e-7), (idname, prop.identifier)
+        else:
+            assert prop.default == value, (idname, prop.identifier)
+    assert checked, f"dgmesh.{idname} shares no property with {type(options).__name__}"
+    assert set(renames.values()) <= set(checked), (idname, renames)
+
+
+def test_switching_the_denoise_method_loads_its_native_defaults():
+    from dgmesh.blender import ops_denoise
+
+    class Props:
+        method = 'BILATERAL'
+
+    props = Props()
+    ops_denoise.load_method_defaults(props, None)
+    d = _native.denoise_defaults(_native.DenoiseMethod.bilateral)
+    assert (props.eta1, props.eta2, props.eta3, props.iterations) == (d.eta1, d.eta2, d.eta3, d.iterations)

@@ -1,0 +1,79 @@
+"""One contract per capability: the numpy API's keyword defaults are the C++ options' defaults
+(bound from the C++ initialisers), enum keywords accept exactly the C++ enum's names, and every
+bound options and result class lists its fields."""
+
+import inspect
+import sys
+
+import numpy as np
+import pytest
+
+import dgmesh
+from dgmesh import _native
+
+# numpy function -> (its options object, {keyword: field} where the names differ). Every keyword
+# that names a field must default to the field's value (None: "the options' own default").
+CONTRACT = {
+    "denoise": (lambda: _native.DenoiseOptions(), {}),
+    "similarity": (lambda: _native.SimilarityOptions(), {}),
+}
+
+
+def _function(name):
+    return getattr(dgmesh, name)
+
+
+@pytest.mark.parametrize("name", sorted(CONTRACT))
+def test_keyword_defaults_are_the_native_defaults(name):
+    make, renames = CONTRACT[name]
+    options = make()
+    fields = dgmesh.core.fields(options)
+    checked = []
+    for param in inspect.signature(_function(name)).parameters.values():
+        field = renames.get(param.name, param.name)
+        if field not in fields or param.default is inspect.Parameter.empty:
+            continue
+        checked.append(field)
+        expected = fields[field]
+        if param.default is None:
+            continue  # the options object's own value is used
+        if hasattr(type(expected), "__members__"):
+            assert param.default == expected.name, (name, param.name)
+        else:
+            assert param.default == expected and type(param.default) is type(expected), (name, param.name)
+    assert checked, f"{name} shares no keyword with {type(options).__name__}"
+    assert set(renames.values()) <= set(checked), (name, renames)
+
+
+def _bound_structs():
+    return [v for v in vars(_native).values() if isinstance(v, type) and hasattr(v, "__fields__")]
+
+
+def test_every_bound_struct_lists_fields_and_repr():
+    structs = _bound_structs()
+    assert any(s.__name__ == "DenoiseOptions" for s in structs)
+    for cls in structs:
+        obj = cls()
+        assert cls.__fields__, cls
+        for f in cls.__fields__:
+            getattr(obj, f)
+        assert repr(obj).startswith(cls.__name__ + "(")
+        assert obj == cls()
+
+
+def test_options_reject_wrong_types_by_name():
+    with pytest.raises(dgmesh.MeshError, match="eta1"):
+        dgmesh.core.make_options(_native.DenoiseOptions(), eta1="a lot")
+    with pytest.raises(dgmesh.MeshError, match="method 'median'.*'similarity', 'bilateral'"):
+        dgmesh.core.make_options(_native.DenoiseOptions(), method="median")
+    o = dgmesh.core.make_options(_native.DenoiseOptions(), method="BILATERAL", iterations=np.int64(5))
+    assert o.method == _native.DenoiseMethod.bilateral and o.iterations == 5
+
+
+def test_result_arrays_are_views_that_keep_the_result_alive():
+    V, F = _native.icosphere(2, 1.0)
+    arr = dgmesh.denoise(V, F, iterations=1).vertices
+    assert arr.base is not None and arr.flags.writeable
+    assert sys.getrefcount(arr.base) >= 2
+    del V
+    assert np.isfinite(arr).all() and arr.shape == (len(F) // 2 + 2, 3)
