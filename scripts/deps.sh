@@ -18,6 +18,7 @@ if [ "${1:-}" != --lane ]; then
   PKGS+=(
     libcgal-dev    # bench only: CGAL peers in fair_restore and unwrap_quality (bench/tools/*.cpp)
     debootstrap    # makes the test lanes' Debian roots (scripts/lanes.sh)
+    python3-pyflakes clang-format  # the style checks of scripts/test.sh (this machine only)
   )
 fi
 missing=()

@@ -26,6 +26,12 @@ if [ "$mode" = all ]; then
   prepare=$!
 fi
 
+if [ "$mode" != --lane ]; then
+  # Style is checked once, with bookworm's tools (newer ones format and warn differently).
+  step "lint (pyflakes: scripts/lint.py)"; current="lint"
+  check /usr/bin/python3 scripts/lint.py
+fi
+
 step "build (Release)"
 bash scripts/build.sh
 step "native tests"; current="native tests"

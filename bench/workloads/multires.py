@@ -45,10 +45,11 @@ def measure(label, V, F, control_faces, fit_iterations, repeats):
         lambda: dgmesh.Multires.build(V, F, control_faces=control_faces, fit_iterations=fit_iterations),
         repeats=repeats, warmup=0)
     X = mr.control_vertices
+    reconstruct = mr.reconstruct
     out = np.empty_like(V)
-    t_rec, _ = median_time(lambda: mr.reconstruct(X, out=out), repeats=30, warmup=3)
+    t_rec, _ = median_time(lambda: reconstruct(X, out=out), repeats=30, warmup=3)
     out32 = np.empty(V.shape, dtype=np.float32)
-    t_rec32, _ = median_time(lambda: mr.reconstruct(X, out=out32), repeats=30, warmup=3)
+    t_rec32, _ = median_time(lambda: reconstruct(X, out=out32), repeats=30, warmup=3)
     c0 = time.process_time()
     for _ in range(30):
         mr.reconstruct(X, out=out)

@@ -9,7 +9,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "blend_fixtures"
 sys.path.insert(0, str(FIXTURES))
-import make_fixtures  # noqa: E402  (needs the path above)
+import make_fixtures  # noqa: E402,F401  (needs the path above; re-exported to the tests)
 
 DG_ATTRIBUTES = ("dg_mean_curvature", "dg_gaussian_curvature", "dg_curvature_color")
 

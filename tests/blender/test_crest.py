@@ -665,7 +665,6 @@ def test_decimate_keeps_loose_geometry_and_hidden_faces():
 def test_crest_curve_goes_to_the_scene_the_operator_ran_in(cube):
     """A mesh in two scenes: the curve is linked where the user is working (it went to the first
     scene's collection)."""
-    s1 = bpy.context.scene
     s2 = bpy.data.scenes.new("Scene2")
     s2.collection.objects.link(cube)
     layer = s2.view_layers[0]

@@ -261,7 +261,7 @@ def test_torus_cut_along_meridian_and_longitude_is_one_disk(dg, capsys):
     open_fixture("shapes")
     obj = bpy.data.objects["Torus"]
     mesh = obj.data
-    nu, nv = 32, 16
+    nv = 16  # the torus is 32 x 16
     E = edges_of(mesh)
     i, j = E // nv, E % nv
     meridian = (i[:, 0] == 0) & (i[:, 1] == 0)          # the ring of vertices i == 0

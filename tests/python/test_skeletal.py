@@ -357,7 +357,6 @@ def test_surface_bone_clearance():
     assert r.min() >= 0.95 - 1e-9
     moved = np.linalg.norm(X - X0, axis=1) > 1e-12
     assert 0 < moved.sum() < 0.05 * len(V)  # only the few deepest crease vertices move
-    e0 = ((dgmesh.union_of_balls_distance(X0, Sd, rig.radii) - f_rest) ** 2).sum()
     e = ((dgmesh.union_of_balls_distance(X, Sd, rig.radii) - f_rest) ** 2).sum()
     L = skeletal_subspace_deform(V, W, REST, pose)
     el = ((dgmesh.union_of_balls_distance(L, Sd, rig.radii) - f_rest) ** 2).sum()
