@@ -22,7 +22,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from .. import colors
+from .. import colors, polymesh
 from . import bridge
 from .common import (plural as _plural, poll_active_mesh, poll_mesh_targets, read_only_reason, report_shown_shape,
                      target_objects)
@@ -242,7 +242,7 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
 
     def _write(self, job):
         mesh = job.obj.data
-        bridge.write_positions(mesh, bridge.on_mirror_planes(np.array(job.result.vertices), job.V, job.mirror))
+        bridge.write_positions(mesh, polymesh.on_mirror_planes(np.array(job.result.vertices), job.V, job.mirror))
         if self.show_residual:
             residual = job.result.residual
             bridge.write_point_float(mesh, ATTR_RESIDUAL, residual)
