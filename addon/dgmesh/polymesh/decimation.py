@@ -12,7 +12,7 @@ from typing import List, Optional, Tuple
 
 import numpy as np
 
-from .edges import edge_lookup, find_edges
+from .edges import edge_keys, edge_lookup, find_edges
 from .mesh import ranges
 
 MovedLookup = Optional[Tuple[np.ndarray, np.ndarray, np.ndarray]]  # see moved_vertex_lookup
@@ -52,7 +52,9 @@ def wire_edges(in_edges, wire, vertex_map) -> np.ndarray:
     (every input vertex mapped, loose ones included): unique (k, 2) pairs, lower index first, none
     collapsed to a point."""
     pairs = vertex_map[in_edges[wire]]
-    return np.unique(np.sort(pairs[pairs[:, 0] != pairs[:, 1]], axis=1), axis=0)
+    pairs = pairs[pairs[:, 0] != pairs[:, 1]]
+    n = int(pairs.max()) + 1 if len(pairs) else 1
+    return np.column_stack(np.divmod(np.unique(edge_keys(pairs[:, 0], pairs[:, 1], n)), n))
 
 
 def vertex_sources(source_vertex, lookup: MovedLookup, loop_vertex, loose, n_surface: int
