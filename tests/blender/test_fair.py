@@ -338,9 +338,9 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
         method, scheme, boundary = 'WILLMORE', 'EXPLICIT', 'FIXED'
         subdivisions, tolerance, max_iterations, tangential, keep_border = 0, 0.0, 100000, True, True
         linear_start, refine, keep_size = True, False, True
-        _collect = ops_fair._FairBase._collect
-        prepare = ops_fair._FairBase.prepare
-        _run_mirrored = ops_fair._FairBase._run_mirrored
+        _collect = ops_fair.DGMESH_OT_fair._collect
+        prepare = ops_fair.DGMESH_OT_fair.prepare
+        _run_mirrored = ops_fair.DGMESH_OT_fair._run_mirrored
         _run = ops_fair.DGMESH_OT_fair._run
         _failed = jobs.NativeJobOperator._failed
 
