@@ -28,7 +28,8 @@ argv = sys.argv[sys.argv.index("--") + 1:]
 LEVELS = int(argv[0])
 NFRAMES = int(argv[1]) if len(argv) > 1 else 20
 dgmesh.register()
-from dgmesh.blender import ops_skeletal  # noqa: E402
+from dgmesh.blender import skeletal_live, skeletal_store  # noqa: E402
+from dgmesh.blender.common import set_handlers  # noqa: E402
 
 bpy.ops.wm.read_homefile(use_empty=True)
 V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
@@ -102,10 +103,10 @@ def _wrap(name, fn):
     return timed
 
 
-orig = {n: getattr(ops_skeletal, n) for n in ("_pose_matrices", "_deformed", "update_object")}
-ops_skeletal._pose_matrices = _wrap("pose", orig["_pose_matrices"])
-ops_skeletal._deformed = _wrap("deform", orig["_deformed"])
-ops_skeletal.update_object = _wrap("update", orig["update_object"])
+orig = {n: getattr(skeletal_live, n) for n in ("pose_matrices", "deformed", "update_object")}
+skeletal_live.pose_matrices = _wrap("pose", orig["pose_matrices"])
+skeletal_live.deformed = _wrap("deform", orig["deformed"])
+skeletal_live.update_object = _wrap("update", orig["update_object"])
 
 
 def play(first=2):
@@ -125,22 +126,22 @@ def play(first=2):
 # against the previous version's target (the offset attribute on the mesh, Named Attribute node).
 # Switching swaps the modifier's node group, the attribute and the stored target; the first frame
 # after a switch (relations rebuilt, buffers) is not timed.
-info = obj[ops_skeletal.PROP]
+info = obj[skeletal_store.PROP]
 ng_helper = obj.modifiers["dg_skeletal"].node_group
-ng_attr = ops_skeletal._offset_node_group()
+ng_attr = skeletal_live.offset_node_group()
 ng_attr.use_fake_user = True
 
 
 def use_target(target):
     if target == "ATTRIBUTE":
-        obj.data.attributes.new(ops_skeletal.ATTR, 'FLOAT_VECTOR', 'POINT')
+        obj.data.attributes.new(skeletal_store.ATTR, 'FLOAT_VECTOR', 'POINT')
         obj.modifiers["dg_skeletal"].node_group = ng_attr
     else:
-        obj.data.attributes.remove(obj.data.attributes[ops_skeletal.ATTR])
+        obj.data.attributes.remove(obj.data.attributes[skeletal_store.ATTR])
         obj.modifiers["dg_skeletal"].node_group = ng_helper
     info["target"] = target
-    ops_skeletal._buffers.clear()
-    ops_skeletal._last_pose.clear()
+    skeletal_live._buffers.clear()
+    skeletal_live._last_pose.clear()
     sc.frame_set(NFRAMES + 20)  # untimed: the switch's one-off costs
     sc.frame_set(1)
 
@@ -159,8 +160,8 @@ def show(bound):
     modifier; the other object is out of the depsgraph and, for the reference, our handlers are off.
     The first frames after a switch (relations rebuilt) are not timed."""
     obj.hide_viewport, ref_obj.hide_viewport = not bound, bound
-    ops_skeletal.set_handlers(ops_skeletal._HANDLERS, add=bound)
-    ops_skeletal._last_pose.clear()
+    set_handlers(skeletal_live.HANDLERS, add=bound)
+    skeletal_live._last_pose.clear()
     lens = {k: len(v) for k, v in parts.items()}
     sc.frame_set(NFRAMES + 20)
     sc.frame_set(1)
@@ -192,33 +193,33 @@ frame_ms, frame_cpu_ms = float(np.median(frames[True][0])), float(np.median(fram
 med = {k: 1e3 * float(np.median(v)) for k, v in parts.items()}
 med_cpu = {k: 1e3 * float(np.median(v)) for k, v in parts_cpu.items()}
 for k, fn in orig.items():
-    setattr(ops_skeletal, k, fn)
+    setattr(skeletal_live, k, fn)
 # OpenMP inside Blender: the same native deform with 1 thread and with all, interleaved (wall and
 # process CPU per call; CPU above wall x threads used is spin-waiting).
 names = list(info["bones"])
-pose_b = ops_skeletal._pose_matrices(obj, arm, names)
+pose_b = skeletal_live.pose_matrices(obj, arm, names)
 nthreads = dgmesh.num_threads()
 omp = {1: ([], []), nthreads: ([], [])}
 for _ in range(5):
     for t in omp:
         dgmesh.set_num_threads(t)
         c0, t0 = time.process_time(), time.perf_counter()
-        ops_skeletal._deformed(obj, pose_b)
+        skeletal_live.deformed(obj, pose_b)
         omp[t][0].append(time.perf_counter() - t0)
         omp[t][1].append(time.process_time() - c0)
 dgmesh.set_num_threads(nthreads)
 
 # Blender's own per-frame work on the bound mesh, without our handler: ~0 unless something still ties
 # the mesh to the pose (a disabled Armature modifier with its object set did: one more evaluation).
-ops_skeletal.set_handlers(ops_skeletal._HANDLERS, add=False)
+set_handlers(skeletal_live.HANDLERS, add=False)
 idle_ms, idle_cpu_ms = play()
-ops_skeletal.set_handlers(ops_skeletal._HANDLERS)
+set_handlers(skeletal_live.HANDLERS)
 
 # The write alone: the helper's vertices (this version), the attribute (the previous one), a shape
 # key (the first one).
 n = len(V)
 off = np.zeros(3 * n, dtype=np.float32)
-helper = ops_skeletal._helper_of(obj, info)
+helper = skeletal_store.helper_of(obj, info)
 hverts = helper.data.vertices
 w_helper = []
 for _ in range(7):
@@ -243,7 +244,7 @@ ev_cpu = (time.process_time() - c0) / 7
 # (first version), each on a copy of the mesh (vertex groups included) in the same scene.
 obj2 = bpy.data.objects.new("A", me.copy())
 bpy.context.scene.collection.objects.link(obj2)
-att = obj2.data.attributes.new(ops_skeletal.ATTR, 'FLOAT_VECTOR', 'POINT')
+att = obj2.data.attributes.new(skeletal_store.ATTR, 'FLOAT_VECTOR', 'POINT')
 obj2.modifiers.new("dg_skeletal", 'NODES').node_group = ng_attr
 obj3 = bpy.data.objects.new("K", me.copy())
 bpy.context.scene.collection.objects.link(obj3)
@@ -302,8 +303,8 @@ if hasattr(me, "use_auto_smooth"):
     me.use_auto_smooth = False
 me.polygons.foreach_set("use_smooth", np.zeros(len(F), dtype=bool))
 
-ops_skeletal._buffers.clear()
-ops_skeletal._last_pose.clear()
+skeletal_live._buffers.clear()
+skeletal_live._last_pose.clear()
 # Reference: unbind (the Armature modifier comes back) and play the same frames with Blender's own
 # linear blend skinning and Preserve Volume.
 bpy.ops.dgmesh.skeletal_unbind('EXEC_DEFAULT')

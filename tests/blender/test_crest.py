@@ -278,40 +278,6 @@ def test_decimate_keeps_uv_maps_and_materials():
 
 
 
-@pytest.mark.parametrize("surface, ratio", [("cube", 5), ("torus", 10)])
-def test_moved_vertex_lookup_picks_the_nearest_triangle(surface, ratio):
-    """Each moved output vertex reads its UVs in the nearest (clamped projection) of the input
-    triangles around the input vertices merged into it, checked one by one: a triangle met through
-    several merged corners counts once, the cube's flat sides give ties, and on the torus a few
-    vertices are nearest to a triangle with a single corner merged into them."""
-    import dgmesh as dg
-    from dgmesh.blender import ops_crest
-
-    V, F = shapes.rounded_cube(12) if surface == "cube" else shapes.torus(1.0, 0.4, 24, 12)
-    V, F = np.asarray(V, dtype=float) * [1.0, 0.7, 0.5], np.asarray(F, dtype=np.int32)
-    V2, _, vmap, _, src = dg.decimate(V, F, target_faces=len(F) // ratio, return_map=True, return_face_map=True)
-    moved = np.any(V2 != V[src], axis=1)
-    w, loops, bary = ops_crest._moved_vertex_lookup(np.arange(3 * len(F)).reshape(-1, 3), V, F, V2, vmap, moved)
-    assert w.tolist() == [x for x in np.unique(vmap[vmap >= 0]) if moved[x]] and len(w) > 20
-
-    def clamped_distance(p, tri):
-        a, b, c = V[tri]
-        e0, e1, d = b - a, c - a, p - a
-        m = np.array([[e0 @ e0, e0 @ e1], [e0 @ e1, e1 @ e1]])
-        bv, bw = np.linalg.solve(m, [d @ e0, d @ e1])
-        t = np.clip([1 - bv - bw, bv, bw], 0.0, None)
-        t /= t.sum()
-        return np.linalg.norm(p - t @ V[tri]), t
-
-    corner_map = vmap[F]
-    for k, wi in enumerate(w.tolist()):
-        best = min(clamped_distance(V2[wi], F[f])[0] for f in np.flatnonzero((corner_map == wi).any(1)))
-        face = loops[k, 0] // 3
-        assert (corner_map[face] == wi).any() and loops[k].tolist() == list(range(3 * face, 3 * face + 3))
-        d, t = clamped_distance(V2[wi], F[face])
-        assert d <= best + 1e-12 and np.allclose(bary[k], t, atol=1e-9)
-
-
 def test_decimate_in_edit_mode_and_undo():
     obj = _uv_cube_with_materials()
     n = len(obj.data.polygons)
@@ -493,12 +459,13 @@ def test_decimate_on_ngons_and_undo():
 
 def test_repair_ngon_triangles_gives_valid_consistent_triangles():
     import dgmesh
+    from dgmesh import polymesh
     from dgmesh.blender import bridge
     obj = ngon_cube()
     raw = bridge.read_object(obj, edges=True)
     with pytest.raises(dgmesh.MeshError):  # Blender's own triangulation: zero-area / doubled ears
         dgmesh.validate(raw.V, raw.F)
-    fixed = bridge.repair_ngon_triangles(raw)
+    fixed = polymesh.repair_ngon_triangles(raw)
     dgmesh.validate(fixed.V, fixed.F, allow_loose_vertices=False)
     loop_vertex = np.array([l.vertex_index for l in obj.data.loops])
     assert np.array_equal(loop_vertex[fixed.tri_loops], fixed.F)  # corners keep their loops
@@ -517,7 +484,7 @@ def test_repair_ngon_triangles_gives_valid_consistent_triangles():
     # Every loop of every polygon is used by a triangle (nothing dropped).
     assert len(np.unique(fixed.tri_loops)) == len(obj.data.loops)
     # A clean mesh is returned as is.
-    assert bridge.repair_ngon_triangles(fixed) is fixed
+    assert polymesh.repair_ngon_triangles(fixed) is fixed
 
 
 def test_decimate_refuses_shape_keys_and_partial_edit_selections():
@@ -675,38 +642,6 @@ def test_crest_curve_goes_to_the_scene_the_operator_ran_in(cube):
         assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=8.0, create_curves=True) == {'FINISHED'}
     curve = next(o for o in bpy.data.objects if o.get("dgmesh_crest_lines_of") == cube)
     assert curve.name in s2.objects
-
-
-def _quad_cube(n):
-    bpy.ops.wm.read_homefile(use_empty=True)
-    return make_object("QuadCube", *shapes.rounded_cube(n, quads=True))
-
-
-@pytest.mark.parametrize("make", [_quad_cube, lambda n: ngon_cube(n=n)], ids=["quads", "ngons"])
-def test_route_edges_take_the_breadth_first_path(make):
-    """The pairs routed two steps in bulk get the path the breadth-first _route finds (the first
-    common neighbour in adjacency order: a quad's diagonal has two), the others _route's own;
-    checked on every vertex pair that is not an edge."""
-    from dgmesh.blender import ops_crest
-
-    mesh = make(4).data
-    E = np.array([e.vertices[:] for e in mesh.edges], dtype=np.int32)
-    nv = len(mesh.vertices)
-    lookup = ops_crest._edge_lookup(E, nv)
-    a, b = np.triu_indices(nv, 1)
-    pairs = np.column_stack([a, b]).astype(np.int32)
-    pairs = pairs[ops_crest._find_edges(pairs, lookup, nv) < 0]
-    routed, owner = ops_crest._route_edges(pairs, E, lookup, nv)
-    adjacency = {v: [] for v in range(nv)}
-    for i, j in np.concatenate([E, E[:, ::-1]])[np.argsort(np.r_[E[:, 0], E[:, 1]], kind="stable")].tolist():
-        adjacency[i].append(j)
-    steps = set()
-    for k, (i, j) in enumerate(pairs.tolist()):
-        path = ops_crest._route(i, j, adjacency.__getitem__)
-        expected = [] if path is None else ops_crest._find_edges(np.column_stack([path[:-1], path[1:]]), lookup, nv)
-        assert sorted(routed[owner == k].tolist()) == sorted(list(expected)), (i, j, path)
-        steps.add(None if path is None else len(path) - 1)
-    assert {2, 3, 4, None} <= steps  # bulk two-step routes, searched ones and unreachable pairs
 
 
 def test_crest_curve_for_every_selected_linked_duplicate(cube, capsys):

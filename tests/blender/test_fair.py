@@ -338,9 +338,9 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
         method, scheme, boundary = 'WILLMORE', 'EXPLICIT', 'FIXED'
         subdivisions, tolerance, max_iterations, tangential, keep_border = 0, 0.0, 100000, True, True
         linear_start, refine, keep_size = True, False, True
-        _collect = ops_fair._FairBase._collect
-        prepare = ops_fair._FairBase.prepare
-        _run_mirrored = ops_fair._FairBase._run_mirrored
+        _collect = ops_fair.DGMESH_OT_fair._collect
+        prepare = ops_fair.DGMESH_OT_fair.prepare
+        _run_mirrored = ops_fair.DGMESH_OT_fair._run_mirrored
         _run = ops_fair.DGMESH_OT_fair._run
         _failed = jobs.NativeJobOperator._failed
 
@@ -575,14 +575,16 @@ def test_the_report_compares_energies_of_the_same_level_when_subdividing(capsys)
 def test_whole_object_subdivision_blends_point_data_from_nearby_vertices():
     """New vertices' point data came from Shepard weights over every vertex of the replaced
     polygons: a dense new x source matrix (4 GB for a 10K-triangle object, OOM beyond). Past a small
-    region they use the 16 nearest."""
-    from dgmesh.blender.ops_fair import _nearest_sources
+    region they use the 16 nearest, found by Blender's kd-tree (tests/python/test_polymesh.py: the
+    rest of polymesh.nearest_sources)."""
+    from dgmesh import polymesh
+    from dgmesh.blender import bridge
     rng = np.random.default_rng(0)
     Q, P = rng.random((3000, 3)), rng.random((1000, 3))
-    idx = _nearest_sources(Q, P)
+    idx = polymesh.nearest_sources(Q, P, knn=bridge.kd_nearest)
     brute = np.argsort(((P[:, None] - Q[None]) ** 2).sum(-1), axis=1)[:, :16]
     assert idx.shape == (1000, 16) and np.array_equal(np.sort(idx, 1), np.sort(brute, 1))
-    assert _nearest_sources(Q[:50], P[:100]).shape == (100, 50)  # a hole's rim: all of it
+    assert np.array_equal(bridge.kd_nearest(Q, P[:5], 3), brute[:5, :3])  # nearest first
     bpy.ops.wm.read_homefile(use_empty=True)
     bpy.ops.mesh.primitive_grid_add(x_subdivisions=40, y_subdivisions=40, size=2)
     obj = bpy.context.active_object

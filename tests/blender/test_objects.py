@@ -251,20 +251,6 @@ def test_remesh_keeps_a_mirrored_half_closed():
         obj = _mirrored_half()
 
 
-def test_flip_off_mirror_planes():
-    """An ear of three boundary vertices on the x = 0 plane next to a triangle off it: their shared
-    edge flips, and both new triangles face the way the pair did."""
-    from dgmesh.blender.ops_remesh import flip_off_mirror_planes
-    V = np.array([[0, 0, 0], [0, 1, 0.3], [0, 2, 0], [1, 1, 0]], float)
-    F = np.array([[0, 1, 2], [0, 2, 3]])  # (0, 1, 2) lies in the plane
-    G = flip_off_mirror_planes(V, F, [(0, 1e-4)])
-    assert sorted(map(sorted, G.tolist())) == [[0, 1, 3], [1, 2, 3]]
-    n = np.cross(V[G[:, 1]] - V[G[:, 0]], V[G[:, 2]] - V[G[:, 0]])
-    assert (n[:, 2] < 0).all()  # as the triangle off the plane, (0, 2, 3)
-    assert np.array_equal(flip_off_mirror_planes(V, F, []), F)
-    assert np.array_equal(flip_off_mirror_planes(V, F, [(1, 1e-4)]), F)  # not on the y = 0 plane
-
-
 def test_shown_shape_notes():
     """The mesh datablock in object space is what the operators read; a shown shape key mix or a
     non-uniform scale made Crest Lines find nothing on a sphere shown as a lens, without a word."""

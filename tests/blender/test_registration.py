@@ -112,8 +112,8 @@ def test_disable_enable_cycle():
         dgmesh.unregister()
         dgmesh.register()
         assert foreign in bpy.app.handlers.load_post
-        from dgmesh.blender import ops_skeletal
-        assert ops_skeletal._on_load in bpy.app.handlers.load_post
+        from dgmesh.blender import skeletal_live
+        assert skeletal_live.on_load in bpy.app.handlers.load_post
     finally:
         bpy.app.handlers.load_post.remove(foreign)
 

@@ -226,16 +226,16 @@ def test_library_override_of_a_bound_character_deforms_live(tmp_path):
     # Overridden while the add-on's update handler did not run (the add-on disabled) and saved:
     # loading gives the helper its local mesh, so a background render (whose handler calls may not
     # add data) deforms too.
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_live
     handlers = bpy.app.handlers.depsgraph_update_post
-    handlers.remove(ops_skeletal._on_update)
+    handlers.remove(skeletal_live.on_update)
     try:
         helpers.link_and_override(lib, "Char")
         assert {o.name: o for o in bpy.context.scene.objects}["Capsule_dg_offsets"].data.library is not None
         shot = str(tmp_path / "shot.blend")
         bpy.ops.wm.save_as_mainfile(filepath=shot)
     finally:
-        handlers.append(ops_skeletal._on_update)
+        handlers.append(skeletal_live.on_update)
     bpy.ops.wm.open_mainfile(filepath=shot)
     objects = {o.name: o for o in bpy.context.scene.objects}
     obj, arm = objects["Capsule"], objects["Rig"]
@@ -503,8 +503,8 @@ def test_edited_mesh_shows_undeformed_instead_of_scrambled(tmp_path):
     _pose_lower(arm, math.pi / 3)
     bpy.context.view_layer.update()
     assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
-    from dgmesh.blender import ops_skeletal
-    assert ops_skeletal.shown_undeformed(obj)  # the sidebar panel says so
+    from dgmesh.blender import skeletal_live
+    assert skeletal_live.shown_undeformed(obj)  # the sidebar panel says so
     with pytest.raises(RuntimeError, match="edited since it was bound"):  # and no undeformed bake
         bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT', filepath=str(tmp_path / "x.pc2"), frame_start=1, frame_end=2)
 
@@ -513,7 +513,7 @@ def test_vertices_reordered_in_edit_mode_show_undeformed_until_undone():
     """Mesh > Sort Elements keeps the vertex count: the rest positions are checked again when the
     mesh leaves Edit mode (it had been checked once per load, and the offsets scrambled the mesh).
     Undoing the sort brings the deformation back."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_live
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     _pose_lower(arm, math.pi / 2)
@@ -529,13 +529,13 @@ def test_vertices_reordered_in_edit_mode_show_undeformed_until_undone():
     bpy.ops.object.mode_set(mode='OBJECT')
     bpy.ops.ed.undo_push(message="sorted")
     bpy.context.view_layer.update()
-    assert ops_skeletal.shown_undeformed(obj)
+    assert skeletal_live.shown_undeformed(obj)
     assert np.abs(_evaluated_co(obj) - _mesh_co(obj.data)).max() < 1e-6
     bpy.ops.ed.undo()
     obj = bpy.data.objects["Capsule"]
     bpy.context.view_layer.update()
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
-    assert not ops_skeletal.shown_undeformed(obj)
+    assert not skeletal_live.shown_undeformed(obj)
     assert np.abs(_evaluated_co(obj) - X).max() < 1e-5
 
 
@@ -587,7 +587,7 @@ def test_mesh_duplicated_with_its_rig_unbinds_to_the_copy():
 
 
 def test_one_deform_per_pose_change():
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_live
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     _pose_lower(arm, 0.0, frame=1)
@@ -595,13 +595,13 @@ def test_one_deform_per_pose_change():
     sc = bpy.context.scene
     sc.frame_set(1)
     calls = []
-    orig = ops_skeletal._deformed
+    orig = skeletal_live.deformed
 
     def counting(o, pose):
         calls.append(sc.frame_current)
         return orig(o, pose)
 
-    ops_skeletal._deformed = counting
+    skeletal_live.deformed = counting
     try:
         for fr in (2, 3, 7):
             sc.frame_set(fr)
@@ -620,7 +620,7 @@ def test_one_deform_per_pose_change():
         bpy.context.view_layer.update()
         assert calls == [2, 3, 7, 7]
     finally:
-        ops_skeletal._deformed = orig
+        skeletal_live.deformed = orig
     # Positions of this pose; the far end turned by 0.3 rad about z.
     X = _evaluated_co(obj)
     tip = np.argmax(V[:, 0])
@@ -675,14 +675,14 @@ def test_duplicate_of_bound_object_updates():
     """A duplicated bound object (Shift+D) shares the bind data and gets a helper of its own at its
     first update: both follow the pose, either can be unbound without breaking the other, and each
     helper goes with its object."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_store
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     h = _helper(obj)
     dup = _duplicate(obj)
     _pose_lower(arm, math.pi / 2)
     bpy.context.scene.frame_set(1)
-    hd = ops_skeletal._helper_of(dup, dup["dg_skeletal"])
+    hd = skeletal_store.helper_of(dup, dup["dg_skeletal"])
     assert hd is not None and hd != h and hd["dg_skeletal_owner"] == dup.name
     assert dup.modifiers["dg_skeletal"].node_group != obj.modifiers["dg_skeletal"].node_group
     assert h["dg_skeletal_owner"] == obj.name
@@ -743,7 +743,7 @@ def test_mesh_duplicated_with_its_rig_follows_the_copied_rig():
 def test_legacy_attribute_binding():
     """Objects bound by the previous version (offset attribute on the mesh read by a Named Attribute
     node) still update and unbind cleanly."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_live, skeletal_store
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     info = obj["dg_skeletal"].to_dict()
@@ -754,14 +754,14 @@ def test_legacy_attribute_binding():
     bpy.data.objects.remove(h)
     bpy.data.meshes.remove(me)
     obj.data.attributes.new("dg_skeletal_offset", 'FLOAT_VECTOR', 'POINT')
-    ng = ops_skeletal._offset_node_group()
+    ng = skeletal_live.offset_node_group()
     mod = obj.modifiers.new("dg_skeletal", 'NODES')
     mod.node_group = ng
-    ops_skeletal._move_first(obj, mod)
+    skeletal_live.move_first(obj, mod)
     info.update(target="ATTRIBUTE", node_group=ng.name, modifier=mod.name)
     del info["helper"]
     obj["dg_skeletal"] = info
-    ops_skeletal._rigs.clear()  # as after a reload
+    skeletal_store.rigs.clear()  # as after a reload
     _pose_lower(arm, math.pi / 2)
     bpy.context.scene.frame_set(1)
     X = _evaluated_co(obj)
@@ -980,7 +980,7 @@ def test_renaming_removing_or_applying_the_live_modifier():
 def test_rebind_after_editing_the_mesh_and_its_weights():
     """Skeletal Rebind binds the edited mesh again with its new positions and weights, with the
     settings and armature it had (the sidebar offers it next to 'edited since bound')."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_live
     obj, arm, V = _scene()
     assert _bind(fairing_steps=1, bone_clearance=0.5) == {'FINISHED'}
     tip = int(np.argmax(V[:, 0]))
@@ -991,17 +991,17 @@ def test_rebind_after_editing_the_mesh_and_its_weights():
     obj.vertex_groups["Lower"].add(far, 0.0, 'REPLACE')
     obj.vertex_groups["Upper"].add(far, 1.0, 'REPLACE')
     bpy.ops.ed.undo_push(message="edited")
-    ops_skeletal._on_undo()  # as after undo: the rest positions are checked again
+    skeletal_live.on_undo()  # as after undo: the rest positions are checked again
     _pose_lower(arm, math.pi / 2)
     bpy.context.view_layer.update()
-    assert ops_skeletal.shown_undeformed(obj)
+    assert skeletal_live.shown_undeformed(obj)
     for o in bpy.context.view_layer.objects:
         o.select_set(o == obj)  # the armature is not selected: the binding knows it
     bpy.context.view_layer.objects.active = obj
     assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
     info = obj["dg_skeletal"]
     assert info["fairing_steps"] == 1 and abs(info["bone_clearance"] - 0.5) < 1e-6
-    assert not ops_skeletal.shown_undeformed(obj)
+    assert not skeletal_live.shown_undeformed(obj)
     bpy.context.view_layer.update()
     X = _evaluated_co(obj)
     # The edited tip follows the upper bone (its new weights): it stays put despite the bend.
@@ -1014,7 +1014,7 @@ def test_rebind_after_editing_the_mesh_and_its_weights():
 def test_skeleton_blend_dual_quaternion_is_stored_used_live_and_kept_by_rebind():
     """Skeleton Blend = Dual Quaternion: the live deformation is the API's deform(...,
     dual_quaternion=True), not the linear blend's; rebind keeps the setting."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_space, skeletal_store
     results = {}
     for blend in ('LINEAR', 'DUAL_QUATERNION'):
         obj, arm, V = _scene()
@@ -1023,8 +1023,8 @@ def test_skeleton_blend_dual_quaternion_is_stored_used_live_and_kept_by_rebind()
         _pose_lower(arm, math.pi / 2)  # a bend: the blends differ on the skeleton at the joint
         bpy.context.view_layer.update()
         results[blend] = _evaluated_co(obj)
-        pose = ops_skeletal._pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
-        expect = ops_skeletal._rig(obj).deform(pose, fairing_steps=2, bone_clearance=0.95,
+        pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
+        expect = skeletal_store.bound_rig(obj).deform(pose, fairing_steps=2, bone_clearance=0.95,
                                                dual_quaternion=blend == 'DUAL_QUATERNION')
         assert np.abs(results[blend] - expect).max() < 1e-4
     assert np.abs(results['LINEAR'] - results['DUAL_QUATERNION']).max() > 1e-3  # not vacuous
@@ -1036,15 +1036,15 @@ def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear(
     """A new bind blends the skeleton by dual quaternions (the linear blend tears thick limbs
     twisted far, see test_a_sheet_limb_twisted_far_does_not_tear); a mesh bound before the option
     existed (no skeleton_blend in its bind data) keeps deforming as it did, by the linear blend."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_space, skeletal_store
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     assert obj["dg_skeletal"]["skeleton_blend"] == 'DUAL_QUATERNION'
     del obj["dg_skeletal"]["skeleton_blend"]
     _pose_lower(arm, math.pi / 2)
     bpy.context.view_layer.update()
-    pose = ops_skeletal._pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
-    rig = ops_skeletal._rig(obj)
+    pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
+    rig = skeletal_store.bound_rig(obj)
     X = _evaluated_co(obj)
     assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95, dual_quaternion=False)).max() < 1e-4
     assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95)).max() > 1e-3  # not vacuous
@@ -1114,15 +1114,15 @@ def test_live_modifier_moved_below_a_subdivision_shows_the_mesh_undeformed():
     """The offsets are per vertex of the base mesh: below a Subdivision Surface they scrambled the
     mesh. The live modifier now leaves a geometry with another point count as it is, and the
     sidebar panel asks to move it back to the top."""
-    from dgmesh.blender import compat, ops_skeletal
+    from dgmesh.blender import compat, skeletal_live
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     sub = obj.modifiers.new("Sub", 'SUBSURF')
     sub.levels = 1
     rest = _evaluated_co(obj)
-    assert not ops_skeletal.live_modifier_misplaced(obj)
+    assert not skeletal_live.live_modifier_misplaced(obj)
     compat.move_modifier(obj, sub, 0)
-    assert ops_skeletal.live_modifier_misplaced(obj)
+    assert skeletal_live.live_modifier_misplaced(obj)
     bpy.context.view_layer.update()
     below = _evaluated_co(obj)
     _pose_lower(arm, math.pi / 2)
@@ -1171,7 +1171,7 @@ def test_a_bind_that_fails_while_adding_its_objects_leaves_the_object_as_it_was(
     def broken(*a, **kw):
         raise RuntimeError("simulated failure")
 
-    monkeypatch.setattr(ops_skeletal, "_skeleton_object", broken)
+    monkeypatch.setattr(ops_skeletal, "skeleton_object", broken)
     with pytest.raises(RuntimeError, match="simulated failure"):
         _bind()
     assert _mesh_state(obj) == before  # the Armature modifier still on, with its armature
@@ -1239,25 +1239,10 @@ def test_deleted_helper_is_made_again_and_renamed_skeleton_still_shows():
 def test_armature_modifier_turned_back_on_while_bound_is_flagged():
     """Set back by hand (a session without the add-on shows the mesh frozen), the Armature modifier
     deforms the mesh a second time: the sidebar panel says so."""
-    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender import skeletal_live
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
-    assert not ops_skeletal.armature_modifier_on(obj)
+    assert not skeletal_live.armature_modifier_on(obj)
     mod = obj.modifiers["Armature"]
     mod.object, mod.show_viewport = arm, True
-    assert ops_skeletal.armature_modifier_on(obj)
-
-
-def test_bind_data_encoding_reads_earlier_compressed_files():
-    """Bind data is stored uncompressed now (deflate cost 1.3 s at 655K vertices for 15% less
-    text); files bound by earlier versions hold savez_compressed data, which must still load."""
-    import base64
-    import io
-
-    from dgmesh.blender.ops_skeletal import _decode, _encode
-    arrays = {"a": np.arange(10.0), "b": np.eye(3, dtype=np.int32)}
-    buf = io.BytesIO()
-    np.savez_compressed(buf, **arrays)
-    for text in (_encode(arrays), base64.b64encode(buf.getvalue()).decode("ascii")):
-        back = _decode(text)
-        assert set(back) == {"a", "b"} and all(np.array_equal(back[k], arrays[k]) for k in arrays)
+    assert skeletal_live.armature_modifier_on(obj)

@@ -403,7 +403,7 @@ def test_packed_scan_keeps_its_slivers(dg, capsys):
     assert m["flipped"] == 0 and m["zero_area"] == 0, m
     # The operator's defaults on the operator's own chart (same vertices and order), in float64.
     from dgmesh.blender import ops_unwrap
-    (classes, Fc, Vc, _), = ops_unwrap._read_charts(obj, False, dg)["charts"]
+    (classes, Fc, Vc, _), = ops_unwrap.read_charts(obj, False, dg)["charts"]
     ref = dg.unwrap(Vc, Fc, boundary="free", eta=0.5, slide_boundary=True)
     got = _relative_uv_areas(uv.reshape(-1, 2), np.arange(3 * len(arrays.F)).reshape(-1, 3))
     want = _relative_uv_areas(ref.uv, Fc)

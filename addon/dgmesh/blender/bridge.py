@@ -13,32 +13,19 @@ mode and it overwrites the mesh datablock when Edit mode is left, so
   caller write to the mesh datablock and re-enters Edit mode (the edit-mesh is
   then rebuilt from the mesh, including the new attributes).  Doing it with
   bmesh instead would need a Python loop per vertex.
+
+What happens to the arrays between reading and writing (n-gon triangle repair, edge lookups,
+attribute blending, ...) is plain numpy in ``dgmesh.polymesh``.
 """
 
 from contextlib import contextmanager
-from dataclasses import dataclass
-from typing import Optional
 
 import bmesh
 import bpy
 import numpy as np
 
+from ..polymesh import MeshArrays, blend_group_weights
 from . import compat
-
-
-@dataclass
-class MeshArrays:
-    """Triangulated mesh arrays, ready for the native library."""
-
-    V: np.ndarray  # (n, 3) float64 vertex positions (object space)
-    F: np.ndarray  # (m, 3) int32 vertex indices of each triangle
-    tri_loops: np.ndarray  # (m, 3) int32 loop (face corner) indices of each triangle
-    tri_poly: np.ndarray  # (m,) int32 polygon each triangle comes from
-    edges: Optional[np.ndarray] = None  # (e, 2) int32, only when asked for
-
-    @property
-    def num_vertices(self):
-        return len(self.V)
 
 
 def read_mesh(mesh, edges=False):
@@ -67,159 +54,6 @@ def read_mesh(mesh, edges=False):
         mesh.edges.foreach_get("vertices", E)
         E = E.reshape(-1, 2)
     return MeshArrays(V, F.reshape(m, 3), tri_loops.reshape(m, 3), tri_poly, E)
-
-
-def repair_ngon_triangles(arrays, rel_area=1e-12, max_rounds=8):
-    """Re-triangulates n-gons whose loop triangulation the native library would reject.
-
-    Blender's ear clipping may cut an "ear" of three collinear corners (an n-gon with a vertex in
-    the middle of a straight side, e.g. after dissolving edges): a zero-area triangle. Two n-gons
-    sharing two consecutive sides (a valence-2 vertex between them) may both cut the ear at that
-    vertex: the same triangle twice, back to back. Each such ear (a, b, c), b the corner whose two
-    sides are polygon sides, shares its diagonal with another triangle (a, c, d) of its polygon;
-    flipping that diagonal gives (b, c, d) and (b, d, a). Rounds repeat for runs of such corners.
-    With the mesh's edges (``read_object(edges=True)``), triangles folded against their polygon are
-    flipped too (:func:`_unfold_ngon_triangles`).
-    Triangles, their loops and polygons stay consistent; the mesh is not touched. Returns new
-    :class:`MeshArrays` (the same object when nothing needed repair); what cannot be repaired is
-    left for validation to report.
-    """
-    V, F, L, P = arrays.V, arrays.F.copy(), arrays.tri_loops.copy(), arrays.tri_poly
-    if len(F) == 0:
-        return arrays
-    diag2 = float(((V.max(0) - V.min(0)) ** 2).sum())
-    tol = rel_area * max(diag2, np.finfo(float).tiny)
-    nv = np.int64(len(V))
-    count = np.bincount(P, minlength=int(P.max()) + 1)
-    multi = np.flatnonzero(count[P] > 1)  # triangles of n-gons (quads included): the only suspects
-    if multi.size == 0:
-        return arrays
-    real = None  # the mesh's edges, a set made only when something needs repair (0.3 s at 1M)
-
-    def area(f):  # twice the area, of (k, 3) index rows
-        return np.linalg.norm(np.cross(V[f[:, 1]] - V[f[:, 0]], V[f[:, 2]] - V[f[:, 0]]), axis=1)
-
-    def is_real(x, y):
-        return real is not None and min(x, y) * nv + max(x, y) in real
-
-    changed = False
-    for _ in range(max_rounds):
-        bad = np.zeros(len(F), bool)
-        bad[multi] = area(F[multi]) <= 2 * tol
-        key = np.sort(F.astype(np.int64), axis=1) @ np.array([nv * nv, nv, 1], dtype=np.int64)
-        _, first = np.unique(key, return_index=True)
-        dup = np.ones(len(F), bool)
-        dup[first] = False  # every copy after the first
-        bad = np.flatnonzero((bad | dup) & (count[P] > 1))  # triangles of n-gons only
-        if bad.size == 0:
-            break
-        if real is None and arrays.edges is not None and len(arrays.edges):
-            E = np.sort(arrays.edges.astype(np.int64), axis=1)
-            real = set((E[:, 0] * nv + E[:, 1]).tolist())
-        members = {}
-        for t in np.flatnonzero(np.isin(P, np.unique(P[bad]))).tolist():
-            members.setdefault(int(P[t]), []).append(t)
-        progress = False
-        for t in bad.tolist():
-            f = F[t].tolist()
-            # b: the ear corner (its two sides are polygon sides, the third side a diagonal);
-            # without edges, the corner opposite the longest side (the middle of collinear ones).
-            ears = [k for k in range(3) if is_real(f[k], f[(k + 1) % 3]) and is_real(f[k], f[(k + 2) % 3])
-                    and not is_real(f[(k + 1) % 3], f[(k + 2) % 3])]
-            if len(ears) == 1:
-                k = ears[0]
-            else:
-                k = int(np.argmax([np.linalg.norm(V[f[(k + 2) % 3]] - V[f[(k + 1) % 3]]) for k in range(3)]))
-            b, c, a = f[k], f[(k + 1) % 3], f[(k + 2) % 3]
-            lb, lc, la = int(L[t, k]), int(L[t, (k + 1) % 3]), int(L[t, (k + 2) % 3])
-            for u in members[int(P[t])]:
-                if u == t:
-                    continue
-                g = F[u].tolist()
-                # The neighbour holds the directed edge a -> c.
-                j = next((j for j in range(3) if g[j] == a and g[(j + 1) % 3] == c), None)
-                if j is None:
-                    continue
-                d, ld = g[(j + 2) % 3], int(L[u, (j + 2) % 3])
-                new = np.array([[b, c, d], [b, d, a]])
-                if (area(new) <= 2 * tol).any():
-                    break
-                F[t], F[u] = new
-                L[t], L[u] = (lb, lc, ld), (lb, ld, la)
-                changed = progress = True
-                break
-        if not progress:
-            break
-    changed |= _unfold_ngon_triangles(arrays, F, L, multi, max_rounds)
-    if not changed:
-        return arrays
-    return MeshArrays(arrays.V, F, L, P, arrays.edges)
-
-
-def _unfold_ngon_triangles(arrays, F, L, multi, max_rounds):
-    """Flips, in place in ``F`` and ``L``, diagonals of n-gon triangles (indices ``multi``) that face
-    against their polygon; returns whether any changed. A bent or concave n-gon may be cut into a
-    triangle folded back over its neighbour (how depends on the Blender version: 5.x triangulates
-    by vertex positions), and curvature estimated across the fold is garbage (a crest line along
-    a rounded edge of hexagons broke there). A polygon's normal is its vector area, the sum of
-    its triangles' (the same for every triangulation of it). Triangle (x, y, z) and its neighbour
-    (y, x, w) across diagonal x-y become (z, x, w) and (w, y, z) when both then face with the
-    polygon. Needs the mesh's edges to tell diagonals from polygon sides."""
-    E, V, P = arrays.edges, arrays.V, arrays.tri_poly
-    if E is None or not len(E) or multi.size == 0:
-        return False
-
-    def cross(f):  # (k, 3) index rows
-        return np.cross(V[f[:, 1]] - V[f[:, 0]], V[f[:, 2]] - V[f[:, 0]])
-
-    normal = np.zeros((int(P.max()) + 1, 3))
-    np.add.at(normal, P[multi], cross(F[multi]))
-    bad = multi[np.einsum("ij,ij->i", cross(F[multi]), normal[P[multi]]) <= 0]
-    if bad.size == 0:
-        return False
-    nv = int(len(V))
-    E = np.sort(E.astype(np.int64), axis=1)
-    real = set((E[:, 0] * nv + E[:, 1]).tolist())
-    suspects = np.flatnonzero(np.isin(P, np.unique(P[bad])))
-    members = {}
-    for t in suspects.tolist():
-        members.setdefault(int(P[t]), []).append(t)
-
-    def flip(t):
-        n = normal[P[t]]
-        if cross(F[t:t + 1])[0] @ n > 0:  # already unfolded by an earlier flip
-            return False
-        f = F[t].tolist()
-        for k in range(3):
-            x, y, z = f[k], f[(k + 1) % 3], f[(k + 2) % 3]
-            if min(x, y) * nv + max(x, y) in real:
-                continue
-            for u in members[int(P[t])]:
-                g = F[u].tolist()
-                j = next((j for j in range(3) if g[j] == y and g[(j + 1) % 3] == x), None)
-                if u == t or j is None:
-                    continue
-                w = g[(j + 2) % 3]
-                new = np.array([[z, x, w], [w, y, z]])
-                if w != z and (cross(new) @ n > 0).all():
-                    lx, ly, lz = (int(L[t, (k + i) % 3]) for i in range(3))
-                    lw = int(L[u, (j + 2) % 3])
-                    F[t], F[u] = new
-                    L[t], L[u] = (lz, lx, lw), (lw, ly, lz)
-                    return True
-                break
-        return False
-
-    changed = False
-    for _ in range(max_rounds):
-        progress = False
-        for t in bad.tolist():
-            progress |= flip(t)
-        changed |= progress
-        bad = suspects[np.einsum("ij,ij->i", cross(F[suspects]), normal[P[suspects]]) <= 0]
-        if not progress or bad.size == 0:
-            break
-    return changed
 
 
 def read_object(obj, evaluated=False, depsgraph=None, edges=False, sync=True):
@@ -254,13 +88,6 @@ def get_array(collection, key, dtype=bool, width=1):
     a = np.empty(width * len(collection), dtype=dtype)
     collection.foreach_get(key, a)
     return a.reshape(-1, width) if width > 1 else a
-
-
-def ranges(start, count):
-    """The concatenated index ranges [start[i], start[i] + count[i]) (e.g. the loops of polygons
-    from their loop_start and loop_total), without a Python loop."""
-    start, count = np.asarray(start), np.asarray(count)
-    return np.repeat(start - np.cumsum(count) + count, count) + np.arange(count.sum())
 
 
 def has_selection(obj, domain="vertices"):
@@ -405,20 +232,16 @@ def mirror_axes(obj, V):
     return axes, None
 
 
-def on_mirror_planes(V, V0, axes):
-    """Vertices of the base mesh (V's first rows) that were on a mirror plane stay exactly there."""
-    for k, tol in axes:
-        seam = np.flatnonzero(np.abs(V0[:, k]) <= tol)
-        V[seam, k] = V0[seam, k]
-    return V
-
-
-def mirror_plane_bits(V, axes):
-    """Per vertex, bit k set when it lies on the mirror plane of axis k (``mirror_axes``'s axes)."""
-    bits = np.zeros(len(V), np.int32)
-    for k, tol in axes:
-        bits[np.abs(V[:, k]) <= tol] |= 1 << k
-    return bits
+def kd_nearest(Q, P, k):
+    """(len(P), k) indices of the k points of Q (n, 3) nearest to each point of P (m, 3), nearest
+    first, by Blender's kd-tree (``polymesh.nearest_sources``' ``knn``). A Python loop over the
+    points: mathutils has no bulk query."""
+    from mathutils.kdtree import KDTree
+    tree = KDTree(len(Q))
+    for i, q in enumerate(Q.tolist()):
+        tree.insert(q, i)
+    tree.balance()
+    return np.array([[i for _, i, _ in tree.find_n(p, k)] for p in P.tolist()], dtype=np.int64)
 
 
 def mesh_has_modifiers(obj):
@@ -500,15 +323,6 @@ def read_attributes(mesh, domain):
     return [(att.name, _read_attribute(att)) for att in mesh.attributes if _carried(att, domain)]
 
 
-def blend_attributes(values, idx, w):
-    """Values of new elements from ``read_attributes``: new element i gets sum_k w[i, k] *
-    values[idx[i, k]] (integers and booleans: the heaviest source's)."""
-    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
-    heavy = idx[np.arange(len(idx)), w.argmax(1)]
-    return [(name, a[heavy] if a.dtype.kind in "ib" else np.einsum("nk,nkd->nd", w, a[idx].astype(float)))
-            for name, a in values]
-
-
 def write_attributes(mesh, rows, values):
     """Writes values [(name, (len(rows), k))] at elements ``rows`` of the changed mesh."""
     for name, v in values:
@@ -538,11 +352,11 @@ def read_vertex_groups(obj):
 
 def write_vertex_groups(obj, groups, idx, w):
     """Writes ``read_vertex_groups``' groups on the object's rebuilt mesh: output vertex i gets
-    sum_k w[i, k] * (weights of input vertex idx[i, k]), as blend_attributes blends."""
+    sum_k w[i, k] * (weights of input vertex idx[i, k]), as polymesh.blend_attributes blends."""
     for name, lock in zip(groups["names"], groups["locks"]):
         obj.vertex_groups.new(name=name).lock_weight = lock
     obj.vertex_groups.active_index = groups["active"]
-    vert, group, weight, counted = _blend_group_weights(idx, w, groups["vertex"], groups["group"],
+    vert, group, weight, counted = blend_group_weights(idx, w, groups["vertex"], groups["group"],
                                                         groups["weight"], len(groups["names"]))
     # A member with weight 0 stays one where a source counts (not for a zero barycentric).
     vert, group, weight = vert[counted], group[counted], weight[counted]
@@ -556,25 +370,6 @@ def write_vertex_groups(obj, groups, idx, w):
         bm.to_mesh(obj.data)
     finally:
         bm.free()
-
-
-def _blend_group_weights(idx, w, ev, eg, ew, n_groups):
-    """Vertex-group weights blended from sources given as (vertex, group, weight) entries: output
-    vertex i gets sum_k w[i, k] * (weights of source idx[i, k]). Returns (vertex, group, weight,
-    counted) per output membership, counted where some source with a nonzero w is a member."""
-    idx, w = np.asarray(idx), np.asarray(w, dtype=float)
-    o, src, w = np.repeat(np.arange(len(idx)), idx.shape[1]), idx.ravel(), w.ravel()
-    order = np.argsort(ev, kind="stable")
-    ev, eg, ew = ev[order], eg[order], ew[order]
-    start = np.searchsorted(ev, np.arange(int(src.max(initial=-1)) + 2))
-    count = start[src + 1] - start[src]
-    at = ranges(start[src], count)
-    key = np.repeat(o, count) * n_groups + eg[at]
-    key, inv = np.unique(key, return_inverse=True)
-    weight = np.bincount(inv, np.repeat(w, count) * ew[at])
-    counted = np.bincount(inv, np.repeat(w, count)) > 0
-    vert, group = np.divmod(key, n_groups)
-    return vert, group, weight, counted
 
 
 def blend_vertex_groups(new_verts, src_verts, idx, w, deform):
@@ -591,7 +386,7 @@ def blend_vertex_groups(new_verts, src_verts, idx, w, deform):
     if not entries:
         return
     ev, eg, ew = (np.array(c) for c in zip(*entries))
-    vert, group, weight, _counted = _blend_group_weights(idx, w, ev, eg, ew, int(eg.max()) + 1)
+    vert, group, weight, _counted = blend_group_weights(idx, w, ev, eg, ew, int(eg.max()) + 1)
     for i, g, x in zip(vert.tolist(), group.tolist(), weight.tolist()):
         if x > 0:
             new_verts[i][deform][g] = x

@@ -9,7 +9,7 @@ untouched, the others are written. Started from the UI they run the native work 
 The redo panel, scripts and ``--background`` use execute().
 Quads and n-gons are read through Blender's loop triangles; n-gons whose triangulation has
 zero-area or doubled ears (straight runs of corners, valence-2 vertices left by dissolving edges)
-are re-triangulated (bridge.repair_ngon_triangles) instead of being rejected.
+are re-triangulated (polymesh.repair_ngon_triangles) instead of being rejected.
 
 dgmesh.decimate_features rewrites the mesh datablock in place (its name, materials and users stay;
 in Edit mode it leaves and re-enters Edit mode around the write, and undo restores the old mesh).
@@ -44,7 +44,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, FloatProperty, IntProperty
 
-from .. import colors
+from .. import colors, polymesh
 from . import bridge, compat
 from .common import (editable_collection, plural as _plural, poll_mesh_targets, read_only_reason,
                      report_shown_shape, target_objects)
@@ -147,7 +147,7 @@ class _PerObjectJob(NativeJobOperator):
 def _read(obj):
     # N-gons with straight runs of corners (dissolved edges) may triangulate into zero-area
     # triangles: re-triangulate those instead of rejecting the mesh.
-    arrays = bridge.repair_ngon_triangles(bridge.read_object(obj, edges=True))
+    arrays = polymesh.repair_ngon_triangles(bridge.read_object(obj, edges=True))
     data = {"arrays": arrays, "counts": (len(obj.data.vertices), len(obj.data.polygons))}
     return data
 
@@ -172,78 +172,6 @@ def cached_crest_lines(arrays, rings, progress=None):
     return lines
 
 
-def _edge_lookup(edges, n_vertices):
-    keys = np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64) * n_vertices + np.maximum(edges[:, 0], edges[:, 1])
-    order = np.argsort(keys)
-    return keys[order], order
-
-
-def _find_edges(pairs, lookup, n_vertices):
-    """Mesh edge index of each vertex pair, -1 when the pair is not a real edge."""
-    skeys, order = lookup
-    q = np.minimum(pairs[:, 0], pairs[:, 1]).astype(np.int64) * n_vertices + np.maximum(pairs[:, 0], pairs[:, 1])
-    pos = np.clip(np.searchsorted(skeys, q), 0, max(len(skeys) - 1, 0))
-    found = len(skeys) > 0
-    hit = (skeys[pos] == q) if found else np.zeros(len(q), bool)
-    return np.where(hit, order[pos] if found else -1, -1)
-
-
-def _route(a, b, adjacency, max_depth=4):
-    """Shortest path of real edges between vertices a and b (breadth first, a few steps)."""
-    prev = {a: None}
-    frontier = [a]
-    for _ in range(max_depth):
-        nxt = []
-        for v in frontier:
-            for w in adjacency(v):
-                if w in prev:
-                    continue
-                prev[w] = v
-                if w == b:
-                    path = [b]
-                    while prev[path[-1]] is not None:
-                        path.append(prev[path[-1]])
-                    return path[::-1]
-                nxt.append(w)
-        frontier = nxt
-    return None
-
-
-def _route_edges(pairs, edges, lookup, n_vertices):
-    """Edges along the shortest path of real edges (``_route``) between each vertex pair that is
-    not an edge itself: (edge indices, index of the pair each edge belongs to).
-
-    Most such pairs are the triangulation diagonal of a quad or n-gon, two steps apart. Their path
-    a -> c -> b goes through the first neighbour c of a, in adjacency order, that is joined to b
-    (the one the breadth-first search meets first): found for all pairs at once. Only the others
-    (gap jumps, wider n-gons) are searched one by one (searching all 16K diagonals of a 1M-triangle
-    quad grid so took 0.34 s).
-    """
-    # CSR adjacency of the real edges.
-    both = np.concatenate([edges, edges[:, ::-1]])
-    order = np.argsort(both[:, 0], kind="stable")
-    nbr = both[order, 1]
-    start = np.searchsorted(both[order, 0], np.arange(n_vertices + 1))
-    a, b = pairs[:, 0], pairs[:, 1]
-    # Every neighbour c of each a, grouped by pair in adjacency order; the first one joined to b.
-    count = start[a + 1] - start[a]
-    pair = np.repeat(np.arange(len(pairs)), count)
-    c = nbr[bridge.ranges(start[a], count)]
-    cb = _find_edges(np.column_stack([c, b[pair]]), lookup, n_vertices)
-    hit = np.flatnonzero(cb >= 0)
-    two, first = np.unique(pair[hit], return_index=True)
-    via = hit[first]
-    ac = _find_edges(np.column_stack([a[two], c[via]]), lookup, n_vertices)
-    found, owner = [ac, cb[via]], [two, two]
-    adjacency = lambda v: nbr[start[v]:start[v + 1]].tolist()  # noqa: E731
-    for i in np.setdiff1d(np.arange(len(pairs)), two).tolist():
-        path = _route(int(a[i]), int(b[i]), adjacency)
-        if path is not None:
-            found.append(_find_edges(np.column_stack([path[:-1], path[1:]]), lookup, n_vertices))
-            owner.append(np.full(len(path) - 1, i))
-    return np.concatenate(found), np.concatenate(owner)
-
-
 def crest_edges(lines, arrays):
     """Boolean masks over the mesh's own edges following the ridges and the valleys.
 
@@ -260,11 +188,11 @@ def crest_edges(lines, arrays):
         return ridge, valley
     pairs, line = dg.crest.snap_to_vertices(lines, arrays.V, arrays.F)
     kind = lines.line_kind[line]
-    lookup = _edge_lookup(E, nv)
-    idx = _find_edges(pairs, lookup, nv)
+    lookup = polymesh.edge_lookup(E, nv)
+    idx = polymesh.find_edges(lookup, pairs)
     missing = np.flatnonzero(idx < 0)
     if missing.size:
-        routed, owner = _route_edges(pairs[missing], E, lookup, nv)
+        routed, owner = polymesh.route_edges(pairs[missing], E, lookup)
         idx = np.concatenate([idx, routed])
         kind = np.concatenate([kind, kind[missing[owner]]])
     ridge[idx[(idx >= 0) & (kind == dg.crest.RIDGE)]] = True
@@ -438,17 +366,8 @@ def _read_for_decimation(obj):
     mesh.polygons.foreach_get("use_smooth", smooth)
     # Vertices on UV seams (several UVs) or material borders are locked, so seams and borders stay
     # exact and every decimated face keeps corners of one UV island.
-    nv = len(mesh.vertices)
-    locked = np.zeros(nv, dtype=bool)
-    if n_loops:
-        order = np.argsort(loop_vertex, kind="stable")
-        sv = loop_vertex[order]
-        first = order[np.searchsorted(sv, sv)]  # a loop of the same vertex, per sorted loop
-        for _, uv in uvs:
-            differs = np.abs(uv[order] - uv[first]).max(1) > 1e-6
-            locked[sv[differs]] = True
-        loop_mat = np.repeat(mat, np.diff(np.append(_get(mesh.polygons, "loop_start", np.int32), n_loops)))
-        locked[sv[loop_mat[order] != loop_mat[first]]] = True
+    loop_mat = np.repeat(mat, np.diff(np.append(_get(mesh.polygons, "loop_start", np.int32), n_loops)))
+    locked = polymesh.locked_vertices(loop_vertex, len(mesh.vertices), [uv for _, uv in uvs], loop_mat)
     # Seams and sharp edges, carried over where their edges survive (_carry_edge_flags).
     edges = np.empty(2 * len(mesh.edges), dtype=np.int32)
     mesh.edges.foreach_get("vertices", edges)
@@ -469,7 +388,7 @@ def _read_for_decimation(obj):
                 hide=(_get(mesh.vertices, "hide", bool), _get(mesh.polygons, "hide", bool)))
     # A half modelled with a Mirror modifier: no face may end up lying in a mirror plane, where the
     # mirrored half puts its twin (the mirrored mesh would tear there).
-    planes = bridge.mirror_plane_bits(data["arrays"].V, bridge.mirror_axes(obj, data["arrays"].V)[0])
+    planes = polymesh.mirror_plane_bits(data["arrays"].V, bridge.mirror_axes(obj, data["arrays"].V)[0])
     data.update(loop_vertex=loop_vertex, uvs=uvs, material_index=mat, use_smooth=smooth, locked=locked, planes=planes,
                 uv_active=mesh.uv_layers.active_index,
                 uv_render=next((i for i, l in enumerate(mesh.uv_layers) if l.active_render), 0))
@@ -499,25 +418,17 @@ def _read_vertex_weights(mesh):
 
 def _write_vertex_weights(mesh, weights, idx, w):
     """``_read_vertex_weights``' values on the decimated mesh: each output vertex takes the largest
-    of its sources' (``_vertex_sources``, those with a weight), as merged edges do."""
+    of its sources' (``polymesh.vertex_sources``, those with a weight), as merged edges do."""
     for name, values in weights.items():
-        compat.set_element_values(mesh, name, np.where(w > 0, values[idx], 0.0).max(1))
+        compat.set_element_values(mesh, name, polymesh.largest_source_values(values, idx, w))
 
 
 def _surviving_edges(mesh, data, vertex_map):
     """(output edges, input edges) of the input edges that survive the decimation: both ends kept
     and still joined by an edge (vertices on UV seams are locked, so an unwrapped mesh keeps all its
     seams)."""
-    out = _get(mesh.edges, "vertices", np.int32, 2).astype(np.int64)
-    n = len(mesh.vertices)
-    key_out = out.min(1) * n + out.max(1)
-    order = np.argsort(key_out)
-    sorted_keys = key_out[order]
-    a, b = (vertex_map[data["edges"][:, k]].astype(np.int64) for k in (0, 1))
-    key_in = np.minimum(a, b) * n + np.maximum(a, b)
-    pos = np.clip(np.searchsorted(sorted_keys, key_in), 0, max(len(sorted_keys) - 1, 0))
-    hit = np.flatnonzero((a >= 0) & (b >= 0) & (a != b) & (sorted_keys[pos] == key_in)) if len(out) else []
-    return order[pos[hit]], np.asarray(hit, dtype=np.int64)
+    return polymesh.surviving_edges(_get(mesh.edges, "vertices", np.int32, 2), len(mesh.vertices), data["edges"],
+                                    vertex_map)
 
 
 def _carry_edge_flags(mesh, data, edge_pairs):
@@ -534,120 +445,6 @@ def _carry_edge_flags(mesh, data, edge_pairs):
         compat.set_element_values(mesh, name, new)
 
 
-def _vertex_sources(source_vertex, lookup, loop_vertex, loose, n_surface):
-    """Where each output vertex takes its point data and vertex-group weights: (n_out, 3) input
-    vertices and weights, as bridge.blend_attributes takes them. A vertex that kept its place takes
-    its source vertex's; one moved to its quadric optimum blends the nearest input triangle's by its
-    barycentrics (the lookup its UVs use); loose vertices keep their own."""
-    src = np.concatenate([np.asarray(source_vertex[:n_surface], dtype=np.int64), loose])
-    idx = np.repeat(src[:, None], 3, axis=1)
-    w = np.zeros(idx.shape)
-    w[:, 0] = 1.0
-    if lookup is not None:
-        moved_out, loops, bary = lookup
-        idx[moved_out] = loop_vertex[loops]
-        w[moved_out] = bary
-    return idx, w
-
-
-def _moved_vertex_lookup(tri_loops, V, F, V2, vertex_map, moved):
-    """Where each moved output vertex (quadric optimum) reads its UVs: the nearest input triangle
-    around the input vertices merged into it, and its barycentrics there. Those vertices are never
-    locked (off UV seams), so their triangles lie in one UV island. (output vertices, (k, 3) input
-    loops, (k, 3) barycentrics), or None; the same for every UV map (once per mesh: per map it was
-    3.2 s of a 1M-triangle decimation)."""
-    merged = np.flatnonzero((vertex_map >= 0) & moved[np.maximum(vertex_map, 0)])
-    if merged.size == 0:
-        return None
-    # Candidates grouped by output vertex (its input vertices in ascending order, each with its
-    # triangles in corner order), so the nearest per group needs no sort of them all.
-    merged = merged[np.argsort(vertex_map[merged], kind="stable")]
-    fv = F.ravel()
-    order = np.argsort(fv, kind="stable")
-    start = np.searchsorted(fv[order], np.arange(len(V) + 1))
-    count = start[merged + 1] - start[merged]
-    pos = bridge.ranges(start[merged], count)
-    face = order[pos] // 3
-    v = np.repeat(merged, count)
-    w = vertex_map[v]
-    # A triangle with several corners merged into w is measured once, from its lowest one (45% of
-    # the candidates at 1M triangles were such repeats).
-    corners = F[face]
-    first_time = ~((vertex_map[corners] == w[:, None]) & (corners < v[:, None])).any(1)
-    face, w = face[first_time], w[first_time]
-    # Coordinates as rows (3, k): the per-candidate sums are whole-row operations (sum(1) over
-    # (k, 3) was a third of the time), added in sum(1)'s order.
-    Vt = np.ascontiguousarray(V.T)
-    A, B, C = (Vt[:, F[face, k]] for k in range(3))
-    p = np.ascontiguousarray(V2.T)[:, w]
-
-    def dot(x, y):
-        return x[0] * y[0] + x[1] * y[1] + x[2] * y[2]
-
-    # Barycentrics of p projected onto the triangle's plane, clamped into the triangle.
-    e0, e1, d = B - A, C - A, p - A
-    d00, d01, d11, d20, d21 = dot(e0, e0), dot(e0, e1), dot(e1, e1), dot(d, e0), dot(d, e1)
-    det = d00 * d11 - d01 * d01
-    den = np.where(np.abs(det) > 0, det, 1.0)
-    bv, bw = (d11 * d20 - d01 * d21) / den, (d00 * d21 - d01 * d20) / den
-    bary = np.clip(np.stack([1 - bv - bw, bv, bw]), 0.0, None)
-    bary /= np.maximum(bary[0] + bary[1] + bary[2], 1e-300)
-    r = p - (bary[0] * A + bary[1] * B + bary[2] * C)
-    dist = dot(r, r)
-    dist[np.isnan(dist)] = np.inf  # a sliver triangle's: last choice
-    # Per output vertex the nearest triangle, the first one on a tie.
-    starts = np.r_[0, np.flatnonzero(np.diff(w)) + 1]
-    nearest = np.flatnonzero(dist == np.repeat(np.minimum.reduceat(dist, starts), np.diff(np.r_[starts, len(w)])))
-    first = nearest[np.r_[True, w[nearest][1:] != w[nearest][:-1]]]
-    return w[first], tri_loops[face[first]], np.ascontiguousarray(bary[:, first].T)
-
-
-def _moved_vertex_uvs(uv, lookup, n):
-    """UV (or other corner values) of each of the n output vertices that :func:`_moved_vertex_lookup`
-    places (zero elsewhere)."""
-    out = np.zeros((n, uv.shape[1]))
-    if lookup is not None:
-        w, loops, bary = lookup
-        out[w] = (bary[:, :, None] * uv[loops]).sum(1)
-    return out
-
-
-def corner_plan(tri_loops, loop_vertex, F2, face_map, source_vertex):
-    """What carrying corner values to the decimated triangles needs that does not depend on the
-    values (once per decimation, not per UV map or corner layer): (input loop of each output corner,
-    the corners now at another vertex, for each of those its candidates' group and loops, output
-    vertex of each corner). Output triangle j is input triangle face_map[j] with some corners now
-    at a merged vertex."""
-    ref = tri_loops[face_map].ravel()  # input loops of the output corners
-    src = source_vertex[F2].ravel()    # input vertex now at each corner
-    changed = np.flatnonzero(loop_vertex[ref] != src)
-    order = np.argsort(loop_vertex, kind="stable")
-    start = np.searchsorted(loop_vertex[order], np.arange(int(loop_vertex.max(initial=-1)) + 2))
-    v = src[changed]
-    count = start[v + 1] - start[v]
-    group = np.repeat(np.arange(changed.size), count)
-    return ref, changed, group, order[bridge.ranges(start[v], count)], F2.ravel()
-
-
-def transfer_corner_values(values, plan, moved_values=None, moved=None):
-    """UVs (or other corner values, (n_loops, k)) for the corners of the decimated triangles
-    ((3 m2, k)), by ``corner_plan``. A corner that kept its vertex keeps its own value. A corner now
-    at another surviving vertex takes one of that vertex's original corner values: the one nearest
-    to the corner's old value, i.e. the one on the same side of any seam. Vertices that moved
-    (``moved``) take ``moved_values``."""
-    ref, changed, group, cand, corner_vertex = plan
-    flat = values[ref].astype(np.float64)
-    if changed.size:
-        dist = ((values[cand] - flat[changed][group]) ** 2).sum(1)
-        pick = np.lexsort((dist, group))
-        first = pick[np.r_[0, np.flatnonzero(np.diff(group[pick])) + 1]] if pick.size else pick
-        flat[changed[group[first]]] = values[cand[first]]
-    if moved is not None:
-        at_moved = moved[corner_vertex]
-        flat[at_moved] = moved_values[corner_vertex[at_moved]]
-    return flat
-
-
 def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     """Replaces the mesh's geometry in place (same datablock: its name, materials and users stay),
     with UV maps, generic attributes, vertex groups, material indices, smooth and hide flags, and
@@ -659,20 +456,15 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     uvs = []
     carried = (data["uvs"] or data["attributes"] or data["vertex_groups"] or data["vertex_weights"]
                or data["normals"] is not None)
-    lookup = _moved_vertex_lookup(arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved) if carried else None
+    lookup = (polymesh.moved_vertex_lookup(arrays.tri_loops, arrays.V, arrays.F, V2, vertex_map, moved) if carried
+              else None)
 
-    plan = []  # corner_plan, made for the first corner layer
+    plan = []  # polymesh.corner_plan, made for the first corner layer
 
     def corners(values):  # UVs and other corner values of the output triangles, (3 m2, k)
         if not plan:
-            plan.append(corner_plan(arrays.tri_loops, data["loop_vertex"], F2, face_map, source_vertex))
-        discrete = values.dtype.kind in "ib"
-        at_moved = _moved_vertex_uvs(values.astype(float), lookup, len(V2))
-        if discrete and lookup is not None:  # no blend: the corner with the largest barycentric
-            w, loops, bary = lookup
-            at_moved[w] = values[loops[np.arange(len(w)), bary.argmax(1)]]
-        out = transfer_corner_values(values.astype(float), plan[0], at_moved, moved)
-        return out.astype(values.dtype) if discrete else out
+            plan.append(polymesh.corner_plan(arrays.tri_loops, data["loop_vertex"], F2, face_map, source_vertex))
+        return polymesh.decimated_corner_values(values, plan[0], lookup, moved, len(V2))
 
     for name, uv in data["uvs"]:
         uvs.append((name, corners(uv)))
@@ -681,8 +473,7 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     loose = np.flatnonzero(vertex_map < 0)
     vertex_map = vertex_map.copy()
     vertex_map[loose] = len(V2) + np.arange(len(loose))
-    wire = vertex_map[data["edges"][data["wire"]]]
-    wire = np.unique(np.sort(wire[wire[:, 0] != wire[:, 1]], axis=1), axis=0)
+    wire = polymesh.wire_edges(data["edges"], data["wire"], vertex_map)
     mesh.clear_geometry()
     mesh.vertices.add(len(V2) + len(loose))
     mesh.vertices.foreach_set("co", np.ascontiguousarray(np.vstack([V2, arrays.V[loose]]), dtype=np.float32).ravel())
@@ -696,9 +487,7 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
     mesh.update(calc_edges=True)
     if len(wire):
         ev = _get(mesh.edges, "vertices", np.int32, 2)
-        n = len(mesh.vertices)
-        wire = wire[~np.isin(wire[:, 0].astype(np.int64) * n + wire[:, 1],
-                             np.sort(ev, axis=1).astype(np.int64) @ np.array([n, 1]))]
+        wire = wire[polymesh.find_edges(polymesh.edge_lookup(ev, len(mesh.vertices)), wire) < 0]
         mesh.edges.add(len(wire))
         mesh.edges.foreach_set("vertices", np.concatenate([ev.ravel(), wire.astype(np.int32).ravel()]))
     edge_pairs = _surviving_edges(mesh, data, vertex_map)
@@ -724,7 +513,7 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
         normals = corners(data["normals"])
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
         compat.set_custom_normals(mesh, normals)
-    idx, w = _vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
+    idx, w = polymesh.vertex_sources(source_vertex, lookup, data["loop_vertex"], loose, len(V2))
     _write_attributes(mesh, data, idx, w, poly, edge_pairs, corners)
     if data["vertex_groups"] is not None:
         bridge.write_vertex_groups(obj, data["vertex_groups"], idx, w)
@@ -736,12 +525,12 @@ def _write_decimated(obj, data, V2, F2, vertex_map, face_map, source_vertex):
 
 def _write_attributes(mesh, data, idx, w, poly, edge_pairs, corners):
     """The input's generic attributes on the decimated mesh: point data blended by
-    ``_vertex_sources``, face data from the input polygon each triangle was, edge data where the edge survives
+    ``polymesh.vertex_sources``, face data from the input polygon each triangle was, edge data where the edge survives
     (new edges: zero), corner data as the UVs take theirs (``corners``); colours stay active."""
     out_e, in_e = edge_pairs
     for name, data_type, domain, values in data["attributes"]:
         if domain == 'POINT':
-            new = bridge.blend_attributes([(name, values)], idx, w)[0][1]
+            new = polymesh.blend_attributes([(name, values)], idx, w)[0][1]
         elif domain == 'FACE':
             new = values[poly]
         elif domain == 'EDGE':

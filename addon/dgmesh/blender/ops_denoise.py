@@ -22,7 +22,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from .. import colors
+from .. import colors, polymesh
 from ..denoise import DenoiseMethod, DenoiseOptions, SimilarityOptions
 from ..denoise import defaults as method_defaults
 from . import bridge
@@ -244,7 +244,7 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
 
     def _write(self, job):
         mesh = job.obj.data
-        bridge.write_positions(mesh, bridge.on_mirror_planes(np.array(job.result.vertices), job.V, job.mirror))
+        bridge.write_positions(mesh, polymesh.on_mirror_planes(np.array(job.result.vertices), job.V, job.mirror))
         if self.show_residual:
             residual = job.result.residual
             bridge.write_point_float(mesh, ATTR_RESIDUAL, residual)

@@ -28,6 +28,7 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
+from .. import polymesh
 from ..fair import refine_region
 from . import bridge
 from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
@@ -64,65 +65,6 @@ class _Target:
         self.result = None
 
 
-def _mirrored(V, F, masks, axes):
-    """The base mesh reflected across each mirror plane and welded at the plane, as the Mirror
-    modifier shows it: (V, F, masks) with the base mesh's vertices first; vertices on a plane are
-    shared by both halves; per-vertex and per-face masks are repeated. None when a face lies in a
-    plane (it would be doubled)."""
-    vmask, fmask = masks
-    for k, tol in axes:
-        seam = np.abs(V[:, k]) <= tol
-        if seam[F].all(axis=1).any():
-            return None
-        n = len(V)
-        image = np.where(seam, np.arange(n), n + np.cumsum(~seam) - 1)
-        R = V[~seam].copy()
-        R[:, k] = -R[:, k]
-        V = np.concatenate([V, R])
-        F = np.concatenate([F, image[F][:, ::-1]])  # a reflection turns the orientation
-        vmask = None if vmask is None else np.concatenate([vmask, vmask[~seam]])
-        fmask = None if fmask is None else np.concatenate([fmask, fmask])
-    return V, F, (vmask, fmask)
-
-
-def _split_seam_edges(V, F, region, axes):
-    """Edges of the region lying on a mirror plane that the half alone holds (a hole next to the
-    plane, filled: its closing edge runs along the plane) split into pieces as long as the region's
-    other border edges, their triangles into fans. In the welded whole such an edge is inside the
-    patch, and the refinement, which never splits the region's border, would keep it whole (a
-    crease along the plane). Returns (V, F, region, face_origin); new vertices and rows follow."""
-    key = np.sort(np.stack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]], 1).reshape(-1, 2), axis=1)
-    uniq, count = np.unique(key, axis=0, return_counts=True)
-    boundary = {tuple(e) for e in uniq[count == 1].tolist()}
-    on = np.zeros(len(V), bool)
-    for k, tol in axes:
-        on |= np.abs(V[:, k]) <= tol
-    # The region's border: edges of one region face only (the fill's diagonals are longer).
-    rkey, rcount = np.unique(key.reshape(-1, 3, 2)[region].reshape(-1, 2), axis=0, return_counts=True)
-    other = rkey[(rcount == 1) & ~(on[rkey[:, 0]] & on[rkey[:, 1]])]
-    if not len(other):
-        return V, F, region, np.arange(len(F))
-    h = float(np.linalg.norm(V[other[:, 0]] - V[other[:, 1]], axis=1).mean())
-    V, rows, origin, reg = list(V), list(F.tolist()), list(range(len(F))), list(region)
-    for f in np.flatnonzero(region):
-        a, b, c = rows[f]
-        for (u, v, w) in ((a, b, c), (b, c, a), (c, a, b)):
-            if not (on[u] and on[v] and (min(u, v), max(u, v)) in boundary):
-                continue
-            pieces = int(round(np.linalg.norm(V[u] - V[v]) / h))
-            if pieces < 2:
-                break
-            ids = [u] + [len(V) + i for i in range(pieces - 1)] + [v]
-            V += [V[u] + (V[v] - V[u]) * (i / pieces) for i in range(1, pieces)]
-            fan = [[ids[i], ids[i + 1], w] for i in range(pieces)]
-            rows[f] = fan[0]
-            rows += fan[1:]
-            origin += [f] * (pieces - 1)
-            reg += [True] * (pieces - 1)
-            break  # a fill triangle has at most one edge along the plane worth splitting
-    return np.array(V), np.array(rows, dtype=F.dtype), np.array(reg, bool), np.array(origin)
-
-
 def _read_target(obj, edit_mode, keep_border):
     """Arrays and masks of one object; raises MeshError with a user-facing message. None for an
     edited object with nothing selected (not a target, whatever it holds)."""
@@ -138,7 +80,7 @@ def _read_target(obj, edit_mode, keep_border):
         raise dg.MeshError("the mesh has shape keys; only the basis would change (remove or apply them first)")
     # Two n-gons sharing a valence-2 vertex (a Grid Fill quad beside a rim quad) can triangulate
     # into the same triangle twice; re-triangulate those instead of reporting duplicate faces.
-    arrays = bridge.repair_ngon_triangles(bridge.read_object(obj, sync=not edit_mode))  # has_selection synced
+    arrays = polymesh.repair_ngon_triangles(bridge.read_object(obj, sync=not edit_mode))  # has_selection synced
     if len(arrays.F) == 0:
         raise dg.MeshError("mesh has no faces")
     if not edit_mode:
@@ -165,52 +107,8 @@ def _read_target(obj, edit_mode, keep_border):
         raise dg.MeshError("every selected vertex touches an unselected face, which keeps it fixed: select the "
                            "faces to fair (or turn off Keep Selection Border)")
     if faces is not None:
-        arrays = _orient_region(arrays, tri_sel)
+        arrays = polymesh.orient_region(arrays, tri_sel)
     return _Target(obj, arrays, movable, faces)
-
-
-def _orient_region(arrays, region):
-    """Triangles of the selected region turned to agree with their neighbours, outward from the
-    unselected faces. Fill (Alt+F) can orient some of its triangles against the mesh, which the
-    flow rejects as 'inconsistent face orientation'; the written faces then follow the mesh."""
-    # Only the region and the faces sharing an edge with it take part (other seeds reach nothing):
-    # the walk below over a whole 1M-triangle mesh took 14 s for a 999-face selection.
-    n = int(arrays.F.max()) + 1
-    u, v = arrays.F.ravel().astype(np.int64), arrays.F[:, [1, 2, 0]].ravel().astype(np.int64)
-    key = np.minimum(u, v) * n + np.maximum(u, v)
-    region_keys = np.unique(key.reshape(-1, 3)[region])
-    pos = np.minimum(np.searchsorted(region_keys, key), len(region_keys) - 1)
-    sub = np.flatnonzero((region_keys[pos] == key).reshape(-1, 3).any(1))
-    F = arrays.F[sub]
-    region = region[sub]
-    faces_of = {}
-    for f, (a, b, c) in enumerate(F.tolist()):
-        for u, v in ((a, b), (b, c), (c, a)):
-            faces_of.setdefault((min(u, v), max(u, v)), []).append(f)
-
-    def has_directed(h, u, v):
-        a, b, c = F[h]
-        return (u, v) in ((a, b), (b, c), (c, a))
-
-    flip = np.zeros(len(F), bool)
-    done = ~region.copy()
-    queue = list(np.flatnonzero(done))
-    while queue:
-        f = queue.pop()
-        a, b, c = F[f][::-1] if flip[f] else F[f]
-        for u, v in ((a, b), (b, c), (c, a)):
-            for h in faces_of[(min(u, v), max(u, v))]:
-                if h != f and not done[h]:
-                    flip[h] = has_directed(h, u, v)  # holds the edge the same way as f: turn it
-                    done[h] = True
-                    queue.append(h)
-    if not flip.any():
-        return arrays
-    flip = sub[flip]
-    F2, L2 = arrays.F.copy(), arrays.tri_loops.copy()
-    F2[flip] = F2[flip][:, ::-1]
-    L2[flip] = L2[flip][:, ::-1]
-    return dataclasses.replace(arrays, F=F2, tri_loops=L2)
 
 
 class _FairBase(NativeJobOperator):
@@ -280,13 +178,13 @@ class _FairBase(NativeJobOperator):
         V1, F1, mask1, faces1, origin1 = V0, F0, t.mask, t.faces, None
         refined = False
         if t.mirror and t.refine:
-            Vs, Fs, faces_s, origin_s = _split_seam_edges(V0, F0, t.faces, t.mirror)
+            Vs, Fs, faces_s, origin_s = polymesh.split_seam_edges(V0, F0, t.faces, t.mirror)
             V1, F1, origin1 = refine_region(Vs, Fs, faces_s)
             refined = len(V1) > len(Vs)
             mask1 = np.concatenate([t.mask, np.ones(len(V1) - n0, bool)])
             faces1 = faces_s[origin1]
             origin1 = origin_s[origin1]
-        m = _mirrored(V1, F1, (mask1, faces1), t.mirror) if t.mirror else None
+        m = polymesh.mirrored(V1, F1, (mask1, faces1), t.mirror) if t.mirror else None
         t.mirrored = m is not None
         if m is None:
             return self._run(t, V0, F0, t.mask, t.faces, t.refine, progress)
@@ -297,7 +195,7 @@ class _FairBase(NativeJobOperator):
         r = self._run(t, V, F, mask, faces, False, progress, levels)
         n1, m1 = len(V1), len(F1)
         if isinstance(r, np.ndarray):  # Regularize: positions
-            return bridge.on_mirror_planes(r[:n1].copy(), V0, t.mirror)
+            return polymesh.on_mirror_planes(r[:n1].copy(), V0, t.mirror)
         # The half's faces: its rows (row f holds a child of input face f) and the extra children of
         # its faces; its vertices: its own, then the new ones its faces use (never a mirror copy).
         rows = np.flatnonzero(r.face_origin < m1)
@@ -309,7 +207,7 @@ class _FairBase(NativeJobOperator):
         Fh = index[Fh]
         if (Fh < 0).any():  # cannot happen: the flow neither flips nor joins faces across the plane
             raise api().MeshError("the mirrored result could not be split into its halves")
-        Vh = bridge.on_mirror_planes(np.concatenate([r.vertices[:n1], r.vertices[new]]), V1, t.mirror)
+        Vh = polymesh.on_mirror_planes(np.concatenate([r.vertices[:n1], r.vertices[new]]), V1, t.mirror)
         size = float(np.ptp(V0, axis=0).max())
         for k, _tol in t.mirror:  # a seam edge's midpoint is on the plane up to rounding
             near = np.abs(Vh[n1:, k]) <= 1e-9 * size
@@ -503,21 +401,6 @@ def _interpolate_corners(V, tris, src, loop_start, loop_total, loop_vertex, laye
     return [(key, o) for (key, _C), o in zip(layers, out)]
 
 
-def _nearest_sources(Q, P, k=16, dense=2_000_000):
-    """(len(P), k') indices into Q that Shepard's weights for the points P run over: all of Q for a
-    hole's rim (len(P) * len(Q) <= ``dense``), else the k nearest (a kd-tree): every source for every
-    new vertex made a dense matrix, 4 GB for a 10K-triangle object subdivided whole."""
-    if len(P) * len(Q) <= dense:
-        return np.broadcast_to(np.arange(len(Q)), (len(P), len(Q)))
-    from mathutils.kdtree import KDTree
-    k = min(k, len(Q))
-    tree = KDTree(len(Q))
-    for i, q in enumerate(Q.tolist()):
-        tree.insert(q, i)
-    tree.balance()
-    return np.array([[i for _, i, _ in tree.find_n(p, k)] for p in P.tolist()], dtype=np.int64)
-
-
 def _write_subdivided(t, select):
     """Replace the refined polygons by the output triangles with bmesh; other faces untouched."""
     mesh = t.obj.data
@@ -564,11 +447,11 @@ def _write_subdivided(t, select):
         new_points = []
         if len(V) > n_old and src and (points or deform is not None):
             Q = np.array([v.co[:] for v in src])
-            idx = _nearest_sources(Q, V[n_old:])
+            idx = polymesh.nearest_sources(Q, V[n_old:], knn=bridge.kd_nearest)
             d2 = ((V[n_old:, None, :] - Q[idx]) ** 2).sum(-1)
             W = 1.0 / np.maximum(d2, 1e-300) ** 2
             W /= W.sum(1, keepdims=True)
-            new_points = bridge.blend_attributes(points, np.array([v.index for v in src])[idx], W)
+            new_points = polymesh.blend_attributes(points, np.array([v.index for v in src])[idx], W)
             bridge.blend_vertex_groups(verts[n_old:], src, idx, W, deform)
         # Faces one by one (bmesh has no bulk creation); their corner data and selection are
         # written in bulk after to_mesh, by the indices bmesh gives them.
@@ -619,7 +502,7 @@ def _select_faces(mesh, polys, select):
         return
     start = bridge.get_array(mesh.polygons, "loop_start", np.int32).astype(np.int64)[polys]
     total = bridge.get_array(mesh.polygons, "loop_total", np.int32).astype(np.int64)[polys]
-    loops = bridge.ranges(start, total)
+    loops = polymesh.ranges(start, total)
     for coll, idx in ((mesh.polygons, polys),
                       (mesh.edges, bridge.get_array(mesh.loops, "edge_index", np.int32)[loops]),
                       (mesh.vertices, bridge.get_array(mesh.loops, "vertex_index", np.int32)[loops])):

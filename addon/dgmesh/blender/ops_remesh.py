@@ -22,7 +22,8 @@ import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
-from ..unwrap import chart_labels
+from .. import polymesh
+from ..polymesh import flip_off_mirror_planes
 from . import bridge
 from .common import plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
@@ -229,7 +230,7 @@ def _replace_region(mesh, it, select_new, renumbering=False):
     # of the new vertices, blended from the input face each lies on (source_face/bary).
     corner = _corner_values(mesh, it, r)
     nb = len(r.boundary_source)
-    points = bridge.blend_attributes(bridge.read_attributes(mesh, 'POINT'),
+    points = polymesh.blend_attributes(bridge.read_attributes(mesh, 'POINT'),
                                      np.asarray(ids)[it["F"][r.source_face[nb:]]], r.source_bary[nb:])
     source = _source_polygons(mesh, it, r)
     face_values = [(name, a[source]) for name, a in bridge.read_attributes(mesh, 'FACE')]
@@ -296,49 +297,6 @@ def _write_new_faces(mesh, polys, want, corner, material, smooth, select_new):
             coll.foreach_set("select", sel)
 
 
-def flip_off_mirror_planes(V, F, axes):
-    """A triangle with its three corners on a Mirror modifier's plane lies in the plane, on its
-    mirror twin: the mirrored mesh tears there (a kept boundary along the plane gives a few, from
-    three boundary vertices in a row). Each such triangle's edge shared with a triangle off the
-    plane is flipped, when the two new triangles face the way the pair did. Returns the new F."""
-    F = np.array(F)
-    on = bridge.mirror_plane_bits(V, axes)
-    bad = np.flatnonzero(on[F[:, 0]] & on[F[:, 1]] & on[F[:, 2]])
-    if not len(bad):
-        return F
-    n = len(V)
-    keys = (F * n + np.roll(F, -1, axis=1)).ravel()  # half-edge a -> b of face i // 3
-    order = np.argsort(keys)
-    made = {}  # half-edges of flipped faces (the sorted keys are stale for them)
-
-    def face_of(a, b):  # the face with half-edge a -> b, or None
-        i = np.searchsorted(keys, a * n + b, sorter=order)
-        for f in (made.get((a, b)), int(order[i]) // 3 if i < len(keys) and keys[order[i]] == a * n + b else None):
-            if f is not None and any(F[f, j] == a and F[f, (j + 1) % 3] == b for j in range(3)):
-                return f
-        return None
-
-    def normal(a, b, c):
-        return np.cross(V[b] - V[a], V[c] - V[a])
-
-    for t in bad:  # a handful: a loop over them
-        for k in range(3):
-            a, b, c = (int(F[t, (k + j) % 3]) for j in range(3))
-            g = face_of(b, a)
-            if g is None:
-                continue
-            d = int(F[g].sum()) - a - b
-            if on[a] & on[b] & on[d] or face_of(c, d) is not None or face_of(d, c) is not None:
-                continue
-            m = normal(b, a, d)  # the neighbour off the plane: the side the surface faces
-            if normal(a, d, c) @ m <= 0 or normal(d, b, c) @ m <= 0:
-                continue
-            F[t], F[g] = (a, d, c), (d, b, c)
-            made.update({(a, d): t, (d, c): t, (c, a): t, (d, b): g, (b, c): g, (c, d): g})
-            break
-    return F
-
-
 def _nearest_output(it, out_index):
     """Where references to a removed vertex of the region go: the mesh vertex of the output vertex
     nearest to it."""
@@ -366,82 +324,17 @@ def _corner_values(mesh, it, r):
     """((kind, name), (m_out, 3[, k]) values of each output triangle's corners) for each layer of
     bridge.corner_layers (UV maps, generic corner attributes, colours included)."""
     L = it["tri_loops"]  # (nf, 3) mesh loops of the chart's triangles
-    shared = _shared_edges(it["F"])
+    shared = polymesh.shared_edges(it["F"])
     out = []
     for (kind, name), k in bridge.corner_layers(mesh):
         C = bridge.read_corners(mesh, kind, name, k)[L]
         if C.dtype.kind not in "ib":
-            vals = _island_corners(it["V"], it["F"], C, r, shared)
+            vals = polymesh.island_corners(it["V"], it["F"], C, r, shared)
         else:  # no blend of integers or booleans: the input corner with the largest barycentric weight
             T = r.F
             vals = C[r.source_face[T], np.argmax(r.source_bary[T], axis=-1)]
         out.append(((kind, name), vals[..., 0] if k == 1 else vals))
     return out
-
-
-def _shared_edges(F):
-    """The chart's interior edges as (face a, face b, and the corners of each face at the edge's
-    two ends): the same for every corner layer (computed once: per layer it was half of the
-    corner work of a 1M-triangle Remesh)."""
-    nf = len(F)
-    e_f = np.repeat(np.arange(nf), 3)
-    e_i = np.tile(np.arange(3), nf)
-    u, v = F[e_f, e_i], F[e_f, (e_i + 1) % 3]
-    key = np.minimum(u, v).astype(np.int64) * (F.max() + 1) + np.maximum(u, v)
-    order = np.argsort(key, kind="stable")
-    same = np.flatnonzero(key[order[1:]] == key[order[:-1]])
-    a, b = order[same], order[same + 1]  # half-edges of the same edge in faces fa, fb
-    fa, fb = e_f[a], e_f[b]
-    ua, va = u[a], v[a]
-
-    def corner_of(f, x):
-        return np.argmax(F[f] == x[:, None], axis=1)
-
-    return fa, fb, corner_of(fa, ua), corner_of(fb, ua), corner_of(fa, va), corner_of(fb, va)
-
-
-def _island_corners(V, F, C, r, shared=None):
-    """Corner values of the output triangles from the input's corner values C (nf, 3, k).
-
-    Each output vertex lies on an input triangle (source_face / source_bary). Where the input's
-    corner values jump across an edge (a UV seam: the islands on either side), an output triangle
-    whose corners lie on different islands takes all three from one island, its home (the island of
-    two of its corners, else the first's): a corner elsewhere gets the home triangle's affine map
-    extended to its position. So does a corner whose own value is farther from that extension than
-    the triangle's extent in the map (across a seam that ends inside the region, whose two sides
-    are one island). Blending each corner on its own side gave such triangles corners on both sides
-    of the seam (a triangle stretched across the UV map)."""
-    nf = len(F)
-    # Islands: triangles joined across edges whose two shared corners carry the same values.
-    fa, fb, ka_u, kb_u, ka_v, kb_v = _shared_edges(F) if shared is None else shared
-    tol = 1e-6 * max(1.0, float(np.abs(C).max(initial=0.0)))
-    cont = (np.abs(C[fa, ka_u] - C[fb, kb_u]).max(-1) <= tol) & (np.abs(C[fa, ka_v] - C[fb, kb_v]).max(-1) <= tol)
-    lab = chart_labels(nf, np.stack([fa[cont], fb[cont]], 1))
-    T = r.F
-    s = r.source_face[T]  # (m, 3) source triangle of each corner
-    val = (r.source_bary[T][..., None] * C[s]).sum(2)  # (m, 3, k): each corner in its own island
-    isl = lab[s]
-    home = np.where((isl[:, 1] == isl[:, 2]) & (isl[:, 0] != isl[:, 1]), s[:, 1], s[:, 0])
-    # Every corner through the home triangle's affine map (barycentric coordinates of its position
-    # projected on that triangle's plane, possibly negative).
-    h = np.repeat(home, 3)
-    P = r.V[T.ravel()]
-    A, B, D = V[F[h, 0]], V[F[h, 1]], V[F[h, 2]]
-    e0, e1, d = B - A, D - A, P - A
-    d00, d01, d11 = (e0 * e0).sum(1), (e0 * e1).sum(1), (e1 * e1).sum(1)
-    d20, d21 = (d * e0).sum(1), (d * e1).sum(1)
-    det = d00 * d11 - d01 ** 2
-    den = np.where(np.abs(det) > 0, det, 1.0)
-    wb = (d11 * d20 - d01 * d21) / den
-    wc = (d00 * d21 - d01 * d20) / den
-    ext = (np.stack([1 - wb - wc, wb, wc], 1)[..., None] * C[h]).sum(1).reshape(val.shape)
-    # Another island, or (a seam that ends inside the region joins its sides into one island) a
-    # jump larger than the triangle's own extent in the map: the corner is across a seam.
-    size = np.linalg.norm(ext[:, [0, 1, 2]] - ext[:, [1, 2, 0]], axis=2).max(1, keepdims=True)
-    jump = np.linalg.norm(val - ext, axis=2) > size + 1e-12
-    off = (isl != lab[home][:, None]) | jump
-    val[off] = ext[off]
-    return val
 
 
 classes = (DGMESH_OT_remesh,)

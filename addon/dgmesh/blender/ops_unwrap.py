@@ -18,14 +18,13 @@ active UV map on the unwrapped faces before and after. Long runs show progress a
 (jobs.NativeJobOperator); nothing is written before the computation has finished.
 """
 
-import sys
-
 import bmesh
 import bpy
 import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
+from ..polymesh import ranges, split_charts
 from . import bridge, compat
 from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
@@ -51,52 +50,6 @@ def _read_polys(mesh):
     seam = np.empty(nedge, bool)
     mesh.edges.foreach_get("use_seam", seam)
     return start, total, sel, lv, le, seam
-
-
-def split_charts(start, total, face_mask, loop_edge, seam, loop_vertex=None):
-    """Charts of the masked polygons: returns (corner_class, chart_of_class) where corner_class[l]
-    is the chart vertex of loop l (-1 for loops of unmasked polygons). With ``loop_vertex``, two
-    polygons that run a shared edge the same way (one of them flipped) raise MeshError: their
-    corners would be joined crosswise."""
-    uw = sys.modules[api().__name__ + ".unwrap"]  # the module (the package's `unwrap` is the function)
-    nloop = len(loop_edge)
-    poly_of_loop = np.repeat(np.arange(len(start)), total)
-    nxt = np.arange(nloop) + 1
-    last = start + total - 1
-    nxt[last] = start
-    in_mask = face_mask[poly_of_loop]
-    loops = np.nonzero(in_mask)[0]
-    # Loops of masked polygons sharing a non-seam edge: pair them up (two loops per manifold edge).
-    e = loop_edge[loops]
-    order = np.argsort(e, kind="stable")
-    ls, es = loops[order], e[order]
-    same = es[1:] == es[:-1]
-    # An edge with exactly two masked loops (three or more: non-manifold, left unjoined).
-    first = np.nonzero(same)[0]
-    ok = np.ones(len(first), bool)
-    if len(first):
-        before = np.r_[False, same][first]
-        after = np.r_[same, False][first + 1]
-        ok = ~before & ~after & ~seam[es[first]]
-    a, b = ls[first[ok]], ls[first[ok] + 1]
-    if loop_vertex is not None:
-        same_way = np.flatnonzero(loop_vertex[a] == loop_vertex[b])
-        if len(same_way):
-            raise api().MeshError(
-                f"inconsistent face orientation (flipped normals) across {len(same_way)} edge(s) (first: edge "
-                f"{int(loop_edge[a[same_way[0]]])}); Mesh > Normals > Recalculate Outside, then unwrap")
-    # Edge u->v in a's polygon and v->u in b's: a~next(b), next(a)~b.
-    vertex_pairs = np.concatenate([np.c_[a, nxt[b]], np.c_[nxt[a], b]]).astype(np.int32)
-    cls = uw.chart_labels(nloop, vertex_pairs)
-    inner = np.c_[loops, nxt[loops]].astype(np.int32)
-    chart_of_loop = uw.chart_labels(nloop, np.concatenate([vertex_pairs, inner]))
-    corner_class = np.full(nloop, -1, np.int64)
-    used_classes, remap = np.unique(cls[loops], return_inverse=True)
-    corner_class[loops] = remap
-    chart_of_class = np.empty(len(used_classes), np.int64)
-    chart_of_class[remap] = chart_of_loop[loops]
-    _, chart_of_class = np.unique(chart_of_class, return_inverse=True)
-    return corner_class, chart_of_class
 
 
 class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
@@ -179,7 +132,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                 self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': {reason}")
                 return None
             try:
-                item = _read_charts(obj, edit, dg)
+                item = read_charts(obj, edit, dg)
             except dg.MeshError as exc:
                 self.report({'ERROR'}, f"Unwrap failed on '{obj.name}': {exc}")
                 return None
@@ -417,7 +370,7 @@ def _edit_corners(mesh, it):
         return None
     loops = [l for f in faces for l in f.loops]
     total = it["poly_total"]
-    index = bridge.ranges(it["poly_start"], total)
+    index = ranges(it["poly_start"], total)
     if np.any(np.diff(index) <= 0):
         loops = [loops[i] for i in np.argsort(index).tolist()]
     return mesh, bm, bm.loops.layers.uv.active, loops
@@ -440,7 +393,7 @@ def _edit_write_uvs(corners, uv):
         l[lay].uv = p
 
 
-def _read_charts(obj, edit, dg):
+def read_charts(obj, edit, dg):
     """Charts of the faces to unwrap, as arrays for the worker (no bpy objects inside). Charts
     holding a pinned UV are left as they are (``n_pinned`` of them): the unwrap has no pins, and a
     pin means the user placed those UVs. Edit mode: the shown, selected faces, read from the mesh

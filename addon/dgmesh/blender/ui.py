@@ -60,19 +60,19 @@ class DGMESH_PT_main(bpy.types.Panel):
         layout = self.layout
         col = layout.column(align=True)
         _draw_operators(col)
-        from . import ops_skeletal
-        sk = ops_skeletal.skeleton_of(context.active_object)
+        from . import skeletal_live, skeletal_store
+        sk = skeletal_store.skeleton_of(context.active_object)
         if sk is not None:
             shown = not sk.hide_viewport and sk.visible_get()
             col.operator("dgmesh.skeletal_show_skeleton", text="Hide Skeleton" if shown else "Show Skeleton",
                          icon='HIDE_OFF' if shown else 'HIDE_ON').show = not shown
         for obj in context.scene.objects:
-            if ops_skeletal.armature_modifier_on(obj):
+            if skeletal_live.armature_modifier_on(obj):
                 _warning(layout, (f"{obj.name}:", "its Armature modifier is on:", "it deforms twice;",
                                   "turn the modifier off"))
-            if ops_skeletal.live_modifier_misplaced(obj):
+            if skeletal_live.live_modifier_misplaced(obj):
                 _warning(layout, (f"{obj.name}:", "move dg_skeletal to", "the top of the modifiers"))
-            if ops_skeletal.shown_undeformed(obj):
+            if skeletal_live.shown_undeformed(obj):
                 _warning(layout, (f"{obj.name}:", "edited since bound,", "rebind it"))
                 layout.operator("dgmesh.skeletal_rebind", icon='FILE_REFRESH').object_name = obj.name
         # Colour attributes only show in Solid shading with Color = Attribute.
