@@ -69,10 +69,11 @@ class Digest:
     def __init__(self, out, only):
         self.out, self.only, self.t0 = out, only, time.time()
 
-    def __call__(self, name, fn):
-        """Runs fn() and prints name, the digest of its result (or of the error it raised), seconds."""
+    def __call__(self, name, fn, needed=False):
+        """Runs fn() and prints name and the digest of its result (or the error it raised); returns
+        the result. Calls left out by --only are not run, unless later calls need their result."""
         if self.only and self.only not in name:
-            return None
+            return fn() if needed else None
         t = time.time()
         try:
             r = fn()
@@ -268,10 +269,10 @@ def main():
         progress=None))
     crest_args = dict(rings=1, threshold=0.0, ridges=True, valleys=True, smooth=True, join_gaps=True,
                       skip_boundary=True, progress=None)
-    lines = d("crest_lines", lambda: dgmesh.crest_lines(Vc, Fc, **crest_args))
+    lines = d("crest_lines", lambda: dgmesh.crest_lines(Vc, Fc, **crest_args), needed=True)
     d("crest_lines.torus", lambda: dgmesh.crest_lines(Vtn, Ft, **dict(crest_args, rings=2, join_gaps=False)))
     d("crest_lines.filter", lambda: lines.filter(threshold=0.5, ridges=True, valleys=False))
-    dist = d("crest_face_distance", lambda: crest_face_distance(Vc, Fc, lines))
+    dist = d("crest_face_distance", lambda: crest_face_distance(Vc, Fc, lines), needed=True)
     d("feature_function", lambda: feature_function(dist, 1.5, eps=0.1))
     d("snap_to_vertices", lambda: snap_to_vertices(lines, Vc, Fc))
     dec = dict(feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0, preserve_boundary=True, min_quality=0.0,
@@ -304,7 +305,7 @@ def main():
         d(f"unwrap.cap.{solver}", lambda: unwrap(Vcap, Fcap, solver=solver, max_iterations=6))
     d("unwrap.slide_boundary", lambda: unwrap(Vcap, Fcap, slide_boundary=True, eta=0.5, iterations=3))
     d("unwrap.iterations=0", lambda: unwrap(Vg, Fg, iterations=0, weights="cotangent"))
-    UV = d("unwrap.grid.uv", lambda: unwrap(Vg, Fg, boundary="circle")).uv
+    UV = d("unwrap.grid.uv", lambda: unwrap(Vg, Fg, boundary="circle"), needed=True).uv
     d("uv_metrics", lambda: dgmesh.uv_metrics(Vg, Fg, UV, zero_area_eps=1e-10))
     d("uv_metrics.corners", lambda: dgmesh.uv_metrics(Vg, Fg, UV[Fg], zero_area_eps=1e-10))
     for per in ("vertex", "face"):
