@@ -27,13 +27,15 @@
 #include "dgmesh/fair.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <unordered_map>
 #include <unordered_set>
 
+#include "dgmesh/detail/edge_key.h"
+#include "dgmesh/detail/math.h"
+#include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
@@ -53,9 +55,10 @@ constexpr int kFairParallelMin = 1 << 16;
 
 using Mat3Row = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
-inline long long edge_key(int a, int b) {
-  return (static_cast<long long>(std::min(a, b)) << 32) | static_cast<unsigned>(std::max(a, b));
-}
+using detail::edge_key;
+using detail::half_edge_key;
+using detail::kPi;
+using detail::Stopwatch;
 
 inline int corner_of(const MatX3i& F, int f, int v) { return F(f, 0) == v ? 0 : (F(f, 1) == v ? 1 : 2); }
 
@@ -139,7 +142,7 @@ void compute_geometry(const MatX3d& P, const MatX3i& F, const Topology& t, Geo& 
     if (a > 0) lap /= a;
     g.LP.row(v) = lap;
     g.H[v] = 0.5 * N.dot(lap);
-    g.K[v] = a > 0 ? (2.0 * M_PI - angle) / a : 0.0;
+    g.K[v] = a > 0 ? (2.0 * kPi - angle) / a : 0.0;
   }
   // Boundary vertices have no angle deficit of their own: extrapolate from the interior.
   const VecXd H0 = g.H, K0 = g.K;
@@ -397,10 +400,6 @@ void area_normals(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& N
   }
 }
 
-struct Clock {
-  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
-};
 
 // Willmore / Laplacian-of-H speed F at movable vertices (eq. 3.5 / 3.12), with the thesis's
 // rescaling of H where the discrete H^2 - K < 0 (applied in the nonlinear term, so that
@@ -539,7 +538,7 @@ struct LevelReport {
 
 class Driver {
  public:
-  Driver(const FairOptions& o, Progress& p, Clock& c, std::vector<double>& e) : opt_(o), progress_(p), clock_(c), energy_(e) {}
+  Driver(const FairOptions& o, Progress& p, Stopwatch& c, std::vector<double>& e) : opt_(o), progress_(p), clock_(c), energy_(e) {}
 
   // first_new: the level's first vertex made by its subdivision (0 on the first level).
   LevelReport run(Work& w, int level, int levels, int first_new) {
@@ -684,7 +683,7 @@ class Driver {
     double a = 0;
     for (int v = 0; v < w.topo.n_vertices; ++v)
       if (movable_idx_[v] >= 0) a += g.A[v];
-    const double r2 = a / M_PI;
+    const double r2 = a / kPi;
     return std::max(r2 * r2 / 52.0, std::pow(h_, 4) / 8.0);
   }
 
@@ -1106,7 +1105,7 @@ class Driver {
 
   const FairOptions& opt_;
   Progress& progress_;
-  Clock& clock_;
+  Stopwatch& clock_;
   std::vector<double>& energy_;
   int level_ = 0, levels_ = 0, nm_ = 0;
   std::vector<double> accepted_;
@@ -1465,7 +1464,6 @@ void retriangulate_fill(const std::vector<Vec3>& P, const MatX3i& F, const std::
                         std::vector<Eigen::Vector3i>& T) {
   constexpr int kMaxLoop = 600;
   const int m = static_cast<int>(F.rows());
-  auto he = [](int a, int b) { return (static_cast<long long>(a) << 32) | static_cast<unsigned>(b); };
   std::vector<int> rows;
   for (int f = 0; f < m; ++f)
     if (face_mask[f]) rows.push_back(f);
@@ -1490,11 +1488,11 @@ void retriangulate_fill(const std::vector<Vec3>& P, const MatX3i& F, const std::
     if (!face_mask[f])
       for (int k = 0; k < 3; ++k) {
         const int a = F(f, k), b = F(f, (k + 1) % 3);
-        if (in_region[a] && in_region[b]) outside.emplace(he(a, b), f);
+        if (in_region[a] && in_region[b]) outside.emplace(half_edge_key(a, b), f);
       }
   std::vector<Vec3> outer(nr, Vec3::Zero());
   for (int i = 0; i < nr; ++i) {
-    const auto it = outside.find(he(loop[(i + 1) % nr], loop[i]));
+    const auto it = outside.find(half_edge_key(loop[(i + 1) % nr], loop[i]));
     if (it == outside.end()) continue;
     const int f = it->second;
     const Vec3 c = (P[F(f, 1)] - P[F(f, 0)]).cross(P[F(f, 2)] - P[F(f, 0)]);
@@ -1593,7 +1591,7 @@ RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vec
         if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
         int a, b, c, d;
         if (!quad(key, t1, t2, a, b, c, d)) continue;
-        if (angle_at(c, a, b) + angle_at(d, a, b) <= M_PI + 1e-9) continue;
+        if (angle_at(c, a, b) + angle_at(d, a, b) <= kPi + 1e-9) continue;
         const long long nk = edge_key(c, d);
         if (emap.count(nk) || fixed_edge.count(nk)) continue;
         const Vec3 n_old = (P[b] - P[a]).cross(P[c] - P[a]) + (P[a] - P[b]).cross(P[d] - P[b]);
@@ -1649,7 +1647,7 @@ RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vec
         const Vec3 n_old = (P[b] - P[a]).cross(P[c] - P[a]) + (P[a] - P[b]).cross(P[d] - P[b]);
         const Vec3 n1 = (P[d] - P[a]).cross(P[c] - P[a]), n2 = (P[b] - P[d]).cross(P[c] - P[d]);
         if (n1.dot(n_old) <= 0 || n2.dot(n_old) <= 0) continue;
-        const double floor = std::min(15.0 * M_PI / 180.0, std::min(min_angle(a, b, c), min_angle(b, a, d)));
+        const double floor = std::min(15.0 * kPi / 180.0, std::min(min_angle(a, b, c), min_angle(b, a, d)));
         if (std::min(min_angle(a, d, c), min_angle(d, b, c)) < floor) continue;
         T[t1] = Eigen::Vector3i(a, d, c);
         T[t2] = Eigen::Vector3i(d, b, c);
@@ -1754,7 +1752,7 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
 
   Progress progress(progress_fn);
   progress(0.0);
-  Clock clock;
+  Stopwatch clock;
   FairResult res;
   VecXi origin = VecXi::LinSpaced(ms0, 0, ms0 - 1);  // working face -> level-0 working face
   Driver driver(opt, progress, clock, res.energy);

@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -13,6 +12,9 @@
 #include <vector>
 
 #include "dgmesh/delaunay.h"
+#include "dgmesh/detail/edge_key.h"
+#include "dgmesh/detail/math.h"
+#include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
@@ -24,10 +26,13 @@ namespace dgmesh {
 
 namespace {
 
-using Vec2 = Eigen::Vector2d;
-using Clock = std::chrono::steady_clock;
+using detail::Clock;
+using detail::cross2;
+using detail::edge_key;
+using detail::kPi;
+using detail::seconds_since;
+using detail::Vec2;
 constexpr double kSqrt3 = 1.7320508075688772;
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kFlipCos = 0.94;  // cos 20 degrees
 // The smoothing's angle goal: no move may create a 3D angle below it, and stars still holding one
 // get a pattern search. 30 degrees is a quality threshold, not an optimum: aiming at 35 lifts the
@@ -55,10 +60,6 @@ constexpr double kLloydPointsPerCell = 32;  // Lloyd quadrature points wanted pe
 constexpr int kLloydMaxResolution = 1024;   // ... up to this grid size
 constexpr double kLloydTolerance = 0.003;  // Lloyd steps end when the samples' RMS move is under this (spacings)
 
-inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
-inline double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 inline Vec2 uv_row(const MatX2d& U, int i) { return U.row(i).transpose(); }
 
 // Target edge length of a near-equilateral mesh with `density` vertices per unit area: each vertex
@@ -354,12 +355,10 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
 int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
                        const std::vector<std::pair<int, int>>& seeds) {
   const int nt = int(T.size());
-  const int64_t nv = P.rows();
-  auto key = [nv](int a, int b) { return a < b ? int64_t(a) * nv + b : int64_t(b) * nv + a; };
   // Twin half-edges (h = 3 t + k runs T[t][k] -> T[t][k + 1]) by sorting the undirected keys.
   std::vector<std::pair<int64_t, int>> he(3 * nt);
   for (int t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) he[3 * t + k] = {key(T[t][k], T[t][(k + 1) % 3]), 3 * t + k};
+    for (int k = 0; k < 3; ++k) he[3 * t + k] = {edge_key(T[t][k], T[t][(k + 1) % 3]), 3 * t + k};
   std::sort(he.begin(), he.end());
   std::vector<int> opp(3 * nt, -1);
   for (size_t q = 0; q + 1 < he.size(); ++q)
@@ -381,7 +380,7 @@ int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
   };
   std::vector<int> stack;
   for (auto [a, b] : seeds) {
-    const int64_t k = key(a, b);
+    const int64_t k = edge_key(a, b);
     auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(k, -1));
     if (it != he.end() && it->first == k) stack.push_back(it->second);
   }
@@ -390,13 +389,13 @@ int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
       [&](int f, int g, int a, int b, int c, int d) {
         T[f] = {a, d, c};
         T[g] = {d, b, c};
-        edges.erase(key(a, b));
-        edges.insert(key(c, d));
+        edges.erase(edge_key(a, b));
+        edges.insert(edge_key(c, d));
       },
       [&](int a, int b, int c, int d) {
         const double s = orient(a, b, c);
         if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) return false;
-        return orient(a, d, c) * s > 0 && orient(d, b, c) * s > 0 && !edges.count(key(c, d));
+        return orient(a, d, c) * s > 0 && orient(d, b, c) * s > 0 && !edges.count(edge_key(c, d));
       });
 }
 

@@ -4,17 +4,15 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseLU>
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
-#include <ctime>
 #include <exception>
 #include <limits>
 #include <numeric>
 #include <string>
 #include <vector>
 
+#include "dgmesh/detail/math.h"
+#include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
@@ -30,10 +28,13 @@ namespace dgmesh {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
+using detail::Clock;
+using detail::cross2;
+using detail::kPi;
+using detail::profile_mark;
+using detail::seconds_since;
+using detail::Vec2;
 constexpr double kInf = std::numeric_limits<double>::infinity();
-using Vec2 = Eigen::Vector2d;
-using Clock = std::chrono::steady_clock;
 // Loops over fewer rows (vertices; faces and ring entries are about 2x and 6x as many) run
 // serially: on a loaded machine OpenMP's fork/join and spin-waiting cost more than the work (see
 // kFairParallelMin in fair.cpp).
@@ -43,42 +44,6 @@ constexpr int kParallelRows = 20000;
 // 133K-vertex lion-head's free-boundary unwrap took 12 solves instead of 8 and ended at L2 stretch
 // 1.539 instead of 1.386 (bench unwrap_speed).
 constexpr int kSmootherBlocks = 2;
-
-inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
-inline double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
-
-// Phase profile (process CPU seconds of the phases of unwrap()), printed to stderr when the
-// environment variable DGMESH_UNWRAP_PROFILE is set: how the speed work was measured.
-struct Profile {
-  bool on = std::getenv("DGMESH_UNWRAP_PROFILE") != nullptr;
-  std::clock_t t = std::clock();
-  std::vector<std::pair<std::string, double>> acc;
-  void mark(const char* name) {
-    if (!on) return;
-    const std::clock_t now = std::clock();
-    const double s = double(now - t) / CLOCKS_PER_SEC;
-    t = now;
-    for (auto& a : acc)
-      if (a.first == name) { a.second += s; return; }
-    acc.emplace_back(name, s);
-  }
-  ~Profile() {
-    if (!on) return;
-    for (auto& a : acc) std::fprintf(stderr, "  %-14s %.3f\n", a.first.c_str(), a.second);
-  }
-};
-// The profile of the unwrap() running on this thread (null when profiling is off).
-thread_local Profile* g_prof = nullptr;
-inline void pmark(const char* name) {
-  if (g_prof) g_prof->mark(name);
-}
-struct ProfileScope {
-  Profile prof;
-  ProfileScope() { g_prof = prof.on ? &prof : nullptr; }
-  ~ProfileScope() { g_prof = nullptr; }
-};
 
 // Stretch of the affine map P: U -> T of one triangle (thesis 5.2, [SSGH01]): with the partial
 // derivatives S_s, S_t of P, Gamma^2 and gamma^2 are the eigenvalues of [a b; b c], a = S_s.S_s,
@@ -649,10 +614,10 @@ MatX2d lscm(const MatX3d& V, const MatX3i& F, const Topology& topo, int pin0, in
   }
   SpMat Qf(nf, nf);
   Qf.setFromTriplets(trip.begin(), trip.end());
-  pmark("lscm_build");
+  profile_mark("lscm_build");
   SparseSolver solver;
   solver.factor(Qf, SparseSolver::Kind::Cholesky);
-  pmark("lscm_factor");
+  profile_mark("lscm_factor");
   const Eigen::VectorXd x = solver.solve(rhs);
   MatX2d U(n, 2);
   for (int v = 0; v < n; ++v) {
@@ -1219,7 +1184,7 @@ class ChartSolver {
   // storage (the multigrid works on rows).
   int solve(const SpMat& A, const SpMatR& Ar, const Eigen::MatrixXd& B, Eigen::MatrixXd& X) {
     if (kind_ == UvSolver::Multigrid) {
-      pmark("other");
+      profile_mark("other");
       // Large charts keep a hierarchy only while it stays cheap: after a solve of at most
       // kCheapIters iterations (the late, small equalization steps).
       const int reuse = Ar.rows() <= kSmallAmgRows || last_iters_ <= kCheapIters ? kAmgReuse : 0;
@@ -1232,14 +1197,14 @@ class ChartSolver {
         reuse_left_ = reuse;
       }
       prepared_ = false;
-      pmark("amg_setup");
+      profile_mark("amg_setup");
       Blk Bb = B, Xb = X;
       const int iters = bicgstab_amg(Ar, amg_, Bb, Xb, tol_, max_iters_);
       last_iters_ = iters >= 0 ? iters : 1 << 20;
       if (last_iters_ > kCheapIters && Ar.rows() > kSmallAmgRows) reuse_left_ = 0;
       const bool ok = iters >= 0 && Xb.allFinite();
       if (ok) X = Xb;
-      pmark("krylov");
+      profile_mark("krylov");
       if (ok) return iters;
       if (!fallback_) return -1;
       kind_ = UvSolver::Umfpack;
@@ -1460,7 +1425,8 @@ namespace {
 UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOptions& opt,
                             const ProgressFn& progress_fn, bool fold_stops, bool& folded, MatX2d& lscm_map) {
   folded = false;
-  ProfileScope profile;
+  // CPU seconds per phase on stderr when DGMESH_UNWRAP_PROFILE is set (how the speed work was measured).
+  detail::ProfileScope profile("DGMESH_UNWRAP_PROFILE");
   Progress progress(progress_fn);
   progress(0.0);
   Mesh mesh = make_mesh(Vin, Fin, kSurface | kNoLooseVertices);
@@ -1599,7 +1565,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
   if (bnd == UvBoundary::Free) {
     // LSCM depends (mildly) on the pins, so they must not depend on the vertex order.
     const auto [p0, p1] = diameter_pair(mesh.V, loop);
-    pmark("setup");
+    profile_mark("setup");
     // The conformal map and the system of eq. 5.3 are independent: on two threads they overlap
     // (one fork; each side runs serially inside).
     MatX2d L;
@@ -1627,7 +1593,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
       if (e) std::rethrow_exception(e);
     system_ready = true;
     lscm_map = L;
-    pmark("lscm+system");
+    profile_mark("lscm+system");
     // The conformal energy favours the faces' orientation; mirror if the image came out negative.
     double signed_area = 0;
     for (int f = 0; f < nf; ++f) {
@@ -1688,7 +1654,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
 
   // ---- U0 (eq. 5.3) ----
   if (!system_ready) prepare_system();
-  pmark("weights+system");
+  profile_mark("weights+system");
   if (ws.fallback)
     res.warnings.push_back(std::to_string(ws.fallback) + " vertices with rings Floater's construction cannot flatten used mean-value weights");
   if (ws.negative)
@@ -1701,9 +1667,9 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
   bool gave_up = false;  // a solve gave up (solver.give_up_after)
   if (fold_stops) solver.give_up_after(kGiveUpIters);
   auto solve_step = [&](MatX2d& Ucur) {
-    pmark("other");
+    profile_mark("other");
     const int bad = sys.fill(*T, w, Ucur);
-    pmark("fill");
+    profile_mark("fill");
     (void)bad;
     const int m = static_cast<int>(sys.free_v.size());
     Eigen::MatrixXd X(m, 2);
@@ -1720,12 +1686,12 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
     return it;
   };
   auto metrics_of = [&](const MatX2d& Ucur, bool full = false) {
-    pmark("other");
+    profile_mark("other");
     fd = face_data(Vf, Ff, Ucur, nff);
     fd_valid = true;
     auto m = full ? metrics_impl(mesh.V, mesh.F, Ucur, nf, edges, opt.zero_area_eps, &angles3)
                   : stretch_metrics(fd, nf, opt.zero_area_eps);
-    pmark("metrics");
+    profile_mark("metrics");
     return m;
   };
   // An iterative solve stops at a relative residual; the exact solution of eq. 5.3 has no flips
@@ -1807,10 +1773,10 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
   solver.set_tolerance(step_tol);
   for (int h = 1; h <= max_steps; ++h) {
     const auto t0 = Clock::now();
-    pmark("other");
+    profile_mark("other");
     if (!fd_valid) fd = face_data(Vf, Ff, U, nff);
     vertex_stretch_impl(fd, *T, opt.zero_area_eps, cap, sigma);
-    pmark("vstretch");
+    profile_mark("vstretch");
     if (opt.slide_boundary) {
       curve.slide(loop, sigma, opt.eta);
       curve.place(loop, U);
