@@ -2,10 +2,12 @@
 // Not part of the library's interface.
 #pragma once
 #include <Eigen/Core>
+#include <limits>
 
 namespace dgmesh::detail {
 
 constexpr double kPi = 3.14159265358979323846;
+constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using Vec2 = Eigen::Vector2d;
 
