@@ -9,6 +9,7 @@
 #include <string>
 #include <utility>
 
+#include "dgmesh/detail/math.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 
@@ -405,7 +406,7 @@ CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, co
       int a, b;
     };
     std::vector<Candidate> cand;
-    const double third = M_PI / 3, half = M_PI / 2;
+    const double third = detail::kPi / 3, half = detail::kPi / 2;
     auto angle = [](const Vec3& x, const Vec3& y) {
       return std::atan2(x.cross(y).norm(), x.dot(y));
     };

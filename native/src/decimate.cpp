@@ -6,6 +6,7 @@
 #include <cstring>
 #include <string>
 
+#include "dgmesh/detail/math.h"
 #include "dgmesh/errors.h"
 
 namespace dgmesh {
@@ -485,7 +486,7 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
   if (!opt_.locked.empty() && opt_.locked.size() != static_cast<size_t>(nv))
     throw MeshError("locked has " + std::to_string(opt_.locked.size()) + " values for " + std::to_string(nv) +
                     " vertices");
-  if (!(opt_.max_normal_angle > 0 && opt_.max_normal_angle <= M_PI))
+  if (!(opt_.max_normal_angle > 0 && opt_.max_normal_angle <= detail::kPi))
     throw MeshError("max_normal_angle must be in (0, pi]");
   cos_max_ = std::cos(opt_.max_normal_angle);
   cos_max2_ = cos_max_ * cos_max_;

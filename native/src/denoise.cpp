@@ -20,6 +20,7 @@
 #include <numeric>
 #include <string>
 
+#include "dgmesh/detail/math.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/parallel.h"
 #include "dgmesh/spatial_index.h"
@@ -32,7 +33,7 @@ constexpr int kMaxPatch = 64;  // hard limit of DenoiseOptions::max_patch (stack
 constexpr int kMaxSys = kMaxPatch + 3;
 constexpr int kMinPatch = 6;    // fewest points of an RBF patch when the neighbourhood has them
 constexpr int kDensityK = 6;  // neighbours for the point-cloud spacing and area element
-constexpr double kPi = 3.14159265358979323846;
+using detail::kPi;
 
 inline Vec3 prow(const MatX3d& P, int i) { return Vec3(P(i, 0), P(i, 1), P(i, 2)); }
 

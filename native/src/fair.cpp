@@ -27,35 +27,43 @@
 #include "dgmesh/fair.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <numeric>
 #include <unordered_map>
-#include <unordered_set>
 
+#include "dgmesh/detail/edge_key.h"
+#include "dgmesh/detail/fair_mesh.h"
+#include "dgmesh/detail/math.h"
+#include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
 #include "dgmesh/parallel.h"
+#include "dgmesh/regularization.h"
 #include "dgmesh/sparse_solver.h"
-#include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
 
 namespace dgmesh {
 
 namespace {
 
-// Below this many elements a loop runs serially. The per-vertex loops are a few hundred
-// flops each; on a loaded 2-core machine, waking (and spin-waiting) OpenMP threads around every
-// small loop slowed a 5K-vertex hole fill from 0.9 s to 17 s, so only large meshes go parallel.
-constexpr int kFairParallelMin = 1 << 16;
-
 using Mat3Row = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
-inline long long edge_key(int a, int b) {
-  return (static_cast<long long>(std::min(a, b)) << 32) | static_cast<unsigned>(std::max(a, b));
-}
+using detail::area_normals;
+using detail::BoundaryCurves;
+using detail::check_input;
+using detail::edge_key;
+using detail::extract;
+using detail::kFairParallelMin;
+using detail::kPi;
+using detail::mean_edge_length;
+using detail::prepare_level;
+using detail::slide_boundary;
+using detail::Stopwatch;
+using detail::Submesh;
+using detail::validated_topology;
+using detail::Work;
 
 inline int corner_of(const MatX3i& F, int f, int v) { return F(f, 0) == v ? 0 : (F(f, 1) == v ? 1 : 2); }
 
@@ -139,7 +147,7 @@ void compute_geometry(const MatX3d& P, const MatX3i& F, const Topology& t, Geo& 
     if (a > 0) lap /= a;
     g.LP.row(v) = lap;
     g.H[v] = 0.5 * N.dot(lap);
-    g.K[v] = a > 0 ? (2.0 * M_PI - angle) / a : 0.0;
+    g.K[v] = a > 0 ? (2.0 * kPi - angle) / a : 0.0;
   }
   // Boundary vertices have no angle deficit of their own: extrapolate from the interior.
   const VecXd H0 = g.H, K0 = g.K;
@@ -157,40 +165,6 @@ inline double laplace_scalar(const MatX3i& F, const Topology& t, const Geo& g, c
   return g.A[v] > 0 ? s / g.A[v] : 0.0;
 }
 
-// Working state of one level: a validated submesh in normalised coordinates.
-struct Work {
-  MatX3d P;
-  MatX3i F;
-  Topology topo;
-  std::vector<char> movable;   // per vertex
-  std::vector<char> sliding;   // movable boundary vertices (sliding mode)
-  std::vector<char> energy_set;  // movable vertices and their neighbours
-  std::vector<char> region;    // per face: refined by subdivision
-  std::vector<char> near;      // per face: touches a movable vertex (for A_min)
-};
-
-void prepare_level(Work& w, FairBoundary boundary) {
-  const Topology& t = w.topo;
-  const int n = t.n_vertices;
-  w.sliding.assign(n, 0);
-  for (int v = 0; v < n; ++v) {
-    if (!w.movable[v] || !t.on_boundary[v]) continue;
-    if (boundary == FairBoundary::Fixed)
-      w.movable[v] = 0;
-    else
-      w.sliding[v] = 1;
-  }
-  w.energy_set.assign(n, 0);
-  for (int v = 0; v < n; ++v) {
-    if (!w.movable[v]) continue;
-    w.energy_set[v] = 1;
-    for (int j = t.vv_offset[v]; j < t.vv_offset[v + 1]; ++j) w.energy_set[t.vv_index[j]] = 1;
-  }
-  w.near.assign(w.F.rows(), 0);
-  for (int f = 0; f < w.F.rows(); ++f)
-    w.near[f] = w.movable[w.F(f, 0)] || w.movable[w.F(f, 1)] || w.movable[w.F(f, 2)];
-}
-
 double energy_of(const Work& w, const Geo& g) {
   const int n = w.topo.n_vertices;
   return ordered_sums<1>(n, n > kFairParallelMin, [&](int v, std::array<double, 1>& e) {
@@ -205,202 +179,7 @@ double min_area_near(const Work& w, const Geo& g) {
   return std::isfinite(a) ? a : 0.0;
 }
 
-double mean_edge_length(const MatX3d& P, const Topology& t) {
-  double s = 0;
-  const int ne = t.n_edges();
-  for (int e = 0; e < ne; ++e) s += (P.row(t.edges(e, 0)) - P.row(t.edges(e, 1))).norm();
-  return ne ? s / ne : 1.0;
-}
 
-// The original boundary polylines, onto which sliding vertices are projected.
-struct BoundaryCurves {
-  std::vector<std::vector<Vec3>> loops;
-  std::vector<std::pair<int, int>> hint;  // per vertex: (loop, segment) last found; (-1, -1) unknown
-
-  void build(const Work& w) {
-    loops.clear();
-    for (const auto& loop : w.topo.boundary_loops) {
-      bool any = false;
-      for (int v : loop) any |= w.sliding[v] != 0;
-      if (!any) continue;
-      std::vector<Vec3> pts;
-      for (int v : loop) pts.push_back(w.P.row(v).transpose());
-      loops.push_back(std::move(pts));
-    }
-  }
-  static Vec3 closest_on_segment(const Vec3& p, const Vec3& a, const Vec3& b, double& d2) {
-    const Vec3 ab = b - a;
-    const double l2 = ab.squaredNorm();
-    const double s = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
-    const Vec3 q = a + s * ab;
-    d2 = (p - q).squaredNorm();
-    return q;
-  }
-  // Projects p onto the curves; searches near the hint, or everywhere without one.
-  Vec3 project(const Vec3& p, std::pair<int, int>& h) const {
-    double best = std::numeric_limits<double>::infinity();
-    Vec3 q = p;
-    auto try_seg = [&](int l, int s) {
-      const auto& L = loops[l];
-      const int ns = static_cast<int>(L.size());
-      s = ((s % ns) + ns) % ns;
-      double d2;
-      const Vec3 c = closest_on_segment(p, L[s], L[(s + 1) % ns], d2);
-      if (d2 < best) best = d2, q = c, h = {l, s};
-    };
-    if (h.first >= 0) {
-      const auto start = h;
-      for (int ds = -4; ds <= 4; ++ds) try_seg(start.first, start.second + ds);
-    } else {
-      for (int l = 0; l < static_cast<int>(loops.size()); ++l)
-        for (int s = 0; s < static_cast<int>(loops[l].size()); ++s) try_seg(l, s);
-    }
-    return q;
-  }
-};
-
-// 1D equalisation of sliding boundary vertices along their boundary, then projection.
-void slide_boundary(Work& w, BoundaryCurves& curves, double step) {
-  const Topology& t = w.topo;
-  const int n = t.n_vertices;
-  if (curves.hint.size() != static_cast<size_t>(n)) curves.hint.assign(n, {-1, -1});
-  const MatX3d P0 = w.P;
-  for (int v = 0; v < n; ++v) {
-    if (!w.sliding[v]) continue;
-    // A boundary vertex's ring starts and ends at its two boundary neighbours.
-    const int a = t.vv_index[t.vv_offset[v]], b = t.vv_index[t.vv_offset[v + 1] - 1];
-    const Vec3 pa = P0.row(a), pb = P0.row(b), pv = P0.row(v);
-    Vec3 tan = pb - pa;
-    const double len = tan.norm();
-    if (len <= 0) continue;
-    tan /= len;
-    const Vec3 target = pv + step * (0.5 * (pa + pb) - pv).dot(tan) * tan;
-    w.P.row(v) = curves.project(target, curves.hint[v]);
-  }
-}
-
-// Tangential drift (eq. 3.8, 3.10): P += eps * T, T = -(U2 - (U2.N)N), U2 = U_area(U_area(P)).
-struct Tangential {
-  std::vector<double> wts;  // CSR weights aligned with topo.vv_index
-  MatX3d U, U2;
-
-  void weights(const MatX3d& P, const Topology& t) {
-    wts.assign(t.vv_index.size(), 0.0);
-#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
-    for (int v = 0; v < t.n_vertices; ++v) {
-      const int b = t.vv_offset[v], d = t.vv_offset[v + 1] - b;
-      if (t.on_boundary[v] || d == 0) continue;  // U_area = 0 on the boundary (thesis)
-      const Vec3 p = P.row(v);
-      double A = 0;
-      for (int i = 0; i < d; ++i) {
-        const int j = (i + 1) % d;
-        const double a = 0.5 * (Vec3(P.row(t.vv_index[b + i])) - p).cross(Vec3(P.row(t.vv_index[b + j])) - p).norm();
-        A += a;
-        wts[b + i] += a;
-        wts[b + j] += a;
-      }
-      for (int i = 0; i < d; ++i) {
-        const double len = (Vec3(P.row(t.vv_index[b + i])) - p).norm();
-        wts[b + i] = (A > 0 && len > 0) ? wts[b + i] / (2.0 * A * d * len) : 0.0;
-      }
-    }
-  }
-  void apply(const MatX3d& X, MatX3d& out, const Topology& t) const {
-    out.resize(X.rows(), 3);
-#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
-    for (int v = 0; v < t.n_vertices; ++v) {
-      Vec3 s = Vec3::Zero();
-      const Vec3 x = X.row(v);
-      for (int j = t.vv_offset[v]; j < t.vv_offset[v + 1]; ++j) s += wts[j] * (Vec3(X.row(t.vv_index[j])) - x);
-      out.row(v) = s;
-    }
-  }
-  // Computes T into U2 (as the tangent field) for the current positions and normals.
-  void field(const MatX3d& P, const MatX3d& N, const Topology& t) {
-    weights(P, t);
-    apply(P, U, t);
-    apply(U, U2, t);
-#pragma omp parallel for schedule(static) if (t.n_vertices > kFairParallelMin)
-    for (int v = 0; v < t.n_vertices; ++v) {
-      const Vec3 u = U2.row(v), nv = N.row(v);
-      U2.row(v) = -(u - u.dot(nv) * nv);
-    }
-  }
-};
-
-// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
-Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-// Projection onto a frozen copy of the input surface: the closest point on the faces around the
-// few nearest input vertices. Keeps regularisation from drifting off curved surfaces (each
-// tangent-plane step leaves the surface by O(step^2 * curvature)).
-class SurfaceProjector {
- public:
-  SurfaceProjector(const MatX3d& V, const MatX3i& F, const Topology& t) : V_(V), F_(F), topo_(t), tree_(V) {}
-  Vec3 project(const Vec3& p, std::vector<int>& idx, std::vector<double>& d2) const {
-    const int k = tree_.knn(p, 4, idx, d2);
-    double best = std::numeric_limits<double>::infinity();
-    Vec3 q = p;
-    for (int i = 0; i < k; ++i)
-      for (int j = topo_.vf_offset[idx[i]]; j < topo_.vf_offset[idx[i] + 1]; ++j) {
-        const int f = topo_.vf_index[j];
-        const Vec3 c = closest_on_triangle(p, V_.row(F_(f, 0)), V_.row(F_(f, 1)), V_.row(F_(f, 2)));
-        const double dd = (c - p).squaredNorm();
-        if (dd < best) best = dd, q = c;
-      }
-    return q;
-  }
-
- private:
-  MatX3d V_;
-  MatX3i F_;
-  Topology topo_;
-  KdTree tree_;
-};
-
-// Area-weighted unit vertex normals (eq. 3.7) and face areas, serial below kFairParallelMin.
-void area_normals(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& N, VecXd& farea, MatX3d& fcross) {
-  const int m = static_cast<int>(F.rows()), n = t.n_vertices;
-  fcross.resize(m, 3);
-  farea.resize(m);
-#pragma omp parallel for schedule(static) if (m > kFairParallelMin)
-  for (int f = 0; f < m; ++f) {
-    const Vec3 c = (P.row(F(f, 1)) - P.row(F(f, 0))).cross(P.row(F(f, 2)) - P.row(F(f, 0)));
-    fcross.row(f) = c;
-    farea[f] = 0.5 * c.norm();
-  }
-  N.resize(n, 3);
-#pragma omp parallel for schedule(static) if (n > kFairParallelMin)
-  for (int v = 0; v < n; ++v) {
-    Vec3 s = Vec3::Zero();
-    for (int i = t.vf_offset[v]; i < t.vf_offset[v + 1]; ++i) s += fcross.row(t.vf_index[i]).transpose();
-    const double len = s.norm();
-    N.row(v) = len > 0 ? Vec3(s / len) : Vec3::Zero();
-  }
-}
-
-struct Clock {
-  std::chrono::steady_clock::time_point t0 = std::chrono::steady_clock::now();
-  double seconds() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); }
-};
 
 // Willmore / Laplacian-of-H speed F at movable vertices (eq. 3.5 / 3.12), with the thesis's
 // rescaling of H where the discrete H^2 - K < 0 (applied in the nonlinear term, so that
@@ -539,7 +318,7 @@ struct LevelReport {
 
 class Driver {
  public:
-  Driver(const FairOptions& o, Progress& p, Clock& c, std::vector<double>& e) : opt_(o), progress_(p), clock_(c), energy_(e) {}
+  Driver(const FairOptions& o, Progress& p, Stopwatch& c, std::vector<double>& e) : opt_(o), progress_(p), clock_(c), energy_(e) {}
 
   // first_new: the level's first vertex made by its subdivision (0 on the first level).
   LevelReport run(Work& w, int level, int levels, int first_new) {
@@ -684,7 +463,7 @@ class Driver {
     double a = 0;
     for (int v = 0; v < w.topo.n_vertices; ++v)
       if (movable_idx_[v] >= 0) a += g.A[v];
-    const double r2 = a / M_PI;
+    const double r2 = a / kPi;
     return std::max(r2 * r2 / 52.0, std::pow(h_, 4) / 8.0);
   }
 
@@ -1106,7 +885,7 @@ class Driver {
 
   const FairOptions& opt_;
   Progress& progress_;
-  Clock& clock_;
+  Stopwatch& clock_;
   std::vector<double>& energy_;
   int level_ = 0, levels_ = 0, nm_ = 0;
   std::vector<double> accepted_;
@@ -1120,7 +899,7 @@ class Driver {
   VecXd comp_area_, cur_area_;
   Geo g_, g_try_;  // g_try_: a semi-implicit trial step's geometry (swapped in when accepted)
   VecXd speed_;
-  Tangential tan_;
+  TangentialDrift tan_;
   ImplicitSystem system_;             // semi-implicit matrix (pattern per level)
   VecXd ulen_;                        // step lengths (semi-implicit scratch)
   std::vector<double> ulen_sorted_;
@@ -1128,74 +907,6 @@ class Driver {
   MatX3d fixed_pos_;
 };
 
-// The input reduced to the faces within reach of the movable vertices and the region.
-struct Submesh {
-  std::vector<int> verts;  // local -> full vertex
-  std::vector<int> faces;  // local -> full face
-  Work work;
-};
-
-Submesh extract(const MatX3d& V, const MatX3i& F, const std::vector<char>& movable_full,
-                const std::vector<char>& region_full, bool whole) {
-  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  Submesh s;
-  std::vector<int> local(n, -1);
-  if (whole) {
-    s.faces.resize(m);
-    std::iota(s.faces.begin(), s.faces.end(), 0);
-  } else {
-    // S = vertices of faces touching a movable vertex or in the region; keep faces touching S.
-    std::vector<char> inS(n, 0);
-    for (int f = 0; f < m; ++f) {
-      const bool touch = region_full[f] || movable_full[F(f, 0)] || movable_full[F(f, 1)] || movable_full[F(f, 2)];
-      if (touch)
-        for (int k = 0; k < 3; ++k) inS[F(f, k)] = 1;
-    }
-    for (int f = 0; f < m; ++f)
-      if (inS[F(f, 0)] || inS[F(f, 1)] || inS[F(f, 2)]) s.faces.push_back(f);
-  }
-  const int ms = static_cast<int>(s.faces.size());
-  Work& w = s.work;
-  w.F.resize(ms, 3);
-  for (int i = 0; i < ms; ++i)
-    for (int k = 0; k < 3; ++k) {
-      const int v = F(s.faces[i], k);
-      if (local[v] < 0) {
-        local[v] = static_cast<int>(s.verts.size());
-        s.verts.push_back(v);
-      }
-      w.F(i, k) = local[v];
-    }
-  const int ns = static_cast<int>(s.verts.size());
-  w.P.resize(ns, 3);
-  w.movable.assign(ns, 0);
-  for (int i = 0; i < ns; ++i) {
-    w.P.row(i) = V.row(s.verts[i]);
-    w.movable[i] = movable_full[s.verts[i]];
-  }
-  w.region.assign(ms, 0);
-  for (int i = 0; i < ms; ++i) w.region[i] = region_full[s.faces[i]];
-  return s;
-}
-
-void check_input(const MatX3d& V, const MatX3i& F, const std::vector<char>& vmask, const std::vector<char>* fmask) {
-  validate(V, F, kNonEmpty | kIndices | kFinite);
-  if (!vmask.empty() && vmask.size() != static_cast<size_t>(V.rows()))
-    throw MeshError("mask has " + std::to_string(vmask.size()) + " entries but the mesh has " +
-                    std::to_string(V.rows()) + " vertices");
-  if (fmask && !fmask->empty() && fmask->size() != static_cast<size_t>(F.rows()))
-    throw MeshError("face mask has " + std::to_string(fmask->size()) + " entries but the mesh has " +
-                    std::to_string(F.rows()) + " faces");
-}
-
-Topology validated_topology(Work& w, bool whole) {
-  try {
-    return validate(w.P, w.F, kSurface);
-  } catch (const MeshError& e) {
-    if (whole) throw;
-    throw MeshError(std::string("in the region being faired (indices local to it): ") + e.what());
-  }
-}
 
 }  // namespace
 
@@ -1289,425 +1000,6 @@ RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::
   return out;
 }
 
-namespace {
-// Liepa's minimum-weight triangulation of a hole's boundary polygon (P. Liepa, "Filling holes in
-// meshes", SGP 2003, sec. 3.2): among all triangulations of the loop without inner vertices, the
-// one whose largest dihedral angle (between adjacent triangles, and between the fill and the faces
-// around the hole) is smallest, ties broken by the smaller area; dynamic programming over the
-// loop's sub-polygons, O(n^3). A fan (what a triangulated n-gon from the user's Fill can look like)
-// folds across the hole wherever the rim is not planar (bunny hole of the python tests: largest
-// dihedral angle 180 degrees, 73 after this), and refining keeps that connectivity, which the flow
-// (its linear start depends on connectivity only) cannot undo. Measured on the fan fills of bench
-// fair_restore's 9 restorable scanned holes: the restored patch no longer depends on the fill's
-// triangulation, the Willmore energy after the flow is lower on 6 of 9 (bunny 10% seed 0: 15.7 ->
-// 9.9, the bunny 5% seed 2 stall gone), the distance to the removed surface better on 3, worse on 6.
-// loop: the hole's vertices in the fill's orientation; outer_normal[i]: the unit normal of the face
-// outside the hole along edge (loop[i], loop[i+1]) (zero on a mesh border); is_edge(a, b): a
-// diagonal that already exists outside the hole (forbidden). Returns the n - 2 triangles (oriented
-// as the loop), or nothing when no valid triangulation exists.
-template <class IsEdge>
-std::vector<Eigen::Vector3i> min_weight_triangulation(const std::vector<Vec3>& P, const std::vector<int>& loop,
-                                                      const std::vector<Vec3>& outer_normal, IsEdge is_edge) {
-  const int n = static_cast<int>(loop.size());
-  if (n < 3) return {};
-  // The largest dihedral angle is tracked as its cosine (smallest cosine = largest angle).
-  // cosw(i, k), area(i, k): weight of the best triangulation of sub-polygon i..k (k - i >= 1; -inf:
-  // none); apex(i, k) and normal(i, k): its triangle over edge (i, k). A polygon edge weighs nothing.
-  constexpr double kNone = -std::numeric_limits<double>::infinity();
-  const size_t nn = static_cast<size_t>(n) * n;
-  std::vector<double> cosw(nn, kNone), area(nn, 0.0);
-  std::vector<int> apex(nn, -1);
-  std::vector<Vec3> normal(nn, Vec3::Zero());
-  auto at = [n](int i, int k) { return static_cast<size_t>(i) * n + k; };
-  for (int i = 0; i + 1 < n; ++i) cosw[at(i, i + 1)] = 1.0;
-  auto pt = [&](int i) -> const Vec3& { return P[loop[i]]; };
-  // Cosine of the dihedral angle across edge (a, b) of a triangle with unit normal nt: against the
-  // face outside the hole when (a, b) is a polygon edge (none on a mesh border), else against the
-  // apex triangle of sub-polygon (a, b).
-  auto across = [&](int a, int b, const Vec3& nt) {
-    if (b == a + 1) return outer_normal[a].isZero() ? 1.0 : nt.dot(outer_normal[a]);
-    return nt.dot(normal[at(a, b)]);
-  };
-  for (int d = 2; d < n; ++d)
-    for (int i = 0; i + d < n; ++i) {
-      const int k = i + d;
-      // (0, n - 1) closes the polygon; any other (i, k) is a new edge and must not exist already.
-      const bool closing = i == 0 && k == n - 1;
-      if (!closing && is_edge(loop[i], loop[k])) continue;
-      double best = kNone, best_area = 0;
-      int best_m = -1;
-      Vec3 best_n = Vec3::Zero();
-      for (int m = i + 1; m < k; ++m) {
-        const double c0 = std::min(cosw[at(i, m)], cosw[at(m, k)]);
-        if (c0 == kNone || c0 < best - 1e-12) continue;
-        Vec3 nt = (pt(m) - pt(i)).cross(pt(k) - pt(i));
-        const double twice_area = nt.norm();
-        if (twice_area > 0) nt /= twice_area;
-        double c = std::min({c0, across(i, m, nt), across(m, k, nt)});
-        if (closing && !outer_normal[n - 1].isZero()) c = std::min(c, nt.dot(outer_normal[n - 1]));
-        if (c < best - 1e-12) continue;
-        const double ar = area[at(i, m)] + area[at(m, k)] + 0.5 * twice_area;
-        if (c > best + 1e-12 || ar < best_area) best = c, best_area = ar, best_m = m, best_n = nt;
-      }
-      cosw[at(i, k)] = best, area[at(i, k)] = best_area, apex[at(i, k)] = best_m, normal[at(i, k)] = best_n;
-    }
-  if (apex[at(0, n - 1)] < 0) return {};
-  std::vector<Eigen::Vector3i> out;
-  out.reserve(n - 2);
-  std::vector<std::pair<int, int>> stack{{0, n - 1}};
-  while (!stack.empty()) {
-    const auto [i, k] = stack.back();
-    stack.pop_back();
-    if (k - i < 2) continue;
-    const int m = apex[at(i, k)];
-    out.emplace_back(loop[i], loop[m], loop[k]);
-    stack.emplace_back(i, m);
-    stack.emplace_back(m, k);
-  }
-  return out;
-}
-
-}  // namespace
-
-namespace {
-// A new vertex of valence 3 (a centroid split the flips could not dissolve, e.g. next to the
-// region's border, whose edges never flip) is removed and its three triangles merged back into
-// one. Its uniform umbrella is degenerate: the linear start put such vertices on tiny-area
-// spikes (angle deficit ~2.7 rad) whose curvature dominated the flow, and no step along the
-// Willmore speed lowered the energy (the fan-plus-refine stall). Removed vertices are compacted
-// away; faces are renumbered but stay in order (input rows first).
-void remove_valence3(std::vector<Eigen::Vector3i>& T, std::vector<char>& reg, std::vector<int>& origin,
-                     std::vector<Vec3>& P, int n, int m) {
-  const int np = static_cast<int>(P.size());
-  if (np == n) return;
-  std::vector<char> drop_face(T.size(), 0), gone(np, 0), busy;
-  std::vector<std::vector<int>> vf(np - n);
-  int spare = 0, dropped_low = 0, removed_total = 0;  // appended region faces; refills needed
-  for (size_t t = m; t < T.size(); ++t) spare += reg[t] != 0;
-  // Each sweep removes valence-3 vertices whose faces no other removal of the sweep touched;
-  // a removal lowers its neighbours' valences, so sweep until nothing changes.
-  for (int sweep = 0; sweep < 64; ++sweep) {
-    for (auto& l : vf) l.clear();
-    for (int t = 0; t < static_cast<int>(T.size()); ++t) {
-      if (drop_face[t]) continue;
-      for (int k = 0; k < 3; ++k)
-        if (T[t][k] >= n) vf[T[t][k] - n].push_back(t);
-    }
-    busy.assign(T.size(), 0);
-    int removed = 0;
-    for (int i = 0; i < np - n; ++i) {
-      std::vector<int>& fs = vf[i];
-      if (fs.size() != 3 || gone[n + i]) continue;
-      bool ok = true;
-      for (int t : fs) ok = ok && reg[t] && !busy[t];
-      if (!ok) continue;
-      std::sort(fs.begin(), fs.end());
-      // The merged triangle takes the lowest row. A dropped input row (< m, a region face)
-      // is refilled below by an appended region face, so every input row keeps its index.
-      const int low = (fs[1] < m) + (fs[2] < m);
-      if (low && dropped_low + low > spare - 2 * (removed_total + 1)) continue;
-      dropped_low += low;
-      ++removed_total;
-      const int x = n + i, t0 = fs[0];
-      int k = 0;
-      while (T[t0][k] != x) ++k;
-      const int a = T[t0][(k + 1) % 3], b = T[t0][(k + 2) % 3];
-      int c = -1;
-      for (int j = 0; j < 3; ++j)
-        if (T[fs[1]][j] != x && T[fs[1]][j] != a && T[fs[1]][j] != b) c = T[fs[1]][j];
-      if (c < 0) continue;
-      T[t0] = Eigen::Vector3i(a, b, c);  // a, b follow x in t0: orientation kept
-      drop_face[fs[1]] = drop_face[fs[2]] = 1;
-      for (int t : fs) busy[t] = 1;
-      gone[x] = 1;
-      ++removed;
-    }
-    if (!removed) break;
-  }
-  // Refill dropped input rows with the last surviving appended faces.
-  size_t tail = T.size();
-  for (int r = 0; r < m; ++r) {
-    if (!drop_face[r]) continue;
-    while (tail > static_cast<size_t>(m) && drop_face[tail - 1]) --tail;
-    if (tail <= static_cast<size_t>(m)) throw Error("refine_region: internal error (no face to refill a row)");
-    --tail;
-    T[r] = T[tail], origin[r] = origin[tail], reg[r] = reg[tail];
-    drop_face[r] = 0, drop_face[tail] = 1;
-  }
-  std::vector<int> remap(np);
-  int nv = 0;
-  for (int v = 0; v < np; ++v) {
-    remap[v] = gone[v] ? -1 : nv;
-    if (!gone[v]) P[nv++] = P[v];
-  }
-  P.resize(nv);
-  size_t w = 0;
-  for (size_t t = 0; t < T.size(); ++t) {
-    if (drop_face[t]) continue;
-    T[w] = Eigen::Vector3i(remap[T[t][0]], remap[T[t][1]], remap[T[t][2]]);
-    reg[w] = reg[t];
-    origin[w] = origin[t];
-    ++w;
-  }
-  T.resize(w);
-  reg.resize(w);
-  origin.resize(w);
-}
-}  // namespace
-
-namespace {
-// A region that is a hole's fill without inner vertices (one boundary loop through all its
-// vertices, n - 2 triangles) gets Liepa's minimum-weight triangulation of that loop in its rows
-// (see min_weight_triangulation); other regions, and loops over kMaxLoop vertices (O(n^3)), keep
-// theirs.
-void retriangulate_fill(const std::vector<Vec3>& P, const MatX3i& F, const std::vector<char>& face_mask,
-                        const std::vector<char>& in_region, const std::unordered_map<long long, char>& fixed_edge,
-                        std::vector<Eigen::Vector3i>& T) {
-  constexpr int kMaxLoop = 600;
-  const int m = static_cast<int>(F.rows());
-  auto he = [](int a, int b) { return (static_cast<long long>(a) << 32) | static_cast<unsigned>(b); };
-  std::vector<int> rows;
-  for (int f = 0; f < m; ++f)
-    if (face_mask[f]) rows.push_back(f);
-  const int nr = static_cast<int>(std::count(in_region.begin(), in_region.end(), 1));
-  if (nr < 4 || nr > kMaxLoop || static_cast<int>(rows.size()) != nr - 2) return;
-  // The region's boundary loop, in its faces' orientation, from its smallest vertex (so the result
-  // depends on the loop only, not on the fill).
-  MatX3i R(static_cast<Eigen::Index>(rows.size()), 3);
-  for (size_t r = 0; r < rows.size(); ++r) R.row(static_cast<Eigen::Index>(r)) = F.row(rows[r]);
-  Topology topo;
-  try {
-    topo = build_topology(R, static_cast<int>(P.size()));
-  } catch (const MeshError&) {
-    return;  // a pinched region (non-manifold)
-  }
-  if (topo.boundary_loops.size() != 1) return;
-  const std::vector<int>& loop = topo.boundary_loops[0];
-  if (static_cast<int>(loop.size()) != nr) return;  // an inner vertex
-  // Normals of the faces outside along the loop (halfedge b -> a).
-  std::unordered_map<long long, int> outside;
-  for (int f = 0; f < m; ++f)
-    if (!face_mask[f])
-      for (int k = 0; k < 3; ++k) {
-        const int a = F(f, k), b = F(f, (k + 1) % 3);
-        if (in_region[a] && in_region[b]) outside.emplace(he(a, b), f);
-      }
-  std::vector<Vec3> outer(nr, Vec3::Zero());
-  for (int i = 0; i < nr; ++i) {
-    const auto it = outside.find(he(loop[(i + 1) % nr], loop[i]));
-    if (it == outside.end()) continue;
-    const int f = it->second;
-    const Vec3 c = (P[F(f, 1)] - P[F(f, 0)]).cross(P[F(f, 2)] - P[F(f, 0)]);
-    if (c.norm() > 0) outer[i] = c.normalized();
-  }
-  const auto tri = min_weight_triangulation(P, loop, outer, [&](int a, int b) { return fixed_edge.count(edge_key(a, b)) > 0; });
-  if (tri.size() != rows.size()) return;
-  for (size_t j = 0; j < rows.size(); ++j) T[rows[j]] = tri[j];
-}
-}  // namespace
-
-RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask, double density) {
-  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  if (face_mask.size() != static_cast<size_t>(m)) throw MeshError("refine_region: face mask size differs from the face count");
-  if (!(density > 0)) throw MeshError("refine_region: density must be > 0");
-  // Edges touched by a face outside the region are fixed (never flipped).
-  std::unordered_map<long long, char> fixed_edge;
-  std::vector<double> sig_sum(n, 0.0);
-  std::vector<int> sig_cnt(n, 0);
-  std::vector<char> in_region(n, 0);
-  for (int f = 0; f < m; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const int a = F(f, k), b = F(f, (k + 1) % 3);
-      if (face_mask[f]) {
-        in_region[a] = 1;
-        continue;
-      }
-      fixed_edge[edge_key(a, b)] = 1;
-    }
-  // sigma of a region vertex: mean length of its edges in faces outside the region (each edge
-  // once per such face).
-  for (int f = 0; f < m; ++f) {
-    if (face_mask[f]) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int a = F(f, k), b = F(f, (k + 1) % 3);
-      if (!in_region[a] && !in_region[b]) continue;
-      const double len = (V.row(a) - V.row(b)).norm();
-      sig_sum[a] += len, sig_cnt[a]++;
-      sig_sum[b] += len, sig_cnt[b]++;
-    }
-  }
-  std::vector<Vec3> P(n);
-  for (int v = 0; v < n; ++v) P[v] = V.row(v).transpose();
-  std::vector<double> sig(n, 0.0);
-  double rim_sum = 0, region_len = 0;
-  int rim_cnt = 0, region_cnt = 0;
-  for (int v = 0; v < n; ++v)
-    if (in_region[v] && sig_cnt[v]) sig[v] = sig_sum[v] / sig_cnt[v], rim_sum += sig[v], ++rim_cnt;
-  for (int f = 0; f < m; ++f)
-    if (face_mask[f])
-      for (int k = 0; k < 3; ++k) region_len += (V.row(F(f, k)) - V.row(F(f, (k + 1) % 3))).norm(), ++region_cnt;
-  const double sig_inner = rim_cnt ? rim_sum / rim_cnt : (region_cnt ? region_len / region_cnt : 1.0);
-  for (int v = 0; v < n; ++v)
-    if (in_region[v] && !sig_cnt[v]) sig[v] = sig_inner;
-
-  std::vector<Eigen::Vector3i> T(m);
-  std::vector<int> origin(m);
-  std::vector<char> reg(m);
-  for (int f = 0; f < m; ++f) T[f] = F.row(f).transpose(), origin[f] = f, reg[f] = face_mask[f] != 0;
-  retriangulate_fill(P, F, face_mask, in_region, fixed_edge, T);
-
-  // Delaunay relaxation of the region-interior edges: flip a-b (faces a,b,c and b,a,d) to c-d
-  // when the angles at c and d sum over pi, unless c-d exists or the flip folds the surface.
-  auto angle_at = [&](int c, int a, int b) {
-    const Vec3 u = P[a] - P[c], w = P[b] - P[c];
-    return std::atan2(u.cross(w).norm(), u.dot(w));
-  };
-  std::unordered_map<long long, std::pair<int, int>> emap;  // edge -> region faces (second -1 if one)
-  std::vector<char> touched;
-  // The quad around region edge `key` shared by t1 and t2: t1 = (a, b, c), t2 holds b -> a with
-  // third vertex d. False when the pair is degenerate.
-  auto quad = [&](long long key, int t1, int t2, int& a, int& b, int& c, int& d) {
-    int k1 = 0;
-    while (edge_key(T[t1][k1], T[t1][(k1 + 1) % 3]) != key) ++k1;
-    a = T[t1][k1], b = T[t1][(k1 + 1) % 3], c = T[t1][(k1 + 2) % 3];
-    d = -1;
-    for (int k = 0; k < 3; ++k)
-      if (T[t2][k] != a && T[t2][k] != b) d = T[t2][k];
-    return d >= 0 && c != d;
-  };
-  auto relax = [&]() {
-    for (int pass = 0; pass < 100; ++pass) {
-      emap.clear();
-      const int mt = static_cast<int>(T.size());
-      for (int t = 0; t < mt; ++t) {
-        if (!reg[t]) continue;
-        for (int k = 0; k < 3; ++k) {
-          auto [it, fresh] = emap.try_emplace(edge_key(T[t][k], T[t][(k + 1) % 3]), t, -1);
-          if (!fresh) it->second.second = t;
-        }
-      }
-      touched.assign(mt, 0);
-      int flips = 0;
-      for (const auto& [key, ff] : emap) {
-        const int t1 = ff.first, t2 = ff.second;
-        if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
-        int a, b, c, d;
-        if (!quad(key, t1, t2, a, b, c, d)) continue;
-        if (angle_at(c, a, b) + angle_at(d, a, b) <= M_PI + 1e-9) continue;
-        const long long nk = edge_key(c, d);
-        if (emap.count(nk) || fixed_edge.count(nk)) continue;
-        const Vec3 n_old = (P[b] - P[a]).cross(P[c] - P[a]) + (P[a] - P[b]).cross(P[d] - P[b]);
-        const Vec3 n1 = (P[d] - P[a]).cross(P[c] - P[a]), n2 = (P[b] - P[d]).cross(P[c] - P[d]);
-        if (n1.dot(n_old) <= 0 || n2.dot(n_old) <= 0) continue;
-        T[t1] = Eigen::Vector3i(a, d, c);
-        T[t2] = Eigen::Vector3i(d, b, c);
-        touched[t1] = touched[t2] = 1;
-        emap[nk] = {t1, t2};  // blocks a second c-d within this pass
-        ++flips;
-      }
-      if (!flips) break;
-    }
-  };
-
-  // Delaunay flips leave centroid vertices of valence 3-4 whose uniform bi-umbrella start (the
-  // flow's linear start) is badly shaped; flip region-interior edges that bring the four
-  // vertices' valences closer to 6 (as isotropic remeshers do) when no triangle gets an angle
-  // below the smaller of 15 degrees and the pair's current minimum.
-  auto min_angle = [&](int a, int b, int c) {
-    return std::min({angle_at(a, b, c), angle_at(b, c, a), angle_at(c, a, b)});
-  };
-  std::vector<int> valence;
-  std::unordered_set<long long> edge_set;
-  auto valence_flips = [&]() {
-    for (int pass = 0; pass < 20; ++pass) {
-      emap.clear();
-      const int mt = static_cast<int>(T.size());
-      valence.assign(P.size(), 0);
-      edge_set.clear();
-      for (int t = 0; t < mt; ++t)
-        for (int k = 0; k < 3; ++k) {
-          const int a = T[t][k], b = T[t][(k + 1) % 3];
-          if (edge_set.insert(edge_key(a, b)).second) valence[a]++, valence[b]++;
-          if (reg[t]) {
-            auto [it, fresh] = emap.try_emplace(edge_key(a, b), t, -1);
-            if (!fresh) it->second.second = t;
-          }
-        }
-      touched.assign(mt, 0);
-      int flips = 0;
-      for (const auto& [key, ff] : emap) {
-        const int t1 = ff.first, t2 = ff.second;
-        if (t2 < 0 || touched[t1] || touched[t2] || fixed_edge.count(key)) continue;
-        int a, b, c, d;
-        if (!quad(key, t1, t2, a, b, c, d)) continue;
-        auto dev = [](int x) { return (x - 6) * (x - 6); };
-        const int before = dev(valence[a]) + dev(valence[b]) + dev(valence[c]) + dev(valence[d]);
-        const int after = dev(valence[a] - 1) + dev(valence[b] - 1) + dev(valence[c] + 1) + dev(valence[d] + 1);
-        if (after >= before || valence[a] <= 3 || valence[b] <= 3) continue;
-        const long long nk = edge_key(c, d);
-        if (emap.count(nk) || fixed_edge.count(nk)) continue;
-        const Vec3 n_old = (P[b] - P[a]).cross(P[c] - P[a]) + (P[a] - P[b]).cross(P[d] - P[b]);
-        const Vec3 n1 = (P[d] - P[a]).cross(P[c] - P[a]), n2 = (P[b] - P[d]).cross(P[c] - P[d]);
-        if (n1.dot(n_old) <= 0 || n2.dot(n_old) <= 0) continue;
-        const double floor = std::min(15.0 * M_PI / 180.0, std::min(min_angle(a, b, c), min_angle(b, a, d)));
-        if (std::min(min_angle(a, d, c), min_angle(d, b, c)) < floor) continue;
-        T[t1] = Eigen::Vector3i(a, d, c);
-        T[t2] = Eigen::Vector3i(d, b, c);
-        touched[t1] = touched[t2] = 1;
-        valence[a]--, valence[b]--, valence[c]++, valence[d]++;
-        emap[nk] = {t1, t2};
-        ++flips;
-      }
-      if (!flips) break;
-    }
-  };
-
-  constexpr size_t kMaxVertices = size_t{1} << 26;
-  for (int round = 0; round < 60; ++round) {
-    int splits = 0;
-    const int mt = static_cast<int>(T.size());
-    for (int t = 0; t < mt; ++t) {
-      if (!reg[t]) continue;
-      const int a = T[t][0], b = T[t][1], c = T[t][2];
-      const Vec3 pc = (P[a] + P[b] + P[c]) / 3.0;
-      const double sc = (sig[a] + sig[b] + sig[c]) / 3.0;
-      bool split = true;
-      for (int v : {a, b, c}) {
-        const double d = density * (pc - P[v]).norm();
-        split = split && d > sc && d > sig[v];
-      }
-      if (!split) continue;
-      if (P.size() >= kMaxVertices) throw MeshError("refine_region: refinement would exceed 67M vertices");
-      const int x = static_cast<int>(P.size());
-      P.push_back(pc);
-      sig.push_back(sc);
-      T[t] = Eigen::Vector3i(a, b, x);
-      T.emplace_back(b, c, x), origin.push_back(origin[t]), reg.push_back(1);
-      T.emplace_back(c, a, x), origin.push_back(origin[t]), reg.push_back(1);
-      ++splits;
-    }
-    if (!splits) break;
-    relax();
-  }
-  // Only for the new vertices' sake: without any, the flips would just undo the fill's min-weight
-  // triangulation (retriangulate_fill) across a non-planar rim.
-  if (static_cast<int>(P.size()) > n) valence_flips();
-  remove_valence3(T, reg, origin, P, n, m);
-
-  RegionSubdivision out;
-  const int nv = static_cast<int>(P.size()), mt = static_cast<int>(T.size());
-  out.V.resize(nv, 3);
-  for (int v = 0; v < nv; ++v) out.V.row(v) = P[v].transpose();
-  out.F.resize(mt, 3);
-  out.face_origin.resize(mt);
-  out.face_mask.assign(mt, 0);
-  for (int t = 0; t < mt; ++t) {
-    out.F.row(t) = T[t].transpose();
-    out.face_origin[t] = origin[t];
-    out.face_mask[t] = reg[t];
-  }
-  return out;
-}
 
 double willmore_energy(const MatX3d& V, const MatX3i& F) {
   Work w;
@@ -1754,7 +1046,7 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
 
   Progress progress(progress_fn);
   progress(0.0);
-  Clock clock;
+  Stopwatch clock;
   FairResult res;
   VecXi origin = VecXi::LinSpaced(ms0, 0, ms0 - 1);  // working face -> level-0 working face
   Driver driver(opt, progress, clock, res.energy);
@@ -1884,73 +1176,6 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
     r.face_origin[row] = perm[origin[i]];
   }
   return r;
-}
-
-MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt, const ProgressFn& progress_fn) {
-  check_input(V, F, opt.vertex_mask, nullptr);
-  if (opt.iterations < 0) throw MeshError("iterations must be >= 0");
-  if (!(opt.step_scale > 0)) throw MeshError("step_scale must be > 0");
-  const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  const bool whole = opt.vertex_mask.empty();
-  std::vector<char> movable_full(n, 1), region_full(m, 0);
-  if (!whole)
-    for (int v = 0; v < n; ++v) movable_full[v] = opt.vertex_mask[v] != 0;
-  Submesh sub = extract(V, F, movable_full, region_full, whole);
-  Work& w = sub.work;
-  w.topo = validated_topology(w, whole);
-  prepare_level(w, opt.boundary);
-  const Vec3 centre = w.P.colwise().mean();
-  const double scale = mean_edge_length(w.P, w.topo);
-  w.P = ((w.P.rowwise() - centre.transpose()) / scale).eval();
-
-  Progress progress(progress_fn);
-  progress(0.0);
-  Tangential tan;
-  BoundaryCurves curves;
-  if (opt.boundary == FairBoundary::Sliding) curves.build(w);
-  std::vector<char> moves(w.topo.n_vertices, 0);
-  for (int v = 0; v < w.topo.n_vertices; ++v) moves[v] = w.movable[v] && !w.sliding[v];
-  VecXd areas;
-  MatX3d N, fcross;
-  std::vector<double> ring_min, ring2_min;
-  const SurfaceProjector projector(w.P, w.F, w.topo);
-  for (int it = 0; it < opt.iterations; ++it) {
-    progress(double(it) / std::max(1, opt.iterations));
-    area_normals(w.P, w.F, w.topo, N, areas, fcross);
-    // Eq. 3.8 with tau = 0: P += eps T, eps = 12 A_min, with A_min the smallest triangle within
-    // two rings of the vertex (the bi-umbrella's reach) rather than of the whole mesh: a scan's few
-    // slivers (camel: smallest triangle 6e-5 of the mean) otherwise freeze every other vertex.
-    const int nv = w.topo.n_vertices;
-    ring_min.assign(nv, std::numeric_limits<double>::infinity());
-    for (int v = 0; v < nv; ++v)
-      for (int q = w.topo.vf_offset[v]; q < w.topo.vf_offset[v + 1]; ++q)
-        ring_min[v] = std::min(ring_min[v], areas[w.topo.vf_index[q]]);
-    ring2_min = ring_min;
-    for (int v = 0; v < nv; ++v)
-      for (int q = w.topo.vv_offset[v]; q < w.topo.vv_offset[v + 1]; ++q)
-        ring2_min[v] = std::min(ring2_min[v], ring_min[w.topo.vv_index[q]]);
-    tan.field(w.P, N, w.topo);
-#pragma omp parallel for schedule(static) if (nv > kFairParallelMin)
-    for (int v = 0; v < nv; ++v) {
-      if (!moves[v] || !std::isfinite(ring2_min[v])) continue;
-      const double eps = opt.step_scale * 12.0 * ring2_min[v];
-      const Vec3 p = Vec3(w.P.row(v)) + eps * Vec3(tan.U2.row(v));
-      if (opt.project) {
-        thread_local std::vector<int> idx;
-        thread_local std::vector<double> d2;
-        w.P.row(v) = projector.project(p, idx, d2);
-      } else {
-        w.P.row(v) = p;
-      }
-    }
-    if (opt.boundary == FairBoundary::Sliding) slide_boundary(w, curves, 0.25);
-  }
-  MatX3d out = V;
-  for (int i = 0; i < w.topo.n_vertices; ++i)
-    if (w.movable[i] || w.sliding[i]) out.row(sub.verts[i]) = w.P.row(i) * scale + centre.transpose();
-  if (!out.allFinite()) throw Error("regularize: the drift diverged (try a smaller step_scale)");
-  progress(1.0);
-  return out;
 }
 
 }  // namespace dgmesh

@@ -1,8 +1,10 @@
 #include "dgmesh/geometry.h"
-#include "dgmesh/parallel.h"
 
 #include <cmath>
 #include <vector>
+
+#include "dgmesh/detail/math.h"
+#include "dgmesh/parallel.h"
 
 namespace dgmesh {
 
@@ -176,7 +178,7 @@ Curvature curvature(const MatX3d& V, const MatX3i& F, const Topology& t) {
     c.normals.row(v) = N;
     c.area[v] = area;
     c.mean[v] = -0.5 * N.dot(lap);
-    c.gaussian[v] = (2.0 * M_PI - angle_sum) / area;
+    c.gaussian[v] = (2.0 * detail::kPi - angle_sum) / area;
   }
   extend_to_boundary(c.mean, t);
   extend_to_boundary(c.gaussian, t);

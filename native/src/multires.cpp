@@ -19,13 +19,13 @@
 
 #include <algorithm>
 #include <atomic>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <string>
 
 #include "dgmesh/decimate.h"
+#include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/parallel.h"
 #include "dgmesh/sparse_solver.h"
@@ -986,14 +986,7 @@ Multires Multires::build(const Mesh& dense, const MultiresOptions& opt, const Pr
   if (opt.projection_iterations < 0) throw MeshError("projection_iterations must be >= 0");
   Progress progress(progress_fn);
   progress(0.0);
-  using Clock = std::chrono::steady_clock;
-  auto t0 = Clock::now();
-  auto lap = [&t0]() {
-    const auto t = Clock::now();
-    const double s = std::chrono::duration<double>(t - t0).count();
-    t0 = t;
-    return s;
-  };
+  detail::Stopwatch stopwatch;
 
   // 1. Control mesh: quadric decimation, manifold and topology preserving, sliver guard.
   DecimateOptions dopt;
@@ -1011,11 +1004,11 @@ Multires Multires::build(const Mesh& dense, const MultiresOptions& opt, const Pr
 
   auto impl = std::make_shared<Impl>();
   Impl& m = *impl;
-  m.timings.decimate = lap();
+  m.timings.decimate = stopwatch.lap();
   m.level = opt.level;
   m.control_V = std::move(dec.V);
   m.surf.init(dec.F, static_cast<int>(m.control_V.rows()), opt.level);
-  m.timings.surface = lap();
+  m.timings.surface = stopwatch.lap();
   progress(0.4);
 
   // 2. Bind, fit, re-bind (warm started from the previous base points).
@@ -1023,18 +1016,18 @@ Multires Multires::build(const Mesh& dense, const MultiresOptions& opt, const Pr
   const double span = 0.55 / (1 + rounds);
   bind_points(m, m.control_V, dense.V, opt.projection_iterations, false, progress, 0.4, 0.4 + span,
               &dec.vertex_map);
-  m.timings.bind = lap();
+  m.timings.bind = stopwatch.lap();
   for (int r = 0; r < rounds; ++r) {
     m.control_V = fit_control(m, m.control_V, dense.V, opt.fit_regularization);
-    m.timings.fit += lap();
+    m.timings.fit += stopwatch.lap();
     const double f0 = 0.4 + span * (r + 1);
     bind_points(m, m.control_V, dense.V, opt.projection_iterations, true, progress, f0, f0 + span);
-    m.timings.bind += lap();
+    m.timings.bind += stopwatch.lap();
   }
   // 3. Stencils and displacements.
   m.compute_weights();
   compute_displacements(m, dense.V);
-  m.timings.stencils = lap();
+  m.timings.stencils = stopwatch.lap();
   progress(1.0);
   return Multires(std::move(impl));
 }

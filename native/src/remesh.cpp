@@ -3,7 +3,6 @@
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -13,6 +12,9 @@
 #include <vector>
 
 #include "dgmesh/delaunay.h"
+#include "dgmesh/detail/edge_key.h"
+#include "dgmesh/detail/math.h"
+#include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
@@ -24,10 +26,13 @@ namespace dgmesh {
 
 namespace {
 
-using Vec2 = Eigen::Vector2d;
-using Clock = std::chrono::steady_clock;
+using detail::Clock;
+using detail::cross2;
+using detail::edge_key;
+using detail::kPi;
+using detail::seconds_since;
+using detail::Vec2;
 constexpr double kSqrt3 = 1.7320508075688772;
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kFlipCos = 0.94;  // cos 20 degrees
 // The smoothing's angle goal: no move may create a 3D angle below it, and stars still holding one
 // get a pattern search. 30 degrees is a quality threshold, not an optimum: aiming at 35 lifts the
@@ -55,10 +60,6 @@ constexpr double kLloydPointsPerCell = 32;  // Lloyd quadrature points wanted pe
 constexpr int kLloydMaxResolution = 1024;   // ... up to this grid size
 constexpr double kLloydTolerance = 0.003;  // Lloyd steps end when the samples' RMS move is under this (spacings)
 
-inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
-inline double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 inline Vec2 uv_row(const MatX2d& U, int i) { return U.row(i).transpose(); }
 
 // Target edge length of a near-equilateral mesh with `density` vertices per unit area: each vertex
@@ -83,28 +84,6 @@ inline double min_angle_cos(const Vec3& a, const Vec3& b, const Vec3& c) {
   std::sort(l, l + 3);
   const double den = 2 * std::sqrt(l[1] * l[2]);
   return den > 0 ? (l[1] + l[2] - l[0]) / den : 1.0;
-}
-
-// Closest-point distance from p to triangle (a, b, c) (Ericson, Real-Time Collision Detection 5.1.5).
-double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return ap.norm();
-  const Vec3 bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return bp.norm();
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
-  const Vec3 cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return cp.norm();
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
-  const double denom = 1.0 / (va + vb + vc);
-  return (p - (a + ab * (vb * denom) + ac * (vc * denom))).norm();
 }
 
 double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
@@ -354,12 +333,10 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
 int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
                        const std::vector<std::pair<int, int>>& seeds) {
   const int nt = int(T.size());
-  const int64_t nv = P.rows();
-  auto key = [nv](int a, int b) { return a < b ? int64_t(a) * nv + b : int64_t(b) * nv + a; };
   // Twin half-edges (h = 3 t + k runs T[t][k] -> T[t][k + 1]) by sorting the undirected keys.
   std::vector<std::pair<int64_t, int>> he(3 * nt);
   for (int t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) he[3 * t + k] = {key(T[t][k], T[t][(k + 1) % 3]), 3 * t + k};
+    for (int k = 0; k < 3; ++k) he[3 * t + k] = {edge_key(T[t][k], T[t][(k + 1) % 3]), 3 * t + k};
   std::sort(he.begin(), he.end());
   std::vector<int> opp(3 * nt, -1);
   for (size_t q = 0; q + 1 < he.size(); ++q)
@@ -381,7 +358,7 @@ int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
   };
   std::vector<int> stack;
   for (auto [a, b] : seeds) {
-    const int64_t k = key(a, b);
+    const int64_t k = edge_key(a, b);
     auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(k, -1));
     if (it != he.end() && it->first == k) stack.push_back(it->second);
   }
@@ -390,13 +367,13 @@ int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
       [&](int f, int g, int a, int b, int c, int d) {
         T[f] = {a, d, c};
         T[g] = {d, b, c};
-        edges.erase(key(a, b));
-        edges.insert(key(c, d));
+        edges.erase(edge_key(a, b));
+        edges.insert(edge_key(c, d));
       },
       [&](int a, int b, int c, int d) {
         const double s = orient(a, b, c);
         if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) return false;
-        return orient(a, d, c) * s > 0 && orient(d, b, c) * s > 0 && !edges.count(key(c, d));
+        return orient(a, d, c) * s > 0 && orient(d, b, c) * s > 0 && !edges.count(edge_key(c, d));
       });
 }
 
@@ -1764,38 +1741,6 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   }
   report(1);
   return res;
-}
-
-VecXd point_mesh_distance(const MatX3d& P, const MatX3d& V, const MatX3i& F, int candidates) {
-  if (F.rows() == 0) throw MeshError("point_mesh_distance: the mesh has no faces");
-  if (!V.allFinite()) throw MeshError("point_mesh_distance: the mesh has NaN or infinite coordinates");
-  if (candidates < 1) throw MeshError("point_mesh_distance: candidates must be >= 1, got " + std::to_string(candidates));
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k)
-      if (F(f, k) < 0 || F(f, k) >= V.rows()) throw MeshError("point_mesh_distance: face index out of range");
-  MatX3d C(F.rows(), 3);
-  for (int f = 0; f < F.rows(); ++f) C.row(f) = (V.row(F(f, 0)) + V.row(F(f, 1)) + V.row(F(f, 2))) / 3.0;
-  const KdTree tree(C);
-  const int k = std::max(1, std::min<int>(candidates, int(F.rows())));
-  const int n = int(P.rows());
-  VecXd d(n);
-#pragma omp parallel if (n > kParallelMin)
-  {
-    std::vector<int> idx;
-    std::vector<double> sq;
-#pragma omp for schedule(static)
-    for (int i = 0; i < n; ++i) {
-      const Vec3 p = row3(P, i);
-      const int m = tree.knn(p, k, idx, sq);
-      double best = std::numeric_limits<double>::infinity();
-      for (int q = 0; q < m; ++q) {
-        const int f = idx[q];
-        best = std::min(best, point_triangle_distance(p, row3(V, F(f, 0)), row3(V, F(f, 1)), row3(V, F(f, 2))));
-      }
-      d[i] = best;
-    }
-  }
-  return d;
 }
 
 }  // namespace dgmesh

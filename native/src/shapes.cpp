@@ -4,6 +4,8 @@
 #include <string>
 #include <unordered_map>
 
+#include "dgmesh/detail/edge_key.h"
+#include "dgmesh/detail/math.h"
 #include "dgmesh/errors.h"
 
 namespace dgmesh {
@@ -19,8 +21,7 @@ TriMesh subdivide_linear(const MatX3d& V, const MatX3i& F) {
   mid.reserve(3 * m);
   std::vector<Vec3> extra;
   auto midpoint = [&](int a, int b) {
-    const long long key = static_cast<long long>(std::min(a, b)) * n + std::max(a, b);
-    auto [it, inserted] = mid.try_emplace(key, n + static_cast<int>(extra.size()));
+    auto [it, inserted] = mid.try_emplace(detail::edge_key(a, b), n + static_cast<int>(extra.size()));
     if (inserted) extra.push_back(0.5 * (V.row(a) + V.row(b)).transpose());
     return it->second;
   };
@@ -62,7 +63,7 @@ TriMesh torus(double R, double r, int nu, int nv) {
   m.V.resize(nu * nv, 3);
   for (int i = 0; i < nu; ++i)
     for (int j = 0; j < nv; ++j) {
-      const double u = 2 * M_PI * i / nu, v = 2 * M_PI * j / nv;
+      const double u = 2 * detail::kPi * i / nu, v = 2 * detail::kPi * j / nv;
       m.V.row(i * nv + j) << (R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u), r * std::sin(v);
     }
   m.F.resize(2 * nu * nv, 3);
