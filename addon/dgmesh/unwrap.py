@@ -1,8 +1,8 @@
 """Low-stretch UV unwrapping by stretch equalization (thesis chapter 5) and UV distortion metrics.
 
 ``unwrap`` maps one chart -- a connected triangle mesh of disk topology, possibly with holes -- to
-the plane; the options, their defaults and the results are the C++ ones (dgmesh/unwrap.h), bound
-as they are:
+the plane (``unwrap_charts`` every chart of a mesh, in one call); the options, their defaults and
+the results are the C++ ones (dgmesh/unwrap.h), bound as they are:
 
 * U0: the longest boundary loop is fixed on a convex polygon (arc-length spaced; the free boundary
   is the least-squares conformal map's) and every other vertex is a convex combination of its
@@ -28,13 +28,16 @@ import numpy as np
 
 from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices, make_options
 
-__all__ = ["UnwrapOptions", "UnwrapResult", "UnwrapStep", "UvMetrics", "UvBoundary", "UvWeights", "UvSolver",
-           "thesis_defaults", "unwrap", "uv_metrics", "uv_stretch"]
+__all__ = ["UnwrapOptions", "UnwrapResult", "UnwrapStep", "UnwrapChartsResult", "UnwrapChartError", "UvMetrics",
+           "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults", "unwrap", "unwrap_charts", "uv_metrics",
+           "uv_stretch"]
 
 # The contract is the C++ one (dgmesh/unwrap.h), bound as it is.
 UnwrapOptions = _native.UnwrapOptions
 UnwrapResult = _native.UnwrapResult
 UnwrapStep = _native.UnwrapStep
+UnwrapChartsResult = _native.UnwrapChartsResult
+UnwrapChartError = _native.UnwrapChartError
 UvMetrics = _native.UvMetrics
 UvBoundary = _native.UvBoundary
 UvWeights = _native.UvWeights
@@ -50,6 +53,7 @@ def thesis_defaults() -> UnwrapOptions:
 
 
 def _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver):
+    """UnwrapOptions from the keywords of unwrap() ("optimal" is iterations -1)."""
     if isinstance(iterations, str) and iterations == "optimal":
         iterations = -1
     elif iterations != -1:
@@ -108,6 +112,32 @@ def unwrap(V, F, *, boundary: str = _D.boundary.name, weights: str = _D.weights.
     F = as_faces(F, n=len(V))
     o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver)
     return _native.unwrap(V, F, o, progress)
+
+
+def unwrap_charts(V, F, charts, *, boundary: str = _D.boundary.name, weights: str = _D.weights.name,
+                  eta: float = _D.eta, iterations: int | str = _D.iterations, slide_boundary: bool = _D.slide_boundary,
+                  max_iterations: int = _D.max_iterations, min_improvement: float = _D.min_improvement,
+                  solver: str = _D.solver.name, progress=None) -> UnwrapChartsResult:
+    """Every chart of a mesh in one call: ``charts`` (m,) labels the triangles 0 .. k-1 (every
+    label used), and chart c (the triangles labelled c) is unwrapped as :func:`unwrap` unwraps it
+    alone (its vertices in increasing order of their index in V, its triangles in the order of F).
+    Charts may share vertices (segments of one mesh): the UVs are per triangle corner. Options as
+    :func:`unwrap`; progress runs over the charts in proportion to their triangles.
+
+    Returns :class:`UnwrapChartsResult`: ``uv`` (3m, 2), row 3f + k the UV of corner k of triangle
+    f in its chart's map (``uv.reshape(-1, 3, 2)``: per triangle), and ``charts``, chart c's
+    :class:`UnwrapResult`.
+
+    Raises :class:`UnwrapChartError` (a MeshError with ``chart``, from 0, and ``reason``) for the
+    first chart that is not disk-like; nothing is returned then.
+    """
+    V = as_vertices(V)
+    F = as_faces(F, n=len(V))
+    labels = np.asarray(charts)
+    if labels.shape != (len(F),) or (labels.size and not np.issubdtype(labels.dtype, np.integer)):
+        raise MeshError(f"charts must be one integer label per triangle ({len(F)},), got {labels.shape} {labels.dtype}")
+    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver)
+    return _native.unwrap_charts(V, F, np.ascontiguousarray(labels, dtype=np.int32), o, progress)
 
 
 def _as_uv(V, F, UV):

@@ -88,6 +88,26 @@ void bind_unwrap(pb::module_& m) {
       .def_property_readonly(
           "initial", [](const UnwrapResult& r) { return r.steps.at(0).metrics; }, "metrics of U0: steps[0].metrics");
 
+  Struct<UnwrapChartsResult>(m, "UnwrapChartsResult", "Result of unwrap_charts()")
+      .result("uv", &UnwrapChartsResult::uv, "(3m, 2) row 3f + k: corner k of triangle f in its chart's map")
+      .result("charts", &UnwrapChartsResult::charts,
+              "charts[c]: unwrap() of chart c (its vertices in increasing order of their index)");
+
+  // UnwrapChartError: a MeshError that also says which chart (`chart`, from 0) and why (`reason`).
+  static pb::handle chart_error;  // kept for the process's life, as register_exception does
+  const pb::object mesh_error = m.attr("MeshError");
+  chart_error = pb::exception<UnwrapChartError>(m, "UnwrapChartError", mesh_error).release();
+  pb::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const UnwrapChartError& e) {
+      pb::object exc = pb::reinterpret_borrow<pb::object>(chart_error)(e.what());
+      exc.attr("chart") = e.chart;
+      exc.attr("reason") = e.reason;
+      PyErr_SetObject(chart_error.ptr(), exc.ptr());
+    }
+  });
+
   m.def(
       "unwrap",
       [](InV V, InF F, const UnwrapOptions& o, const pb::object& progress) {
@@ -96,6 +116,15 @@ void bind_unwrap(pb::module_& m) {
         return unwrap(V, F, o, cb);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("progress") = pb::none());
+
+  m.def(
+      "unwrap_charts",
+      [](InV V, InF F, const VecXi& labels, const UnwrapOptions& o, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return unwrap_charts(V, F, labels, o, cb);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("labels"), pb::arg("options"), pb::arg("progress") = pb::none());
 
   m.def(
       "uv_metrics",

@@ -437,3 +437,56 @@ TEST(Unwrap, DefaultsAreTheLowStretchSettingAndThesisIsAPreset) {
   EXPECT_FALSE(t.slide_boundary);
   EXPECT_EQ(t.iterations, d.iterations);
 }
+
+TEST(Unwrap, ChartsInOneCallAreEachChartAlone) {
+  // Two segments of one hemisphere (sharing their rim's vertices) and a cap apart: each chart's
+  // map is unwrap() of that chart alone, its corners' UVs those of its map.
+  const TriMesh s = icosphere(3);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.05; });
+  VecXi labels(h.F.rows());
+  for (int f = 0; f < h.F.rows(); ++f) {
+    const double x = (h.V(h.F(f, 0), 0) + h.V(h.F(f, 1), 0) + h.V(h.F(f, 2), 0)) / 3;
+    labels[f] = x > 0.2 ? 0 : 1;
+  }
+  const UnwrapChartsResult r = unwrap_charts(h.V, h.F, labels);
+  ASSERT_EQ(r.charts.size(), 2u);
+  ASSERT_EQ(r.uv.rows(), 3 * h.F.rows());
+  for (int c = 0; c < 2; ++c) {
+    std::vector<int> verts, faces;
+    for (int f = 0; f < h.F.rows(); ++f)
+      if (labels[f] == c) faces.push_back(f), verts.insert(verts.end(), {h.F(f, 0), h.F(f, 1), h.F(f, 2)});
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    std::vector<int> local(h.V.rows(), -1);
+    MatX3d Vc(verts.size(), 3);
+    for (size_t i = 0; i < verts.size(); ++i) local[verts[i]] = static_cast<int>(i), Vc.row(i) = h.V.row(verts[i]);
+    MatX3i Fc(faces.size(), 3);
+    for (size_t i = 0; i < faces.size(); ++i)
+      for (int j = 0; j < 3; ++j) Fc(i, j) = local[h.F(faces[i], j)];
+    const UnwrapResult want = unwrap(Vc, Fc);
+    EXPECT_EQ(r.charts[c].uv, want.uv) << c;
+    for (size_t i = 0; i < faces.size(); ++i)
+      for (int j = 0; j < 3; ++j) EXPECT_EQ(r.uv.row(3 * faces[i] + j), want.uv.row(Fc(i, j)));
+  }
+  // A closed chart: named by number, with unwrap()'s reason.
+  MatX3d V(h.V.rows() + s.V.rows(), 3);
+  V << h.V, s.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
+  MatX3i F(h.F.rows() + s.F.rows(), 3);
+  F << h.F, s.F.array() + static_cast<int>(h.V.rows());
+  VecXi two(F.rows());
+  two.head(h.F.rows()).setZero();
+  two.tail(s.F.rows()).setOnes();
+  try {
+    unwrap_charts(V, F, two);
+    ADD_FAILURE() << "a closed chart was unwrapped";
+  } catch (const UnwrapChartError& e) {
+    EXPECT_EQ(e.chart, 1);
+    EXPECT_EQ(std::string(e.what()).rfind("chart 2 of 2 (" + std::to_string(s.F.rows()) + " triangles): ", 0), 0u);
+    EXPECT_NE(e.reason.find("closed"), std::string::npos);
+  }
+  two[0] = -1;
+  EXPECT_THROW(unwrap_charts(V, F, two), MeshError);
+  two[0] = 3;
+  EXPECT_THROW(unwrap_charts(V, F, two), MeshError);  // labels 2 unused
+  EXPECT_THROW(unwrap_charts(V, F, two.head(3)), MeshError);
+}

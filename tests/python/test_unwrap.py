@@ -323,3 +323,57 @@ def test_unwrap_and_metrics_do_not_depend_on_the_thread_count():
         assert np.array_equal(uv, outs[0][0])
         assert m == outs[0][1]
 
+
+
+def _chart(V, F, labels, c):
+    """Chart c as unwrap_charts cuts it: its vertices in increasing order, its triangles in order."""
+    used, Fc = np.unique(F[labels == c], return_inverse=True)
+    return V[used], Fc.reshape(-1, 3).astype(np.int32)
+
+
+def test_unwrap_charts_unwraps_each_chart_as_unwrap_does():
+    """One call for all charts gives each chart exactly the map unwrap() gives it alone; charts
+    sharing vertices (segments of one mesh) get their own UVs per triangle corner."""
+    V, F = hemisphere()
+    c = V[F].mean(axis=1)
+    labels = (c[:, 0] > 0).astype(int) + 2 * (c[:, 1] > 0.3)  # four segments sharing their rims
+    for kw in ({}, thesis(iterations=2, solver="bicgstab")):
+        r = dgmesh.unwrap_charts(V, F, labels, **kw)
+        assert len(r.charts) == 4 and r.uv.shape == (3 * len(F), 2)
+        for k in range(4):
+            Vc, Fc = _chart(V, F, labels, k)
+            want = dgmesh.unwrap(Vc, Fc, **kw)
+            assert r.charts[k].uv.tobytes() == want.uv.tobytes()
+            assert r.charts[k].final == want.final and r.charts[k].warnings == want.warnings
+            corners = r.uv.reshape(-1, 3, 2)[labels == k]
+            assert corners.tobytes() == want.uv[Fc].tobytes()
+
+
+def test_unwrap_charts_names_the_chart_that_fails_and_checks_its_labels():
+    Vd, Fd = hemisphere(level=2)
+    Vs, Fs = shapes.icosphere(2)
+    V = np.vstack([Vd, Vs + 3])
+    F = np.vstack([Fd, Fs + len(Vd)]).astype(np.int32)
+    labels = np.r_[np.zeros(len(Fd), int), np.ones(len(Fs), int)]
+    with pytest.raises(dgmesh.UnwrapChartError, match=rf"chart 2 of 2 \({len(Fs)} triangles\): .*closed") as info:
+        dgmesh.unwrap_charts(V, F, labels)
+    assert isinstance(info.value, dgmesh.MeshError)
+    assert info.value.chart == 1 and "closed" in info.value.reason
+    assert str(info.value) == f"chart 2 of 2 ({len(Fs)} triangles): {info.value.reason}"
+    with pytest.raises(dgmesh.MeshError, match="one integer label per triangle"):
+        dgmesh.unwrap_charts(Vd, Fd, np.zeros(len(Fd) - 1, int))
+    with pytest.raises(dgmesh.MeshError, match="label 1 has no triangle"):
+        dgmesh.unwrap_charts(Vd, Fd, np.r_[np.zeros(len(Fd) - 1, int), 2])
+    with pytest.raises(dgmesh.MeshError, match=">= 0"):
+        dgmesh.unwrap_charts(Vd, Fd, -np.ones(len(Fd), int))
+
+
+def test_unwrap_charts_progress_runs_over_the_charts_once():
+    V, F = hemisphere()
+    labels = (V[F].mean(axis=1)[:, 0] > 0).astype(int)
+    seen = []
+    dgmesh.unwrap_charts(V, F, labels, progress=lambda f: seen.append(f) or True)
+    assert seen[0] == 0.0 and seen[-1] == pytest.approx(1.0)
+    assert all(b >= a for a, b in zip(seen, seen[1:]))
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.unwrap_charts(V, F, labels, progress=lambda f: f < 0.6)

@@ -8,13 +8,15 @@ count, and nothing is written. UVs are written per face corner of the user's pol
 n-gons keep their faces; Blender's loop triangulation only feeds the solver), only for the faces
 unwrapped; other corners of the active UV map are left untouched.
 
-Each chart is scaled to its 3D area, then Blender's packer (uv.pack_islands) lays the charts out;
-in Object mode the operator enters Edit mode for the packing with exactly the unwrapped faces
-selected and restores the selection afterwards. In Edit mode it never leaves Edit mode (each
-round trip costs seconds on a big mesh): it reads the mesh synced from the edit-mesh, reads and
-writes the unwrapped corners' UVs through bmesh (a UV map of a mesh in Edit mode has no data) and
-packs with only those corners' UVs selected. The report gives the L2 stretch (eq. 5.5) of the
-active UV map on the unwrapped faces before and after. Long runs show progress and Esc cancels
+One native call per object unwraps all its charts (dgmesh.unwrap_charts: the charts' corner classes
+as vertices, the chart of each triangle as labels), each exactly as dgmesh.unwrap would alone. Each
+chart is scaled to its 3D area, then Blender's packer (uv.pack_islands) lays the charts out; in
+Object mode the operator enters Edit mode for the packing with exactly the unwrapped faces selected
+and restores the selection afterwards. In Edit mode it never leaves Edit mode (each round trip
+costs seconds on a big mesh): it reads the mesh synced from the edit-mesh, reads and writes the
+unwrapped corners' UVs through bmesh (a UV map of a mesh in Edit mode has no data) and packs with
+only those corners' UVs selected. The report gives the L2 stretch (eq. 5.5) of the active UV map on
+the unwrapped faces before and after. Long runs show progress and Esc cancels
 (jobs.NativeJobOperator); nothing is written before the computation has finished.
 """
 
@@ -192,34 +194,33 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         opts = dict(boundary=self.boundary.lower(), weights=self.weights.lower(), eta=self.eta,
                     slide_boundary=self.slide_boundary,
                     iterations="optimal" if self.optimal else self.steps)
-        total = float(sum(len(Fc) for it in items for (_, Fc, _, _) in it["charts"]))
+        total = float(sum(len(it["class_F"]) for it in items))
 
         def work(progress):
-            # All or nothing: the first chart that cannot be unwrapped stops the run.
+            # One native call per object for all its charts; all or nothing: the first chart that
+            # cannot be unwrapped stops the run.
             done = 0.0
             for it in items:
-                n_charts = len(it["charts"])
+                def sub(f, done=done, n=len(it["class_F"])):
+                    return progress((done + f * n) / total)
+                try:
+                    r = dg.unwrap_charts(it["class_V"], it["class_F"], it["tri_chart"], progress=sub, **opts)
+                except dg.UnwrapChartError as exc:
+                    _, Fc, _, first_poly = it["charts"][exc.chart]
+                    raise dg.MeshError(
+                        f"'{it['name']}' chart {exc.chart + 1} of {len(it['charts'])} ({len(Fc)} triangles, with "
+                        f"face #{first_poly}): {exc.reason}. Add seams so that every chart is a disk, or split "
+                        "it with DG Mesh > Segment") from None
                 it["uv_class"] = np.zeros((it["n_classes"], 2))
                 it["stretch"] = []
-                for c, (classes, Fc, Vc, first_poly) in enumerate(it["charts"]):
-                    def sub(f, done=done, n=len(Fc)):
-                        return progress((done + f * n) / total)
-                    try:
-                        r = dg.unwrap(Vc, Fc, progress=sub, **opts)
-                    except dg.Cancelled:
-                        raise
-                    except dg.MeshError as exc:
-                        raise dg.MeshError(
-                            f"'{it['name']}' chart {c + 1} of {n_charts} ({len(Fc)} triangles, with face "
-                            f"#{first_poly}): {exc}. Add seams so that every chart is a disk, or split "
-                            "it with DG Mesh > Segment") from None
+                for (classes, Fc, Vc, _), rc in zip(it["charts"], r.charts):
                     # Scale each chart to its 3D area so the packer keeps the charts' relative size.
-                    uv = r.uv - r.uv.mean(0)
+                    uv = rc.uv - rc.uv.mean(0)
                     a3 = _area3(Vc, Fc)
                     auv = _area2(uv, Fc)
                     it["uv_class"][classes] = uv * (np.sqrt(a3 / auv) if auv > 0 else 1.0)
-                    it["stretch"].append((r.final.stretch_l2, len(Fc), r.warnings))
-                    done += len(Fc)
+                    it["stretch"].append((rc.final.stretch_l2, len(Fc), rc.warnings))
+                done += len(it["class_F"])
             return items
 
         return work
@@ -502,7 +503,8 @@ def _read_charts(obj, edit, dg):
         charts.append((classes, Fc, Vc, int(tri_poly[in_c].min())))
     item.update(faces(mask), n_pinned=n_pinned, loops=loops, corner_class=corner_class[loops],
                 n_classes=len(chart_of_class), charts=charts, V=arrays.V, F=F, tri_corner=tri_corner,
-                before=before)
+                before=before, class_V=np.ascontiguousarray(arrays.V[vert_of_class]), class_F=tri_cls,
+                tri_chart=tri_chart)
     return item
 
 

@@ -144,6 +144,31 @@ struct UnwrapResult {
 UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& options = {},
                     const ProgressFn& progress = {});
 
+// Every chart of a mesh in one call: the triangles with label c (0 <= c < k, every label used)
+// form chart c, unwrapped by unwrap() on its own, with its vertices numbered in increasing order of
+// their index in V and its triangles in the order of F, so each chart's map is exactly the one
+// unwrap() gives for that chart alone. Charts may share vertices (e.g. segments of one mesh): the
+// UVs are per triangle corner.
+struct UnwrapChartsResult {
+  MatX2d uv;                          // row 3f + k: UV of corner k of triangle f in its chart's map
+  std::vector<UnwrapResult> charts;   // charts[c]: unwrap() of chart c (uv per chart vertex)
+};
+
+// unwrap_charts() could not unwrap one chart: unwrap()'s MeshError for it (`reason`), the message
+// naming the chart: "chart c of k (n triangles): reason" (c from 1).
+struct UnwrapChartError : MeshError {
+  UnwrapChartError(int chart, int n_charts, int n_triangles, const std::string& reason);
+  int chart;           // from 0
+  std::string reason;  // unwrap()'s message
+};
+
+// Throws MeshError for labels of the wrong size, negative or unused, or indices out of range;
+// UnwrapChartError when a chart is not of disk topology (the first such chart: nothing is
+// returned), SolverError and CancelledError as unwrap(). Progress runs over the charts in
+// proportion to their triangles.
+UnwrapChartsResult unwrap_charts(const MatX3d& V, const MatX3i& F, const VecXi& labels,
+                                 const UnwrapOptions& options = {}, const ProgressFn& progress = {});
+
 // Connected components of n items linked by `pairs` (union-find). Labels are 0..k-1 in order of
 // first appearance. Used by the add-on to split meshes into charts along seams.
 VecXi connected_labels(int n, const MatX2i& pairs);
