@@ -42,7 +42,8 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
 from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
 from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
-from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
+from .unwrap import (UnwrapChartError, UnwrapChartsResult, UnwrapOptions, UnwrapResult, UnwrapStep,  # noqa: E402
+                     UvBoundary, UvMetrics, UvSolver, UvWeights, unwrap, unwrap_charts, uv_metrics, uv_stretch)
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
 from .multires import Multires  # noqa: E402
 from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # noqa: E402
@@ -54,7 +55,8 @@ __all__ = [
     "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
     "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
     "FairResult", "fair", "regularize", "willmore_energy",
-    "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
+    "UnwrapChartError", "UnwrapChartsResult", "UnwrapOptions", "UnwrapResult", "UnwrapStep", "UvBoundary",
+    "UvMetrics", "UvSolver", "UvWeights", "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch",
     "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
     "Multires",
     "RemeshResult", "point_mesh_distance", "remesh", "remesh_full",

@@ -1,11 +1,12 @@
 """Low-stretch UV unwrapping by stretch equalization (thesis chapter 5) and UV distortion metrics.
 
 ``unwrap`` maps one chart -- a connected triangle mesh of disk topology, possibly with holes -- to
-the unit square (or circle, or its natural conformal boundary):
+the plane (``unwrap_charts`` every chart of a mesh, in one call); the options, their defaults and
+the results are the C++ ones (dgmesh/unwrap.h), bound as they are:
 
-* U0: the longest boundary loop is fixed on a convex polygon (arc-length spaced) and every other
-  vertex is a convex combination of its neighbours (eq. 5.2-5.3), with Floater's shape-preserving
-  weights by default. With a convex polygon the map has no flipped triangles (Tutte, Floater).
+* U0: the longest boundary loop is fixed on a convex polygon (arc-length spaced; the free boundary
+  is the least-squares conformal map's) and every other vertex is a convex combination of its
+  neighbours (eq. 5.2-5.3). With a convex polygon the map has no flipped triangles (Tutte, Floater).
 * Stretch equalization: each step divides the weights by the vertex stretch (eq. 5.1, 5.4) raised
   to ``eta`` (eq. 5.6) and solves again. ``iterations="optimal"`` stops when the L2 stretch of
   eq. 5.5 stops decreasing (Uopt); an integer runs exactly that many steps (1 gives U1).
@@ -13,88 +14,78 @@ the unit square (or circle, or its natural conformal boundary):
 * Square corners are placed so that no triangle has all three corners on one side of the square
   (which would give it zero UV area).
 
-Metrics (thesis 5.3), per step and from ``uv_metrics``: ``stretch_l2`` (eq. 5.5, Sander's
+The defaults (``UnwrapOptions()``: free boundary, auto weights, eta 0.5, sliding boundary, Uopt)
+give the lowest stretch measured on the CGAL disk scans (bench unwrap_quality); the thesis's own
+setting (unit square, Floater's weights, eta 1, fixed boundary) is ``thesis_defaults()``.
+
+Metrics (thesis 5.3, ``UvMetrics``), per step and from ``uv_metrics``: ``stretch_l2`` (eq. 5.5, Sander's
 normalisation: 1 is an isometry up to scale; infinite when a UV triangle has zero area),
 ``stretch_linf``, ``stretch_l2_finite`` (eq. 5.5 over the non-degenerate triangles), ``edge``,
 ``angle`` (mean absolute angle error, radians), ``area``, ``flipped`` and ``zero_area`` counts.
 """
 
-from dataclasses import dataclass, field
-from typing import List
-
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices, make_options
 
-__all__ = ["UnwrapResult", "unwrap", "uv_metrics", "uv_stretch", "BOUNDARIES", "WEIGHTS", "SOLVERS"]
+__all__ = ["UnwrapOptions", "UnwrapResult", "UnwrapStep", "UnwrapChartsResult", "UnwrapChartError", "UvMetrics",
+           "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults", "unwrap", "unwrap_charts", "uv_metrics",
+           "uv_stretch"]
 
-BOUNDARIES = ("square", "circle", "free")
-WEIGHTS = ("floater", "mean_value", "cotangent", "uniform", "auto")
-SOLVERS = ("auto", "umfpack", "sparselu", "bicgstab", "multigrid")
-
-
-@dataclass
-class UnwrapResult:
-    """Result of :func:`unwrap`.
-
-    uv: (n, 2) float64 UV coordinates of the returned map, inside [0, 1]^2.
-    metrics: one dict per step: ``metrics[0]`` is U0, ``metrics[h]`` is U^h (each also holds
-        ``seconds`` and ``solver_iterations``). For Uopt the last entry may be the step that was
-        rejected because it did not decrease the stretch. U0 and the returned map carry every
-        metric; the other steps carry the stretch metrics, flips, zero-area and area distortion,
-        with ``edge`` and ``angle`` NaN (not computed, to save time).
-    chosen: index into ``metrics`` of the returned map.
-    boundary: the boundary actually used ("square", "circle" or "free"; see ``warnings`` for
-        fallbacks).
-    boundary_convex: whether the fixed polygon is convex (then no triangle can flip).
-    n_holes: inner boundary loops, kept open.
-    corners: vertex ids placed at the square's corners (0,0), (1,0), (1,1), (0,1).
-    warnings: human-readable notes (fallbacks, negative weights).
-    solver: linear solver used.
-    """
-
-    uv: np.ndarray
-    metrics: List[dict]
-    chosen: int
-    boundary: str
-    boundary_convex: bool
-    n_holes: int
-    corners: List[int] = field(default_factory=list)
-    warnings: List[str] = field(default_factory=list)
-    solver: str = ""
-
-    @property
-    def final(self):
-        """Metrics of the returned map."""
-        return self.metrics[self.chosen]
-
-    @property
-    def initial(self):
-        """Metrics of U0."""
-        return self.metrics[0]
+# The contract is the C++ one (dgmesh/unwrap.h), bound as it is.
+UnwrapOptions = _native.UnwrapOptions
+UnwrapResult = _native.UnwrapResult
+UnwrapStep = _native.UnwrapStep
+UnwrapChartsResult = _native.UnwrapChartsResult
+UnwrapChartError = _native.UnwrapChartError
+UvMetrics = _native.UvMetrics
+UvBoundary = _native.UvBoundary
+UvWeights = _native.UvWeights
+UvSolver = _native.UvSolver
+_D = UnwrapOptions()
 
 
-def _choice(name, value, allowed):
-    if value not in allowed:
-        raise MeshError(f"{name} must be one of {', '.join(map(repr, allowed))}, got {value!r}")
-    return value
+def thesis_defaults() -> UnwrapOptions:
+    """The thesis's setting (chapter 5): unit square, Floater's weights, eta 1, the boundary fixed.
+    For :func:`unwrap`: ``t = thesis_defaults(); unwrap(V, F, boundary=t.boundary, weights=t.weights,
+    eta=t.eta, slide_boundary=t.slide_boundary)``."""
+    return _native.unwrap_thesis_defaults()
 
 
-def unwrap(V, F, *, boundary="square", weights="floater", eta=1.0, iterations="optimal",
-           slide_boundary=False, max_iterations=100, min_improvement=1e-3, solver="auto",
-           progress=None) -> UnwrapResult:
+def _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver):
+    """UnwrapOptions from the keywords of unwrap() ("optimal" is iterations -1)."""
+    if isinstance(iterations, str) and iterations == "optimal":
+        iterations = -1
+    elif iterations != -1:
+        try:
+            iterations = as_count(iterations, "iterations")
+        except MeshError:
+            raise MeshError(f"iterations must be 'optimal' (or -1) or an integer >= 0, got {iterations!r}") from None
+    return make_options(UnwrapOptions(), boundary=boundary, weights=weights, eta=eta, iterations=iterations,
+                        slide_boundary=slide_boundary,
+                        max_iterations=None if max_iterations is None else as_count(max_iterations, "max_iterations"),
+                        min_improvement=min_improvement, solver=solver)
+
+
+def unwrap(V, F, *, boundary: str = _D.boundary.name, weights: str = _D.weights.name, eta: float = _D.eta,
+           iterations: int | str = _D.iterations, slide_boundary: bool = _D.slide_boundary,
+           max_iterations: int = _D.max_iterations, min_improvement: float = _D.min_improvement,
+           solver: str = _D.solver.name, progress=None) -> UnwrapResult:
     """Low-stretch parameterization of one disk-like chart (thesis chapter 5).
 
     V: (n, 3) vertex positions, F: (m, 3) triangles (one connected piece of genus 0 with at least
-    one boundary loop; every vertex used).
-    boundary: "square" (thesis), "circle", or "free" (the natural boundary of the least-squares
-        conformal map; falls back to a circle, with a warning, if that boundary folds the map).
-    weights: "floater" (shape-preserving, default), "mean_value", "cotangent" (may fold: warns),
-        "uniform", or "auto" (beyond the thesis: cotangent, and Floater's from the start again as
-        soon as a cotangent map folds or its solve stalls; the lowest stretch on the CGAL disk
-        scans, the Blender operator's default).
+    one boundary loop; every vertex used). The keywords are the fields of :class:`UnwrapOptions`
+    (their defaults its defaults):
+
+    boundary: "square" (the thesis), "circle", or "free" (the natural boundary of the
+        least-squares conformal map; falls back to a circle, with a warning, if that boundary folds
+        the map).
+    weights: "floater" (shape-preserving, the thesis's), "mean_value", "cotangent" (may fold:
+        warns), "uniform", or "auto" (beyond the thesis: cotangent, and Floater's from the start
+        again as soon as a cotangent map folds or its solve stalls; mean-value weights on a chart
+        with holes).
     eta: strength of each equalization step, 0 < eta <= 1 (eq. 5.6).
-    iterations: "optimal" for Uopt, or an int k >= 0 for exactly k steps (0 = U0, 1 = U1).
+    iterations: "optimal" or -1 for Uopt, or an int k >= 0 for exactly k steps (0 = U0, 1 = U1).
     slide_boundary: beyond the thesis (whose boundary stays fixed): each step also slides the
         outer boundary vertices along the polygon by a one-dimensional stretch equalization (the
         square's corners stay). The polygon keeps its shape, so no triangle can flip.
@@ -105,38 +96,48 @@ def unwrap(V, F, *, boundary="square", weights="floater", eta=1.0, iterations="o
         smoothed-aggregation multigrid preconditioner).
     progress: optional callable(fraction) -> bool; returning False raises :class:`Cancelled`.
 
+    Returns :class:`UnwrapResult`: ``uv`` (n, 2) the returned map in [0, 1]^2, ``uv_initial`` U0,
+    ``steps`` (``steps[h]`` is U^h: ``metrics`` (:class:`UvMetrics`), ``seconds``,
+    ``solver_iterations``; U0 and the returned map carry every metric, the steps between have
+    ``edge`` and ``angle`` NaN; for Uopt the last may be the rejected step), ``chosen`` (index of
+    the returned map; ``final`` and ``initial`` are its and U0's metrics), ``boundary_used``,
+    ``boundary_convex`` (then no triangle can flip), ``n_holes`` (inner loops, kept open),
+    ``corners`` (vertices at the square's corners (0,0), (1,0), (1,1), (0,1)), ``warnings``
+    (fallbacks, negative weights) and ``solver``.
+
     Raises MeshError for meshes that are not one disk-like chart (closed, several pieces,
-    handles), with a message saying what to do.
+    handles), with a message saying what to do, and for options out of range.
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    _choice("boundary", boundary, BOUNDARIES)
-    _choice("weights", weights, WEIGHTS)
-    _choice("solver", solver, SOLVERS)
-    if iterations == "optimal":
-        it = -1
-    else:
-        try:
-            it = as_count(iterations, "iterations")
-        except MeshError:
-            raise MeshError(f"iterations must be 'optimal' or an integer >= 0, got {iterations!r}") from None
-    eta = float(eta)
-    if not (0.0 < eta <= 1.0):
-        raise MeshError(f"eta must be in (0, 1], got {eta}")
-    r = _native.unwrap(V, F, boundary=boundary, weights=weights, eta=eta, iterations=it,
-                       max_iterations=as_count(max_iterations, "max_iterations"), min_improvement=float(min_improvement),
-                       solver=solver, slide_boundary=bool(slide_boundary), progress=progress)
-    return UnwrapResult(
-        uv=np.asarray(r["uv"]),
-        metrics=[dict(s) for s in r["steps"]],
-        chosen=int(r["chosen"]),
-        boundary=r["boundary"],
-        boundary_convex=bool(r["boundary_convex"]),
-        n_holes=int(r["n_holes"]),
-        corners=list(r["corners"]),
-        warnings=list(r["warnings"]),
-        solver=r["solver"],
-    )
+    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver)
+    return _native.unwrap(V, F, o, progress)
+
+
+def unwrap_charts(V, F, charts, *, boundary: str = _D.boundary.name, weights: str = _D.weights.name,
+                  eta: float = _D.eta, iterations: int | str = _D.iterations, slide_boundary: bool = _D.slide_boundary,
+                  max_iterations: int = _D.max_iterations, min_improvement: float = _D.min_improvement,
+                  solver: str = _D.solver.name, progress=None) -> UnwrapChartsResult:
+    """Every chart of a mesh in one call: ``charts`` (m,) labels the triangles 0 .. k-1 (every
+    label used), and chart c (the triangles labelled c) is unwrapped as :func:`unwrap` unwraps it
+    alone (its vertices in increasing order of their index in V, its triangles in the order of F).
+    Charts may share vertices (segments of one mesh): the UVs are per triangle corner. Options as
+    :func:`unwrap`; progress runs over the charts in proportion to their triangles.
+
+    Returns :class:`UnwrapChartsResult`: ``uv`` (3m, 2), row 3f + k the UV of corner k of triangle
+    f in its chart's map (``uv.reshape(-1, 3, 2)``: per triangle), and ``charts``, chart c's
+    :class:`UnwrapResult`.
+
+    Raises :class:`UnwrapChartError` (a MeshError with ``chart``, from 0, and ``reason``) for the
+    first chart that is not disk-like; nothing is returned then.
+    """
+    V = as_vertices(V)
+    F = as_faces(F, n=len(V))
+    labels = np.asarray(charts)
+    if labels.shape != (len(F),) or (labels.size and not np.issubdtype(labels.dtype, np.integer)):
+        raise MeshError(f"charts must be one integer label per triangle ({len(F)},), got {labels.shape} {labels.dtype}")
+    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver)
+    return _native.unwrap_charts(V, F, np.ascontiguousarray(labels, dtype=np.int32), o, progress)
 
 
 def _as_uv(V, F, UV):
@@ -152,8 +153,8 @@ def _as_uv(V, F, UV):
         f"UV must be per vertex ({len(V)}, 2) or per triangle corner ({len(F)}, 3, 2), got {UV.shape}")
 
 
-def uv_metrics(V, F, UV, *, zero_area_eps=1e-10) -> dict:
-    """Distortion metrics of thesis 5.3 for a UV map.
+def uv_metrics(V, F, UV, *, zero_area_eps: float = _D.zero_area_eps) -> UvMetrics:
+    """Distortion metrics of thesis 5.3 for a UV map (:class:`UvMetrics`).
 
     UV: per-vertex (n, 2), or per triangle corner (m, 3, 2) (e.g. a Blender UV map with seams).
     With corner UVs the edge distortion sums over the triangles' sides (interior edges count once
@@ -164,10 +165,11 @@ def uv_metrics(V, F, UV, *, zero_area_eps=1e-10) -> dict:
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
     Vs, Fs, UVs = _as_uv(V, F, UV)
-    return dict(_native.uv_metrics(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0)))
+    return _native.uv_metrics(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0))
 
 
-def uv_stretch(V, F, UV, *, uv_faces=None, per="vertex", zero_area_eps=1e-10) -> np.ndarray:
+def uv_stretch(V, F, UV, *, uv_faces=None, per: str = "vertex",
+               zero_area_eps: float = _D.zero_area_eps) -> np.ndarray:
     """Sander's stretch (normalised, 1 = no stretch) per triangle (``per="face"``) or per vertex
     (``per="vertex"``: eq. 5.1, area-weighted over the incident triangles). UV as in
     :func:`uv_metrics`; or, with ``uv_faces`` (m, 3), any (k, 2) array whose row ``uv_faces[i, j]``

@@ -178,7 +178,8 @@ def remesh_quality(quick):
             sv[label] = _shared(outs[f"double/{label}"], outs[f"single_uopt/{label}"])
         maps = {}
         for key, it in (("U0", 0), ("Uopt", "optimal")):
-            u = dgmesh.unwrap(V, F, boundary="circle", weights="floater", iterations=it)
+            u = dgmesh.unwrap(V, F, boundary="circle", weights="floater", eta=1.0, slide_boundary=False,
+                              iterations=it)
             maps[key] = _map_distortion(V, F, u.uv)
         data["models"][name] = {"maps": maps}
         shared_rows.append((name, f"{maps['U0'][0]:.3f} / {maps['Uopt'][0]:.3f}",

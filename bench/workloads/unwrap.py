@@ -37,7 +37,9 @@ from bench.common import (IMAGES, ROOT, cgal_dir, cgal_mesh, cgal_tool, loop_sub
 
 MODELS = ("lion-head", "mushroom", "mannequin-devil", "nefertiti", "three_peaks", "head")
 RENDER_MODELS = ("mannequin-devil", "lion-head")
-OPERATOR_DEFAULT = dict(boundary="free", eta=0.5, slide_boundary=True, weights="auto")  # the operator's defaults
+# UnwrapOptions() (the API's and the operator's defaults) and unwrap_thesis_defaults(), spelled out.
+OPERATOR_DEFAULT = dict(boundary="free", eta=0.5, slide_boundary=True, weights="auto")
+THESIS_SETTING = dict(boundary="square", weights="floater", eta=1.0, slide_boundary=False)
 METRICS = ("stretch_l2", "stretch_linf", "edge", "angle", "area", "flipped", "zero_area")
 
 # Runs inside `blender --background`: Blender's unwraps (timed), the dgmesh.unwrap operator with
@@ -96,7 +98,7 @@ for name, path in job["models"].items():
         obj = add(name, V, F)
         t = blender_unwrap(obj, method)
         a, uv = corner_uv(obj)
-        m = dgmesh.uv_metrics(a.V, a.F, uv)
+        m = dgmesh.core.fields(dgmesh.uv_metrics(a.V, a.F, uv))
         m["seconds"] = t
         # Eq. 5.5 over the triangles with nonzero UV area only, so that a map with some zero-area
         # triangles (L2 = inf) still gets a finite figure to compare with.
@@ -110,14 +112,14 @@ for name, path in job["models"].items():
     obj = add(name, V, F)
     blender_unwrap(obj, "ANGLE_BASED")
     a, uv = corner_uv(obj)
-    before = dgmesh.uv_metrics(a.V, a.F, uv)["stretch_l2"]
+    before = dgmesh.uv_metrics(a.V, a.F, uv).stretch_l2
     bpy.context.view_layer.objects.active = obj
     obj.select_set(True)
     t0 = time.perf_counter()
     r = bpy.ops.dgmesh.unwrap(pack=True)
     t = time.perf_counter() - t0
     a, uv = corner_uv(obj)
-    m = dgmesh.uv_metrics(a.V, a.F, uv)
+    m = dgmesh.core.fields(dgmesh.uv_metrics(a.V, a.F, uv))
     res["operator"] = dict(result=sorted(r), before=before, after=m["stretch_l2"], seconds=t,
                            flipped=m["flipped"], zero_area=m["zero_area"],
                            uv_min=float(uv.min()), uv_max=float(uv.max()), mode=bpy.context.mode)
@@ -286,7 +288,7 @@ def cgal_parameterize(V, F, method="iterative", runs=1, warmups=0, build=True, b
     if res["status"] != 0:
         res["error"] = f"CGAL error code {res['status']}: {p.stderr.strip()[-300:]}"
         return res
-    res.update(dgmesh.uv_metrics(V, F, uv))
+    res.update(dgmesh.core.fields(dgmesh.uv_metrics(V, F, uv)))
     return res
 
 
@@ -310,11 +312,11 @@ def vs_cgal(repeats=9, cgal_runs=9, build=True):
         data["cgal"] = None if cg is None else {k: v for k, v in cg.items() if k != "uv"}
     for label, kw in (("Uopt free, eta 0.5, sliding boundary, auto weights (operator default)", OPERATOR_DEFAULT),
                       ("Uopt free, eta 0.5, sliding boundary, Floater weights",
-                       dict(boundary="free", eta=0.5, slide_boundary=True)),
-                      ("Uopt free, eta 1", dict(boundary="free")),
-                      ("Uopt square (thesis)", dict())):
+                       dict(boundary="free", weights="floater", eta=0.5, slide_boundary=True)),
+                      ("Uopt free, eta 1", dict(THESIS_SETTING, boundary="free")),
+                      ("Uopt square (thesis)", THESIS_SETTING)):
         wall, cpu, wmin, r = _cpu_median(lambda: dgmesh.unwrap(V, F, **kw), repeats)
-        f = r.final
+        f = dgmesh.core.fields(r.final)
         ok = (f["stretch_l2"] <= ref["stretch_l2"] and f["flipped"] == 0 and f["zero_area"] == 0
               and wall <= ref["seconds"] / 10)
         rows.append([label, wall, wmin, cpu, f"{ref['seconds'] / wall:.1f}x",
@@ -448,21 +450,23 @@ def quality(quick=False):
                             f"{name}.off ({len(V0)} v, closed): {how}"))
         for key, label, V, F, _, cut in entries:
             d = {"label": label, "vertices": len(V), "faces": len(F), "cut": cut}
-            r0, t0, _ = _timed(lambda: dgmesh.unwrap(V, F, iterations=0))
-            r1, t1, _ = _timed(lambda: dgmesh.unwrap(V, F, iterations=1))
-            ro, to, _ = _timed(lambda: dgmesh.unwrap(V, F))
-            rf, tf, _ = _timed(lambda: dgmesh.unwrap(V, F, boundary="free"))
+            r0, t0, _ = _timed(lambda: dgmesh.unwrap(V, F, iterations=0, **THESIS_SETTING))
+            r1, t1, _ = _timed(lambda: dgmesh.unwrap(V, F, iterations=1, **THESIS_SETTING))
+            ro, to, _ = _timed(lambda: dgmesh.unwrap(V, F, **THESIS_SETTING))
+            rf, tf, _ = _timed(lambda: dgmesh.unwrap(V, F, **dict(THESIS_SETTING, boundary="free")))
             rs, ts, _ = _timed(lambda: dgmesh.unwrap(V, F, **OPERATOR_DEFAULT))
-            rw, tw, _ = _timed(lambda: dgmesh.unwrap(V, F, boundary="free", eta=0.5, slide_boundary=True))
-            d["U0"] = dict(r0.final, seconds=t0)
-            d["U1"] = dict(r1.final, seconds=t1)
-            d["Uopt"] = dict(ro.final, seconds=to, steps=ro.chosen, solver=ro.solver)
-            d["Uopt_free"] = dict(rf.final, seconds=tf, steps=rf.chosen, boundary=rf.boundary,
+            rw, tw, _ = _timed(lambda: dgmesh.unwrap(V, F, boundary="free", weights="floater", eta=0.5,
+                                                     slide_boundary=True))
+            fields = dgmesh.core.fields
+            d["U0"] = dict(fields(r0.final), seconds=t0)
+            d["U1"] = dict(fields(r1.final), seconds=t1)
+            d["Uopt"] = dict(fields(ro.final), seconds=to, steps=ro.chosen, solver=ro.solver)
+            d["Uopt_free"] = dict(fields(rf.final), seconds=tf, steps=rf.chosen, boundary=rf.boundary_used.name,
                                   warnings=rf.warnings)
-            d["Uopt_free_slide"] = dict(rs.final, seconds=ts, steps=rs.chosen, boundary=rs.boundary,
-                                        warnings=rs.warnings)
-            d["Uopt_free_floater"] = dict(rw.final, seconds=tw, steps=rw.chosen, boundary=rw.boundary,
-                                          warnings=rw.warnings)
+            d["Uopt_free_slide"] = dict(fields(rs.final), seconds=ts, steps=rs.chosen,
+                                        boundary=rs.boundary_used.name, warnings=rs.warnings)
+            d["Uopt_free_floater"] = dict(fields(rw.final), seconds=tw, steps=rw.chosen,
+                                          boundary=rw.boundary_used.name, warnings=rw.warnings)
             ours[key] = (V, F, r0.uv, ro.uv, rs.uv)
             # CGAL on the same (V, F) (the parts too), one timed run each; lion-head's Iterative_authalic
             # is the vs_cgal measurement above (median of its runs).
@@ -649,26 +653,27 @@ def speed(quick=False):
         V, F = cgal_mesh(name)
         if lev:
             V, F = loop_subdivide(V, F, lev)
-        # The thesis's Uopt (the API's defaults: square, eta 1) with both solvers, then the
-        # operator's defaults (free boundary, eta 0.5, sliding: more, smaller steps).
-        for setting, solver, kw in (("square, eta 1", "multigrid", {}), ("square, eta 1", "umfpack", {}),
+        # The thesis's Uopt (square, eta 1) with both solvers, then the defaults (free boundary,
+        # eta 0.5, sliding: more, smaller steps).
+        for setting, solver, kw in (("square, eta 1", "multigrid", THESIS_SETTING),
+                                    ("square, eta 1", "umfpack", THESIS_SETTING),
                                     ("operator default", "multigrid", OPERATOR_DEFAULT)):
             r, wall, cpu = _timed(lambda: dgmesh.unwrap(V, F, solver=solver, **kw))
-            per = [s["seconds"] for s in r.metrics]
-            its = [s.get("solver_iterations", 0) for s in r.metrics]
-            used = setting if not kw else f"{setting} ({r.boundary})"
+            per = [s.seconds for s in r.steps]
+            its = [s.solver_iterations for s in r.steps]
+            used = setting if kw is THESIS_SETTING else f"{setting} ({r.boundary_used.name})"
             rows.append([f"{name} x{4 ** lev}", len(V), used, solver, wall, cpu, r.chosen, len(per) - 1,
                          " ".join(str(i) for i in its) if solver == "multigrid" else "-",
-                         r.final["stretch_l2"], r.final["flipped"] + r.final["zero_area"]])
+                         r.final.stretch_l2, r.final.flipped + r.final.zero_area])
             data["cases"].append(dict(model=name, levels=lev, vertices=len(V), setting=used, solver=solver,
                                       wall=wall, cpu=cpu, chosen=r.chosen, solves=len(per), step_seconds=per,
                                       iterations=its,
-                                      stretch_l2=r.final["stretch_l2"]))
+                                      stretch_l2=r.final.stretch_l2))
     m = data["machine"]
     md = "\n".join([
         "### Unwrap: speed",
         "",
-        f"Uopt (the API's defaults: unit square, eta 1, as the thesis; and the operator's defaults: free "
+        f"Uopt (the thesis's setting: unit square, eta 1; and the defaults of the API and the operator: free "
         f"boundary, eta 0.5, sliding boundary) (Floater weights, stops when eq. 5.5 improves by < 0.1%; iterative solves "
         f"to a relative residual of 1e-6 for U0 as the thesis and 1e-4 for the equalization steps, u and v "
         f"together) on Loop-subdivided "
@@ -724,9 +729,9 @@ NOT_COMPARABLE = [
 
 THESIS_VARIANTS = (
     ("free boundary, eta 0.5, sliding, auto weights (operator default)", OPERATOR_DEFAULT),
-    ("free boundary, eta 0.5, sliding", dict(boundary="free", eta=0.5, slide_boundary=True)),
-    ("circle, eta 0.5, sliding", dict(boundary="circle", eta=0.5, slide_boundary=True)),
-    ("square, eta 0.5, sliding", dict(boundary="square", eta=0.5, slide_boundary=True)),
+    ("free boundary, eta 0.5, sliding", dict(boundary="free", weights="floater", eta=0.5, slide_boundary=True)),
+    ("circle, eta 0.5, sliding", dict(boundary="circle", weights="floater", eta=0.5, slide_boundary=True)),
+    ("square, eta 0.5, sliding", dict(boundary="square", weights="floater", eta=0.5, slide_boundary=True)),
 )
 
 
@@ -738,19 +743,19 @@ def thesis(quick=False):
     by_table = {t[0]: t for t in THESIS}
     for name, (tables, note) in THESIS_MATCH.items():
         V, F = cgal_mesh(name)
-        r, wall, cpu = _timed(lambda: dgmesh.unwrap(V, F))
-        u1 = r.metrics[1]["stretch_l2"]
-        uo = r.final["stretch_l2"]
+        r, wall, cpu = _timed(lambda: dgmesh.unwrap(V, F, **THESIS_SETTING))
+        u1 = r.steps[1].metrics.stretch_l2
+        uo = r.final.stretch_l2
         # Our other boundary settings (thesis fig. 5.5; eta 0.5 with a sliding boundary): the best one.
         variants = {}
         for vname, kw in THESIS_VARIANTS:
             rv = dgmesh.unwrap(V, F, **kw)
-            if rv.final["flipped"] + rv.final["zero_area"] == 0:
-                variants[vname] = rv.final["stretch_l2"]
+            if rv.final.flipped + rv.final.zero_area == 0:
+                variants[vname] = rv.final.stretch_l2
         best = min(variants, key=variants.get)
         uf = variants[best]
         data["ours"][name] = dict(vertices=len(V), U1=u1, Uopt=uo, steps=r.chosen, wall=wall, cpu=cpu,
-                                  failed=r.final["flipped"] + r.final["zero_area"], variants=variants)
+                                  failed=r.final.flipped + r.final.zero_area, variants=variants)
         for tb in tables:
             t = by_table[tb]
             rows.append([f"{name} ({len(V)} v) vs Table {tb} {t[1]} ({t[2]} v)", u1, t[4], uo, t[5],

@@ -1,5 +1,5 @@
-// Low-stretch unwrapping and UV metrics (thesis chapter 5). Names and defaults are documented in
-// addon/dgmesh/unwrap.py.
+// Low-stretch unwrapping and UV metrics (thesis chapter 5): the options, results and functions of
+// dgmesh/unwrap.h as they are.
 #include "common.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/unwrap.h"
@@ -10,116 +10,129 @@ namespace {
 
 using InUV = Eigen::Ref<const MatX2d>;
 
-UvBoundary parse_boundary(const std::string& s) {
-  if (s == "square") return UvBoundary::Square;
-  if (s == "circle") return UvBoundary::Circle;
-  if (s == "free") return UvBoundary::Free;
-  throw MeshError("boundary must be 'square', 'circle' or 'free', got '" + s + "'");
-}
-
-UvWeights parse_weights(const std::string& s) {
-  if (s == "floater") return UvWeights::Floater;
-  if (s == "mean_value") return UvWeights::MeanValue;
-  if (s == "cotangent") return UvWeights::Cotangent;
-  if (s == "uniform") return UvWeights::Uniform;
-  if (s == "auto") return UvWeights::Auto;
-  throw MeshError("weights must be 'floater', 'mean_value', 'cotangent', 'uniform' or 'auto', got '" + s + "'");
-}
-
-UvSolver parse_solver(const std::string& s) {
-  if (s == "auto") return UvSolver::Auto;
-  if (s == "umfpack") return UvSolver::Umfpack;
-  if (s == "sparselu") return UvSolver::SparseLU;
-  if (s == "bicgstab") return UvSolver::BiCGSTAB;
-  if (s == "multigrid") return UvSolver::Multigrid;
-  throw MeshError("solver must be 'auto', 'umfpack', 'sparselu', 'bicgstab' or 'multigrid', got '" + s + "'");
-}
-
-const char* boundary_name(UvBoundary b) {
-  switch (b) {
-    case UvBoundary::Square: return "square";
-    case UvBoundary::Circle: return "circle";
-    case UvBoundary::Free: return "free";
-  }
-  return "?";
-}
-
-pb::dict metrics_dict(const UvMetrics& m) {
-  pb::dict d;
-  d["stretch_l2"] = m.stretch_l2;
-  d["stretch_linf"] = m.stretch_linf;
-  d["stretch_l2_finite"] = m.stretch_l2_finite;
-  d["edge"] = m.edge;
-  d["angle"] = m.angle;
-  d["area"] = m.area;
-  d["flipped"] = m.flipped;
-  d["zero_area"] = m.zero_area;
-  return d;
-}
-
 }  // namespace
 
 void bind_unwrap(pb::module_& m) {
+  pb::enum_<UvBoundary>(m, "UvBoundary", "Where unwrap() puts the chart's outer boundary")
+      .value("square", UvBoundary::Square, "the unit square (the thesis), no triangle with all corners on one side")
+      .value("circle", UvBoundary::Circle, "a circle, arc-length spaced")
+      .value("free", UvBoundary::Free,
+             "the natural boundary of the least-squares conformal map (a circle if it folds the map)");
+  pb::enum_<UvWeights>(m, "UvWeights", "Weights of the convex-combination solves (eq. 5.2-5.3)")
+      .value("floater", UvWeights::Floater, "Floater's shape-preserving weights (the thesis)")
+      .value("mean_value", UvWeights::MeanValue, "mean-value weights")
+      .value("cotangent", UvWeights::Cotangent, "harmonic weights; may be negative, so the map may fold")
+      .value("uniform", UvWeights::Uniform, "Tutte's barycentric weights")
+      .value("auto", UvWeights::Auto,
+             "cotangent, and Floater's (mean-value with holes) from the start again where that map folds");
+  pb::enum_<UvSolver>(m, "UvSolver", "Linear solver of unwrap()")
+      .value("auto", UvSolver::Auto, "UMFPACK up to 1000 unknowns, multigrid above")
+      .value("umfpack", UvSolver::Umfpack, "SuiteSparse UMFPACK LU")
+      .value("sparselu", UvSolver::SparseLU, "Eigen SparseLU")
+      .value("bicgstab", UvSolver::BiCGSTAB, "warm-started BiCGSTAB + ILUT")
+      .value("multigrid", UvSolver::Multigrid, "warm-started BiCGSTAB with a smoothed-aggregation multigrid");
+
+  Struct<UnwrapOptions>(m, "UnwrapOptions", "Options of unwrap() (thesis chapter 5)")
+      .field("boundary", &UnwrapOptions::boundary, "the outer boundary's polygon")
+      .field("weights", &UnwrapOptions::weights, "the weights of U0 and of the steps")
+      .field("eta", &UnwrapOptions::eta, "strength of each equalization step, 0 < eta <= 1 (eq. 5.6)")
+      .field("iterations", &UnwrapOptions::iterations,
+             "-1: Uopt (stop when eq. 5.5 stops decreasing); k >= 0: exactly k steps")
+      .field("max_iterations", &UnwrapOptions::max_iterations, "cap on Uopt's steps")
+      .field("min_improvement", &UnwrapOptions::min_improvement,
+             "Uopt also stops after a step lowering eq. 5.5 by less than this fraction")
+      .field("solver", &UnwrapOptions::solver, "the linear solver")
+      .field("tolerance", &UnwrapOptions::tolerance, "relative residual of the iterative solve of U0")
+      .field("step_tolerance", &UnwrapOptions::step_tolerance,
+             "relative residual of the iterative solves of the equalization steps")
+      .field("zero_area_eps", &UnwrapOptions::zero_area_eps,
+             "a UV triangle has zero area at |A(U)| <= this * sum |A(U)|")
+      .field("stretch_cap", &UnwrapOptions::stretch_cap, "triangle stretches above this are clipped in eq. 5.1")
+      .field("slide_boundary", &UnwrapOptions::slide_boundary,
+             "every step also slides the outer boundary vertices along the polygon (beyond the thesis)");
+  m.def("unwrap_thesis_defaults", &unwrap_thesis_defaults,
+        "The thesis's setting: the unit square, Floater's weights, eta 1, the boundary fixed");
+
+  Struct<UvMetrics>(m, "UvMetrics", "Distortion of a parameterization (thesis 5.3)")
+      .result("stretch_l2", &UvMetrics::stretch_l2, "eq. 5.5, Sander's normalisation (inf with a zero-area triangle)")
+      .result("stretch_linf", &UvMetrics::stretch_linf, "largest singular value over the triangles")
+      .result("stretch_l2_finite", &UvMetrics::stretch_l2_finite, "eq. 5.5 over the triangles of non-zero UV area")
+      .result("edge", &UvMetrics::edge, "edge-length distortion")
+      .result("angle", &UvMetrics::angle, "mean absolute angle error (radians)")
+      .result("area", &UvMetrics::area, "area distortion")
+      .result("flipped", &UvMetrics::flipped, "UV triangles oriented against the total orientation")
+      .result("zero_area", &UvMetrics::zero_area, "UV triangles of zero area");
+
+  Struct<UnwrapStep>(m, "UnwrapStep", "One map of unwrap(): U0 or an equalization step")
+      .result("metrics", &UnwrapStep::metrics,
+              "U0 and the returned map: all of thesis 5.3; other steps: edge and angle NaN (not computed)")
+      .result("seconds", &UnwrapStep::seconds, "wall time of the step (solve and metrics)")
+      .result("solver_iterations", &UnwrapStep::solver_iterations, "BiCGSTAB iterations (0 for direct solvers)");
+
+  Struct<UnwrapResult>(m, "UnwrapResult", "Result of unwrap()")
+      .result("uv", &UnwrapResult::uv, "(n, 2) the returned map, in [0, 1]^2")
+      .result("uv_initial", &UnwrapResult::uv_initial, "(n, 2) U0, the start of the equalization")
+      .result("steps", &UnwrapResult::steps,
+              "steps[h] is U^h (U0 first); for Uopt the last may be the rejected step")
+      .result("chosen", &UnwrapResult::chosen, "index into steps of the returned map")
+      .result("boundary_used", &UnwrapResult::boundary_used, "the boundary used (see warnings for fallbacks)")
+      .result("boundary_convex", &UnwrapResult::boundary_convex, "the fixed polygon is convex (then no flips)")
+      .result("n_holes", &UnwrapResult::n_holes, "inner boundary loops, kept open")
+      .result("corners", &UnwrapResult::corners, "vertices at the square's corners (0,0), (1,0), (1,1), (0,1)")
+      .result("warnings", &UnwrapResult::warnings, "fallbacks and negative weights, for people")
+      .result("solver", &UnwrapResult::solver, "the linear solver used")
+      .cls()
+      .def_property_readonly(
+          "final", [](const UnwrapResult& r) { return r.steps.at(r.chosen).metrics; },
+          "metrics of the returned map: steps[chosen].metrics")
+      .def_property_readonly(
+          "initial", [](const UnwrapResult& r) { return r.steps.at(0).metrics; }, "metrics of U0: steps[0].metrics");
+
+  Struct<UnwrapChartsResult>(m, "UnwrapChartsResult", "Result of unwrap_charts()")
+      .result("uv", &UnwrapChartsResult::uv, "(3m, 2) row 3f + k: corner k of triangle f in its chart's map")
+      .result("charts", &UnwrapChartsResult::charts,
+              "charts[c]: unwrap() of chart c (its vertices in increasing order of their index)");
+
+  // UnwrapChartError: a MeshError that also says which chart (`chart`, from 0) and why (`reason`).
+  static pb::handle chart_error;  // kept for the process's life, as register_exception does
+  const pb::object mesh_error = m.attr("MeshError");
+  chart_error = pb::exception<UnwrapChartError>(m, "UnwrapChartError", mesh_error).release();
+  pb::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const UnwrapChartError& e) {
+      pb::object exc = pb::reinterpret_borrow<pb::object>(chart_error)(e.what());
+      exc.attr("chart") = e.chart;
+      exc.attr("reason") = e.reason;
+      PyErr_SetObject(chart_error.ptr(), exc.ptr());
+    }
+  });
+
   m.def(
       "unwrap",
-      [](InV V, InF F, const std::string& boundary, const std::string& weights, double eta, int iterations,
-         int max_iterations, double min_improvement, const std::string& solver, double tolerance,
-         double step_tolerance, double zero_area_eps, double stretch_cap, bool slide_boundary,
-         const pb::object& progress) {
-        UnwrapOptions o;
-        o.boundary = parse_boundary(boundary);
-        o.weights = parse_weights(weights);
-        o.solver = parse_solver(solver);
-        o.eta = eta;
-        o.iterations = iterations;
-        o.max_iterations = max_iterations;
-        o.min_improvement = min_improvement;
-        o.tolerance = tolerance;
-        o.step_tolerance = step_tolerance;
-        o.zero_area_eps = zero_area_eps;
-        o.stretch_cap = stretch_cap;
-        o.slide_boundary = slide_boundary;
-        UnwrapResult r;
-        {
-          NativeScope nogil;
-          r = unwrap(V, F, o, progress_from(progress));
-        }
-        pb::dict d;
-        pb::list steps;
-        for (const UnwrapStep& s : r.steps) {
-          pb::dict sd = metrics_dict(s.metrics);
-          sd["seconds"] = s.seconds;
-          sd["solver_iterations"] = s.solver_iterations;
-          steps.append(sd);
-        }
-        d["uv"] = std::move(r.uv);
-        d["steps"] = steps;
-        d["chosen"] = r.chosen;
-        d["boundary"] = boundary_name(r.boundary_used);
-        d["boundary_convex"] = r.boundary_convex;
-        d["n_holes"] = r.n_holes;
-        d["corners"] = r.corners;
-        d["warnings"] = r.warnings;
-        d["solver"] = r.solver;
-        return d;
+      [](InV V, InF F, const UnwrapOptions& o, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return unwrap(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("boundary") = "square", pb::arg("weights") = "floater",
-      pb::arg("eta") = 1.0, pb::arg("iterations") = -1, pb::arg("max_iterations") = 100,
-      pb::arg("min_improvement") = 1e-3, pb::arg("solver") = "auto", pb::arg("tolerance") = 1e-6,
-      pb::arg("step_tolerance") = 1e-4, pb::arg("zero_area_eps") = 1e-10, pb::arg("stretch_cap") = 1e3,
-      pb::arg("slide_boundary") = false, pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("progress") = pb::none());
+
+  m.def(
+      "unwrap_charts",
+      [](InV V, InF F, const VecXi& labels, const UnwrapOptions& o, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return unwrap_charts(V, F, labels, o, cb);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("labels"), pb::arg("options"), pb::arg("progress") = pb::none());
 
   m.def(
       "uv_metrics",
       [](InV V, InF F, InUV UV, double eps) {
-        UvMetrics r;
-        {
-          NativeScope nogil;
-          r = uv_metrics(V, F, UV, eps);
-        }
-        return metrics_dict(r);
+        NativeScope nogil;
+        return uv_metrics(V, F, UV, eps);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps") = 1e-10);
+      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps"));
 
   m.def(
       "uv_face_stretch",
@@ -127,7 +140,7 @@ void bind_unwrap(pb::module_& m) {
         NativeScope nogil;
         return uv_face_stretch(V, F, UV, eps);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps") = 1e-10);
+      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps"));
 
   m.def(
       "uv_face_stretch_indexed",
@@ -135,7 +148,7 @@ void bind_unwrap(pb::module_& m) {
         NativeScope nogil;
         return uv_face_stretch(V, F, UV, FUV, eps);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("FUV"), pb::arg("zero_area_eps") = 1e-10);
+      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("FUV"), pb::arg("zero_area_eps"));
 
   m.def(
       "uv_vertex_stretch",
@@ -143,7 +156,7 @@ void bind_unwrap(pb::module_& m) {
         NativeScope nogil;
         return uv_vertex_stretch(V, F, UV, eps);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps") = 1e-10);
+      pb::arg("V"), pb::arg("F"), pb::arg("UV"), pb::arg("zero_area_eps"));
 
   m.def(
       "connected_labels",

@@ -717,7 +717,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
 
   // 1. The two maps (thesis 5.2): U0 with Floater's weights on the convex domain, Uopt by stretch
   // equalization (eq. 5.1, 5.3, 5.4) from it.
-  UnwrapOptions uo;
+  UnwrapOptions uo = unwrap_thesis_defaults();  // the boundary fixed, as the thesis
   uo.boundary = o.domain;
   uo.weights = UvWeights::Floater;
   uo.max_iterations = o.max_uopt_iterations;

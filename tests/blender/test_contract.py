@@ -11,6 +11,7 @@ from dgmesh import _native
 OPERATORS = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity_map": (lambda: _native.SimilarityOptions(), {}),
+    "unwrap": (lambda: _native.UnwrapOptions(), {}),
 }
 
 
@@ -51,3 +52,10 @@ def test_switching_the_denoise_method_loads_its_native_defaults():
     ops_denoise.load_method_defaults(props, None)
     d = _native.denoise_defaults(_native.DenoiseMethod.bilateral)
     assert (props.eta1, props.eta2, props.eta3, props.iterations) == (d.eta1, d.eta2, d.eta3, d.iterations)
+
+
+def test_unwrap_iterates_to_the_optimum_by_default_as_the_library():
+    """UnwrapOptions.iterations is -1 (Uopt) or a step count: the operator's Optimal switch and
+    Steps count; Optimal is on exactly when the library's default iterates to the optimum."""
+    optimal = _properties("unwrap")["optimal"]
+    assert optimal.default == (_native.UnwrapOptions().iterations < 0)

@@ -178,4 +178,4 @@ def test_redo_panels_draw_in_both_modes():
     # Edit-mode-only options are not offered in Object mode.
     assert "keep_border" not in drawn["dgmesh.regularize", 'OBJECT']
     assert "keep_border" in drawn["dgmesh.regularize", 'EDIT_MESH']
-    assert {"iterations", "margin"} <= set(drawn["dgmesh.unwrap", 'OBJECT'])
+    assert {"steps", "margin"} <= set(drawn["dgmesh.unwrap", 'OBJECT'])

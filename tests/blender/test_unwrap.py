@@ -84,9 +84,9 @@ def check_charts(dg, obj, charts):
     for comp in charts:
         tri = np.isin(arrays.tri_poly, list(comp))
         m = dg.uv_metrics(arrays.V, arrays.F[tri], uv[arrays.tri_loops[tri]])
-        assert m["flipped"] == 0 and m["zero_area"] == 0, m
-        assert np.isfinite(m["stretch_l2"])
-        stretch.append(m["stretch_l2"])
+        assert m.flipped == 0 and m.zero_area == 0, m
+        assert np.isfinite(m.stretch_l2)
+        stretch.append(m.stretch_l2)
     return stretch
 
 
@@ -400,11 +400,17 @@ def test_packed_scan_keeps_its_slivers(dg, capsys):
     arrays = bridge.read_mesh(obj.data)
     uv = layer_uv(obj.data).astype(np.float64)[arrays.tri_loops]
     m = dg.uv_metrics(arrays.V, arrays.F, uv)
-    assert m["flipped"] == 0 and m["zero_area"] == 0, m
-    # The operator's defaults on the operator's own chart (same vertices and order), in float64.
-    from dgmesh.blender import ops_unwrap
-    (classes, Fc, Vc, _), = ops_unwrap.read_charts(obj, False, dg)["charts"]
-    ref = dg.unwrap(Vc, Fc, boundary="free", eta=0.5, slide_boundary=True)
+    assert m.flipped == 0 and m.zero_area == 0, m
+    # The defaults on the operator's own chart, in float64: one chart without seams, its vertices
+    # numbered in order of their first corner (the chart's corner classes), its triangles in order.
+    lv = np.empty(len(obj.data.loops), np.int32)
+    obj.data.loops.foreach_get("vertex_index", lv)
+    _, first = np.unique(lv, return_index=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    Vc, Fc = arrays.V[order], rank[arrays.F].astype(np.int32)
+    ref = dg.unwrap(Vc, Fc)
     got = _relative_uv_areas(uv.reshape(-1, 2), np.arange(3 * len(arrays.F)).reshape(-1, 3))
     want = _relative_uv_areas(ref.uv, Fc)
     ratio = got / want

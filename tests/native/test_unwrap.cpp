@@ -2,9 +2,11 @@
 // and scanned disks from Debian's CGAL data.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "dgmesh/errors.h"
 #include "dgmesh/io.h"
@@ -39,7 +41,7 @@ std::string cgal_mesh(const std::string& name) {
 
 TEST(Unwrap, PlanarDiskWithFreeBoundaryIsIsometric) {
   const TriMesh d = planar_disk(24);
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.boundary = UvBoundary::Free;
   const UnwrapResult r = unwrap(d.V, d.F, o);
   EXPECT_EQ(r.boundary_used, UvBoundary::Free);
@@ -136,7 +138,7 @@ TEST(Unwrap, HemisphereReachesLowStretchWithoutFlips) {
   const TriMesh s = icosphere(4);
   const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.05; });
   for (UvBoundary b : {UvBoundary::Square, UvBoundary::Circle}) {
-    UnwrapOptions o;
+    UnwrapOptions o = unwrap_thesis_defaults();
     o.boundary = b;
     const UnwrapResult r = unwrap(h.V, h.F, o);
     const UvMetrics& m0 = r.steps[0].metrics;
@@ -170,7 +172,7 @@ TEST(Unwrap, CylinderPatchIsDevelopable) {
     const double a = g.V(i, 0) * kHalfPi;
     V.row(i) << std::cos(a), std::sin(a), 1.5 * g.V(i, 1);
   }
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.boundary = UvBoundary::Free;
   UnwrapResult r = unwrap(V, g.F, o);
   EXPECT_LT(r.steps[r.chosen].metrics.stretch_l2, 1.001);
@@ -196,7 +198,7 @@ TEST(Unwrap, HolesStayOpenAndNothingFlips) {
   const Mesh mesh = make_mesh(V, m.F);
   ASSERT_EQ(mesh.topo.boundary_loops.size(), 3u);
   for (UvBoundary b : {UvBoundary::Square, UvBoundary::Circle, UvBoundary::Free}) {
-    UnwrapOptions o;
+    UnwrapOptions o = unwrap_thesis_defaults();
     o.boundary = b;
     const UnwrapResult r = unwrap(V, m.F, o);
     EXPECT_EQ(r.n_holes, 2);
@@ -248,7 +250,7 @@ TEST(Unwrap, SquareCornersAvoidDegenerateEars) {
     V.row(v) = (mid + 0.3 / n * out).transpose();
     F.row(static_cast<int>(g.F.rows() + e)) << b, a, v;  // the boundary edge runs a->b in its face
   }
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.iterations = 0;
   const UnwrapResult r = unwrap(V, F, o);
   EXPECT_EQ(r.steps[0].metrics.zero_area, 0);
@@ -279,7 +281,7 @@ TEST(Unwrap, SquareCornersAvoidDegenerateEars) {
 TEST(Unwrap, SolversAgree) {
   const TriMesh s = icosphere(3);
   const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > -0.3; });
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.iterations = 3;
   o.step_tolerance = o.tolerance;  // every step solved to 1e-6: the solvers must agree
   o.solver = UvSolver::Umfpack;
@@ -300,7 +302,7 @@ TEST(Unwrap, MultigridHierarchyMatchesDirectSolve) {
   const TriMesh s = icosphere(5);
   const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > -0.3 && c.x() < 0.8; });
   ASSERT_GT(h.V.rows(), 5000);
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.solver = UvSolver::Umfpack;
   const UnwrapResult ref = unwrap(h.V, h.F, o);
   o.solver = UvSolver::Multigrid;
@@ -327,7 +329,7 @@ TEST(Unwrap, WeightsAndEta) {
   const TriMesh s = icosphere(4);
   const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.2; });
   for (UvWeights w : {UvWeights::Floater, UvWeights::MeanValue, UvWeights::Cotangent, UvWeights::Uniform}) {
-    UnwrapOptions o;
+    UnwrapOptions o = unwrap_thesis_defaults();
     o.weights = w;
     o.boundary = UvBoundary::Circle;
     const UnwrapResult r = unwrap(h.V, h.F, o);
@@ -335,12 +337,13 @@ TEST(Unwrap, WeightsAndEta) {
     EXPECT_EQ(r.steps[r.chosen].metrics.flipped, 0);
   }
   // Smaller eta: a gentler first step (thesis fig. 5.3): U1 stays closer to U0.
-  UnwrapOptions a, b;
-  a.iterations = b.iterations = 1;
+  UnwrapOptions a = unwrap_thesis_defaults();
+  a.iterations = 1;
+  UnwrapOptions b = a, u0 = a;
   b.eta = 0.3;
+  u0.iterations = 0;
   const UnwrapResult ra = unwrap(h.V, h.F, a), rb = unwrap(h.V, h.F, b);
-  EXPECT_LT((rb.uv - unwrap(h.V, h.F, UnwrapOptions{UvBoundary::Square, UvWeights::Floater, 1.0, 0}).uv).norm(),
-            (ra.uv - unwrap(h.V, h.F, UnwrapOptions{UvBoundary::Square, UvWeights::Floater, 1.0, 0}).uv).norm());
+  EXPECT_LT((rb.uv - unwrap(h.V, h.F, u0).uv).norm(), (ra.uv - unwrap(h.V, h.F, u0).uv).norm());
 }
 
 TEST(Unwrap, RejectsNonDisks) {
@@ -361,7 +364,7 @@ TEST(Unwrap, RejectsNonDisks) {
   MatX3i F(2 * g.F.rows(), 3);
   F << g.F, g.F.array() + static_cast<int>(g.V.rows());
   EXPECT_THROW(unwrap(V, F), MeshError);
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.eta = 0;
   EXPECT_THROW(unwrap(g.V, g.F, o), MeshError);
 }
@@ -380,7 +383,7 @@ TEST(Unwrap, ScannedDisksWithoutFailures) {
     const std::string path = cgal_mesh(name);
     if (path.empty()) continue;
     const MeshData md = read_mesh(path);
-    const UnwrapResult r = unwrap(md.V, md.F);
+    const UnwrapResult r = unwrap(md.V, md.F, unwrap_thesis_defaults());
     const UvMetrics& m = r.steps[r.chosen].metrics;
     EXPECT_EQ(m.flipped, 0) << name;
     EXPECT_EQ(m.zero_area, 0) << name;
@@ -398,7 +401,7 @@ TEST(Unwrap, LionHeadReachesCgalStretch) {
   const std::string path = cgal_mesh("lion-head.off");
   if (path.empty()) GTEST_SKIP() << "CGAL data not unpacked (bash scripts/cgal_data.sh)";
   const MeshData md = read_mesh(path);
-  UnwrapOptions o;
+  UnwrapOptions o = unwrap_thesis_defaults();
   o.boundary = UvBoundary::Free;
   o.eta = 0.5;
   o.slide_boundary = true;
@@ -420,4 +423,70 @@ TEST(Unwrap, LionHeadReachesCgalStretch) {
   o.step_tolerance = o.tolerance;
   const UnwrapResult tight = unwrap(md.V, md.F, o);
   EXPECT_NEAR(m.stretch_l2, tight.steps[tight.chosen].metrics.stretch_l2, 1e-3 * m.stretch_l2);
+}
+
+TEST(Unwrap, DefaultsAreTheLowStretchSettingAndThesisIsAPreset) {
+  const UnwrapOptions d, t = unwrap_thesis_defaults();
+  EXPECT_EQ(d.boundary, UvBoundary::Free);
+  EXPECT_EQ(d.weights, UvWeights::Auto);
+  EXPECT_EQ(d.eta, 0.5);
+  EXPECT_TRUE(d.slide_boundary);
+  EXPECT_EQ(t.boundary, UvBoundary::Square);
+  EXPECT_EQ(t.weights, UvWeights::Floater);
+  EXPECT_EQ(t.eta, 1.0);
+  EXPECT_FALSE(t.slide_boundary);
+  EXPECT_EQ(t.iterations, d.iterations);
+}
+
+TEST(Unwrap, ChartsInOneCallAreEachChartAlone) {
+  // Two segments of one hemisphere (sharing their rim's vertices) and a cap apart: each chart's
+  // map is unwrap() of that chart alone, its corners' UVs those of its map.
+  const TriMesh s = icosphere(3);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.05; });
+  VecXi labels(h.F.rows());
+  for (int f = 0; f < h.F.rows(); ++f) {
+    const double x = (h.V(h.F(f, 0), 0) + h.V(h.F(f, 1), 0) + h.V(h.F(f, 2), 0)) / 3;
+    labels[f] = x > 0.2 ? 0 : 1;
+  }
+  const UnwrapChartsResult r = unwrap_charts(h.V, h.F, labels);
+  ASSERT_EQ(r.charts.size(), 2u);
+  ASSERT_EQ(r.uv.rows(), 3 * h.F.rows());
+  for (int c = 0; c < 2; ++c) {
+    std::vector<int> verts, faces;
+    for (int f = 0; f < h.F.rows(); ++f)
+      if (labels[f] == c) faces.push_back(f), verts.insert(verts.end(), {h.F(f, 0), h.F(f, 1), h.F(f, 2)});
+    std::sort(verts.begin(), verts.end());
+    verts.erase(std::unique(verts.begin(), verts.end()), verts.end());
+    std::vector<int> local(h.V.rows(), -1);
+    MatX3d Vc(verts.size(), 3);
+    for (size_t i = 0; i < verts.size(); ++i) local[verts[i]] = static_cast<int>(i), Vc.row(i) = h.V.row(verts[i]);
+    MatX3i Fc(faces.size(), 3);
+    for (size_t i = 0; i < faces.size(); ++i)
+      for (int j = 0; j < 3; ++j) Fc(i, j) = local[h.F(faces[i], j)];
+    const UnwrapResult want = unwrap(Vc, Fc);
+    EXPECT_EQ(r.charts[c].uv, want.uv) << c;
+    for (size_t i = 0; i < faces.size(); ++i)
+      for (int j = 0; j < 3; ++j) EXPECT_EQ(r.uv.row(3 * faces[i] + j), want.uv.row(Fc(i, j)));
+  }
+  // A closed chart: named by number, with unwrap()'s reason.
+  MatX3d V(h.V.rows() + s.V.rows(), 3);
+  V << h.V, s.V.rowwise() + Eigen::RowVector3d(3, 0, 0);
+  MatX3i F(h.F.rows() + s.F.rows(), 3);
+  F << h.F, s.F.array() + static_cast<int>(h.V.rows());
+  VecXi two(F.rows());
+  two.head(h.F.rows()).setZero();
+  two.tail(s.F.rows()).setOnes();
+  try {
+    unwrap_charts(V, F, two);
+    ADD_FAILURE() << "a closed chart was unwrapped";
+  } catch (const UnwrapChartError& e) {
+    EXPECT_EQ(e.chart, 1);
+    EXPECT_EQ(std::string(e.what()).rfind("chart 2 of 2 (" + std::to_string(s.F.rows()) + " triangles): ", 0), 0u);
+    EXPECT_NE(e.reason.find("closed"), std::string::npos);
+  }
+  two[0] = -1;
+  EXPECT_THROW(unwrap_charts(V, F, two), MeshError);
+  two[0] = 3;
+  EXPECT_THROW(unwrap_charts(V, F, two), MeshError);  // labels 2 unused
+  EXPECT_THROW(unwrap_charts(V, F, two.head(3)), MeshError);
 }

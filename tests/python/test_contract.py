@@ -16,6 +16,10 @@ from dgmesh import _native
 CONTRACT = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity": (lambda: _native.SimilarityOptions(), {}),
+    "unwrap": (lambda: _native.UnwrapOptions(), {}),
+    "unwrap_charts": (lambda: _native.UnwrapOptions(), {}),
+    "uv_metrics": (lambda: _native.UnwrapOptions(), {}),  # zero_area_eps
+    "uv_stretch": (lambda: _native.UnwrapOptions(), {}),
 }
 
 

@@ -176,7 +176,7 @@ def test_needle_ears_side_by_side_keep_their_boundary(shape):
     loop = dgmesh.topology(V, F)["boundary_loops"][0]
     assert len(loop) == 60
     # The boundary in the triangulation map (U0: Floater's weights on the circle).
-    Q = dgmesh.unwrap(V, F, boundary="circle", iterations=0).uv[loop]
+    Q = dgmesh.unwrap(V, F, boundary="circle", weights="floater", iterations=0).uv[loop]
     A, B = Q, np.roll(Q, -1, axis=0)
     side = lambda o, a, b: (a[..., 0] - o[..., 0]) * (b[..., 1] - o[..., 1]) - (a[..., 1] - o[..., 1]) * (b[..., 0] - o[..., 0])
     cross = (side(A[:, None], B[:, None], A[None]) * side(A[:, None], B[:, None], B[None]) < 0) & \

@@ -11,6 +11,13 @@ from dgmesh import shapes
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
+# The thesis's setting (unwrap_thesis_defaults): what tests of the thesis's algorithm pass explicitly.
+THESIS = dict(boundary="square", weights="floater", eta=1.0, slide_boundary=False)
+
+
+def thesis(**kw):
+    return {**THESIS, **kw}
+
 
 def _keep_faces(V, F, mask):
     F = F[mask]
@@ -35,12 +42,12 @@ def cgal():
 def test_planar_grid_unwraps_to_itself_up_to_similarity():
     V, F = shapes.grid(12, 9)
     V = V * np.array([2.0, 1.5, 0.0])  # a rectangle, not the unit square
-    r = dgmesh.unwrap(V, F, boundary="free")
-    assert r.boundary == "free"
+    r = dgmesh.unwrap(V, F, **thesis(boundary="free"))
+    assert r.boundary_used == dgmesh.UvBoundary.free
     m = dgmesh.uv_metrics(V, F, r.uv)
-    assert m["stretch_l2"] == pytest.approx(1.0, abs=1e-6)
-    assert m["angle"] == pytest.approx(0.0, abs=1e-6)
-    assert m["flipped"] == 0 and m["zero_area"] == 0
+    assert m.stretch_l2 == pytest.approx(1.0, abs=1e-6)
+    assert m.angle == pytest.approx(0.0, abs=1e-6)
+    assert m.flipped == 0 and m.zero_area == 0
     # Up to a similarity: distances are proportional.
     d3 = np.linalg.norm(V[:, :2] - V[0, :2], axis=1)[1:]
     du = np.linalg.norm(r.uv - r.uv[0], axis=1)[1:]
@@ -52,17 +59,17 @@ def test_uv_metrics_known_values():
     V, F = shapes.grid(6, 6)
     UV = V[:, :2].copy()
     m = dgmesh.uv_metrics(V, F, UV)
-    assert m["stretch_l2"] == pytest.approx(1.0) and m["stretch_linf"] == pytest.approx(1.0)
+    assert m.stretch_l2 == pytest.approx(1.0) and m.stretch_linf == pytest.approx(1.0)
     UV[:, 0] *= 3.0  # singular values sqrt(3), 1/sqrt(3) after area normalisation
     m = dgmesh.uv_metrics(V, F, UV)
-    assert m["stretch_l2"] == pytest.approx(np.sqrt((3 + 1 / 3) / 2))
-    assert m["stretch_linf"] == pytest.approx(np.sqrt(3))
-    assert m["area"] == pytest.approx(0.0, abs=1e-12)
-    assert m["edge"] > 0.05
+    assert m.stretch_l2 == pytest.approx(np.sqrt((3 + 1 / 3) / 2))
+    assert m.stretch_linf == pytest.approx(np.sqrt(3))
+    assert m.area == pytest.approx(0.0, abs=1e-12)
+    assert m.edge > 0.05
     # Corner UVs give the same per-triangle metrics.
     mc = dgmesh.uv_metrics(V, F, UV[F])
     for key in ("stretch_l2", "stretch_linf", "angle", "area", "flipped", "zero_area"):
-        assert mc[key] == pytest.approx(m[key])
+        assert getattr(mc, key) == pytest.approx(getattr(m, key))
 
 
 def test_uv_stretch_per_face_and_vertex():
@@ -107,52 +114,52 @@ def test_uv_stretch_with_uv_faces_equals_corner_uvs():
 
 def test_hemisphere_u0_u1_uopt():
     V, F = hemisphere()
-    r0 = dgmesh.unwrap(V, F, iterations=0)
-    r1 = dgmesh.unwrap(V, F, iterations=1)
-    ro = dgmesh.unwrap(V, F)
-    assert len(r0.metrics) == 1 and r0.chosen == 0
+    r0 = dgmesh.unwrap(V, F, **thesis(iterations=0))
+    r1 = dgmesh.unwrap(V, F, **thesis(iterations=1))
+    ro = dgmesh.unwrap(V, F, **thesis())
+    assert len(r0.steps) == 1 and r0.chosen == 0
     assert r1.chosen == 1
-    s0, s1, so = (r.final["stretch_l2"] for r in (r0, r1, ro))
+    s0, s1, so = (r.final.stretch_l2 for r in (r0, r1, ro))
     assert s1 < s0 and so <= s1
     assert so < 1.2
-    assert all(m["flipped"] == 0 and m["zero_area"] == 0 for m in ro.metrics)
+    assert all(s.metrics.flipped == 0 and s.metrics.zero_area == 0 for s in ro.steps)
     # The returned uv is the chosen step's map.
-    assert dgmesh.uv_metrics(V, F, ro.uv)["stretch_l2"] == pytest.approx(so)
+    assert dgmesh.uv_metrics(V, F, ro.uv).stretch_l2 == pytest.approx(so)
     assert ro.uv.min() >= -1e-12 and ro.uv.max() <= 1 + 1e-12
 
 
 def test_boundaries():
     V, F = hemisphere()
-    sq = dgmesh.unwrap(V, F, boundary="square", iterations=0)
+    sq = dgmesh.unwrap(V, F, **thesis(boundary="square", iterations=0))
     assert len(sq.corners) == 4
     corners = sq.uv[sq.corners]
     np.testing.assert_allclose(corners, [[0, 0], [1, 0], [1, 1], [0, 1]], atol=1e-12)
-    ci = dgmesh.unwrap(V, F, boundary="circle", iterations=0)
+    ci = dgmesh.unwrap(V, F, **thesis(boundary="circle", iterations=0))
     loop = dgmesh.topology(V, F)["boundary_loops"][0]
     np.testing.assert_allclose(np.linalg.norm(ci.uv[loop] - 0.5, axis=1), 0.5, atol=1e-12)
-    fr = dgmesh.unwrap(V, F, boundary="free")
-    assert fr.final["flipped"] == 0
+    fr = dgmesh.unwrap(V, F, **thesis(boundary="free"))
+    assert fr.final.flipped == 0
 
 
 def test_cotangent_weights_and_eta():
     V, F = hemisphere(zmin=0.3)
-    r = dgmesh.unwrap(V, F, weights="cotangent", boundary="circle")
-    assert r.final["stretch_l2"] < r.initial["stretch_l2"]
+    r = dgmesh.unwrap(V, F, **thesis(weights="cotangent", boundary="circle"))
+    assert r.final.stretch_l2 < r.initial.stretch_l2
     for w in ("mean_value", "uniform"):
-        assert dgmesh.unwrap(V, F, weights=w).final["flipped"] == 0
-    gentle = dgmesh.unwrap(V, F, eta=0.2, iterations=1).final["stretch_l2"]
-    strong = dgmesh.unwrap(V, F, eta=1.0, iterations=1).final["stretch_l2"]
-    base = dgmesh.unwrap(V, F, iterations=0).final["stretch_l2"]
+        assert dgmesh.unwrap(V, F, **thesis(weights=w)).final.flipped == 0
+    gentle = dgmesh.unwrap(V, F, **thesis(eta=0.2, iterations=1)).final.stretch_l2
+    strong = dgmesh.unwrap(V, F, **thesis(eta=1.0, iterations=1)).final.stretch_l2
+    base = dgmesh.unwrap(V, F, **thesis(iterations=0)).final.stretch_l2
     assert strong < gentle < base
 
 
 def test_progress_and_cancel():
     V, F = hemisphere()
     seen = []
-    dgmesh.unwrap(V, F, progress=lambda f: seen.append(f) or True)
+    dgmesh.unwrap(V, F, progress=lambda f: seen.append(f) or True, **THESIS)
     assert seen[0] == 0.0 and seen[-1] == 1.0
     with pytest.raises(dgmesh.Cancelled):
-        dgmesh.unwrap(V, F, progress=lambda f: f < 0.05)
+        dgmesh.unwrap(V, F, progress=lambda f: f < 0.05, **THESIS)
 
 
 @pytest.mark.parametrize("kwargs", [
@@ -182,9 +189,9 @@ def test_multiple_boundaries_keep_holes(cgal):
     V, F = dgmesh.read_mesh(cgal / "holes.off")
     loops = dgmesh.topology(V, F)["boundary_loops"]
     assert len(loops) > 2
-    r = dgmesh.unwrap(V, F, boundary="circle")
+    r = dgmesh.unwrap(V, F, **thesis(boundary="circle"))
     assert r.n_holes == len(loops) - 1
-    assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+    assert r.final.flipped == 0 and r.final.zero_area == 0
     lengths = [sum(np.linalg.norm(V[l] - V[np.roll(l, -1)], axis=1)) for l in map(np.asarray, loops)]
     outer = int(np.argmax(lengths))
     for i, loop in enumerate(loops):
@@ -198,29 +205,29 @@ def test_multiple_boundaries_keep_holes(cgal):
 @pytest.mark.parametrize("name", ["mushroom", "mannequin-devil", "lion-head"])
 def test_scanned_disks(cgal, name):
     V, F = dgmesh.read_mesh(cgal / f"{name}.off")
-    r = dgmesh.unwrap(V, F)
+    r = dgmesh.unwrap(V, F, **THESIS)
     m = r.final
-    assert m["flipped"] == 0 and m["zero_area"] == 0
-    assert m["stretch_l2"] < 0.3 * r.initial["stretch_l2_finite"]
+    assert m.flipped == 0 and m.zero_area == 0
+    assert m.stretch_l2 < 0.3 * r.initial.stretch_l2_finite
     # Every accepted step improved eq. 5.5 (the thesis's stopping rule).
     for k in range(1, r.chosen + 1):
-        assert r.metrics[k]["stretch_l2_finite"] < r.metrics[k - 1]["stretch_l2_finite"]
+        assert r.steps[k].metrics.stretch_l2_finite < r.steps[k - 1].metrics.stretch_l2_finite
 
 
 def test_step_metrics_and_final_metrics(cgal):
     # U0 and the returned map carry every metric of thesis 5.3; the steps in between only the
     # stretch ones (edge and angle NaN), and the final entry agrees with uv_metrics of the result.
     V, F = dgmesh.read_mesh(cgal / "mushroom.off")
-    r = dgmesh.unwrap(V, F, boundary="free", eta=0.5, slide_boundary=True)
+    r = dgmesh.unwrap(V, F, boundary="free", weights="floater", eta=0.5, slide_boundary=True)
     assert r.chosen >= 2
     for k in (0, r.chosen):
-        assert np.isfinite(r.metrics[k]["edge"]) and np.isfinite(r.metrics[k]["angle"])
+        assert np.isfinite(r.steps[k].metrics.edge) and np.isfinite(r.steps[k].metrics.angle)
     for k in range(1, r.chosen):
-        assert np.isnan(r.metrics[k]["angle"]) and np.isfinite(r.metrics[k]["stretch_l2"])
+        assert np.isnan(r.steps[k].metrics.angle) and np.isfinite(r.steps[k].metrics.stretch_l2)
     m = dgmesh.uv_metrics(V, F, r.uv)
     for key in ("stretch_l2", "edge", "angle", "area"):
-        assert m[key] == pytest.approx(r.final[key], rel=1e-9)
-    assert m["flipped"] == r.final["flipped"] == 0
+        assert getattr(m, key) == pytest.approx(getattr(r.final, key), rel=1e-9)
+    assert m.flipped == r.final.flipped == 0
 
 
 def _renumbered_unwraps(V, F, seed, **kw):
@@ -230,7 +237,8 @@ def _renumbered_unwraps(V, F, seed, **kw):
         p = rng.permutation(len(V)) if k else np.arange(len(V))
         inv = np.empty_like(p)
         inv[p] = np.arange(len(V))
-        yield dgmesh.unwrap(V[p], inv[F].astype(np.int32), boundary="free", eta=0.5, slide_boundary=True, **kw)
+        yield dgmesh.unwrap(V[p], inv[F].astype(np.int32), boundary="free", weights="floater", eta=0.5,
+                            slide_boundary=True, **kw)
 
 
 def test_sliding_free_boundary_does_not_depend_on_the_vertex_order(cgal):
@@ -240,8 +248,8 @@ def test_sliding_free_boundary_does_not_depend_on_the_vertex_order(cgal):
     V, F = dgmesh.read_mesh(cgal / "mushroom.off")
     vals = []
     for r in _renumbered_unwraps(V, F, 1, solver="umfpack"):
-        assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
-        vals.append(r.final["stretch_l2"])
+        assert r.final.flipped == 0 and r.final.zero_area == 0
+        vals.append(r.final.stretch_l2)
     assert max(vals) - min(vals) < 2e-4, vals
 
 
@@ -254,9 +262,9 @@ def test_free_boundary_default_is_order_independent_and_never_flips(cgal):
     V, F = dgmesh.read_mesh(cgal / "mannequin-devil.off")
     vals = []
     for r in _renumbered_unwraps(V, F, 7):
-        assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+        assert r.final.flipped == 0 and r.final.zero_area == 0
         assert any("circle" in w for w in r.warnings), r.warnings
-        vals.append(r.final["stretch_l2"])
+        vals.append(r.final.stretch_l2)
     assert max(vals) - min(vals) < 2e-3 * min(vals), vals
     assert max(vals) < 1.5, vals
 
@@ -268,15 +276,15 @@ def test_auto_weights(cgal):
     V, F = dgmesh.read_mesh(cgal / "mushroom.off")
     kw = dict(boundary="free", eta=0.5, slide_boundary=True)
     a, c, f = (dgmesh.unwrap(V, F, weights=w, **kw) for w in ("auto", "cotangent", "floater"))
-    assert a.final["flipped"] == a.final["zero_area"] == 0
-    assert a.final["stretch_l2"] == pytest.approx(c.final["stretch_l2"], rel=1e-6)
-    assert a.final["stretch_l2"] < 0.97 * f.final["stretch_l2"]  # measured 1.179 vs 1.230
+    assert a.final.flipped == a.final.zero_area == 0
+    assert a.final.stretch_l2 == pytest.approx(c.final.stretch_l2, rel=1e-6)
+    assert a.final.stretch_l2 < 0.97 * f.final.stretch_l2  # measured 1.179 vs 1.230
     assert not any("cotangent" in w for w in a.warnings)
     V, F = dgmesh.read_mesh(cgal / "three_peaks.off")
     a, c, f = (dgmesh.unwrap(V, F, weights=w, **kw) for w in ("auto", "cotangent", "floater"))
-    assert c.final["flipped"] > 0
-    assert a.final["flipped"] == a.final["zero_area"] == 0
-    assert a.final["stretch_l2"] == pytest.approx(f.final["stretch_l2"], rel=1e-6)
+    assert c.final.flipped > 0
+    assert a.final.flipped == a.final.zero_area == 0
+    assert a.final.stretch_l2 == pytest.approx(f.final.stretch_l2, rel=1e-6)
     assert any("Floater" in w for w in a.warnings), a.warnings
 
 
@@ -285,14 +293,14 @@ def test_auto_weights_fall_back_to_mean_value_on_a_chart_with_holes(cgal):
     holes with mean-value weights (thesis 5.5; Floater's gave L2 stretch 140 on a lion-head cut
     along its crest lines, mean-value weights 2.6)."""
     V, F = dgmesh.read_mesh(cgal / "mannequin-devil.off")
-    assert "Floater" in dgmesh.unwrap(V, F, weights="auto").warnings[0]  # the cotangent map folds
+    assert "Floater" in dgmesh.unwrap(V, F, **thesis(weights="auto")).warnings[0]  # the cotangent map folds
     # A hole: the faces around the vertex nearest the chart's centroid removed.
     v = int(np.argmin(np.linalg.norm(V - V.mean(0), axis=1)))
     Vh, Fh = _keep_faces(V, F, ~(F == v).any(1))
-    r = dgmesh.unwrap(Vh, Fh, weights="auto")
+    r = dgmesh.unwrap(Vh, Fh, **thesis(weights="auto"))
     assert r.n_holes == 1 and "mean-value weights (the chart has holes)" in r.warnings[0]
-    np.testing.assert_array_equal(r.uv, dgmesh.unwrap(Vh, Fh, weights="mean_value").uv)
-    assert r.final["flipped"] == 0 and r.final["zero_area"] == 0
+    np.testing.assert_array_equal(r.uv, dgmesh.unwrap(Vh, Fh, **thesis(weights="mean_value")).uv)
+    assert r.final.flipped == 0 and r.final.zero_area == 0
 
 
 def test_unwrap_and_metrics_do_not_depend_on_the_thread_count():
@@ -307,10 +315,65 @@ def test_unwrap_and_metrics_do_not_depend_on_the_thread_count():
     try:
         for n in (1, 2, 3):
             dgmesh.set_num_threads(n)
-            r = dgmesh.unwrap(V, F, boundary="free")
+            r = dgmesh.unwrap(V, F, **thesis(boundary="free"))
             outs.append((r.uv, dgmesh.uv_metrics(V, F, r.uv)))
     finally:
         dgmesh.set_num_threads(before)
     for uv, m in outs[1:]:
         assert np.array_equal(uv, outs[0][0])
         assert m == outs[0][1]
+
+
+
+def _chart(V, F, labels, c):
+    """Chart c as unwrap_charts cuts it: its vertices in increasing order, its triangles in order."""
+    used, Fc = np.unique(F[labels == c], return_inverse=True)
+    return V[used], Fc.reshape(-1, 3).astype(np.int32)
+
+
+def test_unwrap_charts_unwraps_each_chart_as_unwrap_does():
+    """One call for all charts gives each chart exactly the map unwrap() gives it alone; charts
+    sharing vertices (segments of one mesh) get their own UVs per triangle corner."""
+    V, F = hemisphere()
+    c = V[F].mean(axis=1)
+    labels = (c[:, 0] > 0).astype(int) + 2 * (c[:, 1] > 0.3)  # four segments sharing their rims
+    for kw in ({}, thesis(iterations=2, solver="bicgstab")):
+        r = dgmesh.unwrap_charts(V, F, labels, **kw)
+        assert len(r.charts) == 4 and r.uv.shape == (3 * len(F), 2)
+        for k in range(4):
+            Vc, Fc = _chart(V, F, labels, k)
+            want = dgmesh.unwrap(Vc, Fc, **kw)
+            assert r.charts[k].uv.tobytes() == want.uv.tobytes()
+            assert r.charts[k].final == want.final and r.charts[k].warnings == want.warnings
+            corners = r.uv.reshape(-1, 3, 2)[labels == k]
+            assert corners.tobytes() == want.uv[Fc].tobytes()
+
+
+def test_unwrap_charts_names_the_chart_that_fails_and_checks_its_labels():
+    Vd, Fd = hemisphere(level=2)
+    Vs, Fs = shapes.icosphere(2)
+    V = np.vstack([Vd, Vs + 3])
+    F = np.vstack([Fd, Fs + len(Vd)]).astype(np.int32)
+    labels = np.r_[np.zeros(len(Fd), int), np.ones(len(Fs), int)]
+    with pytest.raises(dgmesh.UnwrapChartError, match=rf"chart 2 of 2 \({len(Fs)} triangles\): .*closed") as info:
+        dgmesh.unwrap_charts(V, F, labels)
+    assert isinstance(info.value, dgmesh.MeshError)
+    assert info.value.chart == 1 and "closed" in info.value.reason
+    assert str(info.value) == f"chart 2 of 2 ({len(Fs)} triangles): {info.value.reason}"
+    with pytest.raises(dgmesh.MeshError, match="one integer label per triangle"):
+        dgmesh.unwrap_charts(Vd, Fd, np.zeros(len(Fd) - 1, int))
+    with pytest.raises(dgmesh.MeshError, match="label 1 has no triangle"):
+        dgmesh.unwrap_charts(Vd, Fd, np.r_[np.zeros(len(Fd) - 1, int), 2])
+    with pytest.raises(dgmesh.MeshError, match=">= 0"):
+        dgmesh.unwrap_charts(Vd, Fd, -np.ones(len(Fd), int))
+
+
+def test_unwrap_charts_progress_runs_over_the_charts_once():
+    V, F = hemisphere()
+    labels = (V[F].mean(axis=1)[:, 0] > 0).astype(int)
+    seen = []
+    dgmesh.unwrap_charts(V, F, labels, progress=lambda f: seen.append(f) or True)
+    assert seen[0] == 0.0 and seen[-1] == pytest.approx(1.0)
+    assert all(b >= a for a, b in zip(seen, seen[1:]))
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.unwrap_charts(V, F, labels, progress=lambda f: f < 0.6)

@@ -8,13 +8,15 @@ count, and nothing is written. UVs are written per face corner of the user's pol
 n-gons keep their faces; Blender's loop triangulation only feeds the solver), only for the faces
 unwrapped; other corners of the active UV map are left untouched.
 
-Each chart is scaled to its 3D area, then Blender's packer (uv.pack_islands) lays the charts out;
-in Object mode the operator enters Edit mode for the packing with exactly the unwrapped faces
-selected and restores the selection afterwards. In Edit mode it never leaves Edit mode (each
-round trip costs seconds on a big mesh): it reads the mesh synced from the edit-mesh, reads and
-writes the unwrapped corners' UVs through bmesh (a UV map of a mesh in Edit mode has no data) and
-packs with only those corners' UVs selected. The report gives the L2 stretch (eq. 5.5) of the
-active UV map on the unwrapped faces before and after. Long runs show progress and Esc cancels
+One native call per object unwraps all its charts (dgmesh.unwrap_charts: the charts' corner classes
+as vertices, the chart of each triangle as labels), each exactly as dgmesh.unwrap would alone. Each
+chart is scaled to its 3D area, then Blender's packer (uv.pack_islands) lays the charts out; in
+Object mode the operator enters Edit mode for the packing with exactly the unwrapped faces selected
+and restores the selection afterwards. In Edit mode it never leaves Edit mode (each round trip
+costs seconds on a big mesh): it reads the mesh synced from the edit-mesh, reads and writes the
+unwrapped corners' UVs through bmesh (a UV map of a mesh in Edit mode has no data) and packs with
+only those corners' UVs selected. The report gives the L2 stretch (eq. 5.5) of the active UV map on
+the unwrapped faces before and after. Long runs show progress and Esc cancels
 (jobs.NativeJobOperator); nothing is written before the computation has finished.
 """
 
@@ -25,13 +27,31 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from ..polymesh import ranges, split_charts
+from ..unwrap import UnwrapOptions, UvBoundary, UvWeights
 from . import bridge, compat
-from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
+from .common import enum_id, enum_items, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
 ATTR_STRETCH = "dg_uv_stretch"
 ATTR_STRETCH_COLOR = "dg_uv_stretch_color"
+
+BOUNDARY_ITEMS = enum_items(UvBoundary, {
+    "square": ("Square", "Boundary on the unit square (the thesis)"),
+    "circle": ("Circle", "Boundary on a circle"),
+    "free": ("Free", "Natural boundary of a conformal map (falls back to a circle if it would fold)"),
+})
+WEIGHTS_ITEMS = enum_items(UvWeights, {
+    "floater": ("Floater", "Floater's shape-preserving weights (the thesis)"),
+    "mean_value": ("Mean Value", "Mean-value weights"),
+    "cotangent": ("Cotangent", "Harmonic weights (may fold the initial map)"),
+    "uniform": ("Uniform", "Tutte's uniform weights"),
+    "auto": ("Auto", "Cotangent, or Floater's where the cotangent map folds (lowest stretch measured)"),
+})
+# Property defaults: the library's own (dgmesh/unwrap.h), measured on the CGAL disk scans (bench
+# unwrap_quality): free boundary, Auto weights, eta 0.5 and a sliding boundary give the lowest L2
+# stretch on every model; the thesis's setting is Square, Floater, eta 1, no sliding.
+DEFAULTS = UnwrapOptions()
 
 
 def _read_polys(mesh):
@@ -62,38 +82,18 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    boundary: EnumProperty(
-        name="Boundary",
-        items=(
-            ('FREE', "Free", "Natural boundary of a conformal map (falls back to a circle if it would fold)"),
-            ('CIRCLE', "Circle", "Boundary on a circle"),
-            ('SQUARE', "Square", "Boundary on the unit square (the thesis)"),
-        ),
-        default='FREE',
-    )
-    weights: EnumProperty(
-        name="Weights",
-        items=(
-            ('FLOATER', "Floater", "Floater's shape-preserving weights"),
-            ('MEAN_VALUE', "Mean Value", "Mean-value weights"),
-            ('COTANGENT', "Cotangent", "Harmonic weights (may fold the initial map)"),
-            ('UNIFORM', "Uniform", "Tutte's uniform weights"),
-            ('AUTO', "Auto", "Cotangent, or Floater's where the cotangent map folds (lowest stretch measured)"),
-        ),
-        default='AUTO',
-    )
-    # Defaults measured on the CGAL disk scans (bench/RESULTS.md, unwrap_quality): free boundary,
-    # eta 0.5, sliding boundary and Auto weights give the lowest L2 stretch on lion-head, mushroom,
-    # nefertiti, three_peaks and head; the thesis's setting is Square, Floater, eta 1, no sliding.
+    boundary: EnumProperty(name="Boundary", items=BOUNDARY_ITEMS, default=enum_id(DEFAULTS.boundary))
+    weights: EnumProperty(name="Weights", items=WEIGHTS_ITEMS, default=enum_id(DEFAULTS.weights))
     eta: FloatProperty(name="Strength", description="Exponent eta of each equalization step (eq. 5.6)",
-                       default=0.5, min=0.05, max=1.0)
+                       default=DEFAULTS.eta, min=0.05, max=1.0)
     slide_boundary: BoolProperty(
-        name="Slide Boundary", default=True,
+        name="Slide Boundary", default=DEFAULTS.slide_boundary,
         description="Also equalize stretch along the boundary polygon (its shape stays, so no flips)")
-    optimal: BoolProperty(name="Optimal", default=True,
+    # UnwrapOptions.iterations is -1 for Uopt, else the number of steps: here a switch and a count.
+    optimal: BoolProperty(name="Optimal", default=DEFAULTS.iterations < 0,
                           description="Iterate until the L2 stretch stops decreasing")
-    iterations: IntProperty(name="Iterations", default=1, min=0, max=200,
-                            description="Equalization steps when not optimal (0: initial map)")
+    steps: IntProperty(name="Steps", default=1, min=0, max=200,
+                       description="Equalization steps when not optimal (0: initial map, 1: one step)")
     pack: BoolProperty(name="Pack", default=True,
                        description="Pack the charts with Blender's packer (charts keep their 3D size ratio)")
     margin: FloatProperty(name="Margin", default=0.02, min=0.0, max=0.5)
@@ -109,7 +109,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             layout.prop(self, name)
         row = layout.row()
         row.active = not self.optimal  # steps count only when not iterating to the optimum
-        row.prop(self, "iterations")
+        row.prop(self, "steps")
         layout.prop(self, "pack")
         row = layout.row()
         row.active = self.pack
@@ -146,35 +146,34 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             return None
         opts = dict(boundary=self.boundary.lower(), weights=self.weights.lower(), eta=self.eta,
                     slide_boundary=self.slide_boundary,
-                    iterations="optimal" if self.optimal else self.iterations)
-        total = float(sum(len(Fc) for it in items for (_, Fc, _, _) in it["charts"]))
+                    iterations="optimal" if self.optimal else self.steps)
+        total = float(sum(len(it["class_F"]) for it in items))
 
         def work(progress):
-            # All or nothing: the first chart that cannot be unwrapped stops the run.
+            # One native call per object for all its charts; all or nothing: the first chart that
+            # cannot be unwrapped stops the run.
             done = 0.0
             for it in items:
-                n_charts = len(it["charts"])
+                def sub(f, done=done, n=len(it["class_F"])):
+                    return progress((done + f * n) / total)
+                try:
+                    r = dg.unwrap_charts(it["class_V"], it["class_F"], it["tri_chart"], progress=sub, **opts)
+                except dg.UnwrapChartError as exc:
+                    _, Fc, _, first_poly = it["charts"][exc.chart]
+                    raise dg.MeshError(
+                        f"'{it['name']}' chart {exc.chart + 1} of {len(it['charts'])} ({len(Fc)} triangles, with "
+                        f"face #{first_poly}): {exc.reason}. Add seams so that every chart is a disk, or split "
+                        "it with DG Mesh > Segment") from None
                 it["uv_class"] = np.zeros((it["n_classes"], 2))
                 it["stretch"] = []
-                for c, (classes, Fc, Vc, first_poly) in enumerate(it["charts"]):
-                    def sub(f, done=done, n=len(Fc)):
-                        return progress((done + f * n) / total)
-                    try:
-                        r = dg.unwrap(Vc, Fc, progress=sub, **opts)
-                    except dg.Cancelled:
-                        raise
-                    except dg.MeshError as exc:
-                        raise dg.MeshError(
-                            f"'{it['name']}' chart {c + 1} of {n_charts} ({len(Fc)} triangles, with face "
-                            f"#{first_poly}): {exc}. Add seams so that every chart is a disk, or split "
-                            "it with DG Mesh > Segment") from None
+                for (classes, Fc, Vc, _), rc in zip(it["charts"], r.charts):
                     # Scale each chart to its 3D area so the packer keeps the charts' relative size.
-                    uv = r.uv - r.uv.mean(0)
+                    uv = rc.uv - rc.uv.mean(0)
                     a3 = _area3(Vc, Fc)
                     auv = _area2(uv, Fc)
                     it["uv_class"][classes] = uv * (np.sqrt(a3 / auv) if auv > 0 else 1.0)
-                    it["stretch"].append((r.final["stretch_l2"], len(Fc), r.warnings))
-                    done += len(Fc)
+                    it["stretch"].append((rc.final.stretch_l2, len(Fc), rc.warnings))
+                done += len(it["class_F"])
             return items
 
         return work
@@ -225,9 +224,9 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             bmesh.update_edit_mesh(mesh, loop_triangles=False, destructive=False)
         n_charts = sum(len(it["charts"]) for it in items)
         n_tris = sum(len(it["F"]) for it in items)
-        l2 = float(np.sqrt(sum(m["stretch_l2"] ** 2 * len(it["F"]) for m, it in zip(after, items)) / n_tris))
-        flipped = sum(m["flipped"] for m in after)
-        zero = sum(m["zero_area"] for m in after)
+        l2 = float(np.sqrt(sum(m.stretch_l2 ** 2 * len(it["F"]) for m, it in zip(after, items)) / n_tris))
+        flipped = sum(m.flipped for m in after)
+        zero = sum(m.zero_area for m in after)
         before = [it["before"] for it in items]
         text = f"Unwrapped {n_charts} chart(s) on {len(items)} object(s): L2 stretch {l2:.3f}"
         if all(b is not None for b in before):
@@ -444,7 +443,7 @@ def read_charts(obj, edit, dg):
     before = None
     if uv is not None:
         try:
-            before = dg.uv_metrics(arrays.V, F, uv[tri_corner])["stretch_l2"]
+            before = dg.uv_metrics(arrays.V, F, uv[tri_corner]).stretch_l2
         except ValueError:
             before = None
     charts = []
@@ -457,7 +456,8 @@ def read_charts(obj, edit, dg):
         charts.append((classes, Fc, Vc, int(tri_poly[in_c].min())))
     item.update(faces(mask), n_pinned=n_pinned, loops=loops, corner_class=corner_class[loops],
                 n_classes=len(chart_of_class), charts=charts, V=arrays.V, F=F, tri_corner=tri_corner,
-                before=before)
+                before=before, class_V=np.ascontiguousarray(arrays.V[vert_of_class]), class_F=tri_cls,
+                tri_chart=tri_chart)
     return item
 
 

@@ -18,6 +18,9 @@ namespace dgmesh {
 
 using MatX2d = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
 
+// A UV triangle has "zero area" when |A(U)| <= this * sum |A(U)| (the metrics' default).
+inline constexpr double kZeroAreaEps = 1e-10;
+
 enum class UvBoundary {
   Square,  // unit square, corners placed so that no triangle or chord lies on one side
   Circle,  // circle, arc-length spaced
@@ -25,7 +28,7 @@ enum class UvBoundary {
 };
 
 enum class UvWeights {
-  Floater,    // Floater's shape-preserving weights [Flo97] (default)
+  Floater,    // Floater's shape-preserving weights [Flo97] (the thesis's)
   MeanValue,  // mean-value weights [Flo03]
   Cotangent,  // harmonic (cot a + cot b) weights; may be negative, so U0 may flip
   Uniform,    // Tutte's barycentric weights
@@ -33,6 +36,7 @@ enum class UvWeights {
   // stretch than Floater's start on the CGAL disk scans; bench unwrap_quality) and, as soon as a
   // map of it folds or if the result has zero-area triangles, Floater (positive: no flips on a
   // convex polygon) from the start again; mean-value weights for a chart with holes (thesis 5.5).
+  // The default.
   Auto,
 };
 
@@ -60,24 +64,28 @@ struct UvMetrics {
 
 // Metrics of vertex UVs (n x 2) on the triangles F. Edges are the unique undirected edges of F.
 // Throws MeshError on wrong sizes, indices out of range or non-finite values.
-UvMetrics uv_metrics(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
+UvMetrics uv_metrics(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = kZeroAreaEps);
 
 // Per-triangle Sander stretch sqrt((Gamma^2 + gamma^2) / 2) with the area normalisation of
 // uv_metrics (inf for zero-area UV triangles).
-VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
+VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = kZeroAreaEps);
 
 // The same with UVs indexed apart from the vertices: corner k of triangle f has UV row FUV(f, k)
 // (UVs per face corner, e.g. a Blender UV map with seams, without building a triangle soup).
 VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i& FUV,
-                      double zero_area_eps = 1e-10);
+                      double zero_area_eps = kZeroAreaEps);
 
 // Per-vertex stretch of eq. 5.1: sqrt(sum A(T) sigma(U)^2 / sum A(T)) over the incident triangles.
-VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = 1e-10);
+VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double zero_area_eps = kZeroAreaEps);
 
+// The defaults give the lowest L2 stretch without failed triangles on the CGAL disk scans (bench
+// unwrap_quality: free boundary, Auto weights, eta 0.5, sliding boundary; on 10 of 10 models at or
+// below every peer measured, at 1.5-3.5x the time of the thesis's setting, bench unwrap_speed).
+// The thesis's own setting is unwrap_thesis_defaults().
 struct UnwrapOptions {
-  UvBoundary boundary = UvBoundary::Square;
-  UvWeights weights = UvWeights::Floater;
-  double eta = 1.0;           // exponent of eq. 5.6, 0 < eta <= 1
+  UvBoundary boundary = UvBoundary::Free;
+  UvWeights weights = UvWeights::Auto;
+  double eta = 0.5;           // exponent of eq. 5.6, 0 < eta <= 1
   int iterations = -1;        // -1: Uopt (stop when eq. 5.5 stops decreasing); k >= 0: exactly k steps
   int max_iterations = 100;   // cap for Uopt
   double min_improvement = 1e-3;  // Uopt also stops after a step improving eq. 5.5 by less than this (relative)
@@ -89,15 +97,25 @@ struct UnwrapOptions {
   // Relative residual of the iterative solves of the equalization steps (U0 and a step re-judged
   // before Uopt stops use `tolerance`): each step only feeds the next step's weights.
   double step_tolerance = 1e-4;
-  double zero_area_eps = 1e-10;
+  double zero_area_eps = kZeroAreaEps;
   // Triangle stretches above this are clipped in eq. 5.1 so that a near-degenerate scan triangle
   // (a 3D sliver) cannot dominate the stretch of its vertices.
   double stretch_cap = 1e3;
   // Beyond the thesis (whose boundary stays fixed): every step also slides the outer boundary
   // vertices along the polygon by the same stretch equalization in one dimension (the square's
   // corners stay). The polygon keeps its shape, so Tutte's guarantee still holds.
-  bool slide_boundary = false;
+  bool slide_boundary = true;
 };
+
+// The thesis's setting (chapter 5): the unit square, Floater's weights, eta 1, the boundary fixed.
+inline UnwrapOptions unwrap_thesis_defaults() {
+  UnwrapOptions o;
+  o.boundary = UvBoundary::Square;
+  o.weights = UvWeights::Floater;
+  o.eta = 1.0;
+  o.slide_boundary = false;
+  return o;
+}
 
 struct UnwrapStep {
   // U0 and the returned map carry all metrics of thesis 5.3; the other steps carry the stretch
@@ -125,6 +143,31 @@ struct UnwrapResult {
 // progress callback returns false.
 UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& options = {},
                     const ProgressFn& progress = {});
+
+// Every chart of a mesh in one call: the triangles with label c (0 <= c < k, every label used)
+// form chart c, unwrapped by unwrap() on its own, with its vertices numbered in increasing order of
+// their index in V and its triangles in the order of F, so each chart's map is exactly the one
+// unwrap() gives for that chart alone. Charts may share vertices (e.g. segments of one mesh): the
+// UVs are per triangle corner.
+struct UnwrapChartsResult {
+  MatX2d uv;                          // row 3f + k: UV of corner k of triangle f in its chart's map
+  std::vector<UnwrapResult> charts;   // charts[c]: unwrap() of chart c (uv per chart vertex)
+};
+
+// unwrap_charts() could not unwrap one chart: unwrap()'s MeshError for it (`reason`), the message
+// naming the chart: "chart c of k (n triangles): reason" (c from 1).
+struct UnwrapChartError : MeshError {
+  UnwrapChartError(int chart, int n_charts, int n_triangles, const std::string& reason);
+  int chart;           // from 0
+  std::string reason;  // unwrap()'s message
+};
+
+// Throws MeshError for labels of the wrong size, negative or unused, or indices out of range;
+// UnwrapChartError when a chart is not of disk topology (the first such chart: nothing is
+// returned), SolverError and CancelledError as unwrap(). Progress runs over the charts in
+// proportion to their triangles.
+UnwrapChartsResult unwrap_charts(const MatX3d& V, const MatX3i& F, const VecXi& labels,
+                                 const UnwrapOptions& options = {}, const ProgressFn& progress = {});
 
 // Connected components of n items linked by `pairs` (union-find). Labels are 0..k-1 in order of
 // first appearance. Used by the add-on to split meshes into charts along seams.
