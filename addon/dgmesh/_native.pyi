@@ -21,10 +21,43 @@ class MeshIOError(MeshError): ...
 
 class SolverError(Error): ...
 
+class UnwrapChartError(MeshError): ...
+
 class DenoiseMethod:
     """Denoising filter"""
     similarity: DenoiseMethod
     bilateral: DenoiseMethod
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class UvBoundary:
+    """Where unwrap() puts the chart's outer boundary"""
+    square: UvBoundary
+    circle: UvBoundary
+    free: UvBoundary
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class UvSolver:
+    """Linear solver of unwrap()"""
+    auto: UvSolver
+    umfpack: UvSolver
+    sparselu: UvSolver
+    bicgstab: UvSolver
+    multigrid: UvSolver
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class UvWeights:
+    """Weights of the convex-combination solves (eq. 5.2-5.3)"""
+    floater: UvWeights
+    mean_value: UvWeights
+    cotangent: UvWeights
+    uniform: UvWeights
+    auto: UvWeights
     name: str
     value: int
     def __init__(self, value: int) -> None: ...
@@ -65,6 +98,71 @@ class SimilarityOptions:
     eta3: float  # 2*sigma3 = radius of the compared patches (2.8, 2.9)
     shape_only: bool  # true: compare shapes in each vertex's own frame (fig. 2.1c); false: the filter's weights
     max_patch: int  # as DenoiseOptions.max_patch
+    def __init__(self) -> None: ...
+
+class UnwrapChartsResult:
+    """Result of unwrap_charts()"""
+
+    __fields__: list[str]
+    uv: numpy.ndarray  # (3m, 2) row 3f + k: corner k of triangle f in its chart's map
+    charts: list  # charts[c]: unwrap() of chart c (its vertices in increasing order of their index)
+    def __init__(self) -> None: ...
+
+class UnwrapOptions:
+    """Options of unwrap() (thesis chapter 5)"""
+
+    __fields__: list[str]
+    boundary: UvBoundary  # the outer boundary's polygon
+    weights: UvWeights  # the weights of U0 and of the steps
+    eta: float  # strength of each equalization step, 0 < eta <= 1 (eq. 5.6)
+    iterations: int  # -1: Uopt (stop when eq. 5.5 stops decreasing); k >= 0: exactly k steps
+    max_iterations: int  # cap on Uopt's steps
+    min_improvement: float  # Uopt also stops after a step lowering eq. 5.5 by less than this fraction
+    solver: UvSolver  # the linear solver
+    tolerance: float  # relative residual of the iterative solve of U0
+    step_tolerance: float  # relative residual of the iterative solves of the equalization steps
+    zero_area_eps: float  # a UV triangle has zero area at |A(U)| <= this * sum |A(U)|
+    stretch_cap: float  # triangle stretches above this are clipped in eq. 5.1
+    slide_boundary: bool  # every step also slides the outer boundary vertices along the polygon (beyond the thesis)
+    def __init__(self) -> None: ...
+
+class UnwrapResult:
+    """Result of unwrap()"""
+
+    __fields__: list[str]
+    uv: numpy.ndarray  # (n, 2) the returned map, in [0, 1]^2
+    uv_initial: numpy.ndarray  # (n, 2) U0, the start of the equalization
+    steps: list  # steps[h] is U^h (U0 first); for Uopt the last may be the rejected step
+    chosen: int  # index into steps of the returned map
+    boundary_used: UvBoundary  # the boundary used (see warnings for fallbacks)
+    boundary_convex: bool  # the fixed polygon is convex (then no flips)
+    n_holes: int  # inner boundary loops, kept open
+    corners: numpy.ndarray  # vertices at the square's corners (0,0), (1,0), (1,1), (0,1)
+    warnings: list  # fallbacks and negative weights, for people
+    solver: str  # the linear solver used
+    def __init__(self) -> None: ...
+
+class UnwrapStep:
+    """One map of unwrap(): U0 or an equalization step"""
+
+    __fields__: list[str]
+    metrics: UvMetrics  # U0 and the returned map: all of thesis 5.3; other steps: edge and angle NaN (not computed)
+    seconds: float  # wall time of the step (solve and metrics)
+    solver_iterations: int  # BiCGSTAB iterations (0 for direct solvers)
+    def __init__(self) -> None: ...
+
+class UvMetrics:
+    """Distortion of a parameterization (thesis 5.3)"""
+
+    __fields__: list[str]
+    stretch_l2: float  # eq. 5.5, Sander's normalisation (inf with a zero-area triangle)
+    stretch_linf: float  # largest singular value over the triangles
+    stretch_l2_finite: float  # eq. 5.5 over the triangles of non-zero UV area
+    edge: float  # edge-length distortion
+    angle: float  # mean absolute angle error (radians)
+    area: float  # area distortion
+    flipped: int  # UV triangles oriented against the total orientation
+    zero_area: int  # UV triangles of zero area
     def __init__(self) -> None: ...
 
 class Multires:
@@ -143,11 +241,13 @@ def subdivide_region(V: numpy.ndarray, F: numpy.ndarray, face_mask: numpy.ndarra
 def topology(V: numpy.ndarray, F: numpy.ndarray) -> dict: ...
 def torus(R: float, r: float, nu: int, nv: int) -> tuple: ...
 def union_of_balls_distance(arg0: numpy.ndarray, arg1: numpy.ndarray, arg2: numpy.ndarray) -> numpy.ndarray: ...
-def unwrap(V: numpy.ndarray, F: numpy.ndarray, boundary: str = ..., weights: str = ..., eta: float = ..., iterations: int = ..., max_iterations: int = ..., min_improvement: float = ..., solver: str = ..., tolerance: float = ..., step_tolerance: float = ..., zero_area_eps: float = ..., stretch_cap: float = ..., slide_boundary: bool = ..., progress: object = ...) -> dict: ...
-def uv_face_stretch(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, zero_area_eps: float = ...) -> numpy.ndarray: ...
-def uv_face_stretch_indexed(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, FUV: numpy.ndarray, zero_area_eps: float = ...) -> numpy.ndarray: ...
-def uv_metrics(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, zero_area_eps: float = ...) -> dict: ...
-def uv_vertex_stretch(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, zero_area_eps: float = ...) -> numpy.ndarray: ...
+def unwrap(V: numpy.ndarray, F: numpy.ndarray, options: UnwrapOptions, progress: object = ...) -> UnwrapResult: ...
+def unwrap_charts(V: numpy.ndarray, F: numpy.ndarray, labels: numpy.ndarray, options: UnwrapOptions, progress: object = ...) -> UnwrapChartsResult: ...
+def unwrap_thesis_defaults() -> UnwrapOptions: ...
+def uv_face_stretch(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, zero_area_eps: float) -> numpy.ndarray: ...
+def uv_face_stretch_indexed(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, FUV: numpy.ndarray, zero_area_eps: float) -> numpy.ndarray: ...
+def uv_metrics(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, zero_area_eps: float) -> UvMetrics: ...
+def uv_vertex_stretch(V: numpy.ndarray, F: numpy.ndarray, UV: numpy.ndarray, zero_area_eps: float) -> numpy.ndarray: ...
 def validate(V: numpy.ndarray, F: numpy.ndarray, checks: int = ...) -> None: ...
 def willmore_energy(V: numpy.ndarray, F: numpy.ndarray) -> float: ...
 def write_mesh(path: str, V: numpy.ndarray, F: numpy.ndarray, N: numpy.ndarray | None = ...) -> None: ...
