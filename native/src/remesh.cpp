@@ -8,17 +8,19 @@
 #include <limits>
 #include <memory>
 #include <string>
-#include <unordered_set>
 #include <vector>
 
 #include "dgmesh/delaunay.h"
-#include "dgmesh/detail/edge_key.h"
 #include "dgmesh/detail/math.h"
+#include "dgmesh/detail/remesh_map.h"
 #include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/mesh.h"
 #include "dgmesh/parallel.h"
+#include "dgmesh/remesh_flips.h"
+#include "dgmesh/remesh_sampling.h"
+#include "dgmesh/remesh_smoothing.h"
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
 
@@ -26,152 +28,25 @@ namespace dgmesh {
 
 namespace {
 
+using detail::BoundarySamples;
+using detail::chart_pieces;
+using detail::ChartPieces;
 using detail::Clock;
+using detail::control_raster;
+using detail::ControlRaster;
+using detail::ConvexPolygon;
 using detail::cross2;
-using detail::edge_key;
-using detail::kPi;
+using detail::delaunay_flips_3d;
+using detail::delaunay_flips_map;
+using detail::Ear;
+using detail::sample_boundary;
+using detail::sample_interior;
+using detail::Sample;
+using detail::SamplingChart;
 using detail::seconds_since;
+using detail::smooth_remeshed;
+using detail::uv_row;
 using detail::Vec2;
-constexpr double kSqrt3 = 1.7320508075688772;
-constexpr double kFlipCos = 0.94;  // cos 20 degrees
-// The smoothing's angle goal: no move may create a 3D angle below it, and stars still holding one
-// get a pattern search. 30 degrees is a quality threshold, not an optimum: aiming at 35 lifts the
-// worst triangles further where the map lets them move. On sharp features, where moving a vertex
-// moves the feature, the goal is 33 (35 there cost up to 25% Hausdorff on mannequin-devil).
-// Bench remesh_quality, 5000 vertices: with the circumcentre step, the sliver flips and the
-// low-valence removal below, double's minimum angle went from 24.7-30.5 to 33-35 degrees on the
-// five scans and its edge CV down 2-6%.
-constexpr double kSmoothMinAngle = 35 * kPi / 180;
-constexpr double kSmoothSharpMinAngle = 33 * kPi / 180;  // the goal at vertices on sharp features
-constexpr int kRepairRounds = 3;  // smoothing rounds after the closing pass, over stars below that goal
-// A pair of triangles across a bent edge (the flips' near-flat rule refuses it) whose smaller
-// angle is under 20 degrees is still flipped when that raises the pair's smallest angle and the new
-// pair is within 90 degrees of coplanar: at creases of a coarse input the triangulation map is
-// compressed and its Delaunay triangles lift to slivers across the crease.
-const double kSliverCos = std::cos(20 * kPi / 180);
-constexpr double kSliverDihedralCos = 0.0;
-// Interior vertices of valence 3 or 4 whose star holds an angle under 20 degrees are removed.
-const double kLowValenceCos = std::cos(20 * kPi / 180);
-constexpr double kSmoothFeatureCos = 0.7;    // ~45 degrees between a triangle and its star's normal
-constexpr int kMaxStar = 64;                  // stars with more triangles are not smoothed
-constexpr int kBand = 16;               // raster rows per band (one band per task, no write races)
-constexpr double kPixelsPerSample = 256;  // at most this many chart pixels per interior sample
-constexpr double kLloydPointsPerCell = 32;  // Lloyd quadrature points wanted per Voronoi cell
-constexpr int kLloydMaxResolution = 1024;   // ... up to this grid size
-constexpr double kLloydTolerance = 0.003;  // Lloyd steps end when the samples' RMS move is under this (spacings)
-
-inline Vec2 uv_row(const MatX2d& U, int i) { return U.row(i).transpose(); }
-
-// Target edge length of a near-equilateral mesh with `density` vertices per unit area: each vertex
-// owns sqrt(3)/2 h^2 of area.
-inline double spacing(double density) { return std::sqrt(2.0 / (kSqrt3 * std::max(density, 1e-300))); }
-
-// Deterministic sub-pixel offset in [-0.5, 0.5): breaks the co-circularity of pixel-centred samples
-// so the Delaunay triangulation is unique (Qhull's Qt could otherwise emit flat triangles).
-inline double jitter(uint32_t x) {
-  x ^= x >> 16;
-  x *= 0x7feb352dU;
-  x ^= x >> 15;
-  x *= 0x846ca68bU;
-  x ^= x >> 16;
-  return (x & 0xffffff) / double(1 << 24) - 0.5;
-}
-
-// Cosine of the smallest angle of the triangle (a, b, c): it is opposite the shortest edge (law of
-// cosines); 1 for a degenerate triangle.
-inline double min_angle_cos(const Vec3& a, const Vec3& b, const Vec3& c) {
-  double l[3] = {(b - c).squaredNorm(), (c - a).squaredNorm(), (a - b).squaredNorm()};
-  std::sort(l, l + 3);
-  const double den = 2 * std::sqrt(l[1] * l[2]);
-  return den > 0 ? (l[1] + l[2] - l[0]) / den : 1.0;
-}
-
-double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
-  const Vec3 ab = b - a;
-  const double l2 = ab.squaredNorm();
-  const double t = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
-  return (p - (a + t * ab)).norm();
-}
-
-// Point-in-polygon for a (weakly) convex counter-clockwise polygon in O(log n): binary search of
-// the wedge around an inner point, then one edge test. `margin` is a distance.
-class ConvexPolygon {
- public:
-  explicit ConvexPolygon(std::vector<Vec2> pts) : p_(std::move(pts)) {
-    c_ = Vec2::Zero();
-    for (const Vec2& q : p_) c_ += q;
-    c_ /= double(p_.size());
-    const int n = int(p_.size());
-    int start = 0;
-    ang_.resize(n);
-    for (int k = 0; k < n; ++k) {
-      ang_[k] = std::atan2(p_[k].y() - c_.y(), p_[k].x() - c_.x());
-      if (ang_[k] < ang_[start]) start = k;
-    }
-    std::rotate(p_.begin(), p_.begin() + start, p_.end());
-    std::rotate(ang_.begin(), ang_.begin() + start, ang_.end());
-  }
-  // Signed distance-like test: true when q is inside by more than margin from the wedge's edge.
-  bool inside(const Vec2& q, double margin) const {
-    const int n = int(p_.size());
-    const double a = std::atan2(q.y() - c_.y(), q.x() - c_.x());
-    // Edge k -> k+1 covers angles [ang_k, ang_{k+1}); the last edge wraps around.
-    int k = int(std::upper_bound(ang_.begin(), ang_.end(), a) - ang_.begin()) - 1;
-    if (k < 0) k = n - 1;
-    const Vec2& p0 = p_[k];
-    const Vec2& p1 = p_[(k + 1) % n];
-    const Vec2 e = p1 - p0;
-    const double len = e.norm();
-    if (len <= 0) return false;
-    return cross2(e, q - p0) / len > margin;
-  }
-
- private:
-  std::vector<Vec2> p_;
-  std::vector<double> ang_;
-  Vec2 c_;
-};
-
-// Distance from a 3D point to the chart's boundary polyline: a kd-tree over points placed densely
-// along the loop, then exact distances to the segment of the nearest point and its neighbours.
-class BoundaryDistance {
- public:
-  BoundaryDistance(const MatX3d& V, const std::vector<int>& loop, double step) : V_(V), loop_(loop) {
-    const int nb = int(loop.size());
-    double total = 0;
-    for (int k = 0; k < nb; ++k) total += (row3(V, loop[(k + 1) % nb]) - row3(V, loop[k])).norm();
-    step = std::max(step, total / 400000.0);  // bounded memory on long, dense boundaries
-    std::vector<Vec3> pts;
-    for (int k = 0; k < nb; ++k) {
-      const Vec3 a = row3(V, loop[k]), b = row3(V, loop[(k + 1) % nb]);
-      const int m = std::max(1, int(std::ceil((b - a).norm() / step)));
-      for (int s = 0; s < m; ++s) {
-        pts.push_back(a + (b - a) * (double(s) / m));
-        seg_.push_back(k);
-      }
-    }
-    MatX3d P(int(pts.size()), 3);
-    for (int i = 0; i < P.rows(); ++i) P.row(i) = pts[i].transpose();
-    tree_ = std::make_unique<KdTree>(P);
-  }
-  double operator()(const Vec3& q) const {
-    const int i = tree_->nearest(q);
-    const int nb = int(loop_.size());
-    const int k = seg_[i];
-    double d = std::numeric_limits<double>::infinity();
-    for (int o = -1; o <= 1; ++o) {
-      const int s = ((k + o) % nb + nb) % nb;
-      d = std::min(d, point_segment_distance(q, row3(V_, loop_[s]), row3(V_, loop_[(s + 1) % nb])));
-    }
-    return d;
-  }
-
- private:
-  const MatX3d& V_;
-  const std::vector<int>& loop_;
-  std::vector<int> seg_;
-  std::unique_ptr<KdTree> tree_;
-};
 
 // Rejects non-disk input with a message that says what is wrong and what to do.
 Topology check_disk(const MatX3d& V, const MatX3i& F) {
@@ -195,533 +70,23 @@ ProgressFn sub_progress(const ProgressFn& p, double a, double b) {
   return [p, a, b](double f) { return p(a + (b - a) * f); };
 }
 
-struct Sample {
-  int face;
-  double w0, w1, w2;
+// 1. The two maps (thesis 5.2): U0 with Floater's weights on the convex domain, Uopt by stretch
+// equalization (eq. 5.1, 5.3, 5.4) from it.
+// (Us: the sampling map, Ut: the triangulation map, as the mode picks them.) Sets res.uopt_iterations and the
+// unwrap's warnings.
+struct ChartMaps {
+  MatX2d U0, Uopt;
 };
 
-// Lawson's edge-flip loop (Lawson 1977) over twin half-edges `opp` (h = 3 f + k runs corner k to
-// corner k + 1 of triangle f; -1 on the boundary, which never flips), from the half-edges on
-// `stack`: the edge a -> b of f = (a, b, c), held b -> a by g = (b, a, d), flips when
-// accept(a, b, c, d) says so; the pair becomes f = (a, d, c), g = (d, b, c) (set(f, g, ...)), the
-// twins are relinked and the four outer half-edges pushed. At most max_flips; returns the count.
-template <class Corner, class Set, class Accept>
-int lawson_flips(std::vector<int>& opp, std::vector<int> stack, long max_flips, Corner corner, Set set,
-                 Accept accept) {
-  auto link = [&](int x, int y) {
-    opp[x] = y;
-    if (y >= 0) opp[y] = x;
-  };
-  int flips = 0;
-  while (!stack.empty() && flips < max_flips) {
-    const int h = stack.back();
-    stack.pop_back();
-    const int o = opp[h];
-    if (o < 0) continue;
-    const int f = h / 3, k = h % 3, g = o / 3, l = o % 3;
-    const int a = corner(f, k), b = corner(f, (k + 1) % 3), c = corner(f, (k + 2) % 3), d = corner(g, (l + 2) % 3);
-    if (!accept(a, b, c, d)) continue;
-    // New half-edges f0 a->d, f1 d->c, f2 c->a; g0 d->b, g1 b->c, g2 c->d.
-    const int o_bc = opp[3 * f + (k + 1) % 3], o_ca = opp[3 * f + (k + 2) % 3];
-    const int o_ad = opp[3 * g + (l + 1) % 3], o_db = opp[3 * g + (l + 2) % 3];
-    set(f, g, a, b, c, d);
-    link(3 * f + 0, o_ad);
-    link(3 * f + 1, 3 * g + 2);
-    link(3 * f + 2, o_ca);
-    link(3 * g + 0, o_db);
-    link(3 * g + 1, o_bc);
-    ++flips;
-    for (int x : {3 * f + 0, 3 * f + 2, 3 * g + 0, 3 * g + 1}) stack.push_back(x);
-  }
-  return flips;
-}
-
-// Beyond the thesis: edge flips towards a Delaunay triangulation of the lifted 3D mesh (flip an
-// interior edge when its two opposite 3D angles sum to more than pi, the Delaunay criterion that
-// maximises the minimum angle), allowed only when both new triangles keep their orientation in the
-// triangulation map, so the mesh stays an embedding of the chart. Boundary edges never flip.
-// closing: only flips across near-flat edges that do not lower the pair's smallest angle (after
-// the smoothing's closing pass, which must not be undone). Returns the number of flips.
-int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient_sign, bool closing = false) {
-  const int nf = int(F.rows());
-  std::vector<int> opp(3 * nf, -1);
-  {
-    // Half-edges by start vertex (counting sort), then the twin of a->b among those starting at b.
-    const int nv = int(X.rows());
-    std::vector<int> off(nv + 1, 0), he(3 * nf);
-    for (int f = 0; f < nf; ++f)
-      for (int k = 0; k < 3; ++k) ++off[F(f, k) + 1];
-    for (int v = 0; v < nv; ++v) off[v + 1] += off[v];
-    {
-      std::vector<int> fill(off.begin(), off.end() - 1);
-      for (int f = 0; f < nf; ++f)
-        for (int k = 0; k < 3; ++k) he[fill[F(f, k)]++] = 3 * f + k;
-    }
-#pragma omp parallel for schedule(static) if (nf > kParallelMin)
-    for (int h = 0; h < 3 * nf; ++h) {
-      const int f = h / 3, k = h % 3;
-      const int a = F(f, k), b = F(f, (k + 1) % 3);
-      for (int q = off[b]; q < off[b + 1]; ++q) {
-        const int g = he[q] / 3, l = he[q] % 3;
-        if (F(g, (l + 1) % 3) == a) {
-          opp[h] = he[q];
-          break;
-        }
-      }
-    }
-  }
-  // The Delaunay test: the angles at c (in a, b, c) and at d (in b, a, d) sum to more than pi, i.e.
-  // sin(alpha + beta) = sin a cos b + cos a sin b < 0 (no atan2: this runs on every half-edge).
-  auto opposite_angles_exceed_pi = [&](int c, int a, int b, int d) {
-    const Vec3 u1 = row3(X, a) - row3(X, c), v1 = row3(X, b) - row3(X, c);
-    const Vec3 u2 = row3(X, b) - row3(X, d), v2 = row3(X, a) - row3(X, d);
-    const double s1 = u1.cross(v1).norm(), c1 = u1.dot(v1), s2 = u2.cross(v2).norm(), c2 = u2.dot(v2);
-    const double scale = std::sqrt(u1.squaredNorm() * v1.squaredNorm() * u2.squaredNorm() * v2.squaredNorm());
-    return s1 * c2 + c1 * s2 < -1e-10 * scale;
-  };
-
-  auto orient = [&](int a, int b, int c) {
-    return orient_sign * cross2(uv_row(U, b) - uv_row(U, a), uv_row(U, c) - uv_row(U, a));
-  };
-  std::vector<int> stack(3 * nf);
-  for (int h = 0; h < 3 * nf; ++h) stack[h] = h;
-  return lawson_flips(
-      opp, std::move(stack), 20L * nf, [&](int f, int k) { return F(f, k); },
-      [&](int f, int g, int a, int b, int c, int d) {
-        F.row(f) << a, d, c;
-        F.row(g) << d, b, c;
-      },
-      [&](int a, int b, int c, int d) {
-        if (!opposite_angles_exceed_pi(c, a, b, d)) return false;
-        if (orient(a, d, c) <= 0 || orient(d, b, c) <= 0) return false;
-        // Only where the four points are nearly coplanar: the edge before or after the flip has a
-        // dihedral below ~20 degrees, so flips never cut across a crease or a thin feature and the
-        // surface stays where the samples put it. (The new edge is tested too because a near-degenerate
-        // obtuse triangle has an unreliable normal, so its old dihedral can look sharp on a flat piece.)
-        {
-          auto dihedral_cos = [&](int p, int q, int r, int s) {  // triangles (p, q, r) and (q, p, s)
-            const Vec3 n1 = (row3(X, q) - row3(X, p)).cross(row3(X, r) - row3(X, p));
-            const Vec3 n2 = (row3(X, p) - row3(X, q)).cross(row3(X, s) - row3(X, q));
-            const double nn = n1.norm() * n2.norm();
-            return nn > 0 ? n1.dot(n2) / nn : -1.0;
-          };
-          const double c_old = dihedral_cos(a, b, c, d), c_new = dihedral_cos(d, c, a, b);
-          auto tri_max_cos = [&](int p, int q, int r) { return min_angle_cos(row3(X, p), row3(X, q), row3(X, r)); };
-          if (closing)
-            return c_old >= kFlipCos && c_new >= kFlipCos &&
-                   std::max(tri_max_cos(a, d, c), tri_max_cos(d, b, c)) <= std::max(tri_max_cos(a, b, c), tri_max_cos(b, a, d));
-          // A flip that unfolds a fold (the new pair within 60 degrees of coplanar and much flatter
-          // than the old one) is allowed too: such folds are the scan defects' needles and caps.
-          // So is one that makes a moderately bent pair (within ~37 degrees) no sharper.
-          const bool unfold = (c_new >= 0.5 && c_new - c_old >= 0.5) || (c_new >= 0.8 && c_new >= c_old);
-          if (c_old < kFlipCos && c_new < kFlipCos && !unfold) {
-            // A sliver across a bent edge (kSliverCos): flipped only if the pair's smallest angle grows.
-            const double m_old = std::max(tri_max_cos(a, b, c), tri_max_cos(b, a, d));
-            const double m_new = std::max(tri_max_cos(a, d, c), tri_max_cos(d, b, c));
-            if (!(m_old > kSliverCos && m_new < m_old && c_new >= kSliverDihedralCos)) return false;
-          }
-        }
-        return true;
-      });
-}
-
-// Lawson flips (Lawson 1977) towards the Delaunay triangulation of the map P, starting from the
-// edges in `seeds` and going on with the edges of the flipped triangles: an interior edge (a, b) of
-// triangles (a, b, c) and (b, a, d) flips to (c, d) when d lies inside the circle through a, b and
-// c, both new triangles keep the pair's orientation in the map and (c, d) is not an edge yet.
-// Boundary edges never flip. Returns the number of flips.
-int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
-                       const std::vector<std::pair<int, int>>& seeds) {
-  const int nt = int(T.size());
-  // Twin half-edges (h = 3 t + k runs T[t][k] -> T[t][k + 1]) by sorting the undirected keys.
-  std::vector<std::pair<int64_t, int>> he(3 * nt);
-  for (int t = 0; t < nt; ++t)
-    for (int k = 0; k < 3; ++k) he[3 * t + k] = {edge_key(T[t][k], T[t][(k + 1) % 3]), 3 * t + k};
-  std::sort(he.begin(), he.end());
-  std::vector<int> opp(3 * nt, -1);
-  for (size_t q = 0; q + 1 < he.size(); ++q)
-    if (he[q].first == he[q + 1].first) {
-      opp[he[q].second] = he[q + 1].second;
-      opp[he[q + 1].second] = he[q].second;
-    }
-  std::unordered_set<int64_t> edges;
-  edges.reserve(he.size());
-  for (const auto& e : he) edges.insert(e.first);
-  auto orient = [&](int a, int b, int c) { return cross2(uv_row(P, b) - uv_row(P, a), uv_row(P, c) - uv_row(P, a)); };
-  // > 0 when d is inside the circle through a, b, c (counter-clockwise); relative to its magnitude.
-  auto in_circle = [&](int a, int b, int c, int d) {
-    const Vec2 pa = uv_row(P, a) - uv_row(P, d), pb = uv_row(P, b) - uv_row(P, d), pc = uv_row(P, c) - uv_row(P, d);
-    const double la = pa.squaredNorm(), lb = pb.squaredNorm(), lc = pc.squaredNorm();
-    const double t1 = la * cross2(pb, pc), t2 = lb * cross2(pc, pa), t3 = lc * cross2(pa, pb);
-    const double det = t1 + t2 + t3, mag = std::abs(t1) + std::abs(t2) + std::abs(t3);
-    return det > 1e-12 * mag ? 1 : det < -1e-12 * mag ? -1 : 0;
-  };
-  std::vector<int> stack;
-  for (auto [a, b] : seeds) {
-    const int64_t k = edge_key(a, b);
-    auto it = std::lower_bound(he.begin(), he.end(), std::make_pair(k, -1));
-    if (it != he.end() && it->first == k) stack.push_back(it->second);
-  }
-  return lawson_flips(
-      opp, std::move(stack), 20L * nt + 100, [&](int f, int k) { return T[f][k]; },
-      [&](int f, int g, int a, int b, int c, int d) {
-        T[f] = {a, d, c};
-        T[g] = {d, b, c};
-        edges.erase(edge_key(a, b));
-        edges.insert(edge_key(c, d));
-      },
-      [&](int a, int b, int c, int d) {
-        const double s = orient(a, b, c);
-        if (s == 0 || (s > 0 ? 1 : -1) * in_circle(a, b, c, d) <= 0) return false;
-        return orient(a, d, c) * s > 0 && orient(d, b, c) * s > 0 && !edges.count(edge_key(c, d));
-      });
-}
-
-// Point location in a parameter map U of the chart (V, F): walk from face f across the edge opposite
-// the most negative barycentric coordinate. Returns false if the walk leaves the chart.
-bool locate_in_map(const MatX2d& U, const MatX3i& F, const Topology& topo, const Vec2& p, int f, Sample& out) {
-  for (int step = 0; step < 256; ++step) {
-    const Vec2 a = uv_row(U, F(f, 0)), b = uv_row(U, F(f, 1)), c = uv_row(U, F(f, 2));
-    const double det = cross2(b - a, c - a);
-    if (det == 0) return false;
-    const double w0 = cross2(b - p, c - p) / det, w1 = cross2(c - p, a - p) / det;
-    const double ww[3] = {w0, w1, 1 - w0 - w1};
-    int kmin = 0;
-    for (int k = 1; k < 3; ++k)
-      if (ww[k] < ww[kmin]) kmin = k;
-    if (ww[kmin] >= -1e-12) {
-      out = Sample{f, std::max(0.0, ww[0]), std::max(0.0, ww[1]), std::max(0.0, ww[2])};
-      const double sum = out.w0 + out.w1 + out.w2;
-      out.w0 /= sum, out.w1 /= sum, out.w2 /= sum;
-      return true;
-    }
-    const int e = topo.face_edges(f, (kmin + 1) % 3);  // the edge opposite corner kmin
-    const int g = topo.edge_faces(e, 0) == f ? topo.edge_faces(e, 1) : topo.edge_faces(e, 0);
-    if (g < 0) return false;
-    f = g;
-  }
-  return false;
-}
-
-// Vertex -> incident triangles of T over nv vertices, as offsets and a flat list (CSR).
-void vertex_triangles(const MatX3i& T, int nv, std::vector<int>& off, std::vector<int>& ring) {
-  off.assign(nv + 1, 0);
-  for (int t = 0; t < T.rows(); ++t)
-    for (int k = 0; k < 3; ++k) ++off[T(t, k) + 1];
-  for (int v = 0; v < nv; ++v) off[v + 1] += off[v];
-  ring.resize(off[nv]);
-  std::vector<int> fill(off.begin(), off.end() - 1);
-  for (int t = 0; t < T.rows(); ++t)
-    for (int k = 0; k < 3; ++k) ring[fill[T(t, k)]++] = t;
-}
-
-// Beyond the thesis: removes interior vertices of valence 3 or 4 whose star holds a small 3D angle.
-// Such a vertex cannot be smoothed out of it (three triangles around a vertex average 120 degrees
-// there, leaving small angles elsewhere; four share a quadrilateral that the vertex crowds). The
-// star becomes its link: one triangle for valence 3, two for valence 4 (the diagonal whose smaller
-// angle is larger). Only when every new triangle keeps its orientation in the triangulation map (so
-// the mesh stays an embedding of the chart) and the smallest angle grows. Stars are handled once
-// per pass and never overlap, so the pass is deterministic. Boundary vertices (index < nb) stay;
-// vertices are compacted afterwards. Returns the number of vertices removed.
-int remove_low_valence(MatX3i& T, MatX3d& X, MatX2d& P, std::vector<Sample>& S, VecXd& rho_out, int nb,
-                       double orient_sign, double max_cos) {
-  const int nv = int(X.rows()), nt = int(T.rows());
-  std::vector<int> off, ring;
-  vertex_triangles(T, nv, off, ring);
-  auto tri_cos = [&](int a, int b, int c) { return min_angle_cos(row3(X, a), row3(X, b), row3(X, c)); };
-  auto orient = [&](int a, int b, int c) {
-    return orient_sign * cross2(uv_row(P, b) - uv_row(P, a), uv_row(P, c) - uv_row(P, a));
-  };
-  std::vector<char> touched(nv, 0), dead_t(nt, 0), dead_v(nv, 0);
-  int removed = 0;
-  for (int i = nb; i < nv; ++i) {
-    const int deg = off[i + 1] - off[i];
-    if ((deg != 3 && deg != 4) || touched[i]) continue;
-    // The link, in order: triangle (i, a, b) gives the link edge a -> b.
-    int nxt[2][4], m = 0;  // pairs (a, b)
-    double before = -1;
-    bool ok = true;
-    for (int q = off[i]; q < off[i + 1]; ++q) {
-      const int t = ring[q];
-      int k = 0;
-      while (T(t, k) != i) ++k;
-      nxt[0][m] = T(t, (k + 1) % 3);
-      nxt[1][m] = T(t, (k + 2) % 3);
-      ++m;
-      before = std::max(before, tri_cos(T(t, 0), T(t, 1), T(t, 2)));
-      for (int j = 0; j < 3; ++j) ok = ok && !touched[T(t, j)];
-    }
-    if (!ok || before <= max_cos) continue;
-    int cyc[4];
-    cyc[0] = nxt[0][0];
-    for (int s = 1; s < deg && ok; ++s) {
-      int found = -1;
-      for (int e = 0; e < deg; ++e)
-        if (nxt[0][e] == cyc[s - 1]) found = nxt[1][e];
-      ok = found >= 0;
-      if (ok) cyc[s] = found;
-    }
-    if (!ok) continue;
-    // Replacement triangles.
-    int nt_new = 0, tri[2][3];
-    double after = 2;
-    if (deg == 3) {
-      tri[0][0] = cyc[0], tri[0][1] = cyc[1], tri[0][2] = cyc[2];
-      nt_new = 1;
-      if (!(orient(cyc[0], cyc[1], cyc[2]) > 1e-14)) continue;
-      after = tri_cos(cyc[0], cyc[1], cyc[2]);
-    } else {
-      double best = 2;
-      for (int d = 0; d < 2; ++d) {  // diagonal cyc[d] - cyc[d + 2]
-        const int a = cyc[d], b = cyc[d + 1], c = cyc[(d + 2) % 4], e = cyc[(d + 3) % 4];
-        if (!(orient(a, b, c) > 1e-14) || !(orient(a, c, e) > 1e-14)) continue;
-        const double w = std::max(tri_cos(a, b, c), tri_cos(a, c, e));
-        if (w < best) {
-          best = w;
-          tri[0][0] = a, tri[0][1] = b, tri[0][2] = c;
-          tri[1][0] = a, tri[1][1] = c, tri[1][2] = e;
-        }
-      }
-      if (best > 1) continue;
-      nt_new = 2;
-      after = best;
-      // The diagonal must not already be an edge (a valence-3 neighbour would make a duplicate face).
-      const int a = tri[0][0], c = tri[0][2];
-      for (int q = off[a]; q < off[a + 1] && ok; ++q)
-        for (int j = 0; j < 3; ++j) ok = ok && !(T(ring[q], j) == c && !dead_t[ring[q]]);
-      if (!ok) continue;
-    }
-    if (!(after < before)) continue;
-    int w = 0;
-    for (int q = off[i]; q < off[i + 1]; ++q) {
-      const int t = ring[q];
-      if (w < nt_new) {
-        T.row(t) << tri[w][0], tri[w][1], tri[w][2];
-        ++w;
-      } else {
-        dead_t[t] = 1;
-      }
-    }
-    dead_v[i] = 1;
-    touched[i] = 1;
-    for (int s = 0; s < deg; ++s) touched[cyc[s]] = 1;
-    ++removed;
-  }
-  if (removed == 0) return 0;
-  std::vector<int> id(nv, -1);
-  int n = 0;
-  for (int v = 0; v < nv; ++v)
-    if (!dead_v[v]) {
-      id[v] = n;
-      if (n != v) {
-        X.row(n) = X.row(v);
-        P.row(n) = P.row(v);
-        S[n] = S[v];
-        rho_out[n] = rho_out[v];
-      }
-      ++n;
-    }
-  X.conservativeResize(n, 3);
-  P.conservativeResize(n, 2);
-  S.resize(n);
-  rho_out.conservativeResize(n);
-  int m = 0;
-  for (int t = 0; t < nt; ++t)
-    if (!dead_t[t]) {
-      for (int k = 0; k < 3; ++k) T(m, k) = id[T(t, k)];
-      ++m;
-    }
-  T.conservativeResize(m, 3);
-  return removed;
-}
-
-// Beyond the thesis: one sweep of tangential smoothing of the new mesh's interior vertices in the
-// surface metric, moved inside the triangulation map so that they stay on the input surface and
-// the map stays an embedding. Each vertex goes towards the density-and-area-weighted mean of its
-// incident triangles' 3D circumcentres (the optimal Delaunay triangulation step of Chen & Xu 2004;
-// with centroids it would be the area-weighted relaxation of Botsch & Kobbelt 2004); the 3D
-// displacement d becomes a map displacement by the least-squares inverse of the Jacobian J of the
-// input face under the vertex (du = (J^T J)^-1 J^T d, the tangential part). A move is halved until
-// no incident triangle flips in the map, or skipped. Gauss-Seidel by colour: `groups` lists the
-// interior vertices colour by colour (group_off), no two neighbours in one colour, so a colour's
-// vertices move in parallel without touching each other's stars (the last group, vertices the
-// colouring could not place, runs serially). Deterministic. Returns the moves made.
-int smooth_in_map(const MatX3d& V, const MatX3i& F, const Topology& topo, const MatX2d& Ut, const VecXd& rho,
-                  const std::vector<int>& ring_off, const std::vector<int>& ring, const std::vector<int>& groups,
-                  const std::vector<int>& group_off, double orient_sign, const MatX3i& T, MatX3d& X, MatX2d& P,
-                  std::vector<Sample>& S, VecXd& rho_out) {
-  int moves = 0;
-  // Cosine of the smallest 3D angle of the triangles around vertex i with i placed at xi (the
-  // smallest angle of a triangle is opposite its shortest edge; law of cosines).
-  auto star_max_cos = [&](int i, const Vec3& xi) {
-    double m = -1;
-    for (int q = ring_off[i]; q < ring_off[i + 1]; ++q) {
-      const int t = ring[q];
-      Vec3 p[3];
-      for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? xi : row3(X, T(t, k));
-      m = std::max(m, min_angle_cos(p[0], p[1], p[2]));
-    }
-    return m;
-  };
-  const double cos_min = std::cos(kSmoothMinAngle), cos_sharp = std::cos(kSmoothSharpMinAngle);
-  const int ngroups = int(group_off.size()) - 1;
-  for (int c = 0; c < ngroups; ++c) {
-  const int g0 = group_off[c], g1 = group_off[c + 1];
-  const bool par = c + 1 < ngroups && g1 - g0 > kParallelMin / 4;  // heavy items: ~1 us each
-#pragma omp parallel for schedule(static) reduction(+ : moves) if (par)
-  for (int gi = g0; gi < g1; ++gi) {
-    const int i = groups[gi];
-    const int deg = ring_off[i + 1] - ring_off[i];
-    if (deg == 0 || deg > kMaxStar) continue;
-    Vec3 c = Vec3::Zero(), nsum = Vec3::Zero();
-    double wsum = 0, len2 = 0;
-    Vec3 nt[kMaxStar];
-    for (int q = ring_off[i], m = 0; q < ring_off[i + 1]; ++q, ++m) {
-      const int t = ring[q];
-      const Vec3 a = row3(X, T(t, 0)), b = row3(X, T(t, 1)), d = row3(X, T(t, 2));
-      nt[m] = (b - a).cross(d - a);
-      nsum += nt[m];
-      const double w = 0.5 * nt[m].norm() * (rho_out[T(t, 0)] + rho_out[T(t, 1)] + rho_out[T(t, 2)]);
-      // Optimal Delaunay triangulation step (Chen & Xu 2004; Alliez et al. 2005, "Variational
-      // tetrahedral meshing"): the weighted mean of the triangles' circumcentres, not centroids;
-      // it equalizes shapes as well as sizes.
-      const Vec3 ab = b - a, ad = d - a, n = nt[m];
-      const double n2 = n.squaredNorm();
-      const Vec3 cc = n2 > 0 ? Vec3(a + (ab.squaredNorm() * ad.cross(n) + ad.squaredNorm() * n.cross(ab)) / (2 * n2))
-                             : Vec3((a + b + d) / 3.0);
-      c += w * cc;
-      wsum += w;
-      len2 += (b - a).squaredNorm() + (d - b).squaredNorm() + (a - d).squaredNorm();
-    }
-    if (!(wsum > 0)) continue;
-    const Vec3 disp = c / wsum - row3(X, i);
-    const double before = star_max_cos(i, row3(X, i));
-    // Converged here: a move below 2% of the mean edge length does not change the angles much.
-    if (before <= cos_min && disp.squaredNorm() < 4e-4 * len2 / (3 * deg)) continue;
-    // A vertex on a sharp feature (an incident triangle's normal more than ~45 degrees from the
-    // star's mean normal) only moves to lift a bad angle: sliding it would cut the feature.
-    bool sharp = false;
-    {
-      const Vec3 nm = nsum.normalized();
-      for (int m = 0; !sharp && m < deg; ++m) {
-        const double l = nt[m].norm();
-        sharp = l > 0 && nt[m].dot(nm) < kSmoothFeatureCos * l;
-      }
-    }
-    // On a feature the goal is lower (kSmoothSharpMinAngle): lifting angles there moves the feature.
-    const double goal = sharp ? cos_sharp : cos_min;
-    if (sharp && before <= goal) continue;
-    const Sample& s0 = S[i];
-    const int f = s0.face;
-    // Jacobian of the input face's affine map from Ut to 3D: J = [x1-x0, x2-x0] [u1-u0, u2-u0]^-1.
-    const Vec2 u0 = uv_row(Ut, F(f, 0)), e1 = uv_row(Ut, F(f, 1)) - u0, e2 = uv_row(Ut, F(f, 2)) - u0;
-    const Vec3 x0 = row3(V, F(f, 0)), g1 = row3(V, F(f, 1)) - x0, g2 = row3(V, F(f, 2)) - x0;
-    const double det = cross2(e1, e2);
-    if (det == 0) continue;
-    Eigen::Matrix2d Minv;
-    Minv << e2.y(), -e2.x(), -e1.y(), e1.x();
-    Minv /= det;
-    Eigen::Matrix<double, 3, 2> G;
-    G.col(0) = g1;
-    G.col(1) = g2;
-    const Eigen::Matrix<double, 3, 2> J = G * Minv;
-    const Eigen::Matrix2d JtJ = J.transpose() * J;
-    const double jd = JtJ.determinant();
-    if (!(jd > 1e-300)) continue;
-    Vec2 du = JtJ.inverse() * (J.transpose() * disp);
-    if (!du.allFinite()) continue;
-    const Vec2 ui = uv_row(P, i);
-    // Moves i to `un` in the map if that keeps the star embedded and passes `accept(after)` on the
-    // star's new largest angle cosine; the star's current one is `cur`.
-    double cur = before;
-    auto try_move = [&](const Vec2& un, auto accept) {
-      for (int q = ring_off[i]; q < ring_off[i + 1]; ++q) {
-        const int t = ring[q];
-        Vec2 p[3];
-        for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? un : uv_row(P, T(t, k));
-        if (!(orient_sign * cross2(p[1] - p[0], p[2] - p[0]) > 1e-14)) return false;
-      }
-      Sample sn;
-      if (!locate_in_map(Ut, F, topo, un, S[i].face, sn)) return false;
-      const Vec3 xn = sn.w0 * row3(V, F(sn.face, 0)) + sn.w1 * row3(V, F(sn.face, 1)) + sn.w2 * row3(V, F(sn.face, 2));
-      const double after = star_max_cos(i, xn);  // cosines: larger is a smaller angle
-      if (!accept(after)) return false;
-      S[i] = sn;
-      P.row(i) = un.transpose();
-      X.row(i) = xn.transpose();
-      rho_out[i] = sn.w0 * rho[F(sn.face, 0)] + sn.w1 * rho[F(sn.face, 1)] + sn.w2 * rho[F(sn.face, 2)];
-      cur = after;
-      return true;
-    };
-    // "Smart" smoothing (Freitag 1997): no move may push the star's smallest 3D angle down below
-    // kSmoothMinAngle, so smoothing never creates the bad triangles it is meant to remove.
-    auto smart = [&](double after) { return !(after > before && after > cos_min) && !(sharp && !(after < before)); };
-    bool moved = false;
-    for (int attempt = 0; attempt < 4 && !moved; ++attempt, du *= 0.5) moved = try_move(ui + du, smart);
-    if (moved) ++moves;
-    if (cur <= goal) continue;
-    // A star still holding an angle below kSmoothMinAngle: a pattern search in the map (8
-    // directions, halving steps from a quarter of the star's mean edge) for the position with the
-    // largest smallest angle; the centroid is not where the worst angle is best.
-    double h = 0;
-    for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
-      for (int k = 0; k < 3; ++k) h += (uv_row(P, T(ring[q], k)) - uv_row(P, i)).norm();
-    h *= 0.25 / (2 * deg);
-    for (int level = 0; level < 4; ++level, h *= 0.5) {
-      bool better = true;
-      for (int walk = 0; better && cur > goal && walk < 8; ++walk) {
-        better = false;
-        const Vec2 uc = uv_row(P, i);
-        for (int dir = 0; dir < 8 && !better; ++dir) {
-          const double a = dir * kPi / 4;
-          better = try_move(uc + h * Vec2(std::cos(a), std::sin(a)), [&](double after) { return after < cur - 1e-9; });
-        }
-        if (better) ++moves;
-      }
-    }
-  }
-  }  // colours
-  return moves;
-}
-
-}  // namespace
-
-RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
-  if (o.target_vertices < 4) throw MeshError("remesh: target_vertices must be at least 4, got " + std::to_string(o.target_vertices));
-  if (!(o.adaptivity >= 0 && o.adaptivity <= 1))
-    throw MeshError("remesh: adaptivity must be in [0, 1], got " + std::to_string(o.adaptivity));
-  if (o.resolution < 16 || o.resolution > 4096)
-    throw MeshError("remesh: resolution must be in 16..4096, got " + std::to_string(o.resolution));
-  if (o.domain == UvBoundary::Free)
-    throw MeshError("remesh: the parameter domain must be convex (square or circle), not free");
-  if (!(o.eta > 0 && o.eta <= 1)) throw MeshError("remesh: eta must be in (0, 1]");
-  if (o.lloyd_iterations < 0 || o.lloyd_iterations > 100)
-    throw MeshError("remesh: lloyd_iterations must be in 0..100, got " + std::to_string(o.lloyd_iterations));
-  if (o.smooth_iterations < 0 || o.smooth_iterations > 100)
-    throw MeshError("remesh: smooth_iterations must be in 0..100, got " + std::to_string(o.smooth_iterations));
-  if (!(o.min_separation >= 0 && o.min_separation < 1))
-    throw MeshError("remesh: min_separation must be in [0, 1), got " + std::to_string(o.min_separation));
-  if (!(o.boundary_clearance >= 0 && o.boundary_clearance < 2))
-    throw MeshError("remesh: boundary_clearance must be in [0, 2)");
-  Progress report(progress);
-  report(0);
-  const Topology topo = check_disk(V, F);
-  // Squared lengths and areas of coordinates beyond ~1e19 overflow (the raster and the Lloyd step
-  // then index memory out of range): a clear error instead.
-  if (V.size() > 0 && V.cwiseAbs().maxCoeff() > 1e15)
-    throw MeshError("remesh: coordinates beyond 1e15 in magnitude; scale the mesh down first");
-  const std::vector<int>& loop = topo.boundary_loops[0];
-  const int nv = topo.n_vertices, nf = topo.n_faces, nbl = int(loop.size());
-  RemeshResult res;
-  const auto t_param = Clock::now();
-
-  // 1. The two maps (thesis 5.2): U0 with Floater's weights on the convex domain, Uopt by stretch
-  // equalization (eq. 5.1, 5.3, 5.4) from it.
+ChartMaps parameterize(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress,
+                       RemeshResult& res) {
   UnwrapOptions uo = unwrap_thesis_defaults();  // the boundary fixed, as the thesis
   uo.boundary = o.domain;
   uo.weights = UvWeights::Floater;
   uo.max_iterations = o.max_uopt_iterations;
-  MatX2d U0, Uopt;
+  ChartMaps maps;
+  MatX2d& U0 = maps.U0;
+  MatX2d& Uopt = maps.Uopt;
   const bool need_u0 = o.mode != RemeshMode::SingleUopt;
   const bool need_uopt = o.mode != RemeshMode::SingleU0;
   // One call gives both: Uopt starts from U0 (uv_initial), so U0 is not solved twice.
@@ -734,14 +99,13 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     res.uopt_iterations = r.chosen;
   }
   for (auto& w : r.warnings) res.warnings.push_back(w);
-  const MatX2d& Us = o.mode == RemeshMode::SingleU0 ? U0 : Uopt;  // sampling map
-  const MatX2d& Ut = o.mode == RemeshMode::SingleUopt ? Uopt : U0; // triangulation map
-  res.seconds_parameterize = seconds_since(t_param);
-  report(0.4);
-  const auto t_sample = Clock::now();
+  return maps;
+}
 
-  // 2. Density per vertex: rho = (1 - a) + a * min(kappa / mean kappa, clip), kappa = sqrt(k1^2 + k2^2)
-  // = sqrt(4H^2 - 2K); its integral over the surface normalises the control map.
+// 2. Density per vertex: rho = (1 - a) + a * min(kappa / mean kappa, clip), kappa = sqrt(k1^2 + k2^2)
+// = sqrt(4H^2 - 2K); its integral over the surface normalises the control map.
+VecXd vertex_density(const MatX3d& V, const MatX3i& F, const Topology& topo, const RemeshOptions& o) {
+  const int nv = topo.n_vertices;
   VecXd rho = VecXd::Ones(nv);
   if (o.adaptivity > 0) {
     const Curvature c = curvature(V, F, topo);
@@ -760,721 +124,42 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     if (mean > 0)
       for (int v = 0; v < nv; ++v) rho[v] = (1 - o.adaptivity) + o.adaptivity * std::min(kappa[v] / mean, o.curvature_clip);
   }
-  const VecXd area3 = face_areas(V, F);
-  double rho_integral = 0;  // int rho dA over the surface
-  for (int f = 0; f < nf; ++f) rho_integral += area3[f] * (rho[F(f, 0)] + rho[F(f, 1)] + rho[F(f, 2)]) / 3.0;
-  double surface_area = area3.sum();
-  if (!(rho_integral > 0) || !(surface_area > 0)) throw MeshError("remesh: the mesh has zero area");
+  return rho;
+}
 
-  // Boundary samples.
-  const int N = o.target_vertices;
-  std::vector<Vec3> bnd_x;
-  std::vector<Vec2> bnd_u;
-  std::vector<Vec2> bnd_s;  // the same boundary samples in the sampling map (Lloyd generators)
-  std::vector<Sample> bnd_src;  // the same on the input: face and barycentric weights
-  // A point (1 - t) a + t b of the boundary edge (a, b), on the input face holding that edge.
-  auto on_edge = [&](int a, int b, double t) {
-    for (int q = topo.vf_offset[a]; q < topo.vf_offset[a + 1]; ++q) {
-      const int f = topo.vf_index[q];
-      double w[3] = {0, 0, 0};
-      int hits = 0;
-      for (int k = 0; k < 3; ++k) {
-        if (F(f, k) == a) w[k] += 1 - t, ++hits;
-        else if (F(f, k) == b) w[k] += t, ++hits;
-      }
-      if (a == b ? hits == 1 : hits == 2) return Sample{f, w[0], w[1], w[2]};
-    }
-    return Sample{-1, 0, 0, 0};
-  };
-  if (o.boundary == RemeshBoundary::Keep) {
-    res.boundary_source.resize(nbl);
-    for (int k = 0; k < nbl; ++k) {
-      bnd_x.push_back(row3(V, loop[k]));
-      bnd_u.push_back(uv_row(Ut, loop[k]));
-      bnd_s.push_back(uv_row(Us, loop[k]));
-      bnd_src.push_back(on_edge(loop[k], loop[k], 0.0));
-      res.boundary_source[k] = loop[k];
-    }
-  } else {
-    // Spacing follows the density with all N vertices: count measure = int ds / h(s).
-    std::vector<double> cum(nbl + 1, 0.0);
-    for (int k = 0; k < nbl; ++k) {
-      const int a = loop[k], b = loop[(k + 1) % nbl];
-      const double len = (row3(V, b) - row3(V, a)).norm();
-      const double ha = spacing(N * rho[a] / rho_integral), hb = spacing(N * rho[b] / rho_integral);
-      cum[k + 1] = cum[k] + len * 0.5 * (1 / ha + 1 / hb);
-    }
-    // Anchors that must be samples: the square's corners (else the polygon would cut them off).
-    std::vector<int> anchors;
-    if (o.domain == UvBoundary::Square)
-      for (int k = 0; k < nbl; ++k) {
-        const Vec2 u = uv_row(Ut, loop[k]);
-        const bool cx = std::abs(u.x()) < 1e-9 || std::abs(u.x() - 1) < 1e-9;
-        const bool cy = std::abs(u.y()) < 1e-9 || std::abs(u.y() - 1) < 1e-9;
-        if (cx && cy) anchors.push_back(k);
-      }
-    if (anchors.empty()) anchors.push_back(0);
-    const double total = cum[nbl];
-    auto place = [&](double c) {
-      c = std::fmod(c, total);
-      if (c < 0) c += total;
-      int k = int(std::upper_bound(cum.begin(), cum.end(), c) - cum.begin()) - 1;
-      k = std::clamp(k, 0, nbl - 1);
-      const double t = cum[k + 1] > cum[k] ? std::clamp((c - cum[k]) / (cum[k + 1] - cum[k]), 0.0, 1.0) : 0.0;
-      const int a = loop[k], b = loop[(k + 1) % nbl];
-      bnd_x.push_back((1 - t) * row3(V, a) + t * row3(V, b));
-      bnd_u.push_back((1 - t) * uv_row(Ut, a) + t * uv_row(Ut, b));
-      bnd_s.push_back((1 - t) * uv_row(Us, a) + t * uv_row(Us, b));
-      bnd_src.push_back(on_edge(a, b, t));
-    };
-    const int na = int(anchors.size());
-    const int min_per_piece = na == 1 ? 3 : 1;
-    for (int m = 0; m < na; ++m) {
-      const double c0 = cum[anchors[m]];
-      const double c1 = m + 1 < na ? cum[anchors[m + 1]] : total + cum[anchors[0]];
-      const int n_piece = std::max(min_per_piece, int(std::lround(c1 - c0)));
-      for (int q = 0; q < n_piece; ++q) {
-        if (q == 0) {  // the anchor itself, exactly
-          bnd_x.push_back(row3(V, loop[anchors[m]]));
-          bnd_u.push_back(uv_row(Ut, loop[anchors[m]]));
-          bnd_src.push_back(on_edge(loop[anchors[m]], loop[anchors[m]], 0.0));
-          bnd_s.push_back(uv_row(Us, loop[anchors[m]]));
-        } else {
-          place(c0 + (c1 - c0) * q / n_piece);
-        }
-      }
-    }
-  }
-  const int nb = int(bnd_x.size());
-  const int n_int = N - nb;
-  if (n_int < 1)
-    throw MeshError("remesh: target_vertices (" + std::to_string(N) + ") must exceed the number of boundary vertices (" +
-                    std::to_string(nb) + ")" +
-                    (o.boundary == RemeshBoundary::Keep ? ", which are kept; raise the target or resample the boundary" : ""));
-  res.n_interior_target = n_int;
-  res.n_boundary = nb;
+// Delaunay triangulation of a piece, counter-clockwise in the map, in P's indices.
+MatX3i triangulate_piece(const MatX2d& P, const std::vector<int>& pts) {
+  MatX2d Q(int(pts.size()), 2);
+  for (int i = 0; i < Q.rows(); ++i) Q.row(i) = P.row(pts[i]);
+  MatX3i T = delaunay_2d(Q);
+  for (int t = 0; t < T.rows(); ++t)
+    for (int k = 0; k < 3; ++k) T(t, k) = pts[T(t, k)];
+  return T;
+}
 
-  // Orientation of the chart in the triangulation map (the Delaunay triangles come out CCW).
-  double signed_area = 0;
-  for (int f = 0; f < nf; ++f)
-    signed_area += cross2(uv_row(Ut, F(f, 1)) - uv_row(Ut, F(f, 0)), uv_row(Ut, F(f, 2)) - uv_row(Ut, F(f, 0)));
-  const bool flip = signed_area < 0;
-  // Ears of the kept boundary: a boundary vertex with a single input face, (prev, tip, next) (a
-  // grid's corner; a region cut out of a finer mesh has many). The unwrap takes the tip off the
-  // convex domain and lays the ear out in its 3D shape beyond the chord (prev, next), so in the
-  // triangulation map the chart is a convex core (the other boundary vertices, on the domain's
-  // boundary) with one triangle glued onto each chord. One Delaunay triangulation of all the points
-  // need not have the ears' sides: a needle ear leaning along the boundary holds the tip of the ear
-  // on the other side of its base vertex in its circumcircle (the left half of a subdivided
-  // lion-head has 20 such ears out of 85), and ears that lean far even overlap each other in the map,
-  // where no planar triangulation has the boundary's edges. So the core and each ear are
-  // triangulated on their own (step 5) and joined along the chords. Every interior sample goes with
-  // its input face: an ear's face to the ear, any other face to the core. (Two ears are never loop
-  // neighbours; with fewer than 3 core vertices there are no ears.)
-  struct Ear {
-    int tip, prev, next;  // boundary sample indices
-    int face;             // the ear's input face
-  };
-  std::vector<Ear> ears;
-  std::vector<int> ear_of_face(nf, -1);
-  std::vector<char> is_tip(nb, 0);
-  if (o.boundary == RemeshBoundary::Keep && nb > 3) {
-    for (int k = 0; k < nb; ++k) {
-      const int v = loop[k];
-      if (topo.vf_offset[v + 1] - topo.vf_offset[v] != 1) continue;
-      if (is_tip[(k + nb - 1) % nb] || (k + 1 == nb && is_tip[0])) continue;
-      is_tip[k] = 1;
-      ears.push_back({k, (k + nb - 1) % nb, (k + 1) % nb, topo.vf_index[topo.vf_offset[v]]});
-    }
-    if (nb - int(ears.size()) < 3) {
-      ears.clear();
-      std::fill(is_tip.begin(), is_tip.end(), 0);
-    }
-    for (int e = 0; e < int(ears.size()); ++e) ear_of_face[ears[e].face] = e;
-  }
-  std::vector<int> core;  // boundary samples of the core, in loop order
-  for (int k = 0; k < nb; ++k)
-    if (!is_tip[k]) core.push_back(k);
-  // The core polygon, counter-clockwise, for the inside test.
-  std::vector<Vec2> poly;
-  for (int k : core) poly.push_back(bnd_u[k]);
-  {
-    double a2 = 0;
-    for (size_t k = 0; k < poly.size(); ++k) a2 += cross2(poly[k], poly[(k + 1) % poly.size()]);
-    if (a2 < 0) std::reverse(poly.begin(), poly.end());
-  }
-  const ConvexPolygon polygon(poly);
-  // Whether a point u of the triangulation map on input face f is strictly inside (by margin) its
-  // piece of the chart: the ear's triangle for an ear's face, the core polygon for any other.
-  auto inside_chart = [&](int f, const Vec2& u, double margin) {
-    const int e = ear_of_face[f];
-    if (e < 0) return polygon.inside(u, margin);
-    Vec2 c[3] = {bnd_u[ears[e].prev], bnd_u[ears[e].tip], bnd_u[ears[e].next]};
-    const double s = cross2(c[1] - c[0], c[2] - c[0]);
-    if (s == 0) return false;
-    if (s < 0) std::swap(c[1], c[2]);
-    for (int k = 0; k < 3; ++k) {
-      const Vec2 d = c[(k + 1) % 3] - c[k];
-      if (!(cross2(d, u - c[k]) > margin * d.norm())) return false;
-    }
-    return true;
-  };
+// Adds (a, b, c), counter-clockwise in the map, oriented like the input (reversed when `reverse`).
+void add_map_triangle(std::vector<std::array<int, 3>>& tris, int a, int b, int c, bool reverse) {
+  if (reverse) std::swap(b, c);
+  tris.push_back({a, b, c});
+}
 
-  // 3. Rasterize the control map over the sampling map: pixel value = (3D area / UV area) of the
-  // covering face times the interpolated density, i.e. the density per unit of UV area [AMD02].
-  // Error diffusion needs some samples per hundred pixels: with fewer, a row's carried error only
-  // fires where the row leaves the chart, the samples line the chart's border and the boundary
-  // clearance drops them all (a 150-vertex target on a grid at 512^2 kept no interior sample). So
-  // the raster is made coarser until there are at most kPixelsPerSample chart pixels per interior
-  // sample; larger targets keep the resolution asked for.
-  double chart_uv_area = 0;
-  for (int f = 0; f < nf; ++f)
-    chart_uv_area += 0.5 * std::abs(cross2(uv_row(Us, F(f, 1)) - uv_row(Us, F(f, 0)), uv_row(Us, F(f, 2)) - uv_row(Us, F(f, 0))));
-  const double r_fit = std::ceil(std::sqrt(kPixelsPerSample * n_int / std::max(chart_uv_area, 1e-12)));
-  const int R = std::max(16, int(std::min(r_fit, double(o.resolution))));
-  res.resolution = R;
-  const long npix = long(R) * R;
-  // At most one sample per pixel: a target beyond the chart's pixels cannot be met, and error
-  // diffusion at several samples a pixel fell apart (5M asked at 512^2 gave 94 vertices).
-  const double chart_pixels = chart_uv_area * double(npix);
-  if (n_int > chart_pixels) {
-    const int needed = int(std::ceil(std::sqrt(n_int / std::max(chart_uv_area, 1e-12))));
-    throw MeshError("remesh: " + std::to_string(n_int) + " interior vertices do not fit the chart's " +
-                    std::to_string(long(chart_pixels)) + " pixels at resolution " + std::to_string(R) +
-                    " (at most one per pixel): raise the resolution to at least " + std::to_string(needed) +
-                    " or lower the target");
-  }
-  if (n_int > npix / 4)
-    res.warnings.push_back("resolution " + std::to_string(R) + " is low for " + std::to_string(n_int) +
-                           " interior samples (at most one per pixel): raise the resolution");
-  const bool relax = o.lloyd_iterations > 0;
-  const bool relax_surface = relax && o.relax_metric == RemeshRelaxMetric::Surface;
-  VecXd ratio(nf);
-  // Rasterizes the sampling map at Rr x Rr: covering face, control-map value and (want_x) the
-  // surface point of each pixel centre (floats: 12 bytes a pixel, distances only need to rank
-  // Lloyd generators).
-  auto rasterize = [&](int Rr, std::vector<int>& pf, std::vector<double>& pv, std::vector<float>& px, bool want_x) {
-    const long np = long(Rr) * Rr;
-    pf.assign(np, -1);
-    pv.assign(np, 0.0);
-    px.assign(want_x ? 3 * np : 0, 0.0f);
-    const int nbands = (Rr + kBand - 1) / kBand;
-    std::vector<int> band_off(nbands + 1, 0);
-    std::vector<int> row0(nf), row1(nf);
-    for (int f = 0; f < nf; ++f) {
-      const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
-      const double uva = 0.5 * std::abs(cross2(b - a, c - a));
-      ratio[f] = uva > 0 ? area3[f] / uva : 0.0;
-      const double ymin = std::min({a.y(), b.y(), c.y()}), ymax = std::max({a.y(), b.y(), c.y()});
-      row0[f] = std::max(0, int(std::ceil(ymin * Rr - 0.5 - 1e-9)));
-      row1[f] = std::min(Rr - 1, int(std::floor(ymax * Rr - 0.5 + 1e-9)));
-      if (uva <= 0 || row0[f] > row1[f]) continue;
-      for (int bnd = row0[f] / kBand; bnd <= row1[f] / kBand; ++bnd) ++band_off[bnd + 1];
-    }
-    for (int b = 0; b < nbands; ++b) band_off[b + 1] += band_off[b];
-    std::vector<int> band_faces(band_off[nbands]);
-    {
-      std::vector<int> fill(band_off.begin(), band_off.end() - 1);
-      for (int f = 0; f < nf; ++f) {
-        if (ratio[f] <= 0 || row0[f] > row1[f]) continue;
-        for (int bnd = row0[f] / kBand; bnd <= row1[f] / kBand; ++bnd) band_faces[fill[bnd]++] = f;
-      }
-    }
-#pragma omp parallel for schedule(dynamic, 1) if (long(Rr) * Rr > kParallelMin * 4)
-    for (int bnd = 0; bnd < nbands; ++bnd) {
-      const int j_lo = bnd * kBand, j_hi = std::min(Rr - 1, j_lo + kBand - 1);
-      for (int q = band_off[bnd]; q < band_off[bnd + 1]; ++q) {
-        const int f = band_faces[q];
-        const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
-        const double det = cross2(b - a, c - a);
-        const double xmin = std::min({a.x(), b.x(), c.x()}), xmax = std::max({a.x(), b.x(), c.x()});
-        const int i0 = std::max(0, int(std::ceil(xmin * Rr - 0.5 - 1e-9)));
-        const int i1 = std::min(Rr - 1, int(std::floor(xmax * Rr - 0.5 + 1e-9)));
-        const double tol = -1e-9;
-        for (int j = std::max(j_lo, row0[f]); j <= std::min(j_hi, row1[f]); ++j) {
-          const double y = (j + 0.5) / Rr;
-          for (int i = i0; i <= i1; ++i) {
-            const Vec2 p((i + 0.5) / Rr, y);
-            const double w0 = cross2(b - p, c - p) / det, w1 = cross2(c - p, a - p) / det, w2 = 1 - w0 - w1;
-            if (w0 < tol || w1 < tol || w2 < tol) continue;
-            const long idx = long(j) * Rr + i;
-            pf[idx] = f;
-            pv[idx] = ratio[f] * (w0 * rho[F(f, 0)] + w1 * rho[F(f, 1)] + w2 * rho[F(f, 2)]);
-            if (want_x) {
-              const Vec3 x = w0 * row3(V, F(f, 0)) + w1 * row3(V, F(f, 1)) + w2 * row3(V, F(f, 2));
-              for (int c = 0; c < 3; ++c) px[3 * idx + c] = float(x[c]);
-            }
-          }
-        }
-      }
-    }
-  };
-  std::vector<int> pix_face;
-  std::vector<double> pix_val;
-  std::vector<float> pix_x;
-  // The Lloyd step's quadrature grid, apart from the diffusion raster: a Voronoi cell of the
-  // relaxation should hold some kLloydPointsPerCell grid points, else its pixel-quantized boundary
-  // stalls the relaxation (at 256^2 and 5000 samples a cell holds ~10 pixels, and after ~6 steps no
-  // pixel changes its cell: the samples stop short of a centroidal tessellation, and more so on the
-  // map whose pixels are the more anisotropic on the surface). So the sampling map is rasterized
-  // once more at an integer multiple of R, capped at kLloydMaxResolution (the cost bound: 1024^2
-  // holds the 100K-vertex target at its own pixels).
-  int RL = R;
-  if (relax) {
-    int ss = int(std::ceil(std::sqrt(kLloydPointsPerCell * n_int / std::max(chart_pixels, 1.0))));
-    ss = std::max(1, std::min(ss, kLloydMaxResolution / R));
-    RL = R * ss;
-  }
-  rasterize(R, pix_face, pix_val, pix_x, relax_surface && RL == R);
-  std::vector<int> lpix_face_own;
-  std::vector<double> lpix_val_own;
-  std::vector<float> lpix_x_own;
-  if (RL != R) rasterize(RL, lpix_face_own, lpix_val_own, lpix_x_own, relax_surface);
-  const std::vector<int>& lpix_face = RL != R ? lpix_face_own : pix_face;
-  const std::vector<double>& lpix_val = RL != R ? lpix_val_own : pix_val;
-  const std::vector<float>& lpix_x = RL != R ? lpix_x_own : pix_x;
-  const long nlpix = long(RL) * RL;
-  double pix_sum = 0;
-  for (long i = 0; i < npix; ++i) pix_sum += pix_val[i];
-  if (!(pix_sum > 0)) throw MeshError("remesh: the chart covers no pixel of the control map; raise the resolution");
-  report(0.55);
-
-  // 4. Error diffusion (serpentine Floyd-Steinberg), then the samples: the same face and barycentric
-  // coordinates give the point in the triangulation map and in 3D. Interior samples too close to
-  // the boundary are dropped, and the density is rescaled until the count hits the target.
-  const bool clearance = o.boundary_clearance > 0;
-  std::unique_ptr<BoundaryDistance> bdist;
-  // Faces certainly farther from the boundary than the clearance at any of their points: their
-  // samples need no query (a lower bound: centroid distance minus the centroid-vertex radius).
-  std::vector<char> face_far(nf, 1);
-  if (clearance) {
-    bdist = std::make_unique<BoundaryDistance>(
-        V, loop, 0.5 * o.boundary_clearance * spacing(n_int * rho.maxCoeff() / rho_integral));
-#pragma omp parallel for schedule(static) if (nf > kParallelMin)
-    for (int f = 0; f < nf; ++f) {
-      const Vec3 a = row3(V, F(f, 0)), b = row3(V, F(f, 1)), c = row3(V, F(f, 2));
-      const Vec3 g = (a + b + c) / 3.0;
-      const double rad = std::max({(a - g).norm(), (b - g).norm(), (c - g).norm()});
-      const double rmin = std::min({rho[F(f, 0)], rho[F(f, 1)], rho[F(f, 2)]});
-      face_far[f] = (*bdist)(g) - rad > o.boundary_clearance * spacing(n_int * rmin / rho_integral);
-    }
-  }
-  const double margin = 1e-9;
-  double scale = n_int / pix_sum;
-  std::vector<long> picked;
-  std::vector<Sample> samples;
-  std::vector<char> keep;
-  // A pixel's sample is always the same point, so its verdict is reused by later passes.
-  std::vector<signed char> pix_keep(npix, -1);
-  std::vector<double> err0(R + 2), err1(R + 2);
-  // Rounds of diffusion + relaxation + minimum separation: where the sampling map is too coarse for
-  // the target (pixels larger than the spacing on the surface), relaxed samples crowd and the
-  // separation drops them, so the diffusion goal is raised by the shortfall and the rounds repeat
-  // until the kept count is within 0.5% of the target (every mode hits the count).
-  int n_goal = n_int;
-  res.passes = 0;
-  int kept = 0;  // interior samples kept by the last round
-  for (int round = 0;; ++round) {
-    res.n_separated = 0;
-    for (int pass = 0; pass < 6; ++pass) {
-      picked.clear();
-      std::fill(err0.begin(), err0.end(), 0.0);
-      for (int j = 0; j < R; ++j) {
-        std::fill(err1.begin(), err1.end(), 0.0);
-        const bool fwd = (j % 2) == 0;
-        const int dir = fwd ? 1 : -1;
-        for (int s = 0; s < R; ++s) {
-          const int i = fwd ? s : R - 1 - s;
-          const long idx = long(j) * R + i;
-          if (pix_face[idx] < 0) continue;
-          const double v = scale * pix_val[idx] + err0[i + 1];
-          double e = v;
-          if (v >= 0.5) {
-            picked.push_back(idx);
-            e = v - 1.0;
-          }
-          // Floyd-Steinberg weights 7, 3, 5, 1 (/16), over the neighbours inside the chart only so
-          // that no density leaks out at the chart's border.
-          const int in = i + dir, ib = i - dir;
-          const bool ok_n = in >= 0 && in < R && pix_face[idx + dir] >= 0;
-          const bool last = j + 1 >= R;
-          const long below = idx + R;
-          const bool ok_b = !last && pix_face[below] >= 0;
-          const bool ok_bb = !last && ib >= 0 && ib < R && pix_face[below - dir] >= 0;
-          const bool ok_bn = !last && in >= 0 && in < R && pix_face[below + dir] >= 0;
-          const double wsum = 7.0 * ok_n + 3.0 * ok_bb + 5.0 * ok_b + 1.0 * ok_bn;
-          if (wsum <= 0) continue;
-          const double q = e / wsum;
-          if (ok_n) err0[in + 1] += 7 * q;
-          if (ok_bb) err1[ib + 1] += 3 * q;
-          if (ok_b) err1[i + 1] += 5 * q;
-          if (ok_bn) err1[in + 1] += 1 * q;
-        }
-        std::swap(err0, err1);
-      }
-      const int ns = int(picked.size());
-      samples.assign(ns, Sample{});
-      keep.assign(ns, 0);
-  #pragma omp parallel for schedule(static) if (ns > kParallelMin)
-      for (int s = 0; s < ns; ++s) {
-        const long idx = picked[s];
-        const int i = int(idx % R), j = int(idx / R);
-        const uint32_t h = uint32_t(idx) * 2654435761U;
-        const Vec2 p((i + 0.5 + 0.1 * jitter(h)) / R, (j + 0.5 + 0.1 * jitter(h ^ 0x9e3779b9U)) / R);
-        const int f = pix_face[idx];
-        const Vec2 a = uv_row(Us, F(f, 0)), b = uv_row(Us, F(f, 1)), c = uv_row(Us, F(f, 2));
-        const double det = cross2(b - a, c - a);
-        double w0 = std::max(0.0, cross2(b - p, c - p) / det), w1 = std::max(0.0, cross2(c - p, a - p) / det);
-        double w2 = std::max(0.0, 1 - w0 - w1);
-        const double ws = w0 + w1 + w2;
-        w0 /= ws, w1 /= ws, w2 /= ws;
-        samples[s] = Sample{f, w0, w1, w2};
-        if (pix_keep[idx] >= 0) {
-          keep[s] = pix_keep[idx];
-          continue;
-        }
-        const Vec2 u = w0 * uv_row(Ut, F(f, 0)) + w1 * uv_row(Ut, F(f, 1)) + w2 * uv_row(Ut, F(f, 2));
-        if (!inside_chart(f, u, margin)) {
-          pix_keep[idx] = 0;
-          continue;
-        }
-        if (face_far[f]) {
-          keep[s] = pix_keep[idx] = 1;
-          continue;
-        }
-        const Vec3 x = w0 * row3(V, F(f, 0)) + w1 * row3(V, F(f, 1)) + w2 * row3(V, F(f, 2));
-        const double r = w0 * rho[F(f, 0)] + w1 * rho[F(f, 1)] + w2 * rho[F(f, 2)];
-        const double hloc = spacing(n_int * r / rho_integral);
-        keep[s] = (*bdist)(x) >= o.boundary_clearance * hloc;
-        pix_keep[idx] = keep[s];
-      }
-      int accepted = 0;
-      for (int s = 0; s < ns; ++s) accepted += keep[s];
-      ++res.passes;
-      res.n_rejected = ns - accepted;
-      report(std::min(0.55 + 0.04 * (pass + 1), 0.79));
-      const int tol = std::max(1, int(0.002 * n_goal));
-      if (std::abs(accepted - n_goal) <= tol) break;
-      scale *= accepted > 0 ? double(n_goal) / accepted : 2.0;  // none kept: every sample hit the clearance
-    }
-    res.seconds_sample = seconds_since(t_sample) - res.seconds_relax;
-
-    // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
-    // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
-    // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
-    // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
-    // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
-    // Voronoi cell over the points of the Lloyd grid (the sampling map rasterized at RL, a multiple of
-    // the control map's resolution). The cells are measured in the surface metric (nearest generator
-    // in 3D; the centroid is then taken in 3D and pulled onto the surface) or in the sampling map's
-    // own metric; boundary samples are fixed generators. The same step for all three modes. Error
-    // diffusion leaves a pattern that is isotropic in the sampling map, so stretched on the surface
-    // as the map is, and Lloyd steps undo that only slowly (a stretched lattice is itself a fixed
-    // point): with 4 steps sampling on U0 stayed more uniform than on Uopt where U0 is the less
-    // anisotropic map (nefertiti: 1.24 vs 1.33); steps until the samples settle make the map's
-    // signature small against the tie margins.
-    if (relax) {
-      const auto t_relax = Clock::now();
-      std::vector<int> ids;  // interior samples taking part
-      for (size_t q = 0; q < samples.size(); ++q)
-        if (keep[q]) ids.push_back(int(q));
-      const int ni = int(ids.size());
-      const int ng = nb + ni;
-      MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
-      auto sample_s = [&](const Sample& q) {
-        return Vec2(q.w0 * uv_row(Us, F(q.face, 0)) + q.w1 * uv_row(Us, F(q.face, 1)) + q.w2 * uv_row(Us, F(q.face, 2)));
-      };
-      auto sample_x = [&](const Sample& q) {
-        return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
-      };
-      auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
-        if (relax_surface) G.row(g) = x.transpose();
-        else G.row(g) << su.x(), su.y(), 0.0;
-      };
-      for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
-      const int nthreads = nlpix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
-      constexpr int kAcc = 9;  // per generator: mass, mass x (map position, 3D position, face normal)
-      const MatX3d Nf = relax_surface ? face_normals(V, F) : MatX3d();
-      std::vector<double> acc(size_t(kAcc) * ng);
-      auto locate = [&](const Vec2& p, int f, Sample& out) { return locate_in_map(Us, F, topo, p, f, out); };
-      // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
-      // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
-      // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
-      // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
-      // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
-      std::vector<int> label(nlpix, -1);
-      std::vector<double> move2(ni);
-      constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
-      std::vector<int> nbr(size_t(ng) * kMaxNbr), nbr_n(ng);
-      auto pix_point = [&](long idx) {
-        if (relax_surface) return Vec3(lpix_x[3 * idx], lpix_x[3 * idx + 1], lpix_x[3 * idx + 2]);
-        return Vec3((idx % RL + 0.5) / RL, (idx / RL + 0.5) / RL, 0.0);
-      };
-      // Row bands list their neighbour pairs apart (the build was the step's largest serial part at
-      // 1024^2), then each generator's lists are merged and sorted: the walk's visiting order, and so
-      // the labels, must not depend on the number of bands.
-      const int nadj = std::clamp(nthreads, 1, 4);
-      std::vector<int> band_nbr(size_t(nadj) * ng * kMaxNbr), band_n(size_t(nadj) * ng);
-      auto build_adjacency = [&]() {
-        std::fill(band_n.begin(), band_n.end(), 0);
-  #pragma omp parallel for schedule(static, 1) num_threads(nadj) if (nadj > 1)
-        for (int t = 0; t < nadj; ++t) {
-          int* tl = band_nbr.data() + size_t(t) * ng * kMaxNbr;
-          int* tn = band_n.data() + size_t(t) * ng;
-          auto add1 = [&](int a, int b) {
-            int* l = tl + size_t(a) * kMaxNbr;
-            for (int k = 0; k < tn[a]; ++k)
-              if (l[k] == b) return;
-            if (tn[a] < kMaxNbr) l[tn[a]++] = b;
-          };
-          auto add = [&](int a, int b) {
-            if (a == b || a < 0 || b < 0) return;
-            add1(a, b);
-            add1(b, a);
-          };
-          for (int j = RL * t / nadj; j < RL * (t + 1) / nadj; ++j)
-            for (int i = 0; i < RL; ++i) {
-              const long idx = long(j) * RL + i;
-              const int l = label[idx];
-              if (l < 0) continue;
-              if (i + 1 < RL) add(l, label[idx + 1]);
-              if (j + 1 < RL) add(l, label[idx + RL]);
-              if (i + 1 < RL && j + 1 < RL) add(l, label[idx + RL + 1]);
-              if (i > 0 && j + 1 < RL) add(l, label[idx + RL - 1]);
-            }
-        }
-  #pragma omp parallel for schedule(static) if (ng > kParallelMin)
-        for (int g = 0; g < ng; ++g) {
-          int* l = nbr.data() + size_t(g) * kMaxNbr;
-          int n = 0;
-          for (int t = 0; t < nadj; ++t) {
-            const int* tl = band_nbr.data() + (size_t(t) * ng + g) * kMaxNbr;
-            for (int k = 0, m = band_n[size_t(t) * ng + g]; k < m; ++k)
-              if (n < kMaxNbr && std::find(l, l + n, tl[k]) == l + n) l[n++] = tl[k];
-          }
-          std::sort(l, l + n);
-          nbr_n[g] = n;
-        }
-      };
-      for (int it = 0; it < o.lloyd_iterations; ++it) {
-        for (int q = 0; q < ni; ++q) {
-          const Sample& sm = samples[ids[q]];
-          set_gen(nb + q, sample_s(sm), sample_x(sm));
-        }
-        std::unique_ptr<KdTree> tree;
-        if (it == 0) tree = std::make_unique<KdTree>(G);
-        else build_adjacency();
-        // Labels in parallel; the mass sums then in raster order, so that the centroids do not
-        // depend on the thread count or schedule (bit-identical results run to run).
-  #pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
-        for (int j = 0; j < RL; ++j) {
-          for (int i = 0; i < RL; ++i) {
-            const long idx = long(j) * RL + i;
-            if (lpix_face[idx] < 0) continue;
-            const Vec3 qp = pix_point(idx);
-            int g;
-            if (tree) {
-              g = tree->nearest(qp);
-            } else {
-              g = label[idx];
-              double best = (row3(G, g) - qp).squaredNorm();
-              for (bool improved = true; improved;) {
-                improved = false;
-                const int* l = nbr.data() + size_t(g) * kMaxNbr;
-                const int n = nbr_n[g];
-                for (int k = 0; k < n; ++k) {
-                  const double d = (row3(G, l[k]) - qp).squaredNorm();
-                  if (d < best) {
-                    best = d;
-                    g = l[k];
-                    improved = true;
-                    break;  // walk on from the closer generator
-                  }
-                }
-              }
-            }
-            label[idx] = g;
-          }
-        }
-        std::fill(acc.begin(), acc.end(), 0.0);
-        for (int j = 0; j < RL; ++j) {
-          const double y = (j + 0.5) / RL;
-          for (int i = 0; i < RL; ++i) {
-            const long idx = long(j) * RL + i;
-            if (lpix_face[idx] < 0) continue;
-            const double x = (i + 0.5) / RL;
-            const double m = lpix_val[idx];
-            double* ag = acc.data() + kAcc * label[idx];
-            ag[0] += m;
-            ag[1] += m * x;
-            ag[2] += m * y;
-            if (relax_surface) {
-              ag[3] += m * lpix_x[3 * idx];
-              ag[4] += m * lpix_x[3 * idx + 1];
-              ag[5] += m * lpix_x[3 * idx + 2];
-              const int f = lpix_face[idx];
-              ag[6] += m * Nf(f, 0);
-              ag[7] += m * Nf(f, 1);
-              ag[8] += m * Nf(f, 2);
-            }
-          }
-        }
-        // Each sample moves to its cell's mass centroid. In the surface metric that is the centroid
-        // in 3D pulled onto the surface (the constrained centroidal Voronoi tessellation of Du,
-        // Gunzburger and Ju 2003), here the 3D centroid's offset from the sample within the cell's
-        // mean tangent plane: Gauss-Newton steps from the sample towards the surface point nearest to
-        // it, through each face's Jacobian. The map's own centroid is not it wherever the map's
-        // Jacobian varies across the cell (a cell spans several input faces), and that bias depends
-        // on the map: on lion-head's Uopt (anisotropy 4.8) it made more steps raise the area CV
-        // instead of lowering it. The steps end at o.lloyd_iterations or when the samples' RMS move
-        // falls under kLloydTolerance local spacings (12 steps at 100K vertices, 18-30 at 3000-5000).
-        int moved = 0;
-  #pragma omp parallel for schedule(static) reduction(+ : moved) if (ni > kParallelMin)
-        for (int q = 0; q < ni; ++q) {
-          const int g = nb + q;
-          move2[q] = 0;
-          const double* ag = acc.data() + kAcc * g;
-          if (!(ag[0] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
-          Sample& sm = samples[ids[q]];
-          Sample next;
-          Vec2 c;
-          if (relax_surface) {
-            // Gauss-Newton from the sample itself: a cell can wrap a thin feature, its pixels then lie
-            // in two far-apart parts of the map, and their map centroid in neither (from there ~60 of
-            // 100K samples on mannequin-devil jumped by half a spacing or more at every step).
-            next = sm;
-            c = sample_s(sm);
-          } else {
-            c = Vec2(ag[1] / ag[0], ag[2] / ag[0]);  // the map's own centroid
-            const int pi = std::clamp(int(c.x() * RL), 0, RL - 1), pj = std::clamp(int(c.y() * RL), 0, RL - 1);
-            const int start = lpix_face[long(pj) * RL + pi] >= 0 ? lpix_face[long(pj) * RL + pi] : sm.face;
-            if (!locate(c, start, next)) continue;
-          }
-          if (relax_surface) {
-            // The 3D centroid's offset from the sample, within the cell's mean tangent plane: at a
-            // peak or a ridge the 3D centroid lies inside the solid, and the surface point nearest to
-            // it is on a flank, so the plain constrained centroid drives samples off sharp tips and
-            // crests (three_peaks, targets 4800-5200: mean Hausdorff 0.0080 of the diagonal, 0.0056
-            // with this). A cell whose normals cancel (it wraps a thin feature) uses the sample's own.
-            const Vec3 x0 = sample_x(sm);
-            Vec3 x3(ag[3] / ag[0], ag[4] / ag[0], ag[5] / ag[0]);
-            const Vec3 nm(ag[6], ag[7], ag[8]);
-            const Vec3 n = nm.norm() > 0.5 * ag[0] ? Vec3(nm.normalized()) : Vec3(row3(Nf, sm.face));
-            x3 -= n * n.dot(x3 - x0);
-            for (int step = 0; step < 5; ++step) {
-              const int f = next.face;
-              const Vec2 ua = uv_row(Us, F(f, 0)), ub = uv_row(Us, F(f, 1)), uc = uv_row(Us, F(f, 2));
-              const Vec3 xa = row3(V, F(f, 0)), xb = row3(V, F(f, 1)), xc = row3(V, F(f, 2));
-              Eigen::Matrix2d M;
-              M << ub.x() - ua.x(), uc.x() - ua.x(), ub.y() - ua.y(), uc.y() - ua.y();
-              if (!(std::abs(M.determinant()) > 0)) break;
-              Eigen::Matrix<double, 3, 2> E;
-              E.col(0) = xb - xa;
-              E.col(1) = xc - xa;
-              const Eigen::Matrix<double, 3, 2> J = E * M.inverse();  // d(3D) / d(map)
-              const Eigen::Matrix2d JtJ = J.transpose() * J;
-              if (!(std::abs(JtJ.determinant()) > 0)) break;
-              const Vec3 x = next.w0 * xa + next.w1 * xb + next.w2 * xc;
-              const Vec2 du = JtJ.ldlt().solve(J.transpose() * (x3 - x));
-              const Vec2 c1 = c + du;
-              Sample at;
-              if (!locate(c1, next.face, at)) break;  // off the chart: keep the last point
-              c = c1;
-              next = at;
-              if (du.norm() < 1e-3 / RL) break;
-            }
-          }
-          const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
-                         next.w2 * uv_row(Ut, F(next.face, 2));
-          if (!inside_chart(next.face, u, margin)) continue;  // must stay strictly inside for the Delaunay step
-          {
-            const double r = next.w0 * rho[F(next.face, 0)] + next.w1 * rho[F(next.face, 1)] + next.w2 * rho[F(next.face, 2)];
-            const double h = spacing(n_int * r / rho_integral);
-            move2[q] = (sample_x(next) - sample_x(sm)).squaredNorm() / (h * h);
-          }
-          sm = next;
-          ++moved;
-        }
-        res.lloyd_iterations = it + 1;
-        report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
-        if (moved == 0) break;
-        // Converged: the samples' RMS move, in local target spacings, under kLloydTolerance.
-        const double rms = std::sqrt(ordered_sums<1>(ni, ni > kParallelMin, [&](int q, std::array<double, 1>& a) { a[0] += move2[q]; })[0] / ni);
-        if (rms < kLloydTolerance) break;
-      }
-      res.seconds_relax += seconds_since(t_relax);
-    }
-
-    // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
-    // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
-    // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
-    if (o.min_separation > 0) {
-      const auto t_sep = Clock::now();
-      MatX3d G(nb + int(samples.size()), 3);
-      for (int k = 0; k < nb; ++k) G.row(k) = bnd_x[k].transpose();
-      for (size_t q = 0; q < samples.size(); ++q) {
-        const Sample& sm = samples[q];
-        G.row(nb + int(q)) = sm.w0 * V.row(F(sm.face, 0)) + sm.w1 * V.row(F(sm.face, 1)) + sm.w2 * V.row(F(sm.face, 2));
-      }
-      const KdTree tree(G);
-      const int ns = int(samples.size());
-      // Only a sample with some kept neighbour inside its radius can be dropped: find those in
-      // parallel, then decide them in order (the verdict depends on earlier drops).
-      std::vector<char> crowded(ns, 0);
-      std::vector<double> radius(ns, 0.0);
-  #pragma omp parallel if (ns > kParallelMin)
-      {
-        std::vector<std::pair<int, double>> near;
-  #pragma omp for schedule(static)
-        for (int q = 0; q < ns; ++q) {
-          if (!keep[q]) continue;
-          const Sample& sm = samples[q];
-          const double r = sm.w0 * rho[F(sm.face, 0)] + sm.w1 * rho[F(sm.face, 1)] + sm.w2 * rho[F(sm.face, 2)];
-          radius[q] = o.min_separation * spacing(n_int * r / rho_integral);
-          tree.radius(row3(G, nb + q), radius[q], near);
-          for (const auto& gd : near)
-            if (gd.first != nb + q && (gd.first < nb || keep[gd.first - nb])) {
-              crowded[q] = 1;
-              break;
-            }
-        }
-      }
-      std::vector<std::pair<int, double>> near;
-      for (int q = 0; q < ns; ++q) {
-        if (!crowded[q]) continue;
-        tree.radius(row3(G, nb + q), radius[q], near);
-        for (const auto& gd : near) {
-          const int g = gd.first, other = g - nb;
-          if (other == q) continue;
-          if (g < nb || (other < q && keep[other])) {
-            keep[q] = 0;
-            ++res.n_separated;
-            break;
-          }
-        }
-      }
-      res.seconds_relax += seconds_since(t_sep);
-    }
-    kept = 0;
-    for (char k : keep) kept += k;
-    res.sampling_rounds = round + 1;
-    if (kept == 0 || std::abs(kept - n_int) <= std::max(1, int(0.005 * n_int)) || round == 3) break;
-    const double shortfall = double(n_int) / kept;
-    n_goal = std::max(1, int(std::lround(n_goal * shortfall)));
-    scale *= shortfall;
-  }  // rounds
-  if (kept == 0 && n_int > 0)
-    throw MeshError("remesh: no inner vertex could be placed (every sample fell within the boundary clearance); "
-                    "raise the target or lower the resolution");
-  if (res.n_separated > std::max(1, n_int / 100))
-    res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_goal) +
-                           " interior samples were closer than " + std::to_string(o.min_separation) +
-                           " x the target spacing and were dropped (the diffusion oversampled to keep the count): "
-                           "the sampling map is too coarse for this target somewhere; raise the resolution or "
-                           "sample on the low-stretch map (mode double)");
-  const auto t_tri = Clock::now();
-
-  // 5. Delaunay in the triangulation map (Qhull), lift through the shared triangulation.
+// 5. Delaunay in the triangulation map (Qhull), lift through the shared triangulation.
+// samples, keep: the interior samples (keep: those kept; those next to a reflex boundary corner are
+// dropped). flip: the chart is clockwise in the triangulation map. Sets res.V, res.uv and res.F (the
+// boundary samples first) and returns the output vertices' input locations (interior ones).
+std::vector<Sample> triangulate_chart(const SamplingChart& c, const std::vector<Sample>& samples,
+                                      std::vector<char>& keep, bool flip, Progress& report, RemeshResult& res) {
+  const MatX3d& V = c.V;
+  const MatX3i& F = c.F;
+  const MatX2d& Ut = c.Ut;
+  const std::vector<int>& loop = c.topo.boundary_loops[0];
+  const int nb = int(c.bnd.x.size());
+  const std::vector<Vec3>& bnd_x = c.bnd.x;
+  const std::vector<Vec2>& bnd_u = c.bnd.u;
+  const std::vector<Ear>& ears = c.pieces.ears;
+  const std::vector<int>& ear_of_face = c.pieces.ear_of_face;
+  const std::vector<int>& core = c.pieces.core;
+  const ConvexPolygon& polygon = c.pieces.polygon;
   int n_keep = 0;
   for (char k : keep) n_keep += k;
   int n_all = nb + n_keep;
@@ -1532,26 +217,13 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     const int e = ear_of_face[PS[i].face];
     (e < 0 ? core_pts : ear_pts[e]).push_back(i);
   }
-  // Delaunay triangulation of a piece, counter-clockwise in the map, in P's indices.
-  auto triangulate = [&](const std::vector<int>& pts) {
-    MatX2d Q(int(pts.size()), 2);
-    for (int i = 0; i < Q.rows(); ++i) Q.row(i) = P.row(pts[i]);
-    MatX3i T = delaunay_2d(Q);
-    for (int t = 0; t < T.rows(); ++t)
-      for (int k = 0; k < 3; ++k) T(t, k) = pts[T(t, k)];
-    return T;
-  };
-  const MatX3i T = triangulate(core_pts);
+  const MatX3i T = triangulate_piece(P, core_pts);
   report(0.92);
   // The output triangles in P's indices, oriented like the input. The core's: without flat
   // triangles (co-linear boundary points) and any outside the core polygon.
   const double area_eps = 1e-14;
   std::vector<std::array<int, 3>> tris;
   tris.reserve(T.rows() + ears.size());
-  auto add_map_triangle = [&](int a, int b, int c, bool reverse) {  // (a, b, c) counter-clockwise in the map
-    if (reverse) std::swap(b, c);
-    tris.push_back({a, b, c});
-  };
   for (int t = 0; t < T.rows(); ++t) {
     const Vec2 a = uv_row(P, T(t, 0)), b = uv_row(P, T(t, 1)), c = uv_row(P, T(t, 2));
     if (std::abs(cross2(b - a, c - a)) <= area_eps) continue;
@@ -1559,7 +231,7 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     // the polygon and only a triangle of three boundary samples can lie outside it (on a straight side).
     const bool all_boundary = T(t, 0) < nb && T(t, 1) < nb && T(t, 2) < nb;
     if (all_boundary && !polygon.inside((a + b + c) / 3.0, 0.0)) continue;
-    add_map_triangle(T(t, 0), T(t, 1), T(t, 2), flip);
+    add_map_triangle(tris, T(t, 0), T(t, 1), T(t, 2), flip);
   }
   // The ears: the input face itself when no sample lies on it (whatever its shape in the map), else
   // the Delaunay triangulation of its corners and samples (strictly inside its triangle, so the
@@ -1574,11 +246,11 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     }
     const Vec2 u0 = uv_row(Ut, F(f, 0));
     const bool reverse = cross2(uv_row(Ut, F(f, 1)) - u0, uv_row(Ut, F(f, 2)) - u0) < 0;
-    const MatX3i Te = triangulate(ear_pts[e]);
+    const MatX3i Te = triangulate_piece(P, ear_pts[e]);
     for (int t = 0; t < Te.rows(); ++t) {
       const Vec2 a = uv_row(P, Te(t, 0)), b = uv_row(P, Te(t, 1)), c = uv_row(P, Te(t, 2));
       if (std::abs(cross2(b - a, c - a)) <= area_eps) continue;
-      add_map_triangle(Te(t, 0), Te(t, 1), Te(t, 2), reverse);
+      add_map_triangle(tris, Te(t, 0), Te(t, 1), Te(t, 2), reverse);
     }
   }
   // The chords join the pieces but are no boundary: flips across them (and on from there) give the
@@ -1608,115 +280,95 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   res.F.resize(int(tris.size()), 3);
   for (size_t q = 0; q < tris.size(); ++q)
     for (int k = 0; k < 3; ++k) res.F(int(q), k) = id[tris[q][k]];
+  return out_s;
+}
+
+}  // namespace
+
+RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
+  if (o.target_vertices < 4) throw MeshError("remesh: target_vertices must be at least 4, got " + std::to_string(o.target_vertices));
+  if (!(o.adaptivity >= 0 && o.adaptivity <= 1))
+    throw MeshError("remesh: adaptivity must be in [0, 1], got " + std::to_string(o.adaptivity));
+  if (o.resolution < 16 || o.resolution > 4096)
+    throw MeshError("remesh: resolution must be in 16..4096, got " + std::to_string(o.resolution));
+  if (o.domain == UvBoundary::Free)
+    throw MeshError("remesh: the parameter domain must be convex (square or circle), not free");
+  if (!(o.eta > 0 && o.eta <= 1)) throw MeshError("remesh: eta must be in (0, 1]");
+  if (o.lloyd_iterations < 0 || o.lloyd_iterations > 100)
+    throw MeshError("remesh: lloyd_iterations must be in 0..100, got " + std::to_string(o.lloyd_iterations));
+  if (o.smooth_iterations < 0 || o.smooth_iterations > 100)
+    throw MeshError("remesh: smooth_iterations must be in 0..100, got " + std::to_string(o.smooth_iterations));
+  if (!(o.min_separation >= 0 && o.min_separation < 1))
+    throw MeshError("remesh: min_separation must be in [0, 1), got " + std::to_string(o.min_separation));
+  if (!(o.boundary_clearance >= 0 && o.boundary_clearance < 2))
+    throw MeshError("remesh: boundary_clearance must be in [0, 2)");
+  Progress report(progress);
+  report(0);
+  const Topology topo = check_disk(V, F);
+  // Squared lengths and areas of coordinates beyond ~1e19 overflow (the raster and the Lloyd step
+  // then index memory out of range): a clear error instead.
+  if (V.size() > 0 && V.cwiseAbs().maxCoeff() > 1e15)
+    throw MeshError("remesh: coordinates beyond 1e15 in magnitude; scale the mesh down first");
+  const int nf = topo.n_faces;
+  RemeshResult res;
+  const auto t_param = Clock::now();
+
+  // 1. The two maps: U0 and Uopt.
+  const ChartMaps maps = parameterize(V, F, o, progress, res);
+  const MatX2d& U0 = maps.U0;
+  const MatX2d& Uopt = maps.Uopt;
+  const MatX2d& Us = o.mode == RemeshMode::SingleU0 ? U0 : Uopt;  // sampling map
+  const MatX2d& Ut = o.mode == RemeshMode::SingleUopt ? Uopt : U0; // triangulation map
+  res.seconds_parameterize = seconds_since(t_param);
+  report(0.4);
+  const auto t_sample = Clock::now();
+
+  // 2. Density per vertex, and its integral over the surface (which normalises the control map).
+  const VecXd rho = vertex_density(V, F, topo, o);
+  const VecXd area3 = face_areas(V, F);
+  double rho_integral = 0;  // int rho dA over the surface
+  for (int f = 0; f < nf; ++f) rho_integral += area3[f] * (rho[F(f, 0)] + rho[F(f, 1)] + rho[F(f, 2)]) / 3.0;
+  double surface_area = area3.sum();
+  if (!(rho_integral > 0) || !(surface_area > 0)) throw MeshError("remesh: the mesh has zero area");
+
+  // Boundary samples.
+  const int N = o.target_vertices;
+  const BoundarySamples bnd = sample_boundary(V, F, topo, Us, Ut, rho, rho_integral, o, res);
+  const std::vector<Sample>& bnd_src = bnd.src;
+  const int nb = int(bnd.x.size());
+  const int n_int = N - nb;
+  if (n_int < 1)
+    throw MeshError("remesh: target_vertices (" + std::to_string(N) + ") must exceed the number of boundary vertices (" +
+                    std::to_string(nb) + ")" +
+                    (o.boundary == RemeshBoundary::Keep ? ", which are kept; raise the target or resample the boundary" : ""));
+  res.n_interior_target = n_int;
+  res.n_boundary = nb;
+
+  // Orientation of the chart in the triangulation map (the Delaunay triangles come out CCW).
+  double signed_area = 0;
+  for (int f = 0; f < nf; ++f)
+    signed_area += cross2(uv_row(Ut, F(f, 1)) - uv_row(Ut, F(f, 0)), uv_row(Ut, F(f, 2)) - uv_row(Ut, F(f, 0)));
+  const bool flip = signed_area < 0;
+  // The pieces of the chart in the triangulation map: a convex core and the ears of a kept boundary.
+  const ChartPieces pieces = chart_pieces(topo, bnd.u, o);
+  const SamplingChart chart{V, F, topo, Us, Ut, rho, rho_integral, n_int, bnd, pieces};
+  // 3. The control map over the sampling map.
+  const ControlRaster raster = control_raster(chart, area3, o, res);
+  report(0.55);
+
+  // 4. Interior samples: error diffusion, Lloyd relaxation, minimum separation.
+  std::vector<Sample> samples;
+  std::vector<char> keep;
+  sample_interior(chart, raster, o, report, t_sample, samples, keep, res);
+  const auto t_tri = Clock::now();
+
+  // 5. Delaunay in the triangulation map (Qhull), lift through the shared triangulation.
+  std::vector<Sample> out_s = triangulate_chart(chart, samples, keep, flip, report, res);
+  int nout = int(res.V.rows());
   if (o.flip_3d) res.n_flips = delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
   if (o.smooth_iterations > 0) {
-    VecXd rho_out = VecXd::Ones(nout);
-    if (o.adaptivity > 0)
-      for (int i = 0; i < nout; ++i) {
-        const Sample& q = out_s[i];
-        if (q.face >= 0) rho_out[i] = q.w0 * rho[F(q.face, 0)] + q.w1 * rho[F(q.face, 1)] + q.w2 * rho[F(q.face, 2)];
-      }
-    std::vector<int> ring_off(nout + 1), ring, colour(nout), groups, group_off;
-    // A closing smoothing pass after the last sweep's flips and removals: they change stars after
-    // those were smoothed, and an unfolding flip may leave a sliver nothing repairs (three_peaks,
-    // targets 3800-6200: down to 4.4 degrees, at 3D folds across creases of the coarse input);
-    // smoothing moves keep every angle above min(35 degrees, its value before).
-    // An angle still below the sharp-feature goal after the closing pass: up to kRepairRounds rounds
-    // of flips, removals and smoothing of only those triangles' vertices and their neighbours, as more
-    // sweeps would do at the cost of the few stars concerned. Where the triangulation map is strongly
-    // compressed its embedding refuses most of a sweep's moves: lion-head, single (U0) at 3000-6000:
-    // worst angle 29.1-31.4 -> 33.0-33.1; three_peaks, double at 4000 / 5000: 25.6 / 28.0 -> 30.2 / 31.5.
-    const double cos_sharp_goal = std::cos(kSmoothSharpMinAngle);
-    // Marks the vertices of such triangles and their neighbours (the neighbours' moves free the
-    // space that lifts the angle); false when there is none.
-    // `worst`: the cosine of the mesh's smallest angle.
-    auto bad_vertices = [&](std::vector<char>& mark, double& worst) {
-      mark.assign(nout, 0);
-      bool any = false;
-      worst = -1;
-      for (int t = 0; t < res.F.rows(); ++t) {
-        const double c = min_angle_cos(row3(res.V, res.F(t, 0)), row3(res.V, res.F(t, 1)), row3(res.V, res.F(t, 2)));
-        worst = std::max(worst, c);
-        if (c > cos_sharp_goal) {
-          for (int k = 0; k < 3; ++k) mark[res.F(t, k)] = 1;
-          any = true;
-        }
-      }
-      if (!any) return false;
-      std::vector<char> seed = mark;
-      for (int t = 0; t < res.F.rows(); ++t)
-        if (seed[res.F(t, 0)] || seed[res.F(t, 1)] || seed[res.F(t, 2)])
-          for (int k = 0; k < 3; ++k) mark[res.F(t, k)] = 1;
-      return true;
-    };
-    std::vector<char> active;
-    double worst = 1, worst_prev = 1;
-    for (int it = 0;; ++it) {
-      vertex_triangles(res.F, nout, ring_off, ring);  // rebuilt after flips and removals
-      const bool repair = it > o.smooth_iterations;
-      if (repair && !bad_vertices(active, worst)) {
-        if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0, true);
-        break;
-      }
-      // Greedy colouring of the interior vertices (neighbours = vertices of the star's triangles);
-      // colour 64 collects the few the 64 colours cannot place (processed serially).
-      constexpr int kColours = 64;
-      std::fill(colour.begin(), colour.end(), -1);
-      std::vector<int> count(kColours + 2, 0);
-      for (int i = nb; i < nout; ++i) {
-        if (repair && !active[i]) continue;
-        uint64_t used = 0;
-        for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
-          for (int k = 0; k < 3; ++k) {
-            const int cj = colour[res.F(ring[q], k)];
-            if (cj >= 0 && cj < kColours) used |= uint64_t(1) << cj;
-          }
-        int c = 0;
-        while (c < kColours && (used >> c & 1)) ++c;
-        colour[i] = c;
-        ++count[c + 1];
-      }
-      int ncol = 0;
-      for (int c = 0; c <= kColours; ++c)
-        if (count[c + 1] > 0) ncol = c + 1;
-      group_off.assign(ncol + 1, 0);
-      for (int c = 0; c < ncol; ++c) group_off[c + 1] = group_off[c] + count[c + 1];
-      if (ncol > 0 && ncol <= kColours) group_off.push_back(group_off.back());  // empty serial group
-      groups.assign(group_off.back(), 0);
-      {
-        std::vector<int> fill(group_off.begin(), group_off.end() - 1);
-        for (int i = nb; i < nout; ++i)
-          if (colour[i] >= 0) groups[fill[colour[i]]++] = i;
-      }
-      res.smooth_moves += smooth_in_map(V, F, topo, Ut, rho, ring_off, ring, groups, group_off, flip ? -1.0 : 1.0,
-                                        res.F, res.V, res.uv, out_s, rho_out);
-      // After the closing pass (it == smooth_iterations, on the final connectivity) and each repair
-      // round: done unless an angle is still below the sharp-feature goal, or when the last round
-      // did not lift the worst angle (at 100K vertices on lion-head the same few stars stayed stuck
-      // through every round).
-      bool more = false;
-      if (it >= o.smooth_iterations) {
-        more = it < o.smooth_iterations + kRepairRounds && bad_vertices(active, worst) &&
-               (it == o.smooth_iterations || worst < worst_prev - 1e-9);
-        worst_prev = worst;
-      }
-      if (it >= o.smooth_iterations && !more) {
-        // The last pass moved vertices, so a flat pair may have stopped being Delaunay: flip those
-        // where that lowers no angle (a planar disk's output is Delaunay).
-        if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0, true);
-        break;
-      }
-      if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
-      {
-        const int rem = remove_low_valence(res.F, res.V, res.uv, out_s, rho_out, nb, flip ? -1.0 : 1.0, kLowValenceCos);
-        res.n_removed += rem;
-        if (rem > 0) {
-          nout = int(res.V.rows());
-          colour.resize(nout);
-          if (o.flip_3d) res.n_flips += delaunay_flips_3d(res.V, res.uv, res.F, flip ? -1.0 : 1.0);
-        }
-      }
-    }
+    smooth_remeshed(V, F, topo, Ut, rho, o, nb, flip ? -1.0 : 1.0, out_s, res);
+    nout = int(res.V.rows());
   }
   // The result must be a disk whose boundary is exactly the boundary samples.
   try {

@@ -35,6 +35,13 @@ double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, cons
   return (p - closest_point_on_triangle(p, a, b, c)).norm();
 }
 
+double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double l2 = ab.squaredNorm();
+  const double t = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * ab)).norm();
+}
+
 SurfaceProjector::SurfaceProjector(const MatX3d& V, const MatX3i& F, const Topology& t)
     : V_(V), F_(F), topo_(t), tree_(V) {}
 

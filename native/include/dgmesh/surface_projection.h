@@ -17,6 +17,9 @@ Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
 // |p - closest_point_on_triangle(p, a, b, c)|.
 double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 
+// Distance from p to the segment (a, b) (a point when a == b).
+double point_segment_distance(const Vec3& p, const Vec3& a, const Vec3& b);
+
 // Projection onto a frozen copy of a surface (V, F) with its topology t: the closest point on the
 // faces around the 4 nearest vertices of p (exact where those faces hold the closest point, as for
 // points moved a small step off the surface). project() is thread safe with per-thread scratch
