@@ -41,7 +41,8 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
 )
 from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
-from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
+from .fair import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, RegularizeOptions, fair,  # noqa: E402
+                   regularize, willmore_energy)
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
 from .multires import Multires  # noqa: E402
@@ -53,7 +54,8 @@ __all__ = [
     "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate", "write_mesh",
     "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
     "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
-    "FairResult", "fair", "regularize", "willmore_energy",
+    "FairBoundary", "FairMethod", "FairOptions", "FairResult", "FairScheme", "RegularizeOptions", "fair", "regularize",
+    "willmore_energy",
     "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
     "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
     "Multires",

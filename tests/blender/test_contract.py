@@ -11,6 +11,8 @@ from dgmesh import _native
 OPERATORS = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity_map": (lambda: _native.SimilarityOptions(), {}),
+    "fair": (lambda: _native.FairOptions(), {}),
+    "regularize": (lambda: _native.RegularizeOptions(), {"strength": "step_scale", "keep_on_surface": "project"}),
 }
 
 
@@ -51,3 +53,16 @@ def test_switching_the_denoise_method_loads_its_native_defaults():
     ops_denoise.load_method_defaults(props, None)
     d = _native.denoise_defaults(_native.DenoiseMethod.bilateral)
     assert (props.eta1, props.eta2, props.eta3, props.iterations) == (d.eta1, d.eta2, d.eta3, d.iterations)
+
+
+def test_switching_the_fair_scheme_loads_its_native_iteration_budget():
+    from dgmesh.blender import ops_fair
+
+    for scheme in _native.FairScheme.__members__.values():
+        class Props:
+            pass
+
+        props = Props()
+        props.scheme = scheme.name.upper()
+        ops_fair.load_scheme_defaults(props, None)
+        assert props.max_iterations == _native.fair_defaults(scheme).max_iterations
