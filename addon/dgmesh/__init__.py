@@ -46,7 +46,8 @@ from .fair import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
 from .multires import Multires  # noqa: E402
-from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # noqa: E402
+from .remesh import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetric, RemeshResult,  # noqa: E402
+                     point_mesh_distance, remesh, remesh_full)
 
 # The public numpy API (``from dgmesh import *``); register/unregister are Blender's entry points.
 __all__ = [
@@ -59,7 +60,8 @@ __all__ = [
     "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
     "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
     "Multires",
-    "RemeshResult", "point_mesh_distance", "remesh", "remesh_full",
+    "RemeshBoundary", "RemeshMode", "RemeshOptions", "RemeshRelaxMetric", "RemeshResult", "point_mesh_distance",
+    "remesh", "remesh_full",
     "shapes",
 ]
 

@@ -13,6 +13,8 @@ OPERATORS = {
     "similarity_map": (lambda: _native.SimilarityOptions(), {}),
     "fair": (lambda: _native.FairOptions(), {}),
     "regularize": (lambda: _native.RegularizeOptions(), {"strength": "step_scale", "keep_on_surface": "project"}),
+    "remesh": (lambda: _native.RemeshOptions(),
+               {"relax": "lloyd_iterations", "flips": "flip_3d", "smooth": "smooth_iterations"}),
 }
 
 
@@ -53,6 +55,11 @@ def test_switching_the_denoise_method_loads_its_native_defaults():
     ops_denoise.load_method_defaults(props, None)
     d = _native.denoise_defaults(_native.DenoiseMethod.bilateral)
     assert (props.eta1, props.eta2, props.eta3, props.iterations) == (d.eta1, d.eta2, d.eta3, d.iterations)
+
+
+def test_remesh_resample_boundary_defaults_to_the_native_boundary():
+    prop = _properties("remesh")["resample_boundary"]
+    assert prop.default == (_native.RemeshOptions().boundary == _native.RemeshBoundary.resample)
 
 
 def test_switching_the_fair_scheme_loads_its_native_iteration_budget():

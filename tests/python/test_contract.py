@@ -18,6 +18,8 @@ CONTRACT = {
     "similarity": (lambda: _native.SimilarityOptions(), {}),
     "fair": (lambda: _native.FairOptions(), {}),
     "regularize": (lambda: _native.RegularizeOptions(), {}),
+    "remesh": (lambda: _native.RemeshOptions(), {}),
+    "remesh_full": (lambda: _native.RemeshOptions(), {}),
 }
 
 
