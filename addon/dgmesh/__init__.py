@@ -45,7 +45,7 @@ from .fair import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme
                    regularize, willmore_energy)
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
-from .multires import Multires  # noqa: E402
+from .multires import Multires, MultiresOptions, MultiresTimings  # noqa: E402
 from .remesh import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetric, RemeshResult,  # noqa: E402
                      point_mesh_distance, remesh, remesh_full)
 
@@ -59,7 +59,7 @@ __all__ = [
     "willmore_energy",
     "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
     "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
-    "Multires",
+    "Multires", "MultiresOptions", "MultiresTimings",
     "RemeshBoundary", "RemeshMode", "RemeshOptions", "RemeshRelaxMetric", "RemeshResult", "point_mesh_distance",
     "remesh", "remesh_full",
     "shapes",

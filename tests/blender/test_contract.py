@@ -15,6 +15,7 @@ OPERATORS = {
     "regularize": (lambda: _native.RegularizeOptions(), {"strength": "step_scale", "keep_on_surface": "project"}),
     "remesh": (lambda: _native.RemeshOptions(),
                {"relax": "lloyd_iterations", "flips": "flip_3d", "smooth": "smooth_iterations"}),
+    "multires_preview": (lambda: _native.MultiresOptions(), {}),
 }
 
 

@@ -20,6 +20,8 @@ CONTRACT = {
     "regularize": (lambda: _native.RegularizeOptions(), {}),
     "remesh": (lambda: _native.RemeshOptions(), {}),
     "remesh_full": (lambda: _native.RemeshOptions(), {}),
+    "Multires.build": (lambda: _native.MultiresOptions(), {}),
+    "Multires.bind": (lambda: _native.MultiresOptions(), {}),
 }
 
 
