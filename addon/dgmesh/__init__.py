@@ -41,12 +41,14 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
 )
 from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
 from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
-from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
+from .fair import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, RegularizeOptions, fair,  # noqa: E402
+                   regularize, willmore_energy)
 from .unwrap import (UnwrapChartError, UnwrapChartsResult, UnwrapOptions, UnwrapResult, UnwrapStep,  # noqa: E402
                      UvBoundary, UvMetrics, UvSolver, UvWeights, unwrap, unwrap_charts, uv_metrics, uv_stretch)
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
-from .multires import Multires  # noqa: E402
-from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # noqa: E402
+from .multires import Multires, MultiresOptions, MultiresTimings  # noqa: E402
+from .remesh import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetric, RemeshResult,  # noqa: E402
+                     point_mesh_distance, remesh, remesh_full)
 
 # The public numpy API (``from dgmesh import *``); register/unregister are Blender's entry points.
 __all__ = [
@@ -54,12 +56,14 @@ __all__ = [
     "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate", "write_mesh",
     "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
     "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
-    "FairResult", "fair", "regularize", "willmore_energy",
+    "FairBoundary", "FairMethod", "FairOptions", "FairResult", "FairScheme", "RegularizeOptions", "fair", "regularize",
+    "willmore_energy",
     "UnwrapChartError", "UnwrapChartsResult", "UnwrapOptions", "UnwrapResult", "UnwrapStep", "UvBoundary",
     "UvMetrics", "UvSolver", "UvWeights", "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch",
     "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
-    "Multires",
-    "RemeshResult", "point_mesh_distance", "remesh", "remesh_full",
+    "Multires", "MultiresOptions", "MultiresTimings",
+    "RemeshBoundary", "RemeshMode", "RemeshOptions", "RemeshRelaxMetric", "RemeshResult", "point_mesh_distance",
+    "remesh", "remesh_full",
     "shapes",
 ]
 

@@ -7,65 +7,39 @@ hole blends smoothly into the surrounding surface. ``regularize`` only slides ve
 tangent planes to even out triangle sizes and shapes.
 """
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_mask, as_vertices
+from .core import _native, as_choice, as_count, as_faces, as_mask, as_vertices, make_options
 
-__all__ = ["FairResult", "fair", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
+__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "RegularizeOptions", "fair",
+           "defaults", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
-METHODS = ("willmore", "bilaplacian", "laplacian_of_h")
-SCHEMES = ("explicit", "semi_implicit")
-BOUNDARIES = ("fixed", "sliding")
-
-
-@dataclass
-class FairResult:
-    """Result of :func:`fair`.
-
-    vertices: (n', 3) positions; the input's vertices keep their indices (fixed ones are exactly
-        unchanged), new vertices from subdivision follow.
-    faces: (m', 3); the same array as the input when nothing was subdivided. Row f < m holds a
-        child of input face f (or f itself), the extra children follow.
-    face_origin: (m',) input face each output face comes from.
-    energy: Willmore energy after each iteration; energy[0] is the input's (of the faired region
-        and its first fixed ring in region mode).
-    moved: (n',) bool, vertices that were free to move.
-    linear_start: the flow started from the linearised minimiser (counted as iteration 1).
-    energy_rose: some level's flow ended above the energy it started from (a mesh the flow cannot
-        improve: slivers, fan-triangulated caps); that level's lowest-energy state was returned.
-    """
-
-    vertices: np.ndarray
-    faces: np.ndarray
-    face_origin: np.ndarray
-    energy: np.ndarray
-    moved: np.ndarray
-    iterations: int = 0
-    level_iterations: list = field(default_factory=list)
-    converged: bool = False
-    lam: float = 1.0
-    linear_start: bool = False
-    energy_rose: bool = False
-
-    @property
-    def subdivided(self):
-        return len(self.faces) != len(self.face_origin) or bool(np.any(self.face_origin != np.arange(len(self.faces))))
+# The contract is the C++ one (dgmesh/fair.h), bound as it is: the options with their defaults,
+# the enums and the result.
+FairOptions = _native.FairOptions
+FairResult = _native.FairResult
+FairMethod = _native.FairMethod
+FairScheme = _native.FairScheme
+FairBoundary = _native.FairBoundary
+RegularizeOptions = _native.RegularizeOptions
+_D = FairOptions()
+_R = RegularizeOptions()
 
 
-def _choice(value, allowed, what):
-    v = str(value).lower()
-    if v not in allowed:
-        raise MeshError(f"{what} must be one of {', '.join(allowed)}; got {value!r}")
-    return v
+def defaults(scheme=_D.scheme.name) -> FairOptions:
+    """The options a scheme starts from: ``FairOptions()`` (300 iterations per level) for
+    "semi_implicit"; 5000 iterations per level for "explicit", whose steps are far smaller."""
+    return _native.fair_defaults(as_choice(scheme, FairScheme, "scheme"))
 
 
-def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", subdivisions=0,
-         tolerance=1e-4, max_iterations=None, tangential=True, scheme="semi_implicit",
-         max_seconds=0.0, step_scale=1.0, linear_start=True, refine=False, keep_size=True,
-         progress=None):
+def fair(V, F, *, method: str = _D.method.name, mask=None, faces=None, boundary: str = _D.boundary.name,
+         subdivisions: int = _D.subdivisions, tolerance: float = _D.tolerance, max_iterations: int | None = None,
+         tangential: bool = _D.tangential, scheme: str = _D.scheme.name, max_seconds: float = _D.max_seconds,
+         step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start, refine: bool = _D.refine,
+         keep_size: bool = _D.keep_size, progress=None) -> FairResult:
     """Fair a triangle mesh (or a region of it) by a curvature flow.
+
+    Every option's default is :class:`FairOptions`'s (dgmesh/fair.h).
 
     method: "willmore" (thesis eq. 3.5: speed -Lap(H) - 2H(H^2-K) along the normal, plus the
         tangential drift of eq. 3.10), "laplacian_of_h" (eq. 3.12) or "bilaplacian"
@@ -78,14 +52,15 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         the mesh keeps its topology. A hole filled without interior vertices (one n-gon, a fan)
         needs ``faces`` and ``subdivisions >= 1``: the new edge midpoints are the ones that move.
     boundary: "fixed" or "sliding" (boundary vertices slide along the boundary curve).
-    subdivisions: coarse-to-fine levels: fair, refine 1-to-4 (linear), fair again (fig. 3.5); each
+    subdivisions: coarse-to-fine levels (0..6): fair, refine 1-to-4 (linear), fair again (fig. 3.5); each
         refined level first puts its new midpoints at the minimiser of the linearised (cotangent
         bi-Laplacian) energy with the old vertices held, when that lowers the energy (counted as
         an iteration), so it does not spend its iterations on the split's creases.
     tolerance: stop when the relative energy change over a window of flow time falls below it
         (semi-implicit: also when 16 accepted steps found no energy lower by this fraction than
         the lowest before them; ``converged`` is then False if the energy had crept up).
-    max_iterations: per level; default 5000 (explicit) or 200 (semi-implicit).
+    max_iterations: per level; None: the scheme's default (:func:`defaults`: 300 semi-implicit,
+        5000 explicit).
     tangential: add the tangential drift that equalises triangles (eq. 3.8).
     scheme: "semi_implicit" (default: a linearised implicit bi-Laplacian step, same fixed points,
         far larger steps) or "explicit" (the thesis's forward Euler with tau = A_min^2 / 150).
@@ -109,13 +84,24 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         towards a point either way.
     progress: callable(fraction) -> bool/None; returning False cancels (raises Cancelled).
 
-    Returns a :class:`FairResult`.
+    Returns a :class:`FairResult`: ``vertices`` (n', 3), the input's vertices keeping their indices
+    (fixed ones exactly unchanged), new vertices from subdivision following; ``faces`` (m', 3), row
+    f < m holding a child of input face f (or f itself), the extra children following;
+    ``face_origin`` (m',) the input face of each output face; ``energy``, the Willmore energy after
+    each iteration (``energy[0]`` the input's, of the faired region and its first fixed ring in
+    region mode); ``moved`` (n',) bool, the vertices free to move; ``iterations``,
+    ``level_iterations``, ``converged``, ``lam`` (the last H rescaling factor), ``linear_start``
+    (the flow started from the linearised minimiser, counted as iteration 1), ``energy_rose``
+    (some level ended above its start energy, a mesh the flow cannot improve: slivers,
+    fan-triangulated caps; that level's lowest-energy state was returned) and ``subdivided``.
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    method = _choice(method, METHODS, "method")
-    scheme = _choice(scheme, SCHEMES, "scheme")
-    boundary = _choice(boundary, BOUNDARIES, "boundary")
+    o = defaults(scheme)
+    make_options(o, method=method, boundary=boundary, tolerance=tolerance, tangential=tangential,
+                 max_seconds=max_seconds, step_scale=step_scale, linear_start=linear_start, refine=refine,
+                 keep_size=keep_size, subdivisions=as_count(subdivisions, "subdivisions"),
+                 max_iterations=None if max_iterations is None else as_count(max_iterations, "max_iterations"))
     vm = as_mask(mask, len(V), "mask")
     fm = as_mask(faces, len(F), "faces")
     if fm is not None and vm is None:
@@ -126,20 +112,9 @@ def fair(V, F, *, method="willmore", mask=None, faces=None, boundary="fixed", su
         border = np.zeros(len(V), dtype=bool)
         border[F[~fm].ravel()] = True
         vm = inner & ~border
-    if max_iterations is None:
-        max_iterations = 5000 if scheme == "explicit" else 200
-    max_iterations = as_count(max_iterations, "max_iterations")
-    subdivisions = as_count(subdivisions, "subdivisions", 0, 6)
 
     def run(Vc, Fc, vmc, fmc, prog):
-        r = _native.fair(Vc, Fc, method, scheme, boundary, vmc, fmc, int(subdivisions), float(tolerance),
-                         int(max_iterations), float(max_seconds), bool(tangential), float(step_scale), prog,
-                         bool(linear_start), bool(refine), bool(keep_size))
-        return FairResult(
-            vertices=r["vertices"], faces=r["faces"], face_origin=r["face_origin"], energy=r["energy"],
-            moved=r["vertex_mask"], iterations=r["iterations"], level_iterations=list(r["level_iterations"]),
-            converged=r["converged"], lam=r["lambda"], linear_start=r["linear_start"],
-            energy_rose=r.get("energy_rose", False))
+        return _native.fair(Vc, Fc, o, vmc, fmc, prog)
 
     parts = _independent_parts(F, vm, fm, len(V))
     if len(parts) < 2:
@@ -197,32 +172,33 @@ def _fair_parts(V, F, vm, fm, parts, run, progress):
     for r in results:
         moved[:len(r.moved)] |= r.moved
     levels = max(len(r.level_iterations) for r in results)
-    return FairResult(
-        vertices=Vc, faces=Fc, face_origin=origin, energy=energy, moved=moved,
+    return results[-1].replace(
+        vertices=Vc, faces=Fc, face_origin=origin.astype(np.int32), energy=energy, moved=moved,
         iterations=max(r.iterations for r in results),
-        level_iterations=[max((r.level_iterations[i] for r in results if i < len(r.level_iterations)), default=0)
+        level_iterations=[max((int(r.level_iterations[i]) for r in results if i < len(r.level_iterations)), default=0)
                           for i in range(levels)],
         converged=all(r.converged for r in results), lam=min(r.lam for r in results),
         linear_start=any(r.linear_start for r in results), energy_rose=any(r.energy_rose for r in results))
 
 
-def regularize(V, F, *, iterations=100, mask=None, boundary="fixed", step_scale=1.0, project=True,
-               progress=None):
+def regularize(V, F, *, iterations: int = _R.iterations, mask=None, boundary: str = _R.boundary.name,
+               step_scale: float = _R.step_scale, project: bool = _R.project, progress=None) -> np.ndarray:
     """Tangential regularisation (thesis eq. 3.8 with tau = 0, fig. 3.3-3.4): vertices drift in
     their tangent planes by the tangent part of the area-weighted bi-umbrella operator, which
     evens out triangle sizes and shapes while keeping the surface. Returns the new (n, 3)
     positions; vertices outside ``mask`` (bool per vertex or indices) are unchanged.
-    ``project`` puts moved vertices back onto the input surface after each step (the drift
-    alone leaves a curved surface by O(step^2 * curvature) per step)."""
+    ``step_scale`` multiplies the thesis's step (12 times the smallest triangle area within two
+    rings). ``project`` puts moved vertices back onto the input surface after each step (the drift
+    alone leaves a curved surface by O(step^2 * curvature) per step). The defaults are
+    :class:`RegularizeOptions`'s."""
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    boundary = _choice(boundary, BOUNDARIES, "boundary")
-    vm = as_mask(mask, len(V), "mask")
-    iterations = as_count(iterations, "iterations")
-    return _native.regularize(V, F, iterations, vm, boundary, float(step_scale), bool(project), progress)
+    o = make_options(RegularizeOptions(), iterations=as_count(iterations, "iterations"), boundary=boundary,
+                     step_scale=step_scale, project=project)
+    return _native.regularize(V, F, o, as_mask(mask, len(V), "mask"), progress)
 
 
-def willmore_energy(V, F):
+def willmore_energy(V, F) -> float:
     """Discrete Willmore energy sum H_i^2 A_i (mixed areas): 4 pi for a sphere, 2 pi^2 for the
     torus with radii ratio sqrt(2)."""
     return _native.willmore_energy(as_vertices(V), as_faces(F))

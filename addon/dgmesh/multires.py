@@ -26,9 +26,14 @@ better; ``fit_iterations=0`` keeps the decimated positions.
 
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_vertices, make_options
 
-__all__ = ["Multires", "FORMAT_VERSION"]
+__all__ = ["Multires", "MultiresOptions", "MultiresTimings", "FORMAT_VERSION"]
+
+# The build options and timings are the C++ structs (dgmesh/multires.h), bound as they are.
+MultiresOptions = _native.MultiresOptions
+MultiresTimings = _native.MultiresTimings
+_D = MultiresOptions()
 
 FORMAT_VERSION = 1
 _KEYS = ("control_vertices", "control_faces", "level", "base_face", "base_st", "displacement")
@@ -47,9 +52,12 @@ class Multires:
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
-    def build(cls, V, F, *, control_faces=5000, level=2, min_quality=0.2, fit_iterations=1,
-              fit_regularization=1e-3, projection_iterations=12, progress=None):
-        """Builds the control mesh of (V, F) and binds every vertex of V.
+    def build(cls, V, F, *, control_faces: int = _D.control_faces, level: int = _D.level,
+              min_quality: float = _D.min_quality, fit_iterations: int = _D.fit_iterations,
+              fit_regularization: float = _D.fit_regularization,
+              projection_iterations: int = _D.projection_iterations, progress=None) -> "Multires":
+        """Builds the control mesh of (V, F) and binds every vertex of V. The defaults are
+        :class:`MultiresOptions`'s (dgmesh/multires.h).
 
         Parameters
         ----------
@@ -64,20 +72,26 @@ class Multires:
         min_quality : sliver guard of the decimation, in [0, 1) (1 = equilateral).
         fit_iterations : least-squares fits of the control vertices to the dense mesh, each
             followed by a re-bind; 0 keeps the decimated positions.
+        fit_regularization : Tikhonov weight of the fit, pulling each control vertex towards its
+            decimated position (relative to the normal equations' mean diagonal).
+        projection_iterations : Gauss-Newton steps of the closest-point projection.
         progress : optional callable(fraction) -> bool|None; returning False cancels
             (dgmesh.Cancelled).
         """
         V = as_vertices(V)
         F = as_faces(F, n=len(V))
-        control_faces = as_count(control_faces, "control_faces")
-        return cls(_native.Multires.build(V, F, control_faces, as_count(level, "level"), float(min_quality),
-                                          as_count(fit_iterations, "fit_iterations"), float(fit_regularization),
-                                          as_count(projection_iterations, "projection_iterations"), progress))
+        o = make_options(MultiresOptions(), control_faces=as_count(control_faces, "control_faces"),
+                         level=as_count(level, "level"), min_quality=min_quality,
+                         fit_iterations=as_count(fit_iterations, "fit_iterations"),
+                         fit_regularization=fit_regularization,
+                         projection_iterations=as_count(projection_iterations, "projection_iterations"))
+        return cls(_native.Multires.build(V, F, o, progress))
 
     @classmethod
-    def bind(cls, control_vertices, control_faces, V, *, level=2, projection_iterations=12,
-             progress=None):
-        """Binds the points V to the limit surface of a given control mesh (no decimation, no fit)."""
+    def bind(cls, control_vertices, control_faces, V, *, level: int = _D.level,
+             projection_iterations: int = _D.projection_iterations, progress=None) -> "Multires":
+        """Binds the points V to the limit surface of a given control mesh (no decimation, no fit);
+        ``level`` and ``projection_iterations`` as in :meth:`build`."""
         return cls(_native.Multires.bind(as_vertices(control_vertices, "control_vertices"),
                                          as_faces(control_faces, "control_faces"), as_vertices(V),
                                          as_count(level, "level"),
@@ -227,8 +241,9 @@ class Multires:
         return self._m.memory_bytes
 
     @property
-    def timings(self):
-        """Seconds spent in each build stage: decimate, surface, bind, fit, stencils."""
+    def timings(self) -> MultiresTimings:
+        """Seconds spent in each build stage: ``decimate``, ``surface``, ``bind``, ``fit``,
+        ``stencils`` (a :class:`MultiresTimings`)."""
         return self._m.timings
 
     def __repr__(self):

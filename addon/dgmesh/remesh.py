@@ -14,74 +14,29 @@ Modes (thesis fig. 5.6-5.9): ``"double"`` samples on Uopt and triangulates on U0
 scheme); ``"single_u0"`` and ``"single_uopt"`` sample and triangulate on one map.
 """
 
-from dataclasses import dataclass, field
-from typing import List
-
 import numpy as np
 
-from .core import Error, MeshError, _native, as_count, as_faces, as_vertices
+from .core import Error, MeshError, _native, as_count, as_faces, as_vertices, make_options
 
-__all__ = ["RemeshResult", "remesh", "remesh_full", "point_mesh_distance", "MODES"]
+__all__ = ["RemeshOptions", "RemeshResult", "RemeshMode", "RemeshBoundary", "RemeshRelaxMetric", "remesh",
+           "remesh_full", "point_mesh_distance"]
 
-MODES = ("double", "single_u0", "single_uopt")
-
-
-@dataclass
-class RemeshResult:
-    """Everything :func:`remesh_full` returns.
-
-    V, F: the new mesh; its first ``n_boundary`` vertices are the boundary, in loop order.
-    boundary_source: with ``boundary="keep"``, the input vertex of each boundary vertex (its
-        position is copied bit for bit); empty with ``"resample"``.
-    uv: output vertices in the triangulation map (U0 for "double" and "single_u0").
-    source_face, source_bary: where each output vertex lies on the input, an input face (row of
-        F) and the barycentric weights of its three corners, to carry UVs, vertex weights and
-        other data over.
-    n_interior_target: interior samples asked of the error diffusion (target minus boundary).
-    n_rejected: interior samples dropped for being too close to the boundary (last pass).
-    passes: error-diffusion passes (the density is rescaled until the count is within 0.2%).
-    uopt_iterations: stretch-equalization steps of Uopt.
-    n_flips: edge flips made by ``flip_3d``.
-    lloyd_iterations: Lloyd relaxation steps made (see ``lloyd_iterations`` of :func:`remesh_full`).
-    n_separated: interior samples dropped for lying closer than ``min_separation`` x the local
-        target spacing to another sample (last round).
-    resolution: the control map's raster size used: the one asked for, or coarser when the target
-        is small (error diffusion needs some samples per hundred pixels, at most 256 pixels each).
-    sampling_rounds: diffusion + relaxation + separation rounds (repeated with a raised diffusion
-        goal while the separation drops more than 0.5% of the target).
-    smooth_moves: vertex moves made by ``smooth_iterations``.
-    n_removed: interior vertices of valence 3 or 4 with an angle under 20 degrees in their star,
-        removed by ``smooth_iterations`` (their star becomes its link).
-    seconds: wall time of the stages (parameterize, sample, triangulate).
-    warnings: human-readable notes (e.g. resolution too low for the target).
-    """
-
-    V: np.ndarray
-    F: np.ndarray
-    n_boundary: int
-    boundary_source: np.ndarray
-    uv: np.ndarray
-    n_interior_target: int
-    n_rejected: int
-    passes: int
-    uopt_iterations: int
-    n_flips: int = 0
-    lloyd_iterations: int = 0
-    n_separated: int = 0
-    resolution: int = 0
-    sampling_rounds: int = 0
-    smooth_moves: int = 0
-    n_removed: int = 0
-    seconds: dict = field(default_factory=dict)
-    warnings: List[str] = field(default_factory=list)
-    source_face: np.ndarray = None
-    source_bary: np.ndarray = None
+# The contract is the C++ one (dgmesh/remesh.h), bound as it is: the options with their defaults,
+# the enums and the result. The parameter domain (``domain``) is unwrap's UvBoundary.
+RemeshOptions = _native.RemeshOptions
+RemeshResult = _native.RemeshResult
+RemeshMode = _native.RemeshMode
+RemeshBoundary = _native.RemeshBoundary
+RemeshRelaxMetric = _native.RemeshRelaxMetric
+_D = RemeshOptions()
 
 
-def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double",
-                boundary="keep", domain="circle", boundary_clearance=0.5, flip_3d=True,
-                eta=1.0, uopt_steps=-1, lloyd_iterations=30, relax_metric="surface",
-                min_separation=0.35, smooth_iterations=3, progress=None) -> RemeshResult:
+def remesh_full(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity, resolution: int = _D.resolution,
+                mode: str = _D.mode.name, boundary: str = _D.boundary.name, domain: str = _D.domain.name,
+                boundary_clearance: float = _D.boundary_clearance, flip_3d: bool = _D.flip_3d, eta: float = _D.eta,
+                uopt_steps: int = _D.uopt_steps, lloyd_iterations: int = _D.lloyd_iterations,
+                relax_metric: str = _D.relax_metric.name, min_separation: float = _D.min_separation,
+                smooth_iterations: int = _D.smooth_iterations, progress=None) -> RemeshResult:
     """:func:`remesh` with all options and diagnostics; see there for the common ones.
 
     lloyd_iterations: density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the
@@ -110,44 +65,46 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
         the removal of interior valence-3/4 vertices whose star holds an angle under 20 degrees
         (``n_removed``), then a closing sweep without flips. Default 3; 0 (with
         ``flip_3d=False, lloyd_iterations=0``) is the thesis's scheme as published.
-    boundary_clearance, eta, uopt_steps, domain: see RemeshOptions in remesh.h.
+    boundary_clearance, eta, uopt_steps, domain: see :class:`RemeshOptions` (dgmesh/remesh.h), whose
+        defaults every option takes.
+
+    Returns a :class:`RemeshResult`: ``V``, ``F``, the new mesh, its first ``n_boundary`` vertices the
+    boundary in loop order; ``boundary_source``, with ``boundary="keep"`` the input vertex of each
+    boundary vertex (its position copied bit for bit), empty with ``"resample"``; ``uv``, the output
+    vertices in the triangulation map (U0 for "double" and "single_u0"); ``source_face``,
+    ``source_bary``, where each output vertex lies on the input (an input face and the barycentric
+    weights of its corners, to carry UVs, weights and other data over); ``n_interior_target``,
+    ``n_rejected`` (dropped by the boundary clearance, last pass), ``passes`` (error-diffusion
+    passes), ``uopt_iterations``, ``n_flips``, ``lloyd_iterations``, ``n_separated`` (dropped by
+    ``min_separation``, last round), ``resolution`` (the raster size used: the one asked for, or
+    coarser when the target is small), ``sampling_rounds``, ``smooth_moves``, ``n_removed``
+    (interior valence-3/4 vertices removed by the smoothing), the stages' wall times
+    ``seconds_parameterize``, ``seconds_sample``, ``seconds_relax``, ``seconds_triangulate``, and
+    ``warnings`` (notes for the user, e.g. a resolution too low for the target).
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    if mode not in MODES:
-        raise MeshError(f"mode must be one of {', '.join(map(repr, MODES))}, got {mode!r}")
-    if boundary not in ("keep", "resample"):
-        raise MeshError(f"boundary must be 'keep' or 'resample', got {boundary!r}")
-    if domain not in ("circle", "square"):
-        raise MeshError(f"domain must be 'circle' or 'square', got {domain!r}")
-    target_vertices = as_count(target_vertices, "target_vertices")
-    resolution = as_count(resolution, "resolution")
-    uopt_steps = as_count(uopt_steps, "uopt_steps", -1)
-    lloyd_iterations = as_count(lloyd_iterations, "lloyd_iterations")
-    smooth_iterations = as_count(smooth_iterations, "smooth_iterations")
-
-    def run(clearance):
-        return _native.remesh(V, F, target_vertices, adaptivity=float(adaptivity), resolution=resolution,
-                              mode=mode, boundary=boundary, domain=domain,
-                              boundary_clearance=float(clearance), flip_3d=bool(flip_3d),
-                              eta=float(eta), uopt_steps=uopt_steps, lloyd_iterations=lloyd_iterations,
-                              relax_metric=str(relax_metric), min_separation=float(min_separation),
-                              smooth_iterations=smooth_iterations, progress=progress)
-
+    o = make_options(RemeshOptions(), target_vertices=as_count(target_vertices, "target_vertices"),
+                     adaptivity=adaptivity, resolution=as_count(resolution, "resolution"), mode=mode,
+                     boundary=boundary, domain=domain, flip_3d=flip_3d, eta=eta,
+                     uopt_steps=as_count(uopt_steps, "uopt_steps", -1),
+                     lloyd_iterations=as_count(lloyd_iterations, "lloyd_iterations"), relax_metric=relax_metric,
+                     min_separation=min_separation, smooth_iterations=as_count(smooth_iterations, "smooth_iterations"),
+                     boundary_clearance=boundary_clearance)
     try:
-        r = run(boundary_clearance)
+        r = _native.remesh(V, F, o, progress)
         retried = None
     except Error as exc:
         # A safety net: samples close to the boundary can keep the map's Delaunay triangulation from
         # meeting a resampled boundary (the ears of a kept one are triangulated apart; Add > Grid 60x60
         # at 30000 vertices on 256^2 needed this before): once more with the boundary samples' full
         # clearance.
-        if "triangulation is invalid" not in str(exc) or boundary_clearance >= 1.0:
+        if "triangulation is invalid" not in str(exc) or o.boundary_clearance >= 1.0:
             raise
         try:
-            r = run(1.0)
+            r = _native.remesh(V, F, o.replace(boundary_clearance=1.0), progress)
         except Error as exc2:
-            if "triangulation is invalid" not in str(exc2) or boundary != "keep":
+            if "triangulation is invalid" not in str(exc2) or o.boundary != RemeshBoundary.keep:
                 raise
             # No known case left (the left half of a subdivided lion-head was one: needle ears side by
             # side, now triangulated apart); what the user can do is change the border.
@@ -155,22 +112,14 @@ def remesh_full(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="
                             "region; select a region with a smoother border, or remesh the whole disk with the "
                             "boundary resampled (boundary='resample'; Object mode: Resample Boundary)") from None
         retried = ("the first triangulation missed the kept boundary: remeshed again with more room between the "
-                   f"boundary and the inner vertices (boundary_clearance {boundary_clearance:g} -> 1)")
-    return RemeshResult(
-        V=np.asarray(r["V"]), F=np.asarray(r["F"]), n_boundary=int(r["n_boundary"]),
-        boundary_source=np.asarray(r["boundary_source"], dtype=np.int64), uv=np.asarray(r["uv"]),
-        n_interior_target=int(r["n_interior_target"]), n_rejected=int(r["n_rejected"]),
-        passes=int(r["passes"]), uopt_iterations=int(r["uopt_iterations"]), n_flips=int(r["n_flips"]),
-        lloyd_iterations=int(r["lloyd_iterations"]), n_separated=int(r["n_separated"]),
-        sampling_rounds=int(r["sampling_rounds"]), resolution=int(r["resolution"]), smooth_moves=int(r["smooth_moves"]), n_removed=int(r["n_removed"]),
-        seconds=dict(parameterize=r["seconds_parameterize"], sample=r["seconds_sample"],
-                     relax=r["seconds_relax"], triangulate=r["seconds_triangulate"]),
-        warnings=list(r["warnings"]) + ([retried] if retried else []),
-        source_face=np.asarray(r["source_face"], dtype=np.int64), source_bary=np.asarray(r["source_bary"]))
+                   f"boundary and the inner vertices (boundary_clearance {o.boundary_clearance:g} -> 1)")
+    if retried:
+        r = r.replace(warnings=list(r.warnings) + [retried])
+    return r
 
 
-def remesh(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="double", boundary="keep",
-           progress=None):
+def remesh(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity, resolution: int = _D.resolution,
+           mode: str = _D.mode.name, boundary: str = _D.boundary.name, progress=None) -> tuple[np.ndarray, np.ndarray]:
     """Remesh one disk-shaped chart with about ``target_vertices`` vertices (thesis 5.4).
 
     V: (n, 3) vertex positions; F: (m, 3) triangles forming one piece with one boundary loop and
@@ -195,7 +144,7 @@ def remesh(V, F, *, target_vertices, adaptivity=0.0, resolution=256, mode="doubl
     return r.V, r.F
 
 
-def point_mesh_distance(P, V, F, *, candidates=16):
+def point_mesh_distance(P, V, F, *, candidates: int = 16) -> np.ndarray:
     """Distance from each point of P (k, 3) to the triangle mesh (V, F): exact distances to the
     triangles whose centroids are among the ``candidates`` nearest (so it can only over-estimate)."""
     V = as_vertices(V)

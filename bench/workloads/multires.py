@@ -72,7 +72,7 @@ def measure(label, V, F, control_faces, fit_iterations, repeats):
     row = {
         "mesh": label, "vertices": len(V), "faces": len(F), "control_faces": len(mr.control_faces),
         "control_vertices": mr.n_control, "fit_iterations": fit_iterations, "build_s": t_build,
-        "build_stages_s": mr.timings, "reconstruct_ms": 1e3 * t_rec,
+        "build_stages_s": dgmesh.core.fields(mr.timings), "reconstruct_ms": 1e3 * t_rec,
         "reconstruct_f32_ms": 1e3 * t_rec32, "reconstruct_cpu_ms": 1e3 * cpu_rec, "rest_error": rest,
         "rigid_error": rigid, "bend_error_max": float(err.max()), "bend_error_rms": float(np.sqrt((err ** 2).mean())),
         "bend_error_p99": float(np.percentile(err, 99)), "rms_c": float(np.sqrt((c ** 2).mean()) / diag),

@@ -349,7 +349,7 @@ def remesh_speed(quick):
                 runs.append((t, _cpu_seconds() - c0, r))
             runs.sort(key=lambda x: x[0])
             t, cpu, r = runs[len(runs) // 2]
-            s = r.seconds
+            s = {stage: getattr(r, f"seconds_{stage}") for stage in ("parameterize", "sample", "relax", "triangulate")}
             rows.append((name, len(V), "flips+smooth (default)" if post else "none", len(r.V), t, cpu, s["parameterize"], s["sample"],
                          s["relax"], s["triangulate"], "yes" if t <= 3.0 else "no"))
             data["runs"][f"{name}{'+post' if post else ''}"] = dict(vertices=len(r.V), wall=t, cpu=cpu, **s)

@@ -7,6 +7,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <map>
 #include <memory>
 #include <string>
 #include <type_traits>
@@ -72,6 +73,25 @@ pb::array array_view(std::vector<T>& a, const pb::handle& owner) {
   return pb::array_t<T>({static_cast<pb::ssize_t>(a.size())}, {sizeof(T)}, a.data(), owner);
 }
 
+// std::vector<char> holds flags (masks): a numpy bool view.
+inline pb::array array_view(std::vector<char>& a, const pb::handle& owner) {
+  return pb::array_t<bool>({static_cast<pb::ssize_t>(a.size())}, {sizeof(char)}, reinterpret_cast<bool*>(a.data()),
+                           owner);
+}
+
+// A field's value from Python (replace()): flags from anything numpy reads as bool, the rest by
+// pybind11's casters (arrays converted to the field's type).
+template <class M>
+M from_python(const pb::handle& v) {
+  if constexpr (std::is_same_v<M, std::vector<char>>) {
+    const auto a = pb::array_t<bool, pb::array::c_style | pb::array::forcecast>::ensure(v);
+    if (!a || a.ndim() != 1) throw pb::type_error("expected a one-dimensional array of booleans");
+    return M(a.data(), a.data() + a.size());
+  } else {
+    return v.cast<M>();
+  }
+}
+
 template <class M, class = void>
 struct is_array_field : std::false_type {};
 template <class M>
@@ -79,8 +99,10 @@ struct is_array_field<M, std::void_t<decltype(array_view(std::declval<M&>(), pb:
 
 // Binds an options or result struct once, so Python sees the C++ contract itself: a default
 // constructor (the C++ initialisers are the defaults), the fields in order in `__fields__`, a
-// repr listing them, and equality by fields. Options fields are read/write (a wrong type raises
-// TypeError); result fields are read-only, arrays as writable numpy views without a copy.
+// repr listing them, equality by fields, and `replace(**fields)`: a copy with some fields changed
+// (as dataclasses.replace; how Python code derives a result from another). Options fields are
+// read/write (a wrong type raises TypeError); result fields are read-only, arrays as writable
+// numpy views without a copy.
 //   Struct<DenoiseOptions>(m, "DenoiseOptions", "...").field("eta1", &DenoiseOptions::eta1, "...");
 template <class T>
 class Struct {
@@ -110,11 +132,25 @@ class Struct {
       return true;
     });
     cls_.attr("__hash__") = pb::none();
+    cls_.def(
+        "replace",
+        [setters = setters_](const T& self, const pb::kwargs& changes) {
+          T copy = self;
+          for (const auto& item : changes) {
+            const auto name = pb::cast<std::string>(item.first);
+            const auto it = setters->find(name);
+            if (it == setters->end()) throw pb::type_error("replace(): no field '" + name + "'");
+            it->second(copy, item.second);
+          }
+          return copy;
+        },
+        "A copy with the given fields changed");
   }
 
   // A read/write field (options).
   template <class M>
   Struct& field(const char* name, M T::*pm, const char* doc) {
+    add_setter(name, pm);
     if constexpr (is_array_field<M>::value) {
       cls_.def_property(
           name, [pm](const pb::object& self) { return array_view(self.cast<T&>().*pm, self); },
@@ -129,6 +165,7 @@ class Struct {
   // A read-only field (results): arrays are numpy views into the object.
   template <class M>
   Struct& result(const char* name, M T::*pm, const char* doc) {
+    add_setter(name, pm);
     if constexpr (is_array_field<M>::value) {
       cls_.def_property_readonly(
           name, [pm](const pb::object& self) { return array_view(self.cast<T&>().*pm, self); }, doc);
@@ -142,8 +179,16 @@ class Struct {
   pb::class_<T>& cls() { return cls_; }
 
  private:
+  using Setters = std::map<std::string, std::function<void(T&, const pb::handle&)>>;
+
+  template <class M>
+  void add_setter(const char* name, M T::*pm) {
+    (*setters_)[name] = [pm](T& t, const pb::handle& v) { t.*pm = from_python<M>(v); };
+  }
+
   pb::class_<T> cls_;
   pb::list names_;  // the same list object as __fields__
+  std::shared_ptr<Setters> setters_ = std::make_shared<Setters>();
 };
 
 void bind_core(pb::module_& m);

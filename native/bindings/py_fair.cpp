@@ -1,5 +1,4 @@
-// Bindings of fair.h: Willmore / bilaplacian / Laplacian-of-H fairing and tangential
-// regularisation. Names, defaults and documentation live in addon/dgmesh/fair.py.
+// Fairing (thesis ch. 3): the options, enums, results and functions of dgmesh/fair.h as they are.
 #include "common.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/fair.h"
@@ -9,7 +8,9 @@ namespace dgmesh::py {
 
 namespace {
 
-std::vector<char> to_mask(const std::optional<pb::array_t<bool, pb::array::c_style | pb::array::forcecast>>& a) {
+using Mask = std::optional<pb::array_t<bool, pb::array::c_style | pb::array::forcecast>>;
+
+std::vector<char> to_mask(const Mask& a) {
   if (!a) return {};
   auto r = a->unchecked<1>();
   std::vector<char> out(r.shape(0));
@@ -17,97 +18,94 @@ std::vector<char> to_mask(const std::optional<pb::array_t<bool, pb::array::c_sty
   return out;
 }
 
-FairMethod method_from(const std::string& s) {
-  if (s == "willmore") return FairMethod::Willmore;
-  if (s == "bilaplacian") return FairMethod::Bilaplacian;
-  if (s == "laplacian_of_h") return FairMethod::LaplacianOfH;
-  throw MeshError("method must be 'willmore', 'bilaplacian' or 'laplacian_of_h', got '" + s + "'");
-}
-
-FairBoundary boundary_from(const std::string& s) {
-  if (s == "fixed") return FairBoundary::Fixed;
-  if (s == "sliding") return FairBoundary::Sliding;
-  throw MeshError("boundary must be 'fixed' or 'sliding', got '" + s + "'");
-}
-
-FairScheme scheme_from(const std::string& s) {
-  if (s == "explicit") return FairScheme::Explicit;
-  if (s == "semi_implicit") return FairScheme::SemiImplicit;
-  throw MeshError("scheme must be 'explicit' or 'semi_implicit', got '" + s + "'");
-}
-
-using Mask = std::optional<pb::array_t<bool, pb::array::c_style | pb::array::forcecast>>;
-
 }  // namespace
 
 void bind_fair(pb::module_& m) {
+  pb::enum_<FairMethod>(m, "FairMethod", "Curvature flow of fair()")
+      .value("willmore", FairMethod::Willmore, "F = -Laplace_S(H) - 2H(H^2 - K) (eq. 3.5)")
+      .value("bilaplacian", FairMethod::Bilaplacian, "P <- P - tau U0^2(P), uniform bi-umbrella (section 3.2)")
+      .value("laplacian_of_h", FairMethod::LaplacianOfH, "F = -Laplace_S(H) (eq. 3.12)");
+  pb::enum_<FairScheme>(m, "FairScheme", "Time stepping of fair()")
+      .value("explicit", FairScheme::Explicit, "the thesis's forward Euler step (3.8), tau = A_min^2/150")
+      .value("semi_implicit", FairScheme::SemiImplicit,
+             "preconditioned by a linearised implicit bi-Laplacian step: same fixed points, far larger steps");
+  pb::enum_<FairBoundary>(m, "FairBoundary", "Mesh-boundary vertices in fair() and regularize()")
+      .value("fixed", FairBoundary::Fixed, "do not move")
+      .value("sliding", FairBoundary::Sliding, "slide along the (original) boundary polyline");
+
+  Struct<FairOptions>(m, "FairOptions", "Options of fair() (the masks are separate arguments)")
+      .field("method", &FairOptions::method, "the flow")
+      .field("scheme", &FairOptions::scheme, "the time stepping")
+      .field("boundary", &FairOptions::boundary, "mesh-boundary vertices: fixed or sliding")
+      .field("subdivisions", &FairOptions::subdivisions, "coarse-to-fine levels, 0..6 (fig. 3.5)")
+      .field("tolerance", &FairOptions::tolerance, "relative energy change per unit of flow time that stops a level")
+      .field("max_iterations", &FairOptions::max_iterations, "iterations per level")
+      .field("max_seconds", &FairOptions::max_seconds, "wall-clock budget of the whole run; 0 = none")
+      .field("tangential", &FairOptions::tangential, "add the tangential drift eps T (eq. 3.8)")
+      .field("step_scale", &FairOptions::step_scale, "multiplies the explicit scheme's tau = A_min^2/150")
+      .field("linear_start", &FairOptions::linear_start,
+             "with fixed vertices, start from the linearised minimiser when that lowers the energy")
+      .field("refine", &FairOptions::refine, "refine the region Liepa-style before the flow (hole fills)")
+      .field("keep_size", &FairOptions::keep_size,
+             "Willmore, Laplacian of H: a component without fixed vertices keeps its centroid and area");
+  m.def("fair_defaults", &fair_defaults, pb::arg("scheme"),
+        "The defaults of a scheme: FairOptions() for semi_implicit; 5000 iterations per level for explicit");
+
+  Struct<FairResult>(m, "FairResult", "Result of fair()")
+      .result("vertices", &FairResult::V, "(n', 3) the input's vertices first (same indices), then new ones")
+      .result("faces", &FairResult::F, "(m', 3) row f < m holds a child of input face f, extra children follow")
+      .result("face_origin", &FairResult::face_origin, "(m',) input face each output face comes from")
+      .result("energy", &FairResult::energy, "Willmore energy after each iteration; energy[0] is the input's")
+      .result("moved", &FairResult::vertex_mask, "(n',) bool: vertices that were free to move at the last level")
+      .result("level_iterations", &FairResult::level_iterations, "iterations spent on each level")
+      .result("iterations", &FairResult::iterations, "iterations of all levels")
+      .result("converged", &FairResult::converged, "the last level met the tolerance")
+      .result("lam", &FairResult::lambda, "last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere")
+      .result("linear_start", &FairResult::linear_start, "the flow started from the linearised minimiser")
+      .result("energy_rose", &FairResult::energy_rose,
+              "some level ended above its start energy and returned its lowest-energy state")
+      .cls()
+      .def_property_readonly(
+          "subdivided",
+          [](const FairResult& r) {
+            if (r.F.rows() != r.face_origin.size()) return true;
+            for (Eigen::Index f = 0; f < r.face_origin.size(); ++f)
+              if (r.face_origin[f] != f) return true;
+            return false;
+          },
+          "faces were added or replaced (subdivisions, refine)");
+
   m.def(
       "fair",
-      [](InV Vin, InF Fin, const std::string& method, const std::string& scheme, const std::string& boundary,
-         Mask mask, Mask face_mask, int subdivisions, double tolerance, int max_iterations, double max_seconds,
-         bool tangential, double step_scale, const pb::object& progress, bool linear_start, bool refine, bool keep_size) {
-        FairOptions o;
-        o.keep_size = keep_size;
-        o.linear_start = linear_start;
-        o.refine = refine;
-        o.method = method_from(method);
-        o.scheme = scheme_from(scheme);
-        o.boundary = boundary_from(boundary);
+      [](InV V, InF F, const FairOptions& opt, Mask mask, Mask face_mask, const pb::object& progress) {
+        FairOptions o = opt;
         o.vertex_mask = to_mask(mask);
         o.face_mask = to_mask(face_mask);
-        o.subdivisions = subdivisions;
-        o.tolerance = tolerance;
-        o.max_iterations = max_iterations;
-        o.max_seconds = max_seconds;
-        o.tangential = tangential;
-        o.step_scale = step_scale;
         const ProgressFn cb = progress_from(progress);
-        FairResult r;
-        {
-          NativeScope nogil;
-          r = fair(Vin, Fin, o, cb);
-        }
-        pb::dict d;
-        d["vertices"] = std::move(r.V);
-        d["faces"] = std::move(r.F);
-        d["face_origin"] = std::move(r.face_origin);
-        pb::array_t<bool> vm(r.vertex_mask.size());
-        for (size_t i = 0; i < r.vertex_mask.size(); ++i) vm.mutable_at(i) = r.vertex_mask[i] != 0;
-        d["vertex_mask"] = vm;
-        d["energy"] = pb::array_t<double>(r.energy.size(), r.energy.data());
-        d["level_iterations"] = r.level_iterations;
-        d["iterations"] = r.iterations;
-        d["converged"] = r.converged;
-        d["lambda"] = r.lambda;
-        d["linear_start"] = r.linear_start;
-        d["energy_rose"] = r.energy_rose;
-        return d;
+        NativeScope nogil;
+        return fair(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("method"), pb::arg("scheme"), pb::arg("boundary"), pb::arg("mask"),
-      pb::arg("face_mask"), pb::arg("subdivisions"), pb::arg("tolerance"), pb::arg("max_iterations"),
-      pb::arg("max_seconds"), pb::arg("tangential"), pb::arg("step_scale"), pb::arg("progress"),
-      pb::arg("linear_start") = true, pb::arg("refine") = false, pb::arg("keep_size") = true);
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(),
+      pb::arg("face_mask") = pb::none(), pb::arg("progress") = pb::none());
+
+  Struct<RegularizeOptions>(m, "RegularizeOptions", "Options of regularize() (the mask is a separate argument)")
+      .field("iterations", &RegularizeOptions::iterations, "drift steps")
+      .field("boundary", &RegularizeOptions::boundary, "mesh-boundary vertices: fixed or sliding")
+      .field("step_scale", &RegularizeOptions::step_scale,
+             "multiplies the thesis's eps = 12 A_min (A_min within two rings of each vertex)")
+      .field("project", &RegularizeOptions::project, "project moved vertices back onto the input surface each step");
 
   m.def(
       "regularize",
-      [](InV Vin, InF Fin, int iterations, Mask mask, const std::string& boundary, double step_scale,
-         bool project, const pb::object& progress) {
-        RegularizeOptions o;
-        o.iterations = iterations;
+      [](InV V, InF F, const RegularizeOptions& opt, Mask mask, const pb::object& progress) {
+        RegularizeOptions o = opt;
         o.vertex_mask = to_mask(mask);
-        o.boundary = boundary_from(boundary);
-        o.step_scale = step_scale;
-        o.project = project;
         const ProgressFn cb = progress_from(progress);
-        MatX3d out;
-        {
-          NativeScope nogil;
-          out = regularize(Vin, Fin, o, cb);
-        }
-        return out;
+        NativeScope nogil;
+        return regularize(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("iterations"), pb::arg("mask"), pb::arg("boundary"),
-      pb::arg("step_scale"), pb::arg("project"), pb::arg("progress"));
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(),
+      pb::arg("progress") = pb::none());
 
   m.def(
       "willmore_energy",

@@ -1,5 +1,5 @@
-// Displaced-subdivision multiresolution layer (thesis 6.4): thin wrappers; the Python-facing class,
-// defaults and documentation live in addon/dgmesh/multires.py.
+// Displaced-subdivision multiresolution layer (thesis 6.4): MultiresOptions, MultiresTimings and the
+// Multires class of dgmesh/multires.h; addon/dgmesh/multires.py wraps the class for Python.
 #include "common.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/multires.h"
@@ -22,25 +22,34 @@ pb::tuple sparse_rows(const SpMatR& W) {
 
 void bind_multires(pb::module_& m) {
   using MatX2dR = MatX2d;
+  Struct<MultiresOptions>(m, "MultiresOptions", "Options of Multires.build()")
+      .field("control_faces", &MultiresOptions::control_faces, "target face count of the decimated control mesh")
+      .field("level", &MultiresOptions::level,
+             "1..5: adaptive isolation level of the limit patches and density of the closest-point seeds")
+      .field("min_quality", &MultiresOptions::min_quality, "decimation sliver guard, triangle quality in [0, 1)")
+      .field("fit_iterations", &MultiresOptions::fit_iterations,
+             "least-squares fits of the control vertices, each followed by a re-bind; 0 = plain decimation")
+      .field("fit_regularization", &MultiresOptions::fit_regularization,
+             "Tikhonov weight of the fit towards the decimated positions (relative)")
+      .field("projection_iterations", &MultiresOptions::projection_iterations,
+             "Gauss-Newton steps of the closest-point projection");
+
+  Struct<MultiresTimings>(m, "MultiresTimings", "Seconds spent in each stage of Multires.build()")
+      .result("decimate", &MultiresTimings::decimate, "quadric decimation to the control mesh")
+      .result("surface", &MultiresTimings::surface, "limit surface (OpenSubdiv patch table)")
+      .result("bind", &MultiresTimings::bind, "closest-point binding of the dense vertices")
+      .result("fit", &MultiresTimings::fit, "least-squares fits and re-binds")
+      .result("stencils", &MultiresTimings::stencils, "precomputed reconstruction stencils");
+
   pb::class_<Multires>(m, "Multires")
       .def_static(
           "build",
-          [](InV V, InF F, int control_faces, int level, double min_quality, int fit_iterations,
-             double fit_regularization, int projection_iterations, const pb::object& progress) {
-            MultiresOptions o;
-            o.control_faces = control_faces;
-            o.level = level;
-            o.min_quality = min_quality;
-            o.fit_iterations = fit_iterations;
-            o.fit_regularization = fit_regularization;
-            o.projection_iterations = projection_iterations;
+          [](InV V, InF F, const MultiresOptions& o, const pb::object& progress) {
             const ProgressFn cb = progress_from(progress);
             NativeScope nogil;
             return Multires::build(V, F, o, cb);
           },
-          pb::arg("V"), pb::arg("F"), pb::arg("control_faces"), pb::arg("level"), pb::arg("min_quality"),
-          pb::arg("fit_iterations"), pb::arg("fit_regularization"), pb::arg("projection_iterations"),
-          pb::arg("progress") = pb::none())
+          pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("progress") = pb::none())
       .def_static(
           "bind",
           [](InV control_V, InF control_F, InV V, int level, int projection_iterations, const pb::object& progress) {
@@ -75,17 +84,7 @@ void bind_multires(pb::module_& m) {
       .def_property_readonly("displacement", [](const Multires& r) { return MatX3d(r.displacement()); })
       .def_property_readonly("n_patch_points", &Multires::n_patch_points)
       .def_property_readonly("memory_bytes", &Multires::memory_bytes)
-      .def_property_readonly("timings",
-                             [](const Multires& r) {
-                               const MultiresTimings& t = r.timings();
-                               pb::dict d;
-                               d["decimate"] = t.decimate;
-                               d["surface"] = t.surface;
-                               d["bind"] = t.bind;
-                               d["fit"] = t.fit;
-                               d["stencils"] = t.stencils;
-                               return d;
-                             })
+      .def_property_readonly("timings", [](const Multires& r) { return r.timings(); })
       .def(
           "reconstruct",
           [](const Multires& r, InV X, const pb::object& out) -> pb::object {

@@ -1,5 +1,5 @@
-// Remeshing by double parameterization (thesis 5.4). Names and defaults are documented in
-// addon/dgmesh/remesh.py.
+// Remeshing by double parameterization (thesis 5.4): the options, enums, result and functions of
+// dgmesh/remesh.h as they are.
 #include "common.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/remesh.h"
@@ -7,75 +7,79 @@
 namespace dgmesh::py {
 
 void bind_remesh(pb::module_& m) {
+  pb::enum_<RemeshMode>(m, "RemeshMode", "Maps remesh() samples and triangulates on (thesis fig. 5.6-5.9)")
+      .value("double", RemeshMode::Double, "sample on Uopt, Delaunay on U0 (thesis 5.4)")
+      .value("single_u0", RemeshMode::SingleU0, "sample and triangulate on U0 (Alliez et al.)")
+      .value("single_uopt", RemeshMode::SingleUopt, "sample and triangulate on Uopt");
+  pb::enum_<RemeshBoundary>(m, "RemeshBoundary", "The chart's boundary in remesh()")
+      .value("keep", RemeshBoundary::Keep, "the boundary vertices exactly and in order (stitchable)")
+      .value("resample", RemeshBoundary::Resample, "new boundary vertices at the local target spacing");
+  pb::enum_<RemeshRelaxMetric>(m, "RemeshRelaxMetric", "Metric of the Lloyd relaxation's Voronoi cells")
+      .value("surface", RemeshRelaxMetric::Surface, "nearest sample in 3D")
+      .value("map", RemeshRelaxMetric::Map, "nearest sample in the sampling map");
+  // RemeshOptions::domain is unwrap.h's UvBoundary, whose binding belongs to py_unwrap.cpp (bound
+  // before this file); bound here only when that has not happened.
+  if (!pb::detail::get_type_info(typeid(UvBoundary)))
+    pb::enum_<UvBoundary>(m, "UvBoundary", "Parameter domain boundary")
+        .value("square", UvBoundary::Square, "unit square")
+        .value("circle", UvBoundary::Circle, "circle, arc-length spaced")
+        .value("free", UvBoundary::Free, "natural boundary (LSCM)");
+
+  Struct<RemeshOptions>(m, "RemeshOptions", "Options of remesh(); see dgmesh/remesh.h for each step")
+      .field("target_vertices", &RemeshOptions::target_vertices, "total output vertices, boundary included")
+      .field("adaptivity", &RemeshOptions::adaptivity, "0: uniform density; 1: density proportional to curvature")
+      .field("resolution", &RemeshOptions::resolution, "raster size of the control map, 16..4096")
+      .field("mode", &RemeshOptions::mode, "sampling and triangulation maps")
+      .field("boundary", &RemeshOptions::boundary, "keep or resample the chart's boundary")
+      .field("domain", &RemeshOptions::domain, "parameter domain of U0 and Uopt: circle or square (convex)")
+      .field("boundary_clearance", &RemeshOptions::boundary_clearance,
+             "interior samples closer to the boundary than this fraction of the target spacing are dropped")
+      .field("curvature_clip", &RemeshOptions::curvature_clip, "curvature density clipped at this multiple of its mean")
+      .field("max_uopt_iterations", &RemeshOptions::max_uopt_iterations, "cap on Uopt's equalization steps")
+      .field("eta", &RemeshOptions::eta, "eq. 5.6's exponent of the low-stretch map, (0, 1]")
+      .field("uopt_steps", &RemeshOptions::uopt_steps, "equalization steps (-1: until eq. 5.5 stops decreasing)")
+      .field("flip_3d", &RemeshOptions::flip_3d, "3D Delaunay edge flips after the triangulation")
+      .field("lloyd_iterations", &RemeshOptions::lloyd_iterations,
+             "at most this many density-weighted Lloyd steps, 0..100")
+      .field("smooth_iterations", &RemeshOptions::smooth_iterations, "sweeps of tangential smoothing, 0..100")
+      .field("relax_metric", &RemeshOptions::relax_metric, "metric of the Lloyd steps' Voronoi cells")
+      .field("min_separation", &RemeshOptions::min_separation,
+             "interior samples closer than this fraction of the target spacing are dropped, [0, 1)");
+
+  Struct<RemeshResult>(m, "RemeshResult", "Result of remesh()")
+      .result("V", &RemeshResult::V, "(n, 3) the new vertices: the n_boundary boundary vertices first, in loop order")
+      .result("F", &RemeshResult::F, "(m, 3) triangles, oriented like the input")
+      .result("n_boundary", &RemeshResult::n_boundary, "boundary vertices")
+      .result("boundary_source", &RemeshResult::boundary_source,
+              "keep: input vertex of each boundary vertex; resample: empty")
+      .result("uv", &RemeshResult::uv, "(n, 2) the output vertices in the triangulation map")
+      .result("source_face", &RemeshResult::source_face, "(n,) input face each output vertex lies on")
+      .result("source_bary", &RemeshResult::source_bary, "(n, 3) its barycentric weights there")
+      .result("n_interior_target", &RemeshResult::n_interior_target, "interior samples asked (target minus boundary)")
+      .result("n_rejected", &RemeshResult::n_rejected, "interior samples dropped by the boundary clearance (last pass)")
+      .result("passes", &RemeshResult::passes, "error-diffusion passes, all rounds")
+      .result("resolution", &RemeshResult::resolution, "raster size used (coarser than asked for small targets)")
+      .result("sampling_rounds", &RemeshResult::sampling_rounds, "diffusion + relaxation + separation rounds")
+      .result("uopt_iterations", &RemeshResult::uopt_iterations, "equalization steps of Uopt")
+      .result("n_flips", &RemeshResult::n_flips, "3D Delaunay edge flips")
+      .result("lloyd_iterations", &RemeshResult::lloyd_iterations, "Lloyd steps made")
+      .result("n_separated", &RemeshResult::n_separated, "interior samples dropped by min_separation (last round)")
+      .result("smooth_moves", &RemeshResult::smooth_moves, "vertex moves of the smoothing sweeps")
+      .result("n_removed", &RemeshResult::n_removed, "interior valence-3/4 vertices removed by the smoothing")
+      .result("seconds_parameterize", &RemeshResult::seconds_parameterize, "wall time: U0 and Uopt")
+      .result("seconds_sample", &RemeshResult::seconds_sample, "wall time: rasterizing and error diffusion")
+      .result("seconds_relax", &RemeshResult::seconds_relax, "wall time: Lloyd steps and separation")
+      .result("seconds_triangulate", &RemeshResult::seconds_triangulate, "wall time: Delaunay, lift, flips, smoothing")
+      .result("warnings", &RemeshResult::warnings, "notes for the user (e.g. a resolution too low for the target)");
+
   m.def(
       "remesh",
-      [](InV V, InF F, int target_vertices, double adaptivity, int resolution, const std::string& mode,
-         const std::string& boundary, const std::string& domain, double boundary_clearance, double curvature_clip,
-         bool flip_3d, double eta, int uopt_steps, int lloyd_iterations, const std::string& relax_metric,
-         double min_separation, int smooth_iterations,
-         const pb::object& progress) {
-        RemeshOptions o;
-        o.target_vertices = target_vertices;
-        o.adaptivity = adaptivity;
-        o.resolution = resolution;
-        if (mode == "double") o.mode = RemeshMode::Double;
-        else if (mode == "single_u0") o.mode = RemeshMode::SingleU0;
-        else if (mode == "single_uopt") o.mode = RemeshMode::SingleUopt;
-        else throw MeshError("mode must be 'double', 'single_u0' or 'single_uopt', got '" + mode + "'");
-        if (boundary == "keep") o.boundary = RemeshBoundary::Keep;
-        else if (boundary == "resample") o.boundary = RemeshBoundary::Resample;
-        else throw MeshError("boundary must be 'keep' or 'resample', got '" + boundary + "'");
-        if (domain == "circle") o.domain = UvBoundary::Circle;
-        else if (domain == "square") o.domain = UvBoundary::Square;
-        else throw MeshError("domain must be 'circle' or 'square', got '" + domain + "'");
-        o.boundary_clearance = boundary_clearance;
-        o.curvature_clip = curvature_clip;
-        o.flip_3d = flip_3d;
-        o.eta = eta;
-        o.uopt_steps = uopt_steps;
-        o.lloyd_iterations = lloyd_iterations;
-        o.min_separation = min_separation;
-        o.smooth_iterations = smooth_iterations;
-        if (relax_metric == "surface") o.relax_metric = RemeshRelaxMetric::Surface;
-        else if (relax_metric == "map") o.relax_metric = RemeshRelaxMetric::Map;
-        else throw MeshError("relax_metric must be 'surface' or 'map', got '" + relax_metric + "'");
-        RemeshResult r;
-        {
-          NativeScope nogil;
-          r = remesh(V, F, o, progress_from(progress));
-        }
-        pb::dict d;
-        d["V"] = std::move(r.V);
-        d["F"] = std::move(r.F);
-        d["uv"] = std::move(r.uv);
-        d["n_boundary"] = r.n_boundary;
-        d["boundary_source"] = std::move(r.boundary_source);
-        d["source_face"] = std::move(r.source_face);
-        d["source_bary"] = std::move(r.source_bary);
-        d["n_interior_target"] = r.n_interior_target;
-        d["n_rejected"] = r.n_rejected;
-        d["passes"] = r.passes;
-        d["uopt_iterations"] = r.uopt_iterations;
-        d["n_flips"] = r.n_flips;
-        d["lloyd_iterations"] = r.lloyd_iterations;
-        d["n_separated"] = r.n_separated;
-        d["sampling_rounds"] = r.sampling_rounds;
-        d["resolution"] = r.resolution;
-        d["smooth_moves"] = r.smooth_moves;
-        d["n_removed"] = r.n_removed;
-        d["seconds_relax"] = r.seconds_relax;
-        d["seconds_parameterize"] = r.seconds_parameterize;
-        d["seconds_sample"] = r.seconds_sample;
-        d["seconds_triangulate"] = r.seconds_triangulate;
-        d["warnings"] = r.warnings;
-        return d;
+      [](InV V, InF F, const RemeshOptions& o, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return remesh(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("target_vertices"), pb::arg("adaptivity") = 0.0,
-      pb::arg("resolution") = 256, pb::arg("mode") = "double", pb::arg("boundary") = "keep",
-      pb::arg("domain") = "circle", pb::arg("boundary_clearance") = 0.5, pb::arg("curvature_clip") = 8.0,
-      pb::arg("flip_3d") = true, pb::arg("eta") = 1.0, pb::arg("uopt_steps") = -1,
-      pb::arg("lloyd_iterations") = 30, pb::arg("relax_metric") = "surface",
-      pb::arg("min_separation") = 0.35, pb::arg("smooth_iterations") = 3, pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("progress") = pb::none());
 
   m.def(
       "point_mesh_distance",

@@ -1142,6 +1142,15 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
 }
 }  // namespace
 
+FairOptions fair_defaults(FairScheme scheme) {
+  FairOptions o;
+  if (scheme == FairScheme::Explicit) {
+    o.scheme = FairScheme::Explicit;
+    o.max_iterations = 5000;
+  }
+  return o;
+}
+
 FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
   check_input(V, F, opt.vertex_mask, &opt.face_mask);
   if (!opt.refine && opt.subdivisions == 0) return fair_rows(V, F, opt, progress_fn);

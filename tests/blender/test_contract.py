@@ -12,6 +12,11 @@ OPERATORS = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity_map": (lambda: _native.SimilarityOptions(), {}),
     "unwrap": (lambda: _native.UnwrapOptions(), {}),
+    "fair": (lambda: _native.FairOptions(), {}),
+    "regularize": (lambda: _native.RegularizeOptions(), {"strength": "step_scale", "keep_on_surface": "project"}),
+    "remesh": (lambda: _native.RemeshOptions(),
+               {"relax": "lloyd_iterations", "flips": "flip_3d", "smooth": "smooth_iterations"}),
+    "multires_preview": (lambda: _native.MultiresOptions(), {}),
 }
 
 
@@ -59,3 +64,21 @@ def test_unwrap_iterates_to_the_optimum_by_default_as_the_library():
     Steps count; Optimal is on exactly when the library's default iterates to the optimum."""
     optimal = _properties("unwrap")["optimal"]
     assert optimal.default == (_native.UnwrapOptions().iterations < 0)
+
+
+def test_remesh_resample_boundary_defaults_to_the_native_boundary():
+    prop = _properties("remesh")["resample_boundary"]
+    assert prop.default == (_native.RemeshOptions().boundary == _native.RemeshBoundary.resample)
+
+
+def test_switching_the_fair_scheme_loads_its_native_iteration_budget():
+    from dgmesh.blender import ops_fair
+
+    for scheme in _native.FairScheme.__members__.values():
+        class Props:
+            pass
+
+        props = Props()
+        props.scheme = scheme.name.upper()
+        ops_fair.load_scheme_defaults(props, None)
+        assert props.max_iterations == _native.fair_defaults(scheme).max_iterations

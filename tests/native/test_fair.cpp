@@ -94,6 +94,7 @@ TEST(Fair, SemiImplicitRoundsAnEllipsoid) {
   s.V.col(0) *= 2.0;
   FairOptions o;
   o.scheme = FairScheme::SemiImplicit;
+  o.max_iterations = 5000;
   const FairResult r = fair(s.V, s.F, o);
   EXPECT_TRUE(r.converged);
   const Vec3 ext = r.V.colwise().maxCoeff() - r.V.colwise().minCoeff();
@@ -106,6 +107,7 @@ TEST(Fair, CliffordTorusIsNearlyStationary) {
   const TriMesh t = torus(std::sqrt(2.0), 1.0, 64, 32);
   FairOptions o;
   o.scheme = FairScheme::SemiImplicit;
+  o.max_iterations = 5000;
   const FairResult r = fair(t.V, t.F, o);
   EXPECT_NEAR(r.energy.back(), r.energy.front(), 0.005 * r.energy.front());
   // Radii ratio kept (the energy is scale invariant, so the size may drift, not the shape).
@@ -153,6 +155,7 @@ TEST(Fair, RestoresSphericalCapBetterThanBilaplacian) {
     FairOptions o;
     o.method = m;
     o.scheme = FairScheme::SemiImplicit;
+    o.max_iterations = 5000;
     o.vertex_mask = h.movable;
     const FairResult r = fair(h.V, s.F, o);
     double d = 0;
@@ -175,6 +178,7 @@ TEST(Fair, RegionSubdivisionKeepsOutsideFaces) {
   const Hole h = flat_cap(s, 0.6);
   FairOptions o;
   o.scheme = FairScheme::SemiImplicit;
+  o.max_iterations = 5000;
   o.vertex_mask = h.movable;
   o.subdivisions = 2;
   const FairResult r = fair(h.V, s.F, o);
@@ -311,6 +315,8 @@ TEST(Fair, BadInputThrowsAndNamesTheProblem) {
 TEST(Fair, CancelChangesNothing) {
   const TriMesh s = icosphere(2, 1.0);
   FairOptions o;
+  o.scheme = FairScheme::Explicit;
+  o.max_iterations = 5000;
   int calls = 0;
   EXPECT_THROW(fair(s.V, s.F, o, [&](double) { return ++calls < 2; }), CancelledError);
 }

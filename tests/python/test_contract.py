@@ -20,11 +20,21 @@ CONTRACT = {
     "unwrap_charts": (lambda: _native.UnwrapOptions(), {}),
     "uv_metrics": (lambda: _native.UnwrapOptions(), {}),  # zero_area_eps
     "uv_stretch": (lambda: _native.UnwrapOptions(), {}),
+    "fair": (lambda: _native.FairOptions(), {}),
+    "regularize": (lambda: _native.RegularizeOptions(), {}),
+    "remesh": (lambda: _native.RemeshOptions(), {}),
+    "remesh_full": (lambda: _native.RemeshOptions(), {}),
+    "Multires.build": (lambda: _native.MultiresOptions(), {}),
+    "Multires.bind": (lambda: _native.MultiresOptions(), {}),
 }
 
 
 def _function(name):
-    return getattr(dgmesh, name)
+    """A public function of dgmesh by its name, or a class's method as "Class.method"."""
+    obj = dgmesh
+    for part in name.split("."):
+        obj = getattr(obj, part)
+    return obj
 
 
 @pytest.mark.parametrize("name", sorted(CONTRACT))
@@ -81,3 +91,29 @@ def test_result_arrays_are_views_that_keep_the_result_alive():
     assert sys.getrefcount(arr.base) >= 2
     del V
     assert np.isfinite(arr).all() and arr.shape == (len(F) // 2 + 2, 3)
+
+
+def test_fair_scheme_defaults():
+    """fair(max_iterations=None) takes the scheme's budget: FairOptions() is the semi-implicit
+    scheme's start, the explicit scheme's small steps get more iterations."""
+    semi = _native.fair_defaults(_native.FairScheme.semi_implicit)
+    assert semi == _native.FairOptions() and semi.scheme == _native.FairScheme.semi_implicit
+    explicit = sys.modules["dgmesh.fair"].defaults("explicit")
+    assert explicit.scheme == _native.FairScheme.explicit and explicit.max_iterations > semi.max_iterations
+    V, F = _native.icosphere(1, 1.0)
+    r = dgmesh.fair(V * np.array([2.0, 1.0, 1.0]), F, scheme="explicit", tolerance=0.0, max_iterations=None)
+    assert r.iterations == explicit.max_iterations
+
+
+def test_results_replace_returns_a_changed_copy():
+    V, F = _native.icosphere(2, 1.0)
+    r = dgmesh.fair(V, F, max_iterations=2)
+    assert r.moved.dtype == bool and r.moved.all() and isinstance(r.level_iterations, np.ndarray)
+    moved = r.moved.copy()
+    moved[0] = False
+    c = r.replace(moved=moved, iterations=7, vertices=r.vertices[::-1])
+    assert c.iterations == 7 and not c.moved[0] and r.moved[0] and r.iterations != 7
+    assert np.array_equal(c.vertices, r.vertices[::-1]) and np.array_equal(c.faces, r.faces)
+    assert c.replace() == c and c != r
+    with pytest.raises(TypeError, match="no field 'speed'"):
+        r.replace(speed=1)

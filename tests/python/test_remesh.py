@@ -502,12 +502,12 @@ def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance
     native = remesh_module._native.remesh
     clearances = []
 
-    def first_fails(*args, **kwargs):
-        clearances.append(kwargs["boundary_clearance"])
+    def first_fails(V, F, options, progress=None):
+        clearances.append(options.boundary_clearance)
         if len(clearances) == 1:
             raise dgmesh.Error("remesh: internal error, the new triangulation is invalid (the triangulation's "
                                "boundary is not the chart's boundary); try another resolution or target")
-        return native(*args, **kwargs)
+        return native(V, F, options, progress)
 
     monkeypatch.setattr(remesh_module._native, "remesh", first_fails)
     V, F = dgmesh.shapes.grid(8, 8)

@@ -20,7 +20,6 @@ seam on the plane (also with Refine Fill and Subdivisions: a hole at the seam bl
 Nothing is written before the native run ends: errors and Esc leave the mesh untouched.
 """
 
-import dataclasses
 import time
 
 import bmesh
@@ -29,27 +28,36 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import polymesh
-from ..fair import refine_region
+from ..fair import FairBoundary, FairMethod, FairOptions, FairScheme, RegularizeOptions, refine_region
+from ..fair import defaults as scheme_defaults
 from . import bridge
-from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
+from .common import enum_id, enum_items, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
 
-METHODS = (
-    ('WILLMORE', "Willmore", "Discrete Willmore flow: minimises the bending energy (integral of H\u00b2); "
-     "spheres stay spheres, patches blend smoothly"),
-    ('BILAPLACIAN', "Bilaplacian", "Bi-umbrella flow (thesis comparison flow): simple, flattens more"),
-    ('LAPLACIAN_OF_H', "Laplacian of H", "Laplacian-of-mean-curvature flow (thesis eq. 3.12)"),
-)
-SCHEMES = (
-    ('SEMI_IMPLICIT', "Semi-Implicit", "Large stable steps (linearised implicit bi-Laplacian): the same flow, far "
-     "faster, so the same number of iterations goes much further (on a whole object: far from its input)"),
-    ('EXPLICIT', "Explicit", "The thesis's explicit steps (tau = A_min\u00b2/150); slow on fine meshes"),
-)
-BOUNDARIES = (
-    ('FIXED', "Fixed", "Open mesh boundaries do not move"),
-    ('SLIDING', "Sliding", "Open mesh boundary vertices slide along the boundary"),
-)
+METHODS = enum_items(FairMethod, {
+    "willmore": ("Willmore", "Discrete Willmore flow: minimises the bending energy (integral of H\u00b2); "
+                 "spheres stay spheres, patches blend smoothly"),
+    "bilaplacian": ("Bilaplacian", "Bi-umbrella flow (thesis comparison flow): simple, flattens more"),
+    "laplacian_of_h": ("Laplacian of H", "Laplacian-of-mean-curvature flow (thesis eq. 3.12)"),
+})
+SCHEMES = enum_items(FairScheme, {
+    "semi_implicit": ("Semi-Implicit", "Large stable steps (linearised implicit bi-Laplacian): the same flow, far "
+                      "faster, so the same number of iterations goes much further (on a whole object: far from its "
+                      "input)"),
+    "explicit": ("Explicit", "The thesis's explicit steps (tau = A_min\u00b2/150); slow on fine meshes"),
+})
+BOUNDARIES = enum_items(FairBoundary, {
+    "fixed": ("Fixed", "Open mesh boundaries do not move"),
+    "sliding": ("Sliding", "Open mesh boundary vertices slide along the boundary"),
+})
+DEFAULTS = FairOptions()  # property defaults: the library's own (dgmesh/fair.h)
+REGULARIZE_DEFAULTS = RegularizeOptions()
+
+
+def load_scheme_defaults(self, context):
+    """Switching the scheme loads its iteration budget (dgmesh.fair's defaults(scheme))."""
+    self.max_iterations = scheme_defaults(self.scheme.lower()).max_iterations
 
 
 class _Target:
@@ -213,8 +221,8 @@ class _FairBase(NativeJobOperator):
             near = np.abs(Vh[n1:, k]) <= 1e-9 * size
             Vh[n1:, k][near] = 0.0
         origin = r.face_origin[rows] if origin1 is None else origin1[r.face_origin[rows]]
-        return dataclasses.replace(r, vertices=Vh, faces=Fh, face_origin=origin,
-                                   moved=np.concatenate([r.moved[:n1], r.moved[new]]))
+        return r.replace(vertices=Vh, faces=Fh, face_origin=origin.astype(np.int32),
+                         moved=np.concatenate([r.moved[:n1], r.moved[new]]))
 
 
 class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
@@ -227,37 +235,37 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    method: EnumProperty(name="Method", items=METHODS, default='WILLMORE')
-    scheme: EnumProperty(name="Scheme", items=SCHEMES, default='SEMI_IMPLICIT')
+    method: EnumProperty(name="Method", items=METHODS, default=enum_id(DEFAULTS.method))
+    scheme: EnumProperty(name="Scheme", items=SCHEMES, default=enum_id(DEFAULTS.scheme), update=load_scheme_defaults)
     subdivisions: IntProperty(
-        name="Subdivisions", default=0, min=0, max=4,
+        name="Subdivisions", default=DEFAULTS.subdivisions, min=0, max=4,
         description="Coarse-to-fine levels: fair, subdivide the region 1-to-4, fair again")
     tolerance: FloatProperty(
-        name="Tolerance", default=1e-4, min=1e-9, max=0.1, precision=6,
+        name="Tolerance", default=DEFAULTS.tolerance, min=1e-9, max=0.1, precision=6,
         description="Stop when the relative change of the bending energy falls below this")
     max_iterations: IntProperty(
-        name="Max Iterations", default=300, min=1, max=100000, soft_max=3000,
-        description="Iteration budget per subdivision level")
-    boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
+        name="Max Iterations", default=DEFAULTS.max_iterations, min=1, max=100000, soft_max=3000,
+        description="Iteration budget per subdivision level (switching the scheme loads its default)")
+    boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default=enum_id(DEFAULTS.boundary))
     tangential: BoolProperty(
-        name="Even Out Triangles", default=True,
+        name="Even Out Triangles", default=DEFAULTS.tangential,
         description="Add the tangential drift that keeps triangles regular (thesis eq. 3.8)")
     keep_size: BoolProperty(
-        name="Keep Size", default=True,
+        name="Keep Size", default=DEFAULTS.keep_size,
         description="Willmore, Laplacian of H: a closed part faired whole keeps its place and surface area "
         "(the bending energy does not depend on them, so only the shape changes)")
     keep_border: BoolProperty(
         name="Keep Selection Border", default=True,
         description="Edit mode: vertices on the border of the selection stay fixed")
     linear_start: BoolProperty(
-        name="Linear Start", default=True,
+        name="Linear Start", default=DEFAULTS.linear_start,
         description="With fixed vertices, Willmore and Laplacian of H first jump to the bilaplacian "
         "solution (when that lowers the bending energy) and flow from there; a flat fill alone "
         "can keep a crease along the hole's rim")
     # SKIP_SAVE: turned on by itself for a fill without inner vertices, it must not stay on for the
     # next Fair (a Grid Fill with inner vertices would be re-triangulated).
     refine: BoolProperty(
-        name="Refine Fill", default=False, options={'SKIP_SAVE'},
+        name="Refine Fill", default=DEFAULTS.refine, options={'SKIP_SAVE'},
         description="Edit mode: first refine the selected faces to triangles sized like the mesh "
         "around them (Liepa's hole filling: a fill without inner vertices is first re-triangulated "
         "by the minimum-weight triangulation of its rim, then centroid splits and Delaunay flips). For "
@@ -319,7 +327,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
                           "or slivers / fan-triangulated n-gons? Triangulate with Beauty or Regularize first)")
             elif r.converged:
                 status = ""
-            elif r.level_iterations and r.level_iterations[-1] >= self.max_iterations:
+            elif len(r.level_iterations) and r.level_iterations[-1] >= self.max_iterations:
                 status = " (iteration budget reached)"
             else:
                 status = " (stopped before the tolerance: the flow stalled)"
@@ -521,14 +529,15 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    iterations: IntProperty(name="Iterations", default=100, min=1, max=100000, soft_max=1000)
-    boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default='FIXED')
+    iterations: IntProperty(name="Iterations", default=REGULARIZE_DEFAULTS.iterations, min=1, max=100000,
+                            soft_max=1000)
+    boundary: EnumProperty(name="Boundary", items=BOUNDARIES, default=enum_id(REGULARIZE_DEFAULTS.boundary))
     strength: FloatProperty(
-        name="Step", default=1.0, min=0.01, max=4.0,
+        name="Step", default=REGULARIZE_DEFAULTS.step_scale, min=0.01, max=4.0,
         description="Multiplies the thesis's step (12 times the smallest triangle area, taken within two "
                     "rings of each vertex)")
     keep_on_surface: BoolProperty(
-        name="Keep on Surface", default=True,
+        name="Keep on Surface", default=REGULARIZE_DEFAULTS.project,
         description="Project moved vertices back onto the original surface after each step")
     keep_border: BoolProperty(
         name="Keep Selection Border", default=False,

@@ -22,6 +22,7 @@ from bpy.props import FloatProperty, IntProperty
 from mathutils import Matrix
 
 from .. import colors
+from ..multires import MultiresOptions
 from . import bridge
 from .common import editable_collection, poll_active_mesh, read_only_reason, report_shown_shape
 from .jobs import NativeJobOperator
@@ -34,19 +35,20 @@ CONTROL_KEY = "dgmesh_multires_control_of"  # custom property on the control obj
 # A cancel request for scripts (Esc does the same in an interactive run): the progress callback then
 # returns False, the native build raises Cancelled and nothing is written. Cleared when a run ends.
 cancel_event = threading.Event()
+DEFAULTS = MultiresOptions()  # property defaults: the library's own (dgmesh/multires.h)
 
 
-def make_work(V, F, control_faces=5000, level=2, min_quality=0.2, fit_iterations=1):
+def make_work(V, F, **options):
     """The native part of the preview as ``work(progress) -> (Multires, rest positions, seconds)``:
-    numpy and dgmesh only (it runs in a worker thread when interactive). ``progress`` is
-    fraction -> bool; False (or :data:`cancel_event`) cancels with dgmesh.Cancelled."""
+    numpy and dgmesh only (it runs in a worker thread when interactive). ``options``: keywords of
+    :meth:`dgmesh.Multires.build` (its defaults otherwise). ``progress`` is fraction -> bool; False
+    (or :data:`cancel_event`) cancels with dgmesh.Cancelled."""
     dg = api()
 
     def work(progress):
         t0 = time.perf_counter()
         try:
-            mr = dg.Multires.build(V, F, control_faces=control_faces, level=level, min_quality=min_quality,
-                                   fit_iterations=fit_iterations,
+            mr = dg.Multires.build(V, F, **options,
                                    progress=lambda f: bool(progress(f)) and not cancel_event.is_set())
             rest = mr.reconstruct(mr.control_vertices)
         finally:
@@ -96,17 +98,17 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
 
     control_faces: IntProperty(
         name="Control Faces", description="Target face count of the decimated control mesh",
-        default=5000, min=4, soft_max=20000)
+        default=DEFAULTS.control_faces, min=4, soft_max=20000)
     level: IntProperty(
         name="Level", description="Adaptive isolation level of the limit patches (1-5)",
-        default=2, min=1, max=5)
+        default=DEFAULTS.level, min=1, max=5)
     fit_iterations: IntProperty(
         name="Fit Iterations",
         description="Least-squares fits of the control mesh to the dense mesh (0: plain decimation)",
-        default=1, min=0, max=5)
+        default=DEFAULTS.fit_iterations, min=0, max=5)
     min_quality: FloatProperty(
         name="Sliver Guard", description="Minimum triangle quality kept by the decimation (1 = equilateral)",
-        default=0.2, min=0.0, max=0.9)
+        default=DEFAULTS.min_quality, min=0.0, max=0.9)
     percentile: FloatProperty(
         name="Range Percentile", description="The colour range ends at this percentile of the magnitude",
         default=95.0, min=50.0, max=100.0)

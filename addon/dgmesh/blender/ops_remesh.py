@@ -15,8 +15,6 @@ runs show progress and Esc cancels (jobs.NativeJobOperator); the mesh is written
 computation has finished.
 """
 
-import dataclasses
-
 import bmesh
 import bpy
 import numpy as np
@@ -24,10 +22,19 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import polymesh
 from ..polymesh import flip_off_mirror_planes
+from ..remesh import RemeshBoundary, RemeshMode, RemeshOptions
 from . import bridge
-from .common import plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
+from .common import enum_id, enum_items, plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
 from .prefs import api
+
+MODES = enum_items(RemeshMode, {
+    "double": ("Double (U0 + Uopt)",
+               "Sample on the low-stretch map, triangulate on the near-conformal one (thesis 5.4)"),
+    "single_u0": ("Single (U0)", "Sample and triangulate on the near-conformal map (Alliez et al.)"),
+    "single_uopt": ("Single (Uopt)", "Sample and triangulate on the low-stretch map"),
+})
+DEFAULTS = RemeshOptions()  # property defaults: the library's own (dgmesh/remesh.h)
 
 
 def _min_angle_deg(V, F):
@@ -54,35 +61,27 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     # soft_max: the slider's range (a redo-panel drag runs inline, without Esc); typed values go on.
-    target_vertices: IntProperty(name="Vertices", default=2000, min=8, max=5_000_000, soft_max=500_000,
-                                 description="Vertices of the new triangulation, boundary included")
-    adaptivity: FloatProperty(name="Adaptivity", default=0.0, min=0.0, max=1.0,
+    target_vertices: IntProperty(name="Vertices", default=DEFAULTS.target_vertices, min=8, max=5_000_000,
+                                 soft_max=500_000, description="Vertices of the new triangulation, boundary included")
+    adaptivity: FloatProperty(name="Adaptivity", default=DEFAULTS.adaptivity, min=0.0, max=1.0,
                               description="0: uniform density; 1: density proportional to curvature")
-    resolution: IntProperty(name="Resolution", default=512, min=16, max=4096, soft_max=2048,
+    resolution: IntProperty(name="Resolution", default=DEFAULTS.resolution, min=16, max=4096, soft_max=2048,
                             description="Control map size in pixels (at most one vertex per pixel)")
-    mode: EnumProperty(
-        name="Mode",
-        items=(
-            ('DOUBLE', "Double (U0 + Uopt)", "Sample on the low-stretch map, triangulate on the near-conformal one (thesis 5.4)"),
-            ('SINGLE_U0', "Single (U0)", "Sample and triangulate on the near-conformal map (Alliez et al.)"),
-            ('SINGLE_UOPT', "Single (Uopt)", "Sample and triangulate on the low-stretch map"),
-        ),
-        default='DOUBLE',
-    )
+    mode: EnumProperty(name="Mode", items=MODES, default=enum_id(DEFAULTS.mode))
     relax: IntProperty(
-        name="Relaxation Steps", default=30, min=0, max=100,
+        name="Relaxation Steps", default=DEFAULTS.lloyd_iterations, min=0, max=100,
         description="At most this many density-weighted Lloyd steps after the error diffusion (evens out the "
                     "vertex spacing; they stop once the vertices settle; 0 = the thesis's plain error diffusion)")
     flips: BoolProperty(
-        name="3D Delaunay Flips", default=True,
+        name="3D Delaunay Flips", default=DEFAULTS.flip_3d,
         description="After the Delaunay triangulation in the parameter plane, flip edges towards a Delaunay "
                     "triangulation of the surface (better angles; beyond the thesis)")
     smooth: IntProperty(
-        name="Smoothing", default=3, min=0, max=100,
+        name="Smoothing", default=DEFAULTS.smooth_iterations, min=0, max=100,
         description="Sweeps of tangential smoothing of the new vertices on the surface (never creating an "
                     "angle below 35 degrees, sharp features kept), each followed by the flips; beyond the thesis")
     resample_boundary: BoolProperty(
-        name="Resample Boundary", default=False,
+        name="Resample Boundary", default=DEFAULTS.boundary == RemeshBoundary.resample,
         description="Object mode only: place new boundary vertices at the target spacing "
                     "(Edit mode always keeps the region's boundary so it stays stitched)")
 
@@ -167,7 +166,7 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                     raise dg.MeshError(f"'{it['name']}' ({what}, {len(it['F'])} triangles): {exc}") from None
                 if it["mirror"]:
                     r = it["result"]
-                    it["result"] = dataclasses.replace(r, F=flip_off_mirror_planes(r.V, r.F, it["mirror"]))
+                    it["result"] = r.replace(F=flip_off_mirror_planes(r.V, r.F, it["mirror"]))
                 done += len(it["F"])
             return items
 

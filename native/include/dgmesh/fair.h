@@ -35,7 +35,7 @@ enum class FairScheme {
 
 struct FairOptions {
   FairMethod method = FairMethod::Willmore;
-  FairScheme scheme = FairScheme::Explicit;
+  FairScheme scheme = FairScheme::SemiImplicit;
   FairBoundary boundary = FairBoundary::Fixed;
   // Vertices allowed to move (size n); empty: every vertex (mesh boundary per `boundary`).
   // Region mode: the fixed vertices next to the region keep positions and, through their
@@ -49,7 +49,7 @@ struct FairOptions {
   // minimiser of the linearised energy with the old vertices held, when that lowers the energy.
   int subdivisions = 0;
   double tolerance = 1e-4;    // relative energy change per unit of flow time (see fair.cpp)
-  int max_iterations = 5000;  // per level
+  int max_iterations = 300;   // per level (the explicit scheme's small steps need more: fair_defaults)
   double max_seconds = 0;     // wall-clock budget for the whole run; 0 = none
   bool tangential = true;     // add the tangential drift eps T (eq. 3.8)
   double step_scale = 1.0;    // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
@@ -67,6 +67,10 @@ struct FairOptions {
   // them from also moving and resizing the object.
   bool keep_size = true;
 };
+
+// The defaults of a scheme: FairOptions{} (semi-implicit, 300 iterations per level) for SemiImplicit;
+// for Explicit the thesis's small steps (tau = A_min^2/150) with 5000 iterations per level.
+FairOptions fair_defaults(FairScheme scheme);
 
 struct FairResult {
   MatX3d V;              // original vertices first (same indices), then new ones

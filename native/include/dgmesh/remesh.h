@@ -48,7 +48,7 @@ enum class RemeshBoundary {
 };
 
 struct RemeshOptions {
-  int target_vertices = 5000;        // total output vertices, boundary included
+  int target_vertices = 2000;        // total output vertices, boundary included
   double adaptivity = 0.0;           // 0: uniform density; 1: density proportional to curvature
   int resolution = 256;              // raster size of the control map (resolution^2 pixels), 16..4096
   RemeshMode mode = RemeshMode::Double;
