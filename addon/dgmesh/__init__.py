@@ -31,6 +31,8 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     MeshError,
     MeshIOError,
     SolverError,
+    Curvature,
+    Topology,
     curvature,
     num_threads,
     read_mesh,
@@ -50,7 +52,8 @@ from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # no
 # The public numpy API (``from dgmesh import *``); register/unregister are Blender's entry points.
 __all__ = [
     "Cancelled", "Error", "MeshError", "MeshIOError", "SolverError",
-    "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate", "write_mesh",
+    "Curvature", "Topology", "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate",
+    "write_mesh",
     "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
     "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
     "FairResult", "fair", "regularize", "willmore_energy",

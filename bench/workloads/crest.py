@@ -115,9 +115,9 @@ def _interior(V, F):
     """Vertices outside the boundary's one-ring (one-sided fits there)."""
     top = dgmesh.topology(V, F)
     bnd = np.zeros(len(V), bool)
-    for loop in top["boundary_loops"]:
+    for loop in top.boundary_loops:
         bnd[loop] = True
-    E = top["edges"]
+    E = top.edges
     ring = bnd.copy()
     ring[E[bnd[E[:, 0]], 1]] = True
     ring[E[bnd[E[:, 1]], 0]] = True

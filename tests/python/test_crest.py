@@ -117,7 +117,7 @@ def test_decimate_locked_vertices_stay(cube):
 def test_decimate_keeps_boundary():
     V, F = _native.grid(20, 20)
     V2, F2 = dgmesh.decimate(V, F, target_faces=100)
-    loops = dgmesh.topology(V2, F2)["boundary_loops"]
+    loops = dgmesh.topology(V2, F2).boundary_loops
     assert len(loops) == 1 and len(loops[0]) == 80
 
 
