@@ -42,7 +42,24 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     write_mesh,
 )
 from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
-from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
+from .crest import (  # noqa: E402
+    CrestKind,
+    CrestLines,
+    CrestOptions,
+    CurvatureDerivatives,
+    DecimateOptions,
+    DecimateResult,
+    DerivativeOptions,
+    FeatureOptions,
+    SegmentOptions,
+    SegmentResult,
+    crest_lines,
+    curvature_derivatives,
+    decimate,
+    decimate_feature_defaults,
+    segment,
+    segment_feature_defaults,
+)
 from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
 from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
@@ -55,7 +72,9 @@ __all__ = [
     "Curvature", "Topology", "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate",
     "write_mesh",
     "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
-    "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
+    "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions", "DecimateResult",
+    "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult", "crest_lines", "curvature_derivatives",
+    "decimate", "decimate_feature_defaults", "segment", "segment_feature_defaults",
     "FairResult", "fair", "regularize", "willmore_energy",
     "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
     "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",

@@ -7,10 +7,14 @@ import pytest
 
 from dgmesh import _native
 
-# operator -> (its options object, {property: field} where the names differ)
+# operator -> (its options object, or a tuple of them for an operator setting several,
+# {property: field} where the names differ)
 OPERATORS = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity_map": (lambda: _native.SimilarityOptions(), {}),
+    "crest_lines": (lambda: (_native.DerivativeOptions(), _native.CrestOptions()), {}),
+    "decimate_features": (lambda: (_native.DecimateOptions(), _native.decimate_feature_defaults()), {}),
+    "segment": (lambda: (_native.SegmentOptions(), _native.segment_feature_defaults()), {}),
 }
 
 
@@ -22,7 +26,8 @@ def _properties(idname):
 def test_property_defaults_are_the_native_defaults(idname):
     make, renames = OPERATORS[idname]
     options = make()
-    fields = {f: getattr(options, f) for f in type(options).__fields__}
+    fields = {f: getattr(o, f) for o in (options if isinstance(options, tuple) else (options,))
+              for f in type(o).__fields__}
     checked = []
     for prop in _properties(idname):
         field = renames.get(prop.identifier, prop.identifier)
@@ -37,7 +42,7 @@ def test_property_defaults_are_the_native_defaults(idname):
             assert prop.default == pytest.approx(value, rel=1e-6, abs=1e-7), (idname, prop.identifier)
         else:
             assert prop.default == value, (idname, prop.identifier)
-    assert checked, f"dgmesh.{idname} shares no property with {type(options).__name__}"
+    assert checked, f"dgmesh.{idname} shares no property with {options!r}"
     assert set(renames.values()) <= set(checked), (idname, renames)
 
 
