@@ -62,7 +62,18 @@ from .crest import (  # noqa: E402
 )
 from .fair import FairResult, fair, regularize, willmore_energy  # noqa: E402
 from .unwrap import UnwrapResult, unwrap, uv_metrics, uv_stretch  # noqa: E402
-from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
+from .skeletal import (  # noqa: E402
+    SkeletalDeformOptions,
+    SkeletalMesh,
+    SkeletalMethod,
+    SkeletalRig,
+    SkeletalRigOptions,
+    SkeletonOptions,
+    delaunay_2d,
+    delaunay_3d,
+    skeletal_mesh,
+    union_of_balls_distance,
+)
 from .multires import Multires  # noqa: E402
 from .remesh import RemeshResult, point_mesh_distance, remesh, remesh_full  # noqa: E402
 
@@ -77,7 +88,8 @@ __all__ = [
     "decimate", "decimate_feature_defaults", "segment", "segment_feature_defaults",
     "FairResult", "fair", "regularize", "willmore_energy",
     "UnwrapResult", "unwrap", "uv_metrics", "uv_stretch",
-    "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
+    "SkeletalDeformOptions", "SkeletalMesh", "SkeletalMethod", "SkeletalRig", "SkeletalRigOptions", "SkeletonOptions",
+    "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
     "Multires",
     "RemeshResult", "point_mesh_distance", "remesh", "remesh_full",
     "shapes",

@@ -15,6 +15,7 @@ OPERATORS = {
     "crest_lines": (lambda: (_native.DerivativeOptions(), _native.CrestOptions()), {}),
     "decimate_features": (lambda: (_native.DecimateOptions(), _native.decimate_feature_defaults()), {}),
     "segment": (lambda: (_native.SegmentOptions(), _native.segment_feature_defaults()), {}),
+    "skeletal_bind": (lambda: (_native.SkeletalRigOptions(), _native.SkeletalDeformOptions()), {}),
 }
 
 
@@ -56,3 +57,9 @@ def test_switching_the_denoise_method_loads_its_native_defaults():
     ops_denoise.load_method_defaults(props, None)
     d = _native.denoise_defaults(_native.DenoiseMethod.bilateral)
     assert (props.eta1, props.eta2, props.eta3, props.iterations) == (d.eta1, d.eta2, d.eta3, d.iterations)
+
+
+def test_skeleton_blend_defaults_to_the_native_blend():
+    prop = _properties("skeletal_bind")["skeleton_blend"]
+    blend = 'DUAL_QUATERNION' if _native.SkeletalDeformOptions().dual_quaternion else 'LINEAR'
+    assert prop.default == blend and {i.identifier for i in prop.enum_items} == {'DUAL_QUATERNION', 'LINEAR'}

@@ -21,6 +21,11 @@ CONTRACT = {
     "crest_lines": (lambda: (_native.DerivativeOptions(), _native.CrestOptions()), {}),
     "decimate": (lambda: (_native.DecimateOptions(), _native.decimate_feature_defaults()), {}),
     "segment": (lambda: (_native.SegmentOptions(), _native.segment_feature_defaults()), {}),
+    "skeletal_mesh": (lambda: _native.SkeletonOptions(), {}),
+    "SkeletalRig.bind": (lambda: (_native.SkeletalRigOptions(), _native.SkeletalRigOptions().skeleton),
+                         {"fit_iterations": "multires_fit_iterations"}),
+    "SkeletalRig.deform": (lambda: _native.SkeletalDeformOptions(), {}),
+    "SkeletalRig.deform_control": (lambda: _native.SkeletalDeformOptions(), {}),
 }
 
 
