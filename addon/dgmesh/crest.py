@@ -205,7 +205,7 @@ def _features(V, F, feature_weight, crest_lines, rings, threshold, defaults):
     """The FeatureOptions (from the preset function ``defaults``) of a feature-guided call and the
     native lines to use (None: detected natively with ``rings`` and ``threshold``, on the mesh
     validated once there)."""
-    features = make_options(defaults(), feature_weight=as_real(feature_weight, "feature_weight", 0.0),
+    features = make_options(defaults(), feature_weight=feature_weight,  # its range: checked natively
                             rings=_check_rings(rings), threshold=as_real(threshold, "threshold"))
     lines = None
     if features.feature_weight and crest_lines is not None:
