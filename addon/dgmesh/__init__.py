@@ -31,6 +31,8 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     MeshError,
     MeshIOError,
     SolverError,
+    Curvature,
+    Topology,
     curvature,
     num_threads,
     read_mesh,
@@ -40,12 +42,40 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     write_mesh,
 )
 from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
-from .crest import CrestLines, crest_lines, curvature_derivatives, decimate, segment  # noqa: E402
+from .crest import (  # noqa: E402
+    CrestKind,
+    CrestLines,
+    CrestOptions,
+    CurvatureDerivatives,
+    DecimateOptions,
+    DecimateResult,
+    DerivativeOptions,
+    FeatureOptions,
+    SegmentOptions,
+    SegmentResult,
+    crest_lines,
+    curvature_derivatives,
+    decimate,
+    decimate_feature_defaults,
+    segment,
+    segment_feature_defaults,
+)
 from .fair import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, RegularizeOptions, fair,  # noqa: E402
                    regularize, willmore_energy)
 from .unwrap import (UnwrapChartError, UnwrapChartsResult, UnwrapOptions, UnwrapResult, UnwrapStep,  # noqa: E402
                      UvBoundary, UvMetrics, UvSolver, UvWeights, unwrap, unwrap_charts, uv_metrics, uv_stretch)
-from .skeletal import SkeletalRig, delaunay_2d, delaunay_3d, skeletal_mesh, union_of_balls_distance  # noqa: E402
+from .skeletal import (  # noqa: E402
+    SkeletalDeformOptions,
+    SkeletalMesh,
+    SkeletalMethod,
+    SkeletalRig,
+    SkeletalRigOptions,
+    SkeletonOptions,
+    delaunay_2d,
+    delaunay_3d,
+    skeletal_mesh,
+    union_of_balls_distance,
+)
 from .multires import Multires, MultiresOptions, MultiresTimings  # noqa: E402
 from .remesh import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetric, RemeshResult,  # noqa: E402
                      point_mesh_distance, remesh, remesh_full)
@@ -53,14 +83,18 @@ from .remesh import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetri
 # The public numpy API (``from dgmesh import *``); register/unregister are Blender's entry points.
 __all__ = [
     "Cancelled", "Error", "MeshError", "MeshIOError", "SolverError",
-    "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate", "write_mesh",
+    "Curvature", "Topology", "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate",
+    "write_mesh",
     "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
-    "CrestLines", "crest_lines", "curvature_derivatives", "decimate", "segment",
+    "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions", "DecimateResult",
+    "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult", "crest_lines", "curvature_derivatives",
+    "decimate", "decimate_feature_defaults", "segment", "segment_feature_defaults",
     "FairBoundary", "FairMethod", "FairOptions", "FairResult", "FairScheme", "RegularizeOptions", "fair", "regularize",
     "willmore_energy",
     "UnwrapChartError", "UnwrapChartsResult", "UnwrapOptions", "UnwrapResult", "UnwrapStep", "UvBoundary",
     "UvMetrics", "UvSolver", "UvWeights", "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch",
-    "SkeletalRig", "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
+    "SkeletalDeformOptions", "SkeletalMesh", "SkeletalMethod", "SkeletalRig", "SkeletalRigOptions", "SkeletonOptions",
+    "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
     "Multires", "MultiresOptions", "MultiresTimings",
     "RemeshBoundary", "RemeshMode", "RemeshOptions", "RemeshRelaxMetric", "RemeshResult", "point_mesh_distance",
     "remesh", "remesh_full",

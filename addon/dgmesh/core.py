@@ -1,8 +1,8 @@
 """The numpy face of the core: mesh I/O, validation, curvature.
 
 Arrays in: V as (n, 3) float64 and F as (m, 3) int32, C-contiguous to avoid a copy (other dtypes
-and layouts are converted). Arrays out are fresh numpy arrays. Native work runs with the GIL
-released. Errors are raised as MeshError (a ValueError) and its relatives.
+and layouts are converted). Results are the bound C++ structs, their arrays numpy views into them.
+Native work runs with the GIL released. Errors are raised as MeshError (a ValueError) and its relatives.
 """
 
 import os
@@ -196,17 +196,26 @@ def validate(V, F, allow_loose_vertices=True):
     _native.validate(as_vertices(V), as_faces(F), checks)
 
 
-def topology(V, F):
-    """Edges, edge faces, boundary loops and connected components of a valid mesh."""
+# Results of the core, bound as the C++ structs are (dgmesh/mesh.h, geometry.h).
+Topology = _native.Topology
+Curvature = _native.Curvature
+
+
+def topology(V, F) -> Topology:
+    """Edges, edge faces, boundary loops and connected components of a valid mesh: a
+    :class:`Topology` (``edges`` (E, 2) with v0 < v1, ``face_edges`` (m, 3), ``edge_faces`` (E, 2),
+    -1 on the boundary, ``boundary_loops`` (lists of vertices, oriented as the faces),
+    ``component`` per vertex and ``n_components``)."""
     return _native.topology(as_vertices(V), as_faces(F))
 
 
-def curvature(V, F):
+def curvature(V, F) -> Curvature:
     """Discrete curvatures per vertex (thesis 3.1).
 
-    Returns a dict: ``mean`` H (cotangent Laplace-Beltrami with mixed Voronoi areas, positive on a
-    sphere with outward normals), ``gaussian`` K (angle deficit), ``normals`` (Nelson Max weights)
-    and ``area`` (mixed Voronoi area). Boundary vertices take the mean of their interior
-    neighbours; loose vertices get 0. Rejects invalid meshes with MeshError.
+    Returns a :class:`Curvature`: ``mean`` H (cotangent Laplace-Beltrami with mixed Voronoi areas,
+    positive on a sphere with outward normals), ``gaussian`` K (angle deficit), ``normals`` (Nelson
+    Max weights), ``area`` (mixed Voronoi area) and ``laplace`` (the Laplace-Beltrami of the
+    position, -2 H N). Boundary vertices take the mean of their interior neighbours; loose vertices
+    get 0. Rejects invalid meshes with MeshError.
     """
     return _native.curvature(as_vertices(V), as_faces(F))

@@ -8,50 +8,64 @@
 * :func:`segment`: variational shape approximation, optionally guided by crest lines (4.9).
 """
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_mask, as_real, as_vertices
+from .core import MeshError, _native, as_count, as_faces, as_mask, as_real, as_vertices, make_options
 
-RIDGE = 0
-VALLEY = 1
+# The contract is the C++ one (dgmesh/crest_lines.h, decimate.h, segment.h), bound as it is: the
+# options with their defaults, the results, the line kinds, and the feature-guidance presets of
+# decimation and segmentation.
+DerivativeOptions = _native.DerivativeOptions
+CurvatureDerivatives = _native.CurvatureDerivatives
+CrestOptions = _native.CrestOptions
+CrestKind = _native.CrestKind
+FeatureOptions = _native.FeatureOptions
+DecimateOptions = _native.DecimateOptions
+DecimateResult = _native.DecimateResult
+SegmentOptions = _native.SegmentOptions
+SegmentResult = _native.SegmentResult
 
-_LINE_FIELDS = ("points", "point_edge", "point_t", "point_cyclideness", "segments", "segment_line",
-                "segment_face", "line_offset", "line_points", "line_kind", "line_strength", "line_length")
+RIDGE = int(CrestKind.ridge)
+VALLEY = int(CrestKind.valley)
+
+decimate_feature_defaults = _native.decimate_feature_defaults  # eta 6 (thesis fig. 4.19)
+segment_feature_defaults = _native.segment_feature_defaults    # eta 2 (thesis fig. 4.26-4.27)
+
+_FIT = DerivativeOptions()
+_CREST = CrestOptions()
+_DECIMATE = DecimateOptions()
+_DECIMATE_FEATURES = decimate_feature_defaults()
+_SEGMENT = SegmentOptions()
+_SEGMENT_FEATURES = segment_feature_defaults()
 
 
-@dataclass(repr=False)
 class CrestLines:
-    """Crest lines of a mesh.
+    """Crest lines of a mesh at one threshold: the bound C++ result ``_native.CrestLines``
+    (``lines``) with the fit it came from.
 
-    Points: ``points`` (P, 3); most lie on a mesh edge ``point_edge`` (P, 2) = (v0, v1) at
-    ``(1 - point_t) v0 + point_t v1``; junction points inside a triangle have edge (-1, -1).
-    ``point_cyclideness`` is C of eq. 4.11 at the point.
-    Segments: ``segments`` (S, 2) point indices, ``segment_line`` the line of each, ``segment_face``
-    the triangle holding it (-1 for a gap jump between two line ends, thesis fig. 4.10).
-    Lines: ``polylines`` (ordered point arrays; a closed line repeats its first point), ``line_kind``
-    (RIDGE = 0 or VALLEY = 1), ``line_strength`` T (eq. 4.10, dimensionless) and ``line_length``.
-    ``derivatives`` holds the per-vertex fields (see :func:`curvature_derivatives`).
-    ``all_lines`` keeps the unfiltered lines, so :meth:`filter` can lower the threshold again
-    without refitting.
+    A thin wrapper, because re-thresholding needs what the C++ struct does not hold: every traced
+    line (``all_lines``, a ``_native.CrestLines``), so that :meth:`filter` can lower the threshold
+    again without refitting, and the per-vertex fields (``derivatives``, a
+    :class:`CurvatureDerivatives`, see :func:`curvature_derivatives`). Filtering itself is the
+    C++ ``filter_crest_lines``.
+
+    The fields of ``lines`` read as attributes (numpy views): points ``points`` (P, 3); most lie on
+    a mesh edge ``point_edge`` (P, 2) = (v0, v1) at ``(1 - point_t) v0 + point_t v1``; junction
+    points inside a triangle have edge (-1, -1). ``point_cyclideness`` is C of eq. 4.11 at the
+    point. Segments: ``segments`` (S, 2) point indices, ``segment_line`` the line of each,
+    ``segment_face`` the triangle holding it (-1 for a gap jump between two line ends, thesis
+    fig. 4.10). Lines: ``line_offset`` / ``line_points`` (CSR point lists), ``polylines`` (ordered
+    point arrays; a closed line repeats its first point), ``line_kind`` (RIDGE = 0 or VALLEY = 1),
+    ``line_strength`` T (eq. 4.10, dimensionless) and ``line_length``.
     """
 
-    points: np.ndarray
-    point_edge: np.ndarray
-    point_t: np.ndarray
-    point_cyclideness: np.ndarray
-    segments: np.ndarray
-    segment_line: np.ndarray
-    segment_face: np.ndarray
-    line_offset: np.ndarray
-    line_points: np.ndarray
-    line_kind: np.ndarray
-    line_strength: np.ndarray
-    line_length: np.ndarray
-    derivatives: dict = field(default_factory=dict, repr=False)
-    threshold: float = 0.0
-    all_lines: "CrestLines" = field(default=None, repr=False)
+    __slots__ = ("lines", "derivatives", "threshold", "all_lines")
+
+    def __init__(self, lines, derivatives, threshold=0.0, all_lines=None):
+        self.lines = lines
+        self.derivatives = derivatives
+        self.threshold = threshold
+        self.all_lines = lines if all_lines is None else all_lines
 
     def __len__(self):
         return len(self.line_kind)
@@ -82,53 +96,27 @@ class CrestLines:
     def filter(self, threshold=None, ridges=True, valleys=True):
         """Lines with strength T >= threshold of the requested kinds, re-indexed. Filtering always
         starts from every traced line, so a lower threshold brings lines back."""
-        base = self.all_lines if self.all_lines is not None else self
         threshold = self.threshold if threshold is None else float(threshold)
-        keep = base.line_strength >= threshold
-        if not ridges:
-            keep &= base.line_kind != RIDGE
-        if not valleys:
-            keep &= base.line_kind != VALLEY
-        return _subset(base, keep, threshold)
+        lines = _native.filter_crest_lines(self.all_lines, threshold, bool(ridges), bool(valleys))
+        return CrestLines(lines, self.derivatives, threshold, self.all_lines)
 
 
-def _subset(base, keep, threshold):
-    nl = len(base.line_kind)
-    new_line = np.full(nl, -1, dtype=np.int32)
-    new_line[keep] = np.arange(int(keep.sum()), dtype=np.int32)
-    o = base.line_offset
-    counts = np.diff(o)
-    idx = np.repeat(keep, counts)
-    line_points_old = base.line_points[idx]
-    used = np.unique(line_points_old)
-    new_point = np.full(len(base.points), -1, dtype=np.int32)
-    new_point[used] = np.arange(len(used), dtype=np.int32)
-    seg_keep = keep[base.segment_line] if len(base.segment_line) else np.zeros(0, bool)
-    return CrestLines(
-        points=base.points[used],
-        point_edge=base.point_edge[used],
-        point_t=base.point_t[used],
-        point_cyclideness=base.point_cyclideness[used],
-        segments=new_point[base.segments[seg_keep]].reshape(-1, 2),
-        segment_line=new_line[base.segment_line[seg_keep]],
-        segment_face=base.segment_face[seg_keep],
-        line_offset=np.concatenate([[0], np.cumsum(counts[keep])]).astype(np.int32),
-        line_points=new_point[line_points_old],
-        line_kind=base.line_kind[keep],
-        line_strength=base.line_strength[keep],
-        line_length=base.line_length[keep],
-        derivatives=base.derivatives,
-        threshold=threshold,
-        all_lines=base,
-    )
+def _line_field(name):
+    return property(lambda self: getattr(self.lines, name), doc=getattr(_native.CrestLines, name).__doc__)
+
+
+for _name in _native.CrestLines.__fields__:
+    setattr(CrestLines, _name, _line_field(_name))
+del _name
 
 
 def _check_rings(rings):
     return as_count(rings, "rings", 1, 8)
 
 
-def curvature_derivatives(V, F, *, rings=1, smooth=True, use_normals=True, fit_tangent_plane=True,
-                          transport_to_vertex=True, progress=None):
+def curvature_derivatives(V, F, *, rings: int = _FIT.rings, smooth: bool = _FIT.smooth,
+                          use_normals: bool = _FIT.use_normals, fit_tangent_plane: bool = _FIT.fit_tangent_plane,
+                          transport_to_vertex: bool = _FIT.transport_to_vertex, progress=None) -> CurvatureDerivatives:
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
     A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
@@ -137,40 +125,47 @@ def curvature_derivatives(V, F, *, rings=1, smooth=True, use_normals=True, fit_t
     vertex normal. Two refinements over eq. 4.7 as printed (both on by default; off reproduces the
     thesis's fit): ``fit_tangent_plane`` adds linear terms and treats the Max normal of p' as one
     more normal equation rather than as exact, and ``transport_to_vertex`` evaluates the fitted
-    surface at the foot of the original vertex p instead of at p'. Returns a dict of per-vertex
-    arrays: ``k_max``, ``k_min`` (positive on a sphere with outward faces), unit directions
-    ``t_max``, ``t_min`` (n, 3), extremality coefficients ``e_max`` = dk_max/dt_max and ``e_min``
-    (eq. 4.8-4.9; their sign follows the direction), ``normals`` of the fitted surface.
+    surface at the foot of the original vertex p instead of at p'. Defaults: ``DerivativeOptions()``.
+    Returns a :class:`CurvatureDerivatives` of per-vertex arrays: ``k_max``, ``k_min`` (positive on
+    a sphere with outward faces), unit directions ``t_max``, ``t_min`` (n, 3), extremality
+    coefficients ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8-4.9; their sign follows the
+    direction), ``normals`` of the fitted surface.
     """
-    return _native.curvature_derivatives(as_vertices(V), as_faces(F), _check_rings(rings), bool(smooth),
-                                         bool(use_normals), bool(fit_tangent_plane), bool(transport_to_vertex),
-                                         progress)
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), smooth=bool(smooth),
+                       use_normals=bool(use_normals), fit_tangent_plane=bool(fit_tangent_plane),
+                       transport_to_vertex=bool(transport_to_vertex))
+    return _native.curvature_derivatives(as_vertices(V), as_faces(F), fit, progress)
 
 
-def crest_lines(V, F, *, rings=1, threshold=0.0, ridges=True, valleys=True, smooth=True, join_gaps=True,
-                skip_boundary=True, progress=None):
+def crest_lines(V, F, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold, ridges: bool = _CREST.ridges,
+                valleys: bool = _CREST.valleys, smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps,
+                skip_boundary: bool = _CREST.skip_boundary, progress=None) -> CrestLines:
     """Crest lines of a triangle mesh (thesis 4.5-4.6).
 
     ``rings`` (1..8, thesis 1..4) is the fitting neighbourhood: larger gives smoother lines and
     ignores smaller features. Lines are zero crossings of the extremality coefficients on the mesh
     edges, with the maximum/minimum and convexity tests, joined across gaps, and kept when their
-    strength T (eq. 4.10, scale independent) is at least ``threshold``. Edges touching the mesh
-    boundary are skipped when ``skip_boundary`` (the fit is one-sided there).
+    strength T (eq. 4.10, scale independent) is at least ``threshold`` (default 10: the salient
+    lines of typical scans; 0 keeps every line). Edges touching the mesh boundary are skipped when
+    ``skip_boundary`` (the fit is one-sided there). Defaults: ``DerivativeOptions()`` and
+    ``CrestOptions()``.
     Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
     """
-    d, lines = _native.crest_lines(as_vertices(V), as_faces(F), _check_rings(rings), bool(smooth), True,
-                                   True, True, bool(join_gaps), bool(skip_boundary), progress)
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), smooth=bool(smooth))
+    # Every line is traced (threshold 0, both kinds) and kept, so that filter() can bring lines back.
+    trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=bool(join_gaps),
+                         skip_boundary=bool(skip_boundary))
     threshold = as_real(threshold, "threshold")
-    base = CrestLines(**{k: lines[k] for k in _LINE_FIELDS}, derivatives=d, threshold=0.0)
-    return base.filter(threshold, ridges, valleys)
+    d, lines = _native.crest_lines(as_vertices(V), as_faces(F), fit, trace, progress)
+    return CrestLines(lines, d).filter(threshold, ridges, valleys)
 
 
 def crest_face_distance(V, F, lines):
     """Geodesic distance from each face to the nearest crest line (thesis 4.8), over the face graph
     with centroid - edge midpoint - centroid steps; 0 on faces holding a line."""
-    return _native.crest_face_distance(as_vertices(V), as_faces(F), np.ascontiguousarray(lines.segments, np.int32),
-                                       np.ascontiguousarray(lines.segment_face, np.int32),
-                                       np.ascontiguousarray(lines.point_edge, np.int32))
+    V = as_vertices(V)
+    F = as_faces(F, n=len(V))
+    return _native.crest_face_distance(V, F, _native_lines(lines))
 
 
 def feature_function(distance, eta, eps=0.1):
@@ -183,11 +178,16 @@ def feature_function(distance, eta, eps=0.1):
     return (d / dmax + eps) ** eta
 
 
+def _native_lines(lines):
+    if not isinstance(lines, CrestLines):
+        raise MeshError("crest_lines must be a CrestLines result of dgmesh.crest_lines")
+    return lines.lines
+
+
 def _check_same_mesh(lines, V, F):
     """MeshError unless ``lines`` were traced on (V, F): every point on an edge must be that edge's
     point at its parameter, and every segment's face must exist."""
-    if not isinstance(lines, CrestLines):
-        raise MeshError("crest_lines must be a CrestLines result of dgmesh.crest_lines")
+    _native_lines(lines)
     pe = np.asarray(lines.point_edge)
     on_edge = np.flatnonzero(pe[:, 0] >= 0) if len(pe) else np.zeros(0, np.int64)
     ok = (not len(pe) or int(pe.max()) < len(V)) and (not len(lines.segment_face) or
@@ -201,29 +201,32 @@ def _check_same_mesh(lines, V, F):
         raise MeshError("crest_lines were computed on another mesh")
 
 
-def _crest_arrays(V, F, lines):
-    """(segments, segment_face, point_edge) of given crest lines for the native feature-guided
-    calls, which validate the mesh once and build F(d) on it (no second validation)."""
-    if lines is None:
-        return None
-    _check_same_mesh(lines, V, F)
-    return (np.ascontiguousarray(lines.segments, np.int32), np.ascontiguousarray(lines.segment_face, np.int32),
-            np.ascontiguousarray(lines.point_edge, np.int32))
+def _features(V, F, feature_weight, crest_lines, rings, threshold, defaults):
+    """The FeatureOptions (from the preset function ``defaults``) of a feature-guided call and the
+    native lines to use (None: detected natively with ``rings`` and ``threshold``, on the mesh
+    validated once there)."""
+    features = make_options(defaults(), feature_weight=feature_weight,  # its range: checked natively
+                            rings=_check_rings(rings), threshold=as_real(threshold, "threshold"))
+    lines = None
+    if features.feature_weight and crest_lines is not None:
+        _check_same_mesh(crest_lines, V, F)
+        lines = crest_lines.lines
+    return features, lines
 
 
-def _check_feature_weight(feature_weight):
-    return as_real(feature_weight, "feature_weight", 0.0)
-
-
-def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0,
-             preserve_boundary=True, min_quality=0.0, max_normal_angle=1.3, progress=None, return_map=False,
-             return_face_map=False, locked=None, greedy=False, planes=None):
+def decimate(V, F, *, target_faces: int, feature_weight: float = _DECIMATE_FEATURES.feature_weight,
+             crest_lines: CrestLines | None = None, rings: int = _DECIMATE_FEATURES.rings,
+             threshold: float = _DECIMATE_FEATURES.threshold, preserve_boundary: bool = _DECIMATE.preserve_boundary,
+             min_quality: float = _DECIMATE.min_quality, max_normal_angle: float = _DECIMATE.max_normal_angle,
+             progress=None, return_map=False, return_face_map=False, locked=None, greedy: bool = not _DECIMATE.batched,
+             planes=None):
     """Quadric edge-collapse decimation (Garland-Heckbert) to ``target_faces`` faces.
 
     ``feature_weight`` is eta of thesis eq. 4.12: each face's quadric is weighted by 1 / F(d), d its
     geodesic distance to the nearest crest line, so the mesh stays dense near salient lines;
     0 is plain QEM. Crest lines come from ``crest_lines`` or are detected with ``rings`` and
-    ``threshold``. The result is manifold; boundary vertices are kept in place when
+    ``threshold``. Defaults: ``decimate_feature_defaults()`` (eta 6, the thesis's fig. 4.19; T >= 10)
+    and ``DecimateOptions()``. The result is manifold; boundary vertices are kept in place when
     ``preserve_boundary``; ``locked`` (bool per vertex) marks more vertices that must neither move nor
     go (e.g. UV seams). ``planes`` (int per vertex, bit k set: the vertex lies on plane k, e.g. a
     Mirror modifier's) forbids collapses that make a face with its three corners on one plane (it
@@ -235,13 +238,15 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
     Returns (V, F), plus the input-to-output vertex map when ``return_map``, plus (when
     ``return_face_map``) ``face_map`` (the input triangle each output triangle is, with moved
     corners) and ``source_vertex`` (the input vertex each output vertex is): enough to carry
-    per-face and per-corner attributes over.
+    per-face and per-corner attributes over. The arrays are views of one :class:`DecimateResult`.
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    target_faces = as_count(target_faces, "target_faces")
-    feature_weight = _check_feature_weight(feature_weight)
-    crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
+    features, lines = _features(V, F, feature_weight, crest_lines, rings, threshold,
+                                decimate_feature_defaults)
+    options = make_options(DecimateOptions(), target_faces=as_count(target_faces, "target_faces"),
+                           preserve_boundary=bool(preserve_boundary), min_quality=float(min_quality),
+                           max_normal_angle=float(max_normal_angle), batched=not bool(greedy))  # ranges: native
     if locked is not None:
         locked = as_mask(locked, len(V), "locked").astype(np.int32)
     if planes is not None:
@@ -250,33 +255,33 @@ def decimate(V, F, *, target_faces, feature_weight=0.0, crest_lines=None, rings=
             raise MeshError(f"planes must be one integer bit mask per vertex ({len(V)},), got {planes.dtype} "
                             f"of shape {planes.shape}")
         planes = planes.astype(np.int32)
-    V2, F2, vmap, fmap, src = _native.decimate(V, F, target_faces, None, bool(preserve_boundary),
-                                               float(min_quality), float(max_normal_angle),  # checked natively
-                                               float("inf"), progress, locked, not bool(greedy), feature_weight,
-                                               _check_rings(rings), as_real(threshold, "threshold"), crest,
-                                               planes)
-    out = (V2, F2) + ((vmap,) if return_map else ()) + ((fmap, src) if return_face_map else ())
-    return out
+    r = _native.decimate(V, F, options, features, lines, locked, planes, progress)
+    out = (r.V, r.F) + ((r.vertex_map,) if return_map else ())
+    return out + ((r.face_map, r.source_vertex) if return_face_map else ())
 
 
-def segment(V, F, *, segments, feature_weight=0.0, crest_lines=None, rings=1, threshold=0.0, iterations=30,
-            progress=None, return_info=False):
+def segment(V, F, *, segments: int = _SEGMENT.segments, feature_weight: float = _SEGMENT_FEATURES.feature_weight,
+            crest_lines: CrestLines | None = None, rings: int = _SEGMENT_FEATURES.rings,
+            threshold: float = _SEGMENT_FEATURES.threshold, iterations: int = _SEGMENT.iterations, progress=None,
+            return_info=False):
     """Segments the mesh into ``segments`` connected, nearly planar charts by variational shape
     approximation (L^{2,1} metric, Lloyd iterations; thesis 4.9). ``feature_weight`` is eta of eq.
     4.12: region growing weighs the error of a face reached from a face of a segment by
-    2 / (F(T_i) + F(T_j)), so segment borders settle on crest lines. Returns a label per face
+    2 / (F(T_i) + F(T_j)), so segment borders settle on crest lines (given as ``crest_lines`` or
+    detected with ``rings`` and ``threshold``). Defaults: ``SegmentOptions()`` (25 segments, the
+    thesis's figures) and ``segment_feature_defaults()`` (eta 2; T >= 10). Returns a label per face
     (0 .. n-1; a mesh with more connected components than ``segments`` gets one per component);
-    with ``return_info`` also a dict with proxy normals, iterations and the total distortion.
+    with ``return_info`` also the :class:`SegmentResult` (labels, proxy normals, n_segments,
+    iterations and the total distortion).
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    segments = as_count(segments, "segments", 1)
-    feature_weight = _check_feature_weight(feature_weight)
-    crest = _crest_arrays(V, F, crest_lines) if feature_weight else None
-    out = _native.segment(V, F, segments, None, as_count(iterations, "iterations"), progress, feature_weight,
-                          _check_rings(rings), as_real(threshold, "threshold"), crest)
-    labels = np.asarray(out["labels"], dtype=np.int32)
-    return (labels, dict(out)) if return_info else labels
+    features, lines = _features(V, F, feature_weight, crest_lines, rings, threshold,
+                                segment_feature_defaults)
+    options = make_options(SegmentOptions(), segments=as_count(segments, "segments", 1),
+                           iterations=as_count(iterations, "iterations"))
+    r = _native.segment(V, F, options, features, lines, progress)
+    return (r.labels, r) if return_info else r.labels
 
 
 def snap_to_vertices(lines, V, F):
@@ -304,5 +309,7 @@ def snap_to_vertices(lines, V, F):
     return pairs[keep].astype(np.int32), lines.segment_line[keep]
 
 
-__all__ = ["RIDGE", "VALLEY", "CrestLines", "curvature_derivatives", "crest_lines", "crest_face_distance",
-           "feature_function", "decimate", "segment", "snap_to_vertices"]
+__all__ = ["RIDGE", "VALLEY", "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions",
+           "DecimateResult", "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult",
+           "curvature_derivatives", "crest_lines", "crest_face_distance", "decimate_feature_defaults",
+           "feature_function", "decimate", "segment", "segment_feature_defaults", "snap_to_vertices"]

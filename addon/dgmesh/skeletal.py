@@ -17,10 +17,15 @@ multiresolution layer: the skeletal machinery runs on a decimated control mesh.
 
 import numpy as np
 
-from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices
+from .core import MeshError, _native, as_choice, as_count, as_faces, as_real, as_vertices, make_options
 
 __all__ = [
     "SkeletalRig",
+    "SkeletalRigOptions",
+    "SkeletalDeformOptions",
+    "SkeletalMethod",
+    "SkeletalMesh",
+    "SkeletonOptions",
     "skeletal_mesh",
     "union_of_balls_distance",
     "gaussian_bone_weights",
@@ -30,7 +35,19 @@ __all__ = [
     "METHODS",
 ]
 
-METHODS = ("variational", "basic")
+# The contract is the C++ one (dgmesh/skeletal.h), bound as it is: the options of the skeletal
+# mesh, of bind and of deform with their defaults, the deformation method and the skeletal mesh.
+SkeletonOptions = _native.SkeletonOptions
+SkeletalRigOptions = _native.SkeletalRigOptions
+SkeletalDeformOptions = _native.SkeletalDeformOptions
+SkeletalMethod = _native.SkeletalMethod
+SkeletalMesh = _native.SkeletalMesh
+
+METHODS = tuple(SkeletalMethod.__members__)
+
+_SKELETON = SkeletonOptions()
+_BIND = SkeletalRigOptions()
+_DEFORM = SkeletalDeformOptions()
 
 
 def _mats(M, name, B=None):
@@ -78,15 +95,15 @@ class SkeletalRig:
         *,
         bone_heads=None,
         bone_tails=None,
-        control_faces=5000,
-        multires_level=2,
-        fit_iterations=1,
-        gaussian_sigma=0.0,
-        frame_regularization=0.05,
-        presmooth_iterations=10,
-        postsmooth_iterations=20,
+        control_faces: int = _BIND.control_faces,
+        multires_level: int = _BIND.multires_level,
+        fit_iterations: int = _BIND.multires_fit_iterations,
+        gaussian_sigma: float = _BIND.gaussian_sigma,
+        frame_regularization: float = _BIND.frame_regularization,
+        presmooth_iterations: int = _BIND.skeleton.presmooth_iterations,
+        postsmooth_iterations: int = _BIND.skeleton.postsmooth_iterations,
         progress=None,
-    ):
+    ) -> "SkeletalRig":
         """Binds a closed manifold mesh (V, F) to bones.
 
         bones_rest: (B, 4, 4) rest frames in the mesh's object space.
@@ -99,6 +116,8 @@ class SkeletalRig:
         frame_regularization: weight of the bone rotation in the frames of degenerate skeletal
             triangles (relative to the squared skeletal edge length).
         progress: callable(fraction) -> bool|None; returning False raises dgmesh.Cancelled.
+        Defaults: ``SkeletalRigOptions()`` (``fit_iterations`` is its ``multires_fit_iterations``,
+        the smoothing iterations its ``skeleton``'s).
 
         Raises MeshError for open or non-manifold meshes, loose vertices, vertices without weight,
         and malformed bones.
@@ -125,17 +144,21 @@ class SkeletalRig:
         tails = as_vertices(bone_tails, "bone_tails")
         if len(heads) != len(R) or len(tails) != len(R):
             raise MeshError("bone_heads and bone_tails must have one row per bone")
-        rig = _native.SkeletalRig.bind(
-            V, F, R, W, heads, tails, as_count(control_faces, "control_faces"),
-            as_count(multires_level, "multires_level"), as_count(fit_iterations, "fit_iterations"),
-            as_real(gaussian_sigma, "gaussian_sigma", 0.0), as_real(frame_regularization, "frame_regularization", 0.0),
-            as_count(presmooth_iterations, "presmooth_iterations"),
-            as_count(postsmooth_iterations, "postsmooth_iterations"), progress,
-        )
-        return cls(rig)
+        o = make_options(
+            SkeletalRigOptions(), control_faces=as_count(control_faces, "control_faces"),
+            multires_level=as_count(multires_level, "multires_level"),
+            multires_fit_iterations=as_count(fit_iterations, "fit_iterations"),
+            gaussian_sigma=as_real(gaussian_sigma, "gaussian_sigma", 0.0),
+            frame_regularization=as_real(frame_regularization, "frame_regularization", 0.0))
+        make_options(o.skeleton, presmooth_iterations=as_count(presmooth_iterations, "presmooth_iterations"),
+                     postsmooth_iterations=as_count(postsmooth_iterations, "postsmooth_iterations"))
+        return cls(_native.SkeletalRig.bind(V, F, R, W, heads, tails, o, progress))
 
-    def deform(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5, homotopy_steps=3,
-               fold_iterations=10, projection=1.0, out=None, dual_quaternion=True, bone_clearance=0.95):
+    def deform(self, bones_pose, *, fairing_steps: int = _DEFORM.fairing_steps, method: str = _DEFORM.method.name,
+               fairing_step: float = _DEFORM.fairing_step, homotopy_steps: int = _DEFORM.homotopy_steps,
+               fold_iterations: int = _DEFORM.fold_iterations, projection: float = _DEFORM.projection, out=None,
+               dual_quaternion: bool = _DEFORM.dual_quaternion,
+               bone_clearance: float = _DEFORM.bone_clearance) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
@@ -166,37 +189,40 @@ class SkeletalRig:
         double, rounded on output; through the multiresolution layer the dense thickness step
         reads the rounded values back, within 1e-6 of the float64 result) goes straight to Blender, e.g.
         ``mesh.shape_keys.key_blocks["dg_skeletal"].data.foreach_set("co", out.ravel())``.
+        Defaults: ``SkeletalDeformOptions()``.
         """
-        self._check_method(method)
+        o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
+                                 dual_quaternion, bone_clearance)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
                     or out.shape != (self.n_vertices, 3) or not out.flags.c_contiguous or not out.flags.writeable):
                 raise MeshError("deform: out must be a writeable C-contiguous float64 or float32 array of shape "
                                 "(%d, 3)" % self.n_vertices)
-        return self._rig.deform(P, method, as_count(fairing_steps, "fairing_steps"), float(fairing_step),
-                                as_count(homotopy_steps, "homotopy_steps"), as_count(fold_iterations, "fold_iterations"),
-                                float(projection), out, bool(dual_quaternion), float(bone_clearance))
+        return self._rig.deform(P, o, out)
 
-    def deform_control(self, bones_pose, *, fairing_steps=2, method="variational", fairing_step=1.5,
-                       homotopy_steps=3, fold_iterations=10, projection=1.0, dual_quaternion=True,
-                       bone_clearance=0.95):
-        """(control mesh positions, deformed skeletal vertices) for a pose."""
-        self._check_method(method)
-        P = _mats(bones_pose, "bones_pose", self.n_bones)
-        return self._rig.deform_control(P, method, as_count(fairing_steps, "fairing_steps"), float(fairing_step),
-                                        as_count(homotopy_steps, "homotopy_steps"),
-                                        as_count(fold_iterations, "fold_iterations"), float(projection),
-                                        bool(dual_quaternion), float(bone_clearance))
+    def deform_control(self, bones_pose, *, fairing_steps: int = _DEFORM.fairing_steps,
+                       method: str = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
+                       homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
+                       projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
+                       bone_clearance: float = _DEFORM.bone_clearance):
+        """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
+        o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
+                                 dual_quaternion, bone_clearance)
+        return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o)
 
     def skeleton_pose(self, bones_pose):
         """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""
         return self._rig.skeleton_pose(_mats(bones_pose, "bones_pose", self.n_bones))
 
     @staticmethod
-    def _check_method(method):
-        if method not in METHODS:
-            raise MeshError(f"method must be one of {METHODS}, got {method!r}")
+    def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
+                        dual_quaternion, bone_clearance):
+        return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
+                            fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=float(fairing_step),
+                            homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
+                            fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=float(projection),
+                            dual_quaternion=bool(dual_quaternion), bone_clearance=float(bone_clearance))
 
     # --- bind data ---------------------------------------------------------------------------
     def __reduce__(self):
@@ -250,16 +276,23 @@ class SkeletalRig:
     weights = property(lambda self: np.ascontiguousarray(self._rig.weights), doc="(n_control, B) bone weights of the skeletal vertices")
 
 
-def skeletal_mesh(V, F, *, presmooth_iterations=10, presmooth_step=0.2, postsmooth_iterations=20,
-                  postsmooth_step=0.2, spike_factor=2.5, max_pole_angle=1.2):
-    """Skeletal mesh of a closed mesh (thesis 6.1): (S (n, 3), radii (n,)). Faces are F's."""
+def skeletal_mesh(V, F, *, presmooth_iterations: int = _SKELETON.presmooth_iterations,
+                  presmooth_step: float = _SKELETON.presmooth_step,
+                  postsmooth_iterations: int = _SKELETON.postsmooth_iterations,
+                  postsmooth_step: float = _SKELETON.postsmooth_step, spike_factor: float = _SKELETON.spike_factor,
+                  max_pole_angle: float = _SKELETON.max_pole_angle):
+    """Skeletal mesh of a closed mesh (thesis 6.1): (S (n, 3), radii (n,)), views of one
+    :class:`SkeletalMesh`. Faces are F's. Defaults: ``SkeletonOptions()``."""
     V = as_vertices(V)
-    S, r, _, _ = _native.skeletal_mesh(
-        V, as_faces(F, n=len(V)), as_count(presmooth_iterations, "presmooth_iterations"),
-        as_real(presmooth_step, "presmooth_step", 0.0), as_count(postsmooth_iterations, "postsmooth_iterations"),
-        as_real(postsmooth_step, "postsmooth_step", 0.0), as_real(spike_factor, "spike_factor", 0.0, lo_open=True),
-        as_real(max_pole_angle, "max_pole_angle", 0.0, np.pi, lo_open=True))
-    return S, r
+    o = make_options(
+        SkeletonOptions(), presmooth_iterations=as_count(presmooth_iterations, "presmooth_iterations"),
+        presmooth_step=as_real(presmooth_step, "presmooth_step", 0.0),
+        postsmooth_iterations=as_count(postsmooth_iterations, "postsmooth_iterations"),
+        postsmooth_step=as_real(postsmooth_step, "postsmooth_step", 0.0),
+        spike_factor=as_real(spike_factor, "spike_factor", 0.0, lo_open=True),
+        max_pole_angle=as_real(max_pole_angle, "max_pole_angle", 0.0, np.pi, lo_open=True))
+    s = _native.skeletal_mesh(V, as_faces(F, n=len(V)), o)
+    return s.S, s.radii
 
 
 def union_of_balls_distance(X, centers, radii):

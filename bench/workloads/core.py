@@ -14,7 +14,7 @@ def curvature(quick):
         V, F = loop_subdivide(V0, F0, levels)
         t_full, c = median_time(lambda: dgmesh.curvature(V, F), repeats=3 if quick else 7)
         t_valid, _ = median_time(lambda: dgmesh.validate(V, F), repeats=3 if quick else 7)
-        assert np.isfinite(c["mean"]).all()
+        assert np.isfinite(c.mean).all()
         rows.append([f"{name}, Loop {levels}x", len(V), len(F), t_full, t_valid, t_full / len(F) * 1e6])
         data[name] = {"vertices": len(V), "faces": len(F), "seconds": t_full, "validate_seconds": t_valid}
     md = ("Curvature (`dgmesh.curvature`: validation + topology + H, K, normals, areas) of scans from "

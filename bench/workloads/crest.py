@@ -67,7 +67,7 @@ def e_errors(V, d, mask):
     km, kp, em, ur = exact(V)
     out = {}
     for which in ("max", "min"):
-        e, t = d["e_" + which], d["t_" + which]
+        e, t = getattr(d, "e_" + which), getattr(d, "t_" + which)
         meridian = (km >= kp) if which == "max" else (km < kp)
         sgn = np.sign(np.einsum("ij,ij->i", t, ur))
         sgn[sgn == 0] = 1
@@ -115,9 +115,9 @@ def _interior(V, F):
     """Vertices outside the boundary's one-ring (one-sided fits there)."""
     top = dgmesh.topology(V, F)
     bnd = np.zeros(len(V), bool)
-    for loop in top["boundary_loops"]:
+    for loop in top.boundary_loops:
         bnd[loop] = True
-    E = top["edges"]
+    E = top.edges
     ring = bnd.copy()
     ring[E[bnd[E[:, 0]], 1]] = True
     ring[E[bnd[E[:, 1]], 0]] = True
@@ -218,25 +218,25 @@ def crest_speed(quick):
     Vs, Fs = dgmesh._native.subdivide_linear(V, F)  # 208K triangles
     rows, data = [], {}
     for k in ((1,) if quick else (1, 2, 3, 4)):
-        dgmesh.crest_lines(Vs, Fs, rings=k)  # warm-up
-        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k), repeats=3 if quick else 5)
+        dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0)  # warm-up
+        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0), repeats=3 if quick else 5)
         rows.append([f"crest lines (fit + trace), k = {k}", len(Fs), t, c])
         data[f"crest_k{k}"] = t
     if not quick:
         V2, F2 = dgmesh._native.subdivide_linear(Vs, Fs)  # 832K
         V3, F3 = dgmesh._native.subdivide_linear(V2, F2)  # 3.3M
-        t, c = _timed(lambda: dgmesh.crest_lines(V2, F2, rings=1), repeats=3)
+        t, c = _timed(lambda: dgmesh.crest_lines(V2, F2, rings=1, threshold=0.0), repeats=3)
         rows.append(["crest lines (fit + trace), k = 1", len(F2), t, c])
         data["crest_k1_832K"] = t
-        t, c = _timed(lambda: dgmesh.crest_lines(V3, F3, rings=1), repeats=3)
+        t, c = _timed(lambda: dgmesh.crest_lines(V3, F3, rings=1, threshold=0.0), repeats=3)
         rows.append(["crest lines (fit + trace), k = 1", len(F3), t, c])
         data["crest_k1_3M"] = t
     Vb, Fb = loop_subdivide(*cgal_mesh("bunny00"), 2)  # 1.2M triangles
-    t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000), repeats=1 if quick else 3)
+    t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000, feature_weight=0.0), repeats=1 if quick else 3)
     rows.append(["decimate to 100K triangles (eta = 0)", len(Fb), t, c])
     data["decimate_1.2M_to_100K"] = t
     if not quick:
-        t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000, greedy=True), repeats=1)
+        t, c = _timed(lambda: dgmesh.decimate(Vb, Fb, target_faces=100_000, feature_weight=0.0, greedy=True), repeats=1)
         rows.append(["decimate to 100K triangles (eta = 0, greedy=True: one global queue)", len(Fb), t, c])
         data["decimate_1.2M_to_100K_greedy"] = t
     if not quick:
@@ -252,7 +252,8 @@ def crest_speed(quick):
             V, F = cgal_mesh(model)
             errs = []
             for greedy in (False, True):
-                V2, F2, vm = dgmesh.decimate(V, F, target_faces=len(F) // 10, greedy=greedy, return_map=True)
+                V2, F2, vm = dgmesh.decimate(V, F, target_faces=len(F) // 10, feature_weight=0.0, greedy=greedy,
+                                              return_map=True)
                 errs.append(_qem_total(V, F, V2, vm))
             qrows.append([model, len(F), len(F) // 10, errs[0] / errs[1]])
             data[f"qem_ratio_{model}"] = errs[0] / errs[1]
@@ -425,7 +426,7 @@ def crest_renders(quick):
               ("armadillo", "Y", (10.0, 25.0), (0.0, -1.0, 0.15), 180.0, 0.08))
     for model, up, Ts, view, spin, gap in (models[:1] if quick else models):
         V, F = cgal_mesh(model)
-        lines = dgmesh.crest_lines(V, F, rings=1)
+        lines = dgmesh.crest_lines(V, F, rings=1, threshold=0.0)
         panels = [{"V": V, "F": F, "lines": lines}]
         kept = [lines.filter(T) for T in Ts]
         panels += [{"V": V, "F": F, "lines": k} for k in kept]

@@ -48,7 +48,7 @@ def edge_length(V, F):
 
 def add_noise(V, F, level, seed):
     """Gaussian noise of deviation level * e along the clean vertex normals (Max weights)."""
-    N = dgmesh.curvature(V, F)["normals"]
+    N = dgmesh.curvature(V, F).normals
     rng = np.random.default_rng(seed)
     return V + N * rng.normal(0.0, level * edge_length(V, F), (len(V), 1))
 
@@ -273,7 +273,7 @@ def curvature_panels(path, meshes, F, R, limit):
     frame = ((lo + hi) / 2, 0.55 * max(hi[0] - lo[0], hi[1] - lo[1]))
     imgs = []
     for V in meshes:
-        H = dgmesh.curvature(V, F)["mean"]
+        H = dgmesh.curvature(V, F).mean
         imgs.append(render(V, F, colors.diverging(H, limit=limit), R, frame))
     gap = np.full((imgs[0].shape[0], 6, 3), 255, dtype=np.uint8)
     row = imgs[0]
@@ -348,7 +348,7 @@ def denoise_quality(quick):
     # Renders at the middle noise level (the issue's reference case).
     key = "0.2" if "0.2" in finals else levels[0]
     R = view_matrix(-35, -60)
-    H0 = dgmesh.curvature(V, F)["mean"]
+    H0 = dgmesh.curvature(V, F).mean
     limit = colors.symmetric_limit(H0, 90)
     ent = finals[key]
     img = curvature_panels(IMAGES / "denoise_fandisk.png",
@@ -381,9 +381,9 @@ def denoise_quality(quick):
                                      "mean_residual_e": float(r.residual.mean() / edge_length(Vr, Fr))}
             scan_rows.append(["b9_mesh (real scan)", name, "-", "-", "-", r.residual_entropy, t])
             outs.append(r.vertices)
-        Hr = dgmesh.curvature(Vr, Fr)["mean"]
+        Hr = dgmesh.curvature(Vr, Fr).mean
         curvature_panels(IMAGES / "denoise_b9_scan.png", outs, Fr, view_matrix(0, -45),
-                         colors.symmetric_limit(dgmesh.curvature(outs[-1], Fr)["mean"], 90))
+                         colors.symmetric_limit(dgmesh.curvature(outs[-1], Fr).mean, 90))
         data["b9_mesh"]["noisy_curvature_p90"] = float(colors.symmetric_limit(Hr, 90))
 
     headers = ["noise", "method", "setting", "mean normal error (deg)", "mean dist (1e-3 diag)",

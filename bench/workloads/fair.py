@@ -80,7 +80,7 @@ def cut_hole(V, F, centre, area_fraction):
     used = np.unique(Fh)
     chi = len(used) - len(_edges(Fh)) + len(Fh)
     try:
-        loops = dgmesh.topology(V, Fh)["boundary_loops"]
+        loops = dgmesh.topology(V, Fh).boundary_loops
     except dgmesh.MeshError:
         return None
     if chi != 1 or len(loops) != 1:
@@ -235,7 +235,7 @@ def rim_crease(V, F, region):
     sharply a patch meets the surface around it (on the original mesh: the scan's own bend there)."""
     n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
-    a, b = dgmesh.topology(V, F)["edge_faces"].T
+    a, b = dgmesh.topology(V, F).edge_faces.T
     rim = (b >= 0) & (region[a] != region[np.maximum(b, 0)])
     cos = np.clip((n[a[rim]] * n[b[rim]]).sum(axis=1), -1.0, 1.0)
     return float(np.degrees(np.arccos(cos)).mean())
@@ -245,7 +245,7 @@ def fan_fill(V, F, hole, inner):
     """What a user gets from Fill on the hole: the removed faces replaced by a fan over the rim loop
     (no inner vertex; the removed interior vertices stay, unused). Returns (F2, fill face mask)."""
     rim = set(np.setdiff1d(np.unique(F[hole]), np.flatnonzero(inner)).tolist())
-    loops = dgmesh.topology(V, F[~hole])["boundary_loops"]
+    loops = dgmesh.topology(V, F[~hole]).boundary_loops
     loop = next(lp for lp in loops if rim.issuperset(lp))
     fan = np.array([[loop[0], loop[i + 1], loop[i]] for i in range(1, len(loop) - 1)], dtype=F.dtype)
     F2 = np.concatenate([F[~hole], fan])
@@ -652,7 +652,7 @@ def fair_restore(quick):
 
 def _mean_curvature_rgb(V, F, limit):
     from dgmesh import colors
-    H = dgmesh.curvature(V, F)["mean"]
+    H = dgmesh.curvature(V, F).mean
     return colors.diverging(H, limit=limit)[:, :3][F].mean(1)
 
 
@@ -701,7 +701,7 @@ def fair_renders(quick):
         # One scale for the row: the restored patches' 95th percentile of |H| (the scans' own
         # noise would wash the patches out).
         from dgmesh import colors
-        limit = max(colors.symmetric_limit(dgmesh.curvature(r.vertices, r.faces)["mean"][r.moved])
+        limit = max(colors.symmetric_limit(dgmesh.curvature(r.vertices, r.faces).mean[r.moved])
                     for r in (rb, rw))
         panels = [{"V": Vl, "F": Fl, "colors": _mean_curvature_rgb(Vl, Fl, limit)} for Vl, Fl in local]
         fname = f"{prefix}restore_{name}.png"

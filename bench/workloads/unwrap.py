@@ -416,10 +416,10 @@ def cut_part(V, F, spec):
     Vc, Fc = V[used], remap[Fk].astype(np.int32)
     dgmesh.validate(Vc, Fc, allow_loose_vertices=False)
     t = dgmesh.topology(Vc, Fc)
-    chi = len(Vc) - len(t["edges"]) + len(Fc)
-    if not (t["n_components"] == 1 and len(t["boundary_loops"]) == 1 and chi == 1):
-        raise RuntimeError(f"cut of the {len(V)}-vertex mesh is not a disk: {t['n_components']} piece(s), "
-                           f"{len(t['boundary_loops'])} boundary loops, Euler characteristic {chi}")
+    chi = len(Vc) - len(t.edges) + len(Fc)
+    if not (t.n_components == 1 and len(t.boundary_loops) == 1 and chi == 1):
+        raise RuntimeError(f"cut of the {len(V)}-vertex mesh is not a disk: {t.n_components} piece(s), "
+                           f"{len(t.boundary_loops)} boundary loops, Euler characteristic {chi}")
     how += (f"; {pieces} edge-connected piece(s), the largest kept; {len(Fc)} of {len(F)} faces "
             f"({len(Fc) / len(F):.0%}); one boundary loop, Euler characteristic 1")
     return Vc, Fc, how

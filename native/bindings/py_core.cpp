@@ -22,39 +22,35 @@ void bind_core(pb::module_& m) {
   m.attr("CHECK_SURFACE") = static_cast<unsigned>(kSurface);
   m.attr("CHECK_NO_LOOSE_VERTICES") = static_cast<unsigned>(kNoLooseVertices);
 
+  Struct<Curvature>(m, "Curvature", "Result of curvature(): discrete curvatures per vertex (thesis 3.1)")
+      .result("mean", &Curvature::mean, "(n,) mean curvature H (1/r on a sphere with outward normals)")
+      .result("gaussian", &Curvature::gaussian, "(n,) Gaussian curvature K by angle deficit (1/r^2 on a sphere)")
+      .result("normals", &Curvature::normals, "(n, 3) unit vertex normals (Max weights)")
+      .result("area", &Curvature::area, "(n,) mixed Voronoi area")
+      .result("laplace", &Curvature::laplace, "(n, 3) Laplace-Beltrami of the position (-2 H N)");
   m.def(
       "curvature",
       [](InV Vin, InF Fin) {
-        Curvature c;
-        {
-          NativeScope nogil;
-          const Mesh mesh = make_mesh(Vin, Fin, kSurface);
-          c = curvature(mesh.V, mesh.F, mesh.topo);
-        }
-        pb::dict d;
-        d["mean"] = std::move(c.mean);
-        d["gaussian"] = std::move(c.gaussian);
-        d["normals"] = std::move(c.normals);
-        d["area"] = std::move(c.area);
-        return d;
+        NativeScope nogil;
+        const Mesh mesh = make_mesh(Vin, Fin, kSurface);
+        return curvature(mesh.V, mesh.F, mesh.topo);
       },
       pb::arg("V"), pb::arg("F"));
 
+  Struct<Topology>(m, "Topology", "Result of topology(): edges, boundary loops and components of a valid mesh")
+      .result("n_vertices", &Topology::n_vertices, "vertices")
+      .result("n_faces", &Topology::n_faces, "faces")
+      .result("edges", &Topology::edges, "(E, 2) unique undirected edges, v0 < v1")
+      .result("face_edges", &Topology::face_edges, "(m, 3) edge from F[f, k] to F[f, (k + 1) % 3]")
+      .result("edge_faces", &Topology::edge_faces, "(E, 2) the faces of each edge; -1 on the boundary")
+      .result("boundary_loops", &Topology::boundary_loops, "vertex cycles (lists), oriented as the faces")
+      .result("component", &Topology::component, "(n,) connected component of each vertex")
+      .result("n_components", &Topology::n_components, "connected components (loose vertices count)");
   m.def(
       "topology",
       [](InV Vin, InF Fin) {
-        Topology t;
-        {
-          NativeScope nogil;
-          t = validate(Vin, Fin, kSurface);
-        }
-        pb::dict d;
-        d["edges"] = std::move(t.edges);
-        d["edge_faces"] = std::move(t.edge_faces);
-        d["boundary_loops"] = t.boundary_loops;
-        d["component"] = pb::array_t<int>(t.component.size(), t.component.data());
-        d["n_components"] = t.n_components;
-        return d;
+        NativeScope nogil;
+        return validate(Vin, Fin, kSurface);
       },
       pb::arg("V"), pb::arg("F"));
 

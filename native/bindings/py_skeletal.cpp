@@ -1,5 +1,4 @@
-// Bindings of skeletal.h and delaunay.h. Names, defaults and documentation live in
-// addon/dgmesh/skeletal.py.
+// Bindings of skeletal.h and delaunay.h: the options and the skeletal mesh as they are, the rig.
 #include "common.h"
 #include "dgmesh/delaunay.h"
 #include "dgmesh/errors.h"
@@ -30,27 +29,6 @@ pb::array_t<double> from_mats(const std::vector<Mat4>& m) {
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) w(b, i, j) = m[b](i, j);
   return a;
-}
-
-SkeletalMethod method_from(const std::string& s) {
-  if (s == "variational") return SkeletalMethod::Variational;
-  if (s == "basic") return SkeletalMethod::Basic;
-  throw MeshError("method must be 'variational' or 'basic', got '" + s + "'");
-}
-
-SkeletalDeformOptions deform_options(const std::string& method, int fairing_steps, double fairing_step,
-                                     int homotopy_steps, int fold_iterations, double projection = 1.0,
-                                     bool dual_quaternion = true, double bone_clearance = -1) {
-  SkeletalDeformOptions o;
-  if (!(bone_clearance < 0)) o.bone_clearance = bone_clearance;  // negative: the default; NaN is refused
-  o.projection = projection;
-  o.dual_quaternion = dual_quaternion;
-  o.method = method_from(method);
-  o.fairing_steps = fairing_steps;
-  o.fairing_step = fairing_step;
-  o.homotopy_steps = homotopy_steps;
-  o.fold_iterations = fold_iterations;
-  return o;
 }
 
 template <class T>
@@ -86,23 +64,64 @@ void bind_skeletal(pb::module_& m) {
         return delaunay_2d(P);
       },
       pb::arg("points"));
+  Struct<SkeletonOptions>(m, "SkeletonOptions", "Options of skeletal_mesh() (thesis 6.1)")
+      .field("presmooth_iterations", &SkeletonOptions::presmooth_iterations,
+             "bilaplacian tangential flow steps on a copy of the mesh before the Voronoi poles")
+      .field("presmooth_step", &SkeletonOptions::presmooth_step, "its step, of the uniform bi-umbrella (< 0.5)")
+      .field("postsmooth_iterations", &SkeletonOptions::postsmooth_iterations,
+             "bi-umbrella steps on the skeletal mesh (inward-pointing, spikes, inverted vertices)")
+      .field("postsmooth_step", &SkeletonOptions::postsmooth_step, "their step")
+      .field("spike_factor", &SkeletonOptions::spike_factor,
+             "a radius above this times the median of its ring's radii is a spike")
+      .field("max_pole_angle", &SkeletonOptions::max_pole_angle,
+             "inner pole candidates lie within this angle (radians) of the inward normal");
+
+  Struct<SkeletalMesh>(m, "SkeletalMesh", "Result of skeletal_mesh(): M = S + d N (eq. 6.1)")
+      .result("S", &SkeletalMesh::S, "(n, 3) skeletal vertices, one per mesh vertex; faces are the mesh's")
+      .result("radii", &SkeletalMesh::radii, "(n,) medial-ball radius d(i) = |x_i - s_i| (eq. 6.7)")
+      .result("n_fallback", &SkeletalMesh::n_fallback, "vertices without an inner Voronoi pole")
+      .result("n_postsmoothed", &SkeletalMesh::n_postsmoothed, "vertices moved by the post-smoothing");
+
+  Struct<SkeletalRigOptions>(m, "SkeletalRigOptions", "Options of SkeletalRig.bind()")
+      .field("skeleton", &SkeletalRigOptions::skeleton, "the skeletal mesh's SkeletonOptions")
+      .field("control_faces", &SkeletalRigOptions::control_faces,
+             "meshes with more faces go through a multiresolution control mesh of about this many")
+      .field("multires_level", &SkeletalRigOptions::multires_level, "subdivision level of the multiresolution layer")
+      .field("multires_fit_iterations", &SkeletalRigOptions::multires_fit_iterations,
+             "fitting iterations of the multiresolution layer")
+      .field("gaussian_sigma", &SkeletalRigOptions::gaussian_sigma,
+             "width of the Gaussian bone weights when none are given (0: a fifth of the median medial radius)")
+      .field("frame_regularization", &SkeletalRigOptions::frame_regularization,
+             "weight of the bone rotation in the frames of degenerate skeletal triangles");
+
+  pb::enum_<SkeletalMethod>(m, "SkeletalMethod", "Reconstruction of the deformed mesh")
+      .value("variational", SkeletalMethod::Variational, "thesis 6.5: eq. 6.8-6.12 and the fairing eq. 6.15")
+      .value("basic", SkeletalMethod::Basic, "thesis 6.3: homotopy eq. 6.3-6.6 (comparison)");
+
+  Struct<SkeletalDeformOptions>(m, "SkeletalDeformOptions", "Options of SkeletalRig.deform()")
+      .field("method", &SkeletalDeformOptions::method, "the reconstruction")
+      .field("fairing_steps", &SkeletalDeformOptions::fairing_steps,
+             "steps of eq. 6.15 (variational) or eq. 6.6 (basic)")
+      .field("fairing_step", &SkeletalDeformOptions::fairing_step, "epsilon of eq. 6.15")
+      .field("projection", &SkeletalDeformOptions::projection,
+             "weight of the explicit step towards each vertex's rest distance to the union of balls (0: off)")
+      .field("projection_passes", &SkeletalDeformOptions::projection_passes, "passes of that step, at most")
+      .field("dense_projection_passes", &SkeletalDeformOptions::dense_projection_passes,
+             "passes of the dense mesh's step (multiresolution layer)")
+      .field("dual_quaternion", &SkeletalDeformOptions::dual_quaternion,
+             "pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)")
+      .field("bone_clearance", &SkeletalDeformOptions::bone_clearance,
+             "keep each vertex at least this fraction of its rest distance from its bones (0: off)")
+      .field("homotopy_steps", &SkeletalDeformOptions::homotopy_steps, "L of eq. 6.3 (basic)")
+      .field("fold_iterations", &SkeletalDeformOptions::fold_iterations, "steps of eq. 6.5 (basic)");
+
   m.def(
       "skeletal_mesh",
-      [](InV V, InF F, int pre, double pre_step, int post, double post_step, double spike, double angle) {
-        SkeletonOptions o;
-        o.presmooth_iterations = pre;
-        o.presmooth_step = pre_step;
-        o.postsmooth_iterations = post;
-        o.postsmooth_step = post_step;
-        o.spike_factor = spike;
-        o.max_pole_angle = angle;
-        SkeletalMesh s;
-        {
-          NativeScope nogil;
-          s = skeletal_mesh(make_mesh(V, F, kSurface), o);
-        }
-        return pb::make_tuple(std::move(s.S), std::move(s.radii), s.n_fallback, s.n_postsmoothed);
-      });
+      [](InV V, InF F, const SkeletonOptions& o) {
+        NativeScope nogil;
+        return skeletal_mesh(make_mesh(V, F, kSurface), o);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("options"));
   m.def("union_of_balls_distance", [](InV X, InV C, const VecXd& r) {
     NativeScope nogil;
     if (!X.allFinite() || !C.allFinite() || !r.allFinite()) throw MeshError("union of balls: inputs must be finite");
@@ -123,16 +142,7 @@ void bind_skeletal(pb::module_& m) {
       .def_static(
           "bind",
           [](InV V, InF F, const Mats& rest, std::optional<Eigen::MatrixXd> weights, std::optional<MatX3d> heads,
-             std::optional<MatX3d> tails, int control_faces, int level, int fit_iterations, double sigma,
-             double frame_reg, int pre, int post, const pb::object& progress) {
-            SkeletalRigOptions o;
-            o.control_faces = control_faces;
-            o.multires_level = level;
-            o.multires_fit_iterations = fit_iterations;
-            o.gaussian_sigma = sigma;
-            o.frame_regularization = frame_reg;
-            o.skeleton.presmooth_iterations = pre;
-            o.skeleton.postsmooth_iterations = post;
+             std::optional<MatX3d> tails, const SkeletalRigOptions& o, const pb::object& progress) {
             const auto r = to_mats(rest, "bones_rest");
             const ProgressFn cb = progress_from(progress);
             NativeScope nogil;
@@ -140,15 +150,11 @@ void bind_skeletal(pb::module_& m) {
                                      heads ? *heads : MatX3d(0, 3), tails ? *tails : MatX3d(0, 3), o, cb);
           },
           pb::arg("V"), pb::arg("F"), pb::arg("bones_rest"), pb::arg("weights"), pb::arg("heads"), pb::arg("tails"),
-          pb::arg("control_faces"), pb::arg("level"), pb::arg("fit_iterations"), pb::arg("gaussian_sigma"),
-          pb::arg("frame_regularization"), pb::arg("presmooth_iterations"), pb::arg("postsmooth_iterations"),
-          pb::arg("progress"))
+          pb::arg("options"), pb::arg("progress") = pb::none())
       .def(
           "deform",
-          [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs, int fi,
-             double proj, pb::object out, bool dq, double bc) -> pb::object {
+          [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o, pb::object out) -> pb::object {
             const auto p = to_mats(pose, "bones_pose");
-            const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq, bc);
             if (out.is_none()) {
               MatX3d X;
               {
@@ -170,14 +176,10 @@ void bind_skeletal(pb::module_& m) {
             }
             return out;
           },
-          pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
-          pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-          pb::arg("out") = pb::none(), pb::arg("dual_quaternion") = true, pb::arg("bone_clearance") = -1.0)
+          pb::arg("pose"), pb::arg("options"), pb::arg("out") = pb::none())
       .def("deform_control",
-           [](const SkeletalRig& rig, const Mats& pose, const std::string& method, int fs, double fstep, int hs,
-              int fi, double proj, bool dq, double bc) {
+           [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o) {
              const auto p = to_mats(pose, "bones_pose");
-             const SkeletalDeformOptions o = deform_options(method, fs, fstep, hs, fi, proj, dq, bc);
              MatX3d X, Sd;
              {
                NativeScope nogil;
@@ -185,9 +187,7 @@ void bind_skeletal(pb::module_& m) {
              }
              return pb::make_tuple(std::move(X), std::move(Sd));
            },
-           pb::arg("pose"), pb::arg("method"), pb::arg("fairing_steps"), pb::arg("fairing_step"),
-           pb::arg("homotopy_steps"), pb::arg("fold_iterations"), pb::arg("projection") = 1.0,
-           pb::arg("dual_quaternion") = true, pb::arg("bone_clearance") = -1.0)
+           pb::arg("pose"), pb::arg("options"))
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");

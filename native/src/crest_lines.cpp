@@ -476,16 +476,19 @@ CrestLines filter_crest_lines(const CrestLines& in, double threshold, bool ridge
     out.line_strength.push_back(in.line_strength[l]);
     out.line_length.push_back(in.line_length[l]);
   }
+  // The points of the kept lines, numbered in their input order.
   const int np = static_cast<int>(in.points.rows());
   std::vector<int> new_point(np, -1);
+  for (int l = 0; l < nl; ++l)
+    if (new_line[l] >= 0)
+      for (int j = in.line_offset[l]; j < in.line_offset[l + 1]; ++j) new_point[in.line_points[j]] = 0;
   int n_points = 0;
+  for (int& q : new_point)
+    if (q == 0) q = n_points++;
   for (int l = 0; l < nl; ++l) {
     if (new_line[l] < 0) continue;
-    for (int j = in.line_offset[l]; j < in.line_offset[l + 1]; ++j) {
-      const int p = in.line_points[j];
-      if (new_point[p] < 0) new_point[p] = n_points++;
-      out.line_points.push_back(new_point[p]);
-    }
+    for (int j = in.line_offset[l]; j < in.line_offset[l + 1]; ++j)
+      out.line_points.push_back(new_point[in.line_points[j]]);
     out.line_offset.push_back(static_cast<int>(out.line_points.size()));
   }
   out.points.resize(n_points, 3);
@@ -514,6 +517,18 @@ CrestLines filter_crest_lines(const CrestLines& in, double threshold, bool ridge
     ++ns;
   }
   return out;
+}
+
+FeatureOptions decimate_feature_defaults() {
+  FeatureOptions o;
+  o.feature_weight = 6.0;
+  return o;
+}
+
+FeatureOptions segment_feature_defaults() {
+  FeatureOptions o;
+  o.feature_weight = 2.0;
+  return o;
 }
 
 VecXd crest_face_distance(const Mesh& mesh, const CrestLines& lines) {

@@ -7,7 +7,8 @@ import pytest
 
 from dgmesh import _native
 
-# operator -> (its options object, {property: field} where the names differ)
+# operator -> (its options object, or a tuple of them for an operator setting several,
+# {property: field} where the names differ)
 OPERATORS = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity_map": (lambda: _native.SimilarityOptions(), {}),
@@ -17,6 +18,10 @@ OPERATORS = {
     "remesh": (lambda: _native.RemeshOptions(),
                {"relax": "lloyd_iterations", "flips": "flip_3d", "smooth": "smooth_iterations"}),
     "multires_preview": (lambda: _native.MultiresOptions(), {}),
+    "crest_lines": (lambda: (_native.DerivativeOptions(), _native.CrestOptions()), {}),
+    "decimate_features": (lambda: (_native.DecimateOptions(), _native.decimate_feature_defaults()), {}),
+    "segment": (lambda: (_native.SegmentOptions(), _native.segment_feature_defaults()), {}),
+    "skeletal_bind": (lambda: (_native.SkeletalRigOptions(), _native.SkeletalDeformOptions()), {}),
 }
 
 
@@ -28,7 +33,8 @@ def _properties(idname):
 def test_property_defaults_are_the_native_defaults(idname):
     make, renames = OPERATORS[idname]
     options = make()
-    fields = {f: getattr(options, f) for f in type(options).__fields__}
+    fields = {f: getattr(o, f) for o in (options if isinstance(options, tuple) else (options,))
+              for f in type(o).__fields__}
     checked = []
     for prop in _properties(idname):
         field = renames.get(prop.identifier, prop.identifier)
@@ -43,7 +49,7 @@ def test_property_defaults_are_the_native_defaults(idname):
             assert prop.default == pytest.approx(value, rel=1e-6, abs=1e-7), (idname, prop.identifier)
         else:
             assert prop.default == value, (idname, prop.identifier)
-    assert checked, f"dgmesh.{idname} shares no property with {type(options).__name__}"
+    assert checked, f"dgmesh.{idname} shares no property with {options!r}"
     assert set(renames.values()) <= set(checked), (idname, renames)
 
 
@@ -82,3 +88,9 @@ def test_switching_the_fair_scheme_loads_its_native_iteration_budget():
         props.scheme = scheme.name.upper()
         ops_fair.load_scheme_defaults(props, None)
         assert props.max_iterations == _native.fair_defaults(scheme).max_iterations
+
+
+def test_skeleton_blend_defaults_to_the_native_blend():
+    prop = _properties("skeletal_bind")["skeleton_blend"]
+    blend = 'DUAL_QUATERNION' if _native.SkeletalDeformOptions().dual_quaternion else 'LINEAR'
+    assert prop.default == blend and {i.identifier for i in prop.enum_items} == {'DUAL_QUATERNION', 'LINEAR'}

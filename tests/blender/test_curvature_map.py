@@ -24,11 +24,11 @@ def _check_against_native(dg, mesh, kind='MEAN', percentile=95.0):
     ref = dg.curvature(V, F)
     H = _attr(mesh, "dg_mean_curvature")[:, 0]
     K = _attr(mesh, "dg_gaussian_curvature")[:, 0]
-    np.testing.assert_allclose(H, ref["mean"].astype(np.float32), rtol=1e-5, atol=1e-6)
-    np.testing.assert_allclose(K, ref["gaussian"].astype(np.float32), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(H, ref.mean.astype(np.float32), rtol=1e-5, atol=1e-6)
+    np.testing.assert_allclose(K, ref.gaussian.astype(np.float32), rtol=1e-5, atol=1e-6)
 
     rgba = _attr(mesh, "dg_curvature_color", data_type='FLOAT_COLOR')
-    field = ref["mean"] if kind == 'MEAN' else ref["gaussian"]
+    field = ref.mean if kind == 'MEAN' else ref.gaussian
     np.testing.assert_allclose(rgba, colors.diverging(field, percentile=percentile), atol=1e-5)
     colors_group = mesh.color_attributes
     assert colors_group.active_color.name == "dg_curvature_color"
@@ -52,9 +52,9 @@ def test_quads_and_ngons_several_objects(dg, capsys):
 
     # Sign conventions: unit sphere H ~ 1, K ~ 1; torus has K < 0 inside, > 0 outside.
     sphere = refs["QuadSphere"]
-    assert abs(np.median(sphere["mean"]) - 1.0) < 0.05
-    assert abs(np.median(sphere["gaussian"]) - 1.0) < 0.1
-    torus = refs["Torus"]["gaussian"]
+    assert abs(np.median(sphere.mean) - 1.0) < 0.05
+    assert abs(np.median(sphere.gaussian) - 1.0) < 0.1
+    torus = refs["Torus"].gaussian
     assert torus.min() < -0.5 and torus.max() > 0.5
     # Loose vertex (the last one) gets 0.
     loose = bpy.data.objects["LooseVertex"].data
@@ -128,7 +128,7 @@ def test_edit_mode(dg):
     bpy.ops.object.mode_set(mode='OBJECT')
     assert np.linalg.norm(sphere.data.vertices[100].co) == pytest.approx(1.3, rel=1e-5)
     ref = _check_against_native(dg, sphere.data)
-    assert ref["mean"][100] > 1.5  # the pulled-out vertex is a spike
+    assert ref.mean[100] > 1.5  # the pulled-out vertex is a spike
     _check_against_native(dg, bpy.data.objects["NgonCylinder"].data)
 
 

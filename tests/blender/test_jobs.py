@@ -41,7 +41,7 @@ def test_cancel_flag_stops_a_progress_driven_computation():
 
 def test_native_call_runs_in_worker_thread():
     V, F = shapes.icosphere(3)
-    job = Job(lambda progress: dgmesh.curvature(V, F)["mean"]).start()
+    job = Job(lambda progress: dgmesh.curvature(V, F).mean).start()
     assert job.wait(30)
     assert np.allclose(job.result, 1.0)
 

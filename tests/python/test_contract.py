@@ -11,8 +11,9 @@ import pytest
 import dgmesh
 from dgmesh import _native
 
-# numpy function -> (its options object, {keyword: field} where the names differ). Every keyword
-# that names a field must default to the field's value (None: "the options' own default").
+# numpy function (a dotted name for a method) -> (its options object, or a tuple of them for a
+# function taking several, {keyword: field} where the names differ). Every keyword that names a
+# field must default to the field's value (None: "the options' own default").
 CONTRACT = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity": (lambda: _native.SimilarityOptions(), {}),
@@ -26,6 +27,15 @@ CONTRACT = {
     "remesh_full": (lambda: _native.RemeshOptions(), {}),
     "Multires.build": (lambda: _native.MultiresOptions(), {}),
     "Multires.bind": (lambda: _native.MultiresOptions(), {}),
+    "curvature_derivatives": (lambda: _native.DerivativeOptions(), {}),
+    "crest_lines": (lambda: (_native.DerivativeOptions(), _native.CrestOptions()), {}),
+    "decimate": (lambda: (_native.DecimateOptions(), _native.decimate_feature_defaults()), {}),
+    "segment": (lambda: (_native.SegmentOptions(), _native.segment_feature_defaults()), {}),
+    "skeletal_mesh": (lambda: _native.SkeletonOptions(), {}),
+    "SkeletalRig.bind": (lambda: (_native.SkeletalRigOptions(), _native.SkeletalRigOptions().skeleton),
+                         {"fit_iterations": "multires_fit_iterations"}),
+    "SkeletalRig.deform": (lambda: _native.SkeletalDeformOptions(), {}),
+    "SkeletalRig.deform_control": (lambda: _native.SkeletalDeformOptions(), {}),
 }
 
 
@@ -37,11 +47,18 @@ def _function(name):
     return obj
 
 
+def _fields(options):
+    out = {}
+    for o in options if isinstance(options, tuple) else (options,):
+        out.update(dgmesh.core.fields(o))
+    return out
+
+
 @pytest.mark.parametrize("name", sorted(CONTRACT))
 def test_keyword_defaults_are_the_native_defaults(name):
     make, renames = CONTRACT[name]
     options = make()
-    fields = dgmesh.core.fields(options)
+    fields = _fields(options)
     checked = []
     for param in inspect.signature(_function(name)).parameters.values():
         field = renames.get(param.name, param.name)
@@ -55,7 +72,7 @@ def test_keyword_defaults_are_the_native_defaults(name):
             assert param.default == expected.name, (name, param.name)
         else:
             assert param.default == expected and type(param.default) is type(expected), (name, param.name)
-    assert checked, f"{name} shares no keyword with {type(options).__name__}"
+    assert checked, f"{name} shares no keyword with {options!r}"
     assert set(renames.values()) <= set(checked), (name, renames)
 
 

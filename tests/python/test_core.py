@@ -9,41 +9,41 @@ def test_curvature_on_sphere_matches_exact_values():
     r = 3.0
     V, F = shapes.icosphere(5, r)
     c = dgmesh.curvature(V, F)
-    assert set(c) >= {"mean", "gaussian", "normals"}
-    assert np.abs(c["mean"] * r - 1).max() < 0.01
-    assert np.abs(c["gaussian"] * r * r - 1).max() < 0.05
-    assert np.allclose(np.einsum("ij,ij->i", c["normals"], V / r), 1.0)
-    assert c["mean"].dtype == np.float64 and c["mean"].shape == (len(V),)
+    assert {"mean", "gaussian", "normals", "area"} <= set(type(c).__fields__)
+    assert np.abs(c.mean * r - 1).max() < 0.01
+    assert np.abs(c.gaussian * r * r - 1).max() < 0.05
+    assert np.allclose(np.einsum("ij,ij->i", c.normals, V / r), 1.0)
+    assert c.mean.dtype == np.float64 and c.mean.shape == (len(V),)
 
 
 def test_curvature_accepts_other_dtypes_and_layouts():
     V, F = shapes.icosphere(2)
-    ref = dgmesh.curvature(V, F)["mean"]
-    assert np.allclose(dgmesh.curvature(np.asfortranarray(V).astype(np.float32), F.astype(np.int64))["mean"],
+    ref = dgmesh.curvature(V, F).mean
+    assert np.allclose(dgmesh.curvature(np.asfortranarray(V).astype(np.float32), F.astype(np.int64)).mean,
                        ref, atol=1e-5)
-    assert np.allclose(dgmesh.curvature(V.tolist(), F.tolist())["mean"], ref)
+    assert np.allclose(dgmesh.curvature(V.tolist(), F.tolist()).mean, ref)
 
 
 def test_torus_gauss_bonnet():
     V, F = shapes.torus(2.0, 0.5, 96, 48)
     c = dgmesh.curvature(V, F)
-    assert abs(np.dot(c["gaussian"], c["area"])) < 1e-8
-    assert np.isfinite(c["mean"]).all()
+    assert abs(np.dot(c.gaussian, c.area)) < 1e-8
+    assert np.isfinite(c.mean).all()
 
 
 def test_open_plane_has_no_nan_and_zero_curvature():
     V, F = shapes.grid(12, 9)
     c = dgmesh.curvature(V, F)
     for k in ("mean", "gaussian", "normals", "area"):
-        assert np.isfinite(c[k]).all()
-    assert np.abs(c["mean"]).max() < 1e-12
+        assert np.isfinite(getattr(c, k)).all()
+    assert np.abs(c.mean).max() < 1e-12
 
 
 def test_loose_vertex_gets_zero():
     V, F = shapes.icosphere(2)
     V = np.vstack([V, [[5.0, 5.0, 5.0]]])
     c = dgmesh.curvature(V, F)
-    assert c["mean"][-1] == 0 and c["gaussian"][-1] == 0
+    assert c.mean[-1] == 0 and c.gaussian[-1] == 0
     with pytest.raises(dgmesh.MeshError, match="loose"):
         dgmesh.validate(V, F, allow_loose_vertices=False)
 
@@ -79,8 +79,8 @@ def test_bad_input_raises_mesh_error(name):
 def test_topology_of_open_grid():
     V, F = shapes.grid(4, 3)
     t = dgmesh.topology(V, F)
-    assert len(t["boundary_loops"]) == 1 and len(t["boundary_loops"][0]) == 14
-    assert t["n_components"] == 1 and len(t["edges"]) == 43
+    assert len(t.boundary_loops) == 1 and len(t.boundary_loops[0]) == 14
+    assert t.n_components == 1 and len(t.edges) == 43
 
 
 def test_io_round_trip(tmp_path):

@@ -51,10 +51,10 @@ def test_sphere_and_plane_have_no_lines_after_thresholding():
 def test_curvature_derivatives_sphere():
     V, F = _native.icosphere(4, 2.0)
     d = dgmesh.curvature_derivatives(V, F, smooth=False)
-    assert np.allclose(d["k_max"], 0.5, atol=0.01)
-    assert np.allclose(d["k_min"], 0.5, atol=0.01)
-    assert np.abs(d["e_max"]).max() < 0.01
-    assert d["t_max"].shape == (len(V), 3)
+    assert np.allclose(d.k_max, 0.5, atol=0.01)
+    assert np.allclose(d.k_min, 0.5, atol=0.01)
+    assert np.abs(d.e_max).max() < 0.01
+    assert d.t_max.shape == (len(V), 3)
 
 
 def test_orientation_duality(cube):
@@ -79,7 +79,7 @@ def test_snap_to_vertices_gives_mesh_edges(cube):
 def test_decimate_manifold_and_feature_weight(cube):
     V, F = cube
     for greedy in (False, True):
-        V2, F2 = dgmesh.decimate(V, F, target_faces=len(F) // 10, greedy=greedy)
+        V2, F2 = dgmesh.decimate(V, F, target_faces=len(F) // 10, feature_weight=0.0, greedy=greedy)
         assert len(F2) <= len(F) // 10
         dgmesh.validate(V2, F2, allow_loose_vertices=False)
     V3, F3, vmap = dgmesh.decimate(V, F, target_faces=len(F) // 10, feature_weight=6.0, threshold=8.0,
@@ -90,7 +90,7 @@ def test_decimate_manifold_and_feature_weight(cube):
 
 def test_decimate_face_map_and_source_vertex(cube):
     V, F = cube
-    V2, F2, vmap, fmap, src = dgmesh.decimate(V, F, target_faces=len(F) // 5, return_map=True,
+    V2, F2, vmap, fmap, src = dgmesh.decimate(V, F, target_faces=len(F) // 5, feature_weight=0.0, return_map=True,
                                               return_face_map=True)
     assert fmap.shape == (len(F2),) and src.shape == (len(V2),)
     # Output face j is input face fmap[j] with its corners sent through the vertex map.
@@ -103,8 +103,8 @@ def test_decimate_face_map_and_source_vertex(cube):
 def test_decimate_locked_vertices_stay(cube):
     V, F = cube
     locked = V[:, 2] > 0.5  # the top of the cube
-    V2, F2, vmap, fmap, src = dgmesh.decimate(V, F, target_faces=len(F) // 5, locked=locked, return_map=True,
-                                              return_face_map=True)
+    V2, F2, vmap, fmap, src = dgmesh.decimate(V, F, target_faces=len(F) // 5, feature_weight=0.0, locked=locked,
+                                              return_map=True, return_face_map=True)
     # Every locked vertex survives, unmoved; the rest of the mesh is decimated.
     assert np.array_equal(vmap[np.flatnonzero(locked)], np.searchsorted(src, np.flatnonzero(locked)))
     assert np.isin(np.flatnonzero(locked), src).all()
@@ -116,8 +116,8 @@ def test_decimate_locked_vertices_stay(cube):
 
 def test_decimate_keeps_boundary():
     V, F = _native.grid(20, 20)
-    V2, F2 = dgmesh.decimate(V, F, target_faces=100)
-    loops = dgmesh.topology(V2, F2)["boundary_loops"]
+    V2, F2 = dgmesh.decimate(V, F, target_faces=100, feature_weight=0.0)
+    loops = dgmesh.topology(V2, F2).boundary_loops
     assert len(loops) == 1 and len(loops[0]) == 80
 
 
@@ -127,7 +127,7 @@ def test_segment_connected_cover(cube):
         labels, info = dgmesh.segment(V, F, segments=6, feature_weight=eta, threshold=8.0, return_info=True)
         assert labels.shape == (len(F),)
         assert set(labels.tolist()) == set(range(6))
-        assert info["n_segments"] == 6
+        assert info.n_segments == 6
 
 
 def test_bad_input():
@@ -152,7 +152,7 @@ def test_bad_input():
         dgmesh.segment(V, F, segments=0)
     with pytest.raises(dgmesh.MeshError):
         dgmesh.segment(V, F, segments=10 * len(F))
-    other = dgmesh.crest_lines(*_native.icosphere(4, 1.0))
+    other = dgmesh.crest_lines(*_native.icosphere(4, 1.0), threshold=0.0)
     if len(other.point_edge) and other.point_edge.max() >= len(V):
         with pytest.raises(dgmesh.MeshError):
             dgmesh.decimate(V, F, target_faces=10, feature_weight=2.0, crest_lines=other)
@@ -180,7 +180,7 @@ def test_feature_guided_calls_detect_or_take_lines_alike(cube):
     lines = dgmesh.crest_lines(V, F, rings=1, threshold=8.0)
     a = dgmesh.decimate(V, F, target_faces=len(F) // 8, feature_weight=6.0, threshold=8.0)
     b = dgmesh.decimate(V, F, target_faces=len(F) // 8, feature_weight=6.0, crest_lines=lines)
-    c = dgmesh.decimate(V, F, target_faces=len(F) // 8)
+    c = dgmesh.decimate(V, F, target_faces=len(F) // 8, feature_weight=0.0)
     assert np.array_equal(a[1], b[1]) and np.allclose(a[0], b[0])
     assert not (len(a[1]) == len(c[1]) and np.array_equal(a[1], c[1]))  # the weights change the result
     la = dgmesh.segment(V, F, segments=6, feature_weight=2.0, threshold=8.0)
@@ -196,14 +196,14 @@ def test_feature_progress_covers_fit_and_decimation(cube):
     assert seen == sorted(seen) and seen[0] == 0.0 and seen[-1] == 1.0
     assert any(0.0 < f <= 0.3 for f in seen)  # the fit's share
     with pytest.raises(dgmesh.MeshError, match="another mesh"):
-        other = dgmesh.crest_lines(*_native.icosphere(4, 1.0))
+        other = dgmesh.crest_lines(*_native.icosphere(4, 1.0), threshold=0.0)
         dgmesh.segment(*_native.icosphere(1, 1.0), segments=3, feature_weight=2.0, crest_lines=other)
 
 
 def test_crest_lines_of_a_smaller_or_larger_mesh_are_refused():
     V, F = shapes.icosphere(2)  # 162 vertices
     for n in (4, 12):  # rounded cubes of 98 and more vertices than the sphere
-        other = dgmesh.crest_lines(*shapes.rounded_cube(n))
+        other = dgmesh.crest_lines(*shapes.rounded_cube(n), threshold=0.0)
         with pytest.raises(dgmesh.MeshError, match="another mesh"):
             dgmesh.decimate(V, F, target_faces=50, feature_weight=1.0, crest_lines=other)
         with pytest.raises(dgmesh.MeshError, match="another mesh"):

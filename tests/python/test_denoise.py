@@ -28,7 +28,7 @@ def normal_error_deg(A, B, F):
 
 def noisy(V, F, level, seed=0):
     """Gaussian noise of deviation level * e along the clean vertex normals."""
-    N = dgmesh.curvature(V, F)["normals"]
+    N = dgmesh.curvature(V, F).normals
     rng = np.random.default_rng(seed)
     return V + N * rng.normal(0.0, level * edge_length(V, F), (len(V), 1))
 

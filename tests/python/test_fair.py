@@ -87,7 +87,7 @@ def _fan_filled_cap(z0=0.7):
     no inner vertex). Returns (V, F, fill face mask, rim loop)."""
     V, F = shapes.icosphere(4)
     cap = (V[F][:, :, 2] > z0).all(axis=1)
-    loop = dgmesh.topology(V, F[~cap])["boundary_loops"][0]
+    loop = dgmesh.topology(V, F[~cap]).boundary_loops[0]
     fan = np.array([[loop[0], loop[i + 1], loop[i]] for i in range(1, len(loop) - 1)], dtype=np.int32)
     F2 = np.concatenate([F[~cap], fan])
     region = np.zeros(len(F2), dtype=bool)
@@ -114,7 +114,7 @@ def test_refine_region_sizes_a_coarse_fill_like_the_rim():
     lengths = _edge_lengths(Vr, Fr[reg])
     assert lengths.mean() == pytest.approx(rim, rel=0.3)
     assert lengths.max() < 2.5 * rim
-    assert dgmesh.topology(Vr, Fr)["boundary_loops"] == []  # closed again, manifold
+    assert dgmesh.topology(Vr, Fr).boundary_loops == []  # closed again, manifold
     with pytest.raises(dgmesh.MeshError, match="faces must be"):
         refine_region(V, F, region[:-1])
     with pytest.raises(dgmesh.MeshError, match="density"):
@@ -151,7 +151,7 @@ def test_methods_and_schemes_lower_the_energy(method, scheme):
 def test_boundary_modes():
     V, F = shapes.grid(10, 10)
     V[:, 2] = 0.2 * np.sin(3 * V[:, 0]) * np.sin(3 * V[:, 1])
-    loops = dgmesh.topology(V, F)["boundary_loops"]
+    loops = dgmesh.topology(V, F).boundary_loops
     b = np.unique(np.concatenate(loops))
     fixed = dgmesh.fair(V, F, max_iterations=30)
     assert np.array_equal(fixed.vertices[b], V[b])

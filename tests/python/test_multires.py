@@ -42,8 +42,8 @@ def test_scans_rest_exact_and_rigid(name, control_faces):
     # further collapses (elephant-with-holes: many small holes).
     assert 0.8 * control_faces <= len(mr.control_faces) <= 1.2 * control_faces
     topo, ctopo = dgmesh.topology(V, F), dgmesh.topology(mr.control_vertices, mr.control_faces)
-    assert ctopo["n_components"] == topo["n_components"]
-    assert len(ctopo["boundary_loops"]) == len(topo["boundary_loops"])
+    assert ctopo.n_components == topo.n_components
+    assert len(ctopo.boundary_loops) == len(topo.boundary_loops)
     assert np.abs(mr.reconstruct(mr.control_vertices) - V).max() < 1e-6 * d
     assert np.abs(mr.reconstruct(rigid(mr.control_vertices, d)) - rigid(V, d)).max() < 1e-6 * d
     # The control mesh is much coarser yet the displacements are small against the model.

@@ -368,7 +368,7 @@ def test_moved_vertex_lookup_picks_the_nearest_triangle(surface, ratio):
     vertices are nearest to a triangle with a single corner merged into them."""
     V, F = shapes.rounded_cube(12) if surface == "cube" else shapes.torus(1.0, 0.4, 24, 12)
     V, F = np.asarray(V, dtype=float) * [1.0, 0.7, 0.5], np.asarray(F, dtype=np.int32)
-    V2, _, vmap, _, src = dgmesh.decimate(V, F, target_faces=len(F) // ratio, return_map=True,
+    V2, _, vmap, _, src = dgmesh.decimate(V, F, target_faces=len(F) // ratio, feature_weight=0.0, return_map=True,
                                           return_face_map=True)
     moved = np.any(V2 != V[src], axis=1)
     w, loops, bary = polymesh.moved_vertex_lookup(np.arange(3 * len(F)).reshape(-1, 3), V, F, V2, vmap, moved)

@@ -54,7 +54,7 @@ def edge_cv(V, F):
 def check_disk(V, F):
     dgmesh.validate(V, F, allow_loose_vertices=False)
     t = dgmesh.topology(V, F)
-    assert len(t["boundary_loops"]) == 1
+    assert len(t.boundary_loops) == 1
     assert len(V) - len(edges(F)) + len(F) == 1
     return t
 
@@ -95,13 +95,13 @@ def test_planar_disk_near_uniform_delaunay_with_requested_count(mode):
 
 def test_boundary_is_kept_bit_for_bit():
     V, F = polar_disk()
-    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    loop = dgmesh.topology(V, F).boundary_loops[0]
     r = dgmesh.remesh_full(V, F, target_vertices=900)
     assert r.n_boundary == len(loop)
     assert np.array_equal(r.boundary_source, loop)
     assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
     t = check_disk(r.V, r.F)
-    assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+    assert sorted(t.boundary_loops[0]) == list(range(r.n_boundary))
     assert abs(len(r.V) - 900) <= 45
 
 
@@ -122,11 +122,11 @@ def test_grid_with_ear_corners_keeps_its_boundary(mode, domain):
             a = i * (S + 1) + j
             F += [(a, a + 1, a + S + 2), (a, a + S + 2, a + S + 1)]
     F = np.array(F)
-    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    loop = dgmesh.topology(V, F).boundary_loops[0]
     for target in (500, 2000):
         r = dgmesh.remesh_full(V, F, target_vertices=target, mode=mode, domain=domain)
         t = check_disk(r.V, r.F)
-        assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+        assert sorted(t.boundary_loops[0]) == list(range(r.n_boundary))
         assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
         assert abs(len(r.V) - target) <= 0.05 * target
 
@@ -137,7 +137,7 @@ def needle_ears(lean, height, lift):
     tip `lean` chords along its edge and `height` chords off it (turned out of the plane by `lift`
     radians). Returns V, F and the pairs' tips as (tip on (p, q), tip on (q, r))."""
     V, F = polar_disk(rings=8)
-    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    loop = dgmesh.topology(V, F).boundary_loops[0]
     halfedges = {(f[k], f[(k + 1) % 3]) for f in F for k in range(3)}
     forward = (loop[0], loop[1]) in halfedges  # the new faces run the other way along the loop
     V, F, pairs = list(V), [tuple(f) for f in F], []
@@ -173,7 +173,7 @@ def test_needle_ears_side_by_side_keep_their_boundary(shape):
             assert np.linalg.det(M) * (u[0] * v[1] - u[1] * v[0]) > 0  # t2 inside the circle through the ear
     else:
         V, F, pairs = needle_ears(lean=(-0.5, -2.5), height=(3.0, 3.0), lift=(0.0, 1.2))
-    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    loop = dgmesh.topology(V, F).boundary_loops[0]
     assert len(loop) == 60
     # The boundary in the triangulation map (U0: Floater's weights on the circle).
     Q = dgmesh.unwrap(V, F, boundary="circle", weights="floater", iterations=0).uv[loop]
@@ -189,7 +189,7 @@ def test_needle_ears_side_by_side_keep_their_boundary(shape):
         assert np.array_equal(r.boundary_source, loop)
         assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
         # The output boundary is the input's, edge for edge.
-        out = t["boundary_loops"][0]
+        out = t.boundary_loops[0]
         i0 = out.index(0)
         out = out[i0:] + out[:i0]
         assert out == list(range(r.n_boundary)) or out == [0] + list(range(r.n_boundary - 1, 0, -1))
@@ -205,13 +205,13 @@ def test_left_half_of_a_subdivided_lion_head_keeps_its_boundary(cgal):
     F = F[cx < np.median(cx)]
     used = np.unique(F)
     V, F = V[used], np.searchsorted(used, F)
-    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    loop = dgmesh.topology(V, F).boundary_loops[0]
     assert len(loop) == 524
     for kw in (dict(), dict(lloyd_iterations=0, min_separation=0.0, flip_3d=False, smooth_iterations=0)):
         r = dgmesh.remesh_full(V, F, target_vertices=5000, **kw)
         t = check_disk(r.V, r.F)
         assert not any("missed the kept boundary" in w for w in r.warnings)
-        assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+        assert sorted(t.boundary_loops[0]) == list(range(r.n_boundary))
         assert r.V[: r.n_boundary].tobytes() == V[loop].tobytes()
         assert abs(len(r.V) - 5000) <= 100
 
@@ -489,8 +489,8 @@ def test_grid_corner_ears_meet_the_kept_boundary_without_a_retry():
     assert abs(len(r.V) - 30000) < 300
     assert not any("missed the kept boundary" in w for w in r.warnings)
     t = dgmesh.topology(r.V, r.F)
-    assert t["n_components"] == 1 and len(t["boundary_loops"]) == 1
-    assert sorted(t["boundary_loops"][0]) == list(range(r.n_boundary))
+    assert t.n_components == 1 and len(t.boundary_loops) == 1
+    assert sorted(t.boundary_loops[0]) == list(range(r.n_boundary))
 
 
 def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance(monkeypatch):

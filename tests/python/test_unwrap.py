@@ -135,7 +135,7 @@ def test_boundaries():
     corners = sq.uv[sq.corners]
     np.testing.assert_allclose(corners, [[0, 0], [1, 0], [1, 1], [0, 1]], atol=1e-12)
     ci = dgmesh.unwrap(V, F, **thesis(boundary="circle", iterations=0))
-    loop = dgmesh.topology(V, F)["boundary_loops"][0]
+    loop = dgmesh.topology(V, F).boundary_loops[0]
     np.testing.assert_allclose(np.linalg.norm(ci.uv[loop] - 0.5, axis=1), 0.5, atol=1e-12)
     fr = dgmesh.unwrap(V, F, **thesis(boundary="free"))
     assert fr.final.flipped == 0
@@ -187,7 +187,7 @@ def test_non_disk_inputs_are_rejected_with_advice():
 
 def test_multiple_boundaries_keep_holes(cgal):
     V, F = dgmesh.read_mesh(cgal / "holes.off")
-    loops = dgmesh.topology(V, F)["boundary_loops"]
+    loops = dgmesh.topology(V, F).boundary_loops
     assert len(loops) > 2
     r = dgmesh.unwrap(V, F, **thesis(boundary="circle"))
     assert r.n_holes == len(loops) - 1

@@ -34,7 +34,12 @@ sqrt(e_max^2 + e_min^2) along the line: dimensionless (the same on a scaled copy
 lines across strongly curved, non-cyclide regions. The thesis used T = 1..3 on its one-ring
 figures (its own models and meshes). On CGAL's scans T = 5 still leaves many noise-driven
 fragments on the bunny, T = 10 keeps the salient lines of fandisk, bunny and armadillo, T = 25
-only the strongest (bench/images/crest_lines_*.png), hence the default of 10.
+only the strongest (bench/images/crest_lines_*.png), hence the library's default of 10
+(CrestOptions.threshold).
+
+Property defaults are the library's (dgmesh/crest_lines.h, decimate.h, segment.h): DerivativeOptions
+and CrestOptions for Crest Lines, decimate_feature_defaults() for Feature Decimate,
+SegmentOptions and segment_feature_defaults() for Segment.
 """
 
 import colorsys
@@ -45,6 +50,7 @@ import numpy as np
 from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors, polymesh
+from ..crest import CrestOptions, DerivativeOptions, SegmentOptions, decimate_feature_defaults, segment_feature_defaults
 from . import bridge, compat
 from .common import (editable_collection, plural as _plural, poll_mesh_targets, read_only_reason,
                      report_shown_shape, target_objects)
@@ -60,7 +66,11 @@ ATTR_SEGMENT_COLOR = "dg_segment_color"
 ATTR_SEGMENT_SEAMS = "dg_segment_seams"  # the seams Segment added (a re-run replaces them, keeps the user's)
 RIDGE_RGB = (0.1, 0.25, 1.0)   # thesis figures: ridges blue ...
 VALLEY_RGB = (1.0, 0.1, 0.1)   # ... valleys red
-DEFAULT_THRESHOLD = 10.0
+FIT_DEFAULTS = DerivativeOptions()  # property defaults: the library's own
+CREST_DEFAULTS = CrestOptions()
+DECIMATE_FEATURES = decimate_feature_defaults()
+SEGMENT_DEFAULTS = SegmentOptions()
+SEGMENT_FEATURES = segment_feature_defaults()
 THRESHOLD_HELP = ("Keep crest lines whose strength T is at least this. T = line length x integral of "
                   "the cyclideness sqrt(e_max^2 + e_min^2) along the line (thesis eq. 4.10): "
                   "dimensionless, so it does not depend on the model's size; 0 keeps every line, "
@@ -286,11 +296,11 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     rings: IntProperty(name="Rings", description="Fitting neighbourhood (k-ring): larger ignores finer "
-                       "features and gives smoother lines", default=1, min=1, max=4)
-    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DEFAULT_THRESHOLD,
+                       "features and gives smoother lines", default=FIT_DEFAULTS.rings, min=1, max=4)
+    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=CREST_DEFAULTS.threshold,
                              min=0.0, soft_max=100.0)
-    ridges: BoolProperty(name="Ridges", description="Convex crest lines", default=True)
-    valleys: BoolProperty(name="Valleys", description="Concave crest lines", default=True)
+    ridges: BoolProperty(name="Ridges", description="Convex crest lines", default=CREST_DEFAULTS.ridges)
+    valleys: BoolProperty(name="Valleys", description="Concave crest lines", default=CREST_DEFAULTS.valleys)
     mark_seams: BoolProperty(name="Mark Seams", description="Also mark the edges as UV seams", default=False)
     mark_sharp: BoolProperty(name="Mark Sharp", description="Also mark the edges as sharp", default=False)
     create_curves: BoolProperty(name="Curve Object", description="Add a curve object '<object> Crest Lines' "
@@ -564,10 +574,10 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
                          max=1.0, subtype='FACTOR')
     feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
                                   "quadric decimation, larger keeps more triangles near crest lines",
-                                  default=6.0, min=0.0, soft_max=10.0)
+                                  default=DECIMATE_FEATURES.feature_weight, min=0.0, soft_max=10.0)
     rings: IntProperty(name="Rings", description="Fitting neighbourhood of the crest lines (k-ring)",
-                       default=1, min=1, max=4)
-    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DEFAULT_THRESHOLD,
+                       default=DECIMATE_FEATURES.rings, min=1, max=4)
+    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DECIMATE_FEATURES.threshold,
                              min=0.0, soft_max=100.0)
 
     def read(self, obj):
@@ -631,13 +641,13 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
     )
     bl_options = {'REGISTER', 'UNDO'}
 
-    segments: IntProperty(name="Segments", default=25, min=1, soft_max=200)
+    segments: IntProperty(name="Segments", default=SEGMENT_DEFAULTS.segments, min=1, soft_max=200)
     feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
-                                  "VSA, larger makes borders follow crest lines", default=2.0, min=0.0,
-                                  soft_max=10.0)
+                                  "VSA, larger makes borders follow crest lines",
+                                  default=SEGMENT_FEATURES.feature_weight, min=0.0, soft_max=10.0)
     rings: IntProperty(name="Rings", description="Fitting neighbourhood of the crest lines (k-ring)",
-                       default=1, min=1, max=4)
-    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DEFAULT_THRESHOLD,
+                       default=SEGMENT_FEATURES.rings, min=1, max=4)
+    threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=SEGMENT_FEATURES.threshold,
                              min=0.0, soft_max=100.0)
     mark_seams: BoolProperty(name="Mark Seams", description="Mark segment borders as UV seams", default=False)
 

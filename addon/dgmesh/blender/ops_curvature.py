@@ -78,8 +78,8 @@ class DGMESH_OT_curvature_map(bpy.types.Operator):
                 arrays = bridge.read_object(obj)
                 out = dg.curvature(arrays.V, arrays.F)
                 n = arrays.num_vertices
-                H = np.asarray(out["mean"], dtype=np.float64).reshape(n)
-                K = np.asarray(out["gaussian"], dtype=np.float64).reshape(n)
+                H = np.asarray(out.mean, dtype=np.float64).reshape(n)
+                K = np.asarray(out.gaussian, dtype=np.float64).reshape(n)
             except dg.MeshError as exc:
                 failures.append((obj.name, str(exc)))
             except Exception as exc:  # anything else from the native side: report, don't crash

@@ -46,19 +46,21 @@ import numpy as np
 from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..core import MeshError
-from ..skeletal import SkeletalRig
+from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
 from ..skeletal_data import encode_arrays, write_pc2
 from . import bridge, compat
-from .common import plural, poll_fail as _poll_fail, read_only_reason, set_handlers
+from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 from .skeletal_live import HANDLERS, edited, helper_node_group, helper_object, move_first, unbind, update_object
 from .skeletal_space import pose_matrices, rig_space, transformed
 from .skeletal_store import (ARM_PTR, ARM_TAG, ATTR, CACHE, MOD, PROP, bound_armature, from_library, is_bound,
                              live_modifier, purge_orphans, rest_hash, rigs, skeleton_object, skeleton_of)
 
-METHODS = (
-    ('VARIATIONAL', "Variational", "Thesis 6.5: stitched per-triangle frames plus shape-preserving fairing"),
-    ('BASIC', "Basic", "Thesis 6.3: homotopy reconstruction with fold and self-intersection fairing (comparison)"),
-)
+METHODS = enum_items(SkeletalMethod, {
+    "variational": ("Variational", "Thesis 6.5: stitched per-triangle frames plus shape-preserving fairing"),
+    "basic": ("Basic", "Thesis 6.3: homotopy reconstruction with fold and self-intersection fairing (comparison)"),
+})
+BIND_DEFAULTS = SkeletalRigOptions()  # property defaults: the library's own (dgmesh/skeletal.h)
+DEFORM_DEFAULTS = SkeletalDeformOptions()
 SKELETON_BLENDS = (
     ('DUAL_QUATERNION', "Dual Quaternion", "Rigid per skeletal vertex, as Preserve Volume: a thick "
      "limb turned far about itself keeps its shape (the linear blend collapses its medial surface "
@@ -134,18 +136,19 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
     bl_label = "Skeletal Bind"
     bl_options = {'REGISTER', 'UNDO'}
 
-    control_faces: IntProperty(name="Control Faces", default=5000, min=200, max=200000,
+    control_faces: IntProperty(name="Control Faces", default=BIND_DEFAULTS.control_faces, min=200, max=200000,
                                description="Meshes with more faces are deformed through a decimated control "
                                "mesh of about this many faces (multiresolution)")
-    fairing_steps: IntProperty(name="Fairing Steps", default=2, min=0, max=20,
+    fairing_steps: IntProperty(name="Fairing Steps", default=DEFORM_DEFAULTS.fairing_steps, min=0, max=20,
                                description="Shape-preserving self-intersection fairing steps per pose (eq. 6.15)")
-    method: EnumProperty(name="Method", items=METHODS, default='VARIATIONAL')
-    bone_clearance: FloatProperty(name="Bone Clearance", default=0.95, min=0.0, max=1.0,
+    method: EnumProperty(name="Method", items=METHODS, default=enum_id(DEFORM_DEFAULTS.method))
+    bone_clearance: FloatProperty(name="Bone Clearance", default=DEFORM_DEFAULTS.bone_clearance, min=0.0, max=1.0,
                                   description="Keep each vertex at least this fraction of its rest distance from "
                                   "the bones it follows (a joint's inner crease); 0 = off, 1 = every rest distance "
                                   "(costs thickness under twists)")
     skeleton_blend: EnumProperty(
-        name="Skeleton Blend", items=SKELETON_BLENDS, default='DUAL_QUATERNION',
+        name="Skeleton Blend", items=SKELETON_BLENDS,
+        default='DUAL_QUATERNION' if DEFORM_DEFAULTS.dual_quaternion else 'LINEAR',
         description="How the bone motions are blended on the skeletal mesh where a vertex follows several bones")
 
     @classmethod

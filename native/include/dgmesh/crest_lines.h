@@ -48,7 +48,11 @@ struct CrestOptions {
   // Ignore edges touching the mesh boundary, where the fit is one-sided and its third derivatives
   // are unreliable.
   bool skip_boundary = true;
-  double threshold = 0.0;  // keep lines with strength T >= threshold (eq. 4.10)
+  // Keep lines with strength T >= threshold (eq. 4.10); 0 keeps every line. The thesis used
+  // T = 1..3 on its own one-ring figures; on CGAL's scans T = 5 still leaves many noise-driven
+  // fragments on the bunny, T = 10 keeps the salient lines of fandisk, bunny and armadillo, T = 25
+  // only the strongest (bench/images/crest_lines_*.png).
+  double threshold = 10.0;
 };
 
 struct CrestLines {
@@ -78,7 +82,8 @@ CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, co
 CrestLines crest_lines(const Mesh& mesh, const DerivativeOptions& fit, const CrestOptions& opt,
                        const ProgressFn& progress = {});
 
-// The lines with T >= threshold and of the requested kinds, points and segments re-indexed.
+// The lines with T >= threshold and of the requested kinds, points and segments re-indexed (points
+// and segments keep their order).
 CrestLines filter_crest_lines(const CrestLines& lines, double threshold, bool ridges = true, bool valleys = true);
 
 // Geodesic distance from every face to the nearest crest line (thesis 4.8): Dijkstra over the face
@@ -89,5 +94,19 @@ VecXd crest_face_distance(const Mesh& mesh, const CrestLines& lines);
 
 // F(d) = (d / max d + eps)^eta of eq. 4.12, per face.
 VecXd feature_function(const VecXd& distance, double eta, double eps = 0.1);
+
+// Crest-line guidance of decimation (thesis 4.8: face quadrics weighted by 1 / F(d)) and
+// segmentation (4.9: region growing weighted by 2 / (F(T_i) + F(T_j))), F of eq. 4.12 with d the
+// distance to the crest lines given by the caller, or else detected with `rings` and `threshold`.
+struct FeatureOptions {
+  double feature_weight = 0.0;  // eta of eq. 4.12; 0: not guided
+  int rings = 1;                // DerivativeOptions::rings of the detected lines
+  double threshold = 10.0;      // CrestOptions::threshold of the detected lines
+};
+
+// Decimation's: eta = 6, the thesis's fig. 4.19 (bunny decimated by 90%, bench crest_renders).
+FeatureOptions decimate_feature_defaults();
+// Segmentation's: eta = 2, the thesis's fig. 4.26-4.27 (bunny and Max-Planck in 25 segments).
+FeatureOptions segment_feature_defaults();
 
 }  // namespace dgmesh

@@ -12,7 +12,7 @@
 namespace dgmesh {
 
 struct SegmentOptions {
-  int segments = 10;
+  int segments = 25;     // the thesis's figures 4.25-4.27
   int iterations = 30;   // Lloyd iterations once every seed is placed (stops early when stable)
   VecXd face_feature;    // F(T) per face (feature_function of crest_lines.h); empty: all 1 (plain VSA)
 };
