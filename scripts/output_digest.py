@@ -30,7 +30,7 @@ sys.path.insert(0, str(ROOT / "addon"))
 import dgmesh  # noqa: E402
 from dgmesh import shapes  # noqa: E402
 from dgmesh.crest import crest_face_distance, feature_function, snap_to_vertices  # noqa: E402
-from dgmesh.fair import refine_region, subdivide_region  # noqa: E402
+from dgmesh.fairing import refine_region, subdivide_region  # noqa: E402
 from dgmesh.skeletal import capsule, gaussian_bone_weights, skeletal_subspace_deform  # noqa: E402
 
 SKIP_KEYS = ("seconds", "timings")
@@ -40,6 +40,12 @@ def feed(h, x):
     """Feeds x into the hash h, recursively and unambiguously."""
     if dataclasses.is_dataclass(x) and not isinstance(x, type):
         x = {f.name: getattr(x, f.name) for f in dataclasses.fields(x)}
+    elif hasattr(type(x), "__fields__"):  # a bound options or result struct (bindings/common.h)
+        x = {f: getattr(x, f) for f in type(x).__fields__}
+    elif hasattr(type(x), "__members__"):  # a bound enum
+        x = type(x).__name__ + "." + x.name
+    elif type(x).__name__ == "CrestLines":  # the numpy API's thin class around the bound lines
+        x = {"lines": x.lines, "derivatives": x.derivatives, "threshold": x.threshold}
     if isinstance(x, dict):
         h.update(b"{")
         for k in sorted(x, key=str):
@@ -236,7 +242,7 @@ def main():
         remap = np.full(len(Vs), -1, np.int32)
         remap[used] = np.arange(len(used), dtype=np.int32)
         V0, F0 = Vsn[used], remap[Fo]
-        loop = dgmesh.topology(V0, F0)["boundary_loops"][0]
+        loop = dgmesh.topology(V0, F0).boundary_loops[0]
         c = len(V0)
         V1 = np.vstack([V0, V0[loop].mean(0)])
         directed = {(int(a), int(b)) for f in F0 for a, b in ((f[0], f[1]), (f[1], f[2]), (f[2], f[0]))}

@@ -41,7 +41,7 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     validate,
     write_mesh,
 )
-from .denoise import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
+from .denoising import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
 from .crest import (  # noqa: E402
     CrestKind,
     CrestLines,
@@ -60,9 +60,9 @@ from .crest import (  # noqa: E402
     segment,
     segment_feature_defaults,
 )
-from .fair import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, RegularizeOptions, fair,  # noqa: E402
+from .fairing import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, RegularizeOptions, fair,  # noqa: E402
                    regularize, willmore_energy)
-from .unwrap import (UnwrapChartError, UnwrapChartsResult, UnwrapOptions, UnwrapResult, UnwrapStep,  # noqa: E402
+from .unwrapping import (UnwrapChartError, UnwrapChartsResult, UnwrapOptions, UnwrapResult, UnwrapStep,  # noqa: E402
                      UvBoundary, UvMetrics, UvSolver, UvWeights, unwrap, unwrap_charts, uv_metrics, uv_stretch)
 from .skeletal import (  # noqa: E402
     SkeletalDeformOptions,
@@ -77,7 +77,7 @@ from .skeletal import (  # noqa: E402
     union_of_balls_distance,
 )
 from .multires import Multires, MultiresOptions, MultiresTimings  # noqa: E402
-from .remesh import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetric, RemeshResult,  # noqa: E402
+from .remeshing import (RemeshBoundary, RemeshMode, RemeshOptions, RemeshRelaxMetric, RemeshResult,  # noqa: E402
                      point_mesh_distance, remesh, remesh_full)
 
 # The public numpy API (``from dgmesh import *``); register/unregister are Blender's entry points.

@@ -23,10 +23,76 @@ class SolverError(Error): ...
 
 class UnwrapChartError(MeshError): ...
 
+class CrestKind:
+    """Kind of a crest line (CrestLines.line_kind)"""
+    ridge: CrestKind
+    valley: CrestKind
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
 class DenoiseMethod:
     """Denoising filter"""
     similarity: DenoiseMethod
     bilateral: DenoiseMethod
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class FairBoundary:
+    """Mesh-boundary vertices in fair() and regularize()"""
+    fixed: FairBoundary
+    sliding: FairBoundary
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class FairMethod:
+    """Curvature flow of fair()"""
+    willmore: FairMethod
+    bilaplacian: FairMethod
+    laplacian_of_h: FairMethod
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class FairScheme:
+    """Time stepping of fair()"""
+    explicit: FairScheme
+    semi_implicit: FairScheme
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class RemeshBoundary:
+    """The chart's boundary in remesh()"""
+    keep: RemeshBoundary
+    resample: RemeshBoundary
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class RemeshMode:
+    """Maps remesh() samples and triangulates on (thesis fig. 5.6-5.9)"""
+    double: RemeshMode
+    single_u0: RemeshMode
+    single_uopt: RemeshMode
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class RemeshRelaxMetric:
+    """Metric of the Lloyd relaxation's Voronoi cells"""
+    surface: RemeshRelaxMetric
+    map: RemeshRelaxMetric
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
+class SkeletalMethod:
+    """Reconstruction of the deformed mesh"""
+    variational: SkeletalMethod
+    basic: SkeletalMethod
     name: str
     value: int
     def __init__(self, value: int) -> None: ...
@@ -62,6 +128,91 @@ class UvWeights:
     value: int
     def __init__(self, value: int) -> None: ...
 
+class CrestLines:
+    """Crest lines: points, segments between them, and lines as point lists"""
+
+    __fields__: list[str]
+    points: numpy.ndarray  # (P, 3) crest points
+    point_edge: numpy.ndarray  # (P, 2) the mesh edge (v0, v1) of each point; (-1, -1) for a junction inside a triangle
+    point_t: numpy.ndarray  # (P,) point = (1 - t) v0 + t v1
+    point_cyclideness: numpy.ndarray  # (P,) cyclideness C of eq. 4.11
+    segments: numpy.ndarray  # (S, 2) point indices of each segment
+    segment_line: numpy.ndarray  # (S,) the line of each segment
+    segment_face: numpy.ndarray  # (S,) the triangle holding it (-1: a gap jump)
+    line_offset: numpy.ndarray  # (L + 1,) line l: line_points[line_offset[l]:line_offset[l+1]]
+    line_points: numpy.ndarray  # point indices of the lines in order (closed: first repeated)
+    line_kind: numpy.ndarray  # (L,) CrestKind of each line (0 ridge, 1 valley)
+    line_strength: numpy.ndarray  # (L,) strength T of eq. 4.10 (dimensionless)
+    line_length: numpy.ndarray  # (L,) length of each line
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> CrestLines: ...
+
+class CrestOptions:
+    """Options of crest_lines(): tracing and thresholding (thesis 4.6)"""
+
+    __fields__: list[str]
+    ridges: bool  # keep ridges (convex crest lines)
+    valleys: bool  # keep valleys (concave crest lines)
+    join_gaps: bool  # gap jumping of fig. 4.10
+    skip_boundary: bool  # ignore edges touching the mesh boundary
+    threshold: float  # keep lines with strength T >= threshold (eq. 4.10, dimensionless); 0 keeps every line
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> CrestOptions: ...
+
+class Curvature:
+    """Result of curvature(): discrete curvatures per vertex (thesis 3.1)"""
+
+    __fields__: list[str]
+    mean: numpy.ndarray  # (n,) mean curvature H (1/r on a sphere with outward normals)
+    gaussian: numpy.ndarray  # (n,) Gaussian curvature K by angle deficit (1/r^2 on a sphere)
+    normals: numpy.ndarray  # (n, 3) unit vertex normals (Max weights)
+    area: numpy.ndarray  # (n,) mixed Voronoi area
+    laplace: numpy.ndarray  # (n, 3) Laplace-Beltrami of the position (-2 H N)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> Curvature: ...
+
+class CurvatureDerivatives:
+    """Result of curvature_derivatives(), per vertex"""
+
+    __fields__: list[str]
+    k_max: numpy.ndarray  # (n,) maximal principal curvature (positive on a sphere)
+    k_min: numpy.ndarray  # (n,) minimal principal curvature
+    e_max: numpy.ndarray  # (n,) extremality coefficient dk_max/dt_max (eq. 4.8-4.9)
+    e_min: numpy.ndarray  # (n,) extremality coefficient dk_min/dt_min
+    t_max: numpy.ndarray  # (n, 3) unit principal direction of k_max
+    t_min: numpy.ndarray  # (n, 3) unit principal direction of k_min
+    normals: numpy.ndarray  # (n, 3) normals of the fitted surface
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> CurvatureDerivatives: ...
+
+class DecimateOptions:
+    """Options of decimate() (Garland-Heckbert quadric edge collapses)"""
+
+    __fields__: list[str]
+    target_faces: int  # stop when at most this many faces are left
+    max_error: float  # stop earlier when the cheapest collapse costs more
+    area_weighted: bool  # face quadrics scaled by the face area
+    preserve_boundary: bool  # boundary vertices never move and are never removed
+    boundary_weight: float  # weight of the boundary constraint planes when not preserving the boundary
+    max_normal_angle: float  # reject collapses turning a face normal by more than this (radians)
+    min_quality: float  # reject collapses making worse slivers than this, in [0, 1)
+    batched: bool  # multiple-choice passes (true) or one global priority queue (false, the exact greedy order)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> DecimateOptions: ...
+
+class DecimateResult:
+    """Result of decimate()"""
+
+    __fields__: list[str]
+    V: numpy.ndarray  # (n', 3) decimated positions
+    F: numpy.ndarray  # (m', 3) triangles
+    vertex_map: numpy.ndarray  # (n,) output vertex of each input vertex (-1: loose)
+    face_map: numpy.ndarray  # (m',) input face each output face is
+    source_vertex: numpy.ndarray  # (n',) input vertex each output vertex is
+    collapses: int  # edge collapses done
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> DecimateResult: ...
+
 class DenoiseOptions:
     """Options of denoise(); sigma_i = eta_i * average edge length"""
 
@@ -76,6 +227,7 @@ class DenoiseOptions:
     max_patch: int  # cap on RBF patch / compared points (0 = automatic)
     max_window: int  # cap on averaging-domain points (0 = automatic)
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> DenoiseOptions: ...
 
 class DenoiseResult:
     """Result of denoise()"""
@@ -89,6 +241,176 @@ class DenoiseResult:
     rbf_fallbacks: int  # RBF patches solved by the plane fallback
     welded: int  # vertices merged into a coincident one for the computation
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> DenoiseResult: ...
+
+class DerivativeOptions:
+    """Options of curvature_derivatives(): the cubic fit of thesis 4.5"""
+
+    __fields__: list[str]
+    rings: int  # k of the k-ring used for the fit (thesis 1..4; 1..8 accepted)
+    smooth: bool  # fit on M' (p' = mean of the centroids of the faces around p)
+    use_normals: bool  # adjacent-normal equations in the fit (table 4.1)
+    fit_tangent_plane: bool  # fit the tangent plane too (linear terms; the Max normal as one more equation)
+    transport_to_vertex: bool  # evaluate the fit at the foot of the original vertex p rather than at p'
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> DerivativeOptions: ...
+
+class FairOptions:
+    """Options of fair() (the masks are separate arguments)"""
+
+    __fields__: list[str]
+    method: FairMethod  # the flow
+    scheme: FairScheme  # the time stepping
+    boundary: FairBoundary  # mesh-boundary vertices: fixed or sliding
+    subdivisions: int  # coarse-to-fine levels, 0..6 (fig. 3.5)
+    tolerance: float  # relative energy change per unit of flow time that stops a level
+    max_iterations: int  # iterations per level
+    max_seconds: float  # wall-clock budget of the whole run; 0 = none
+    tangential: bool  # add the tangential drift eps T (eq. 3.8)
+    step_scale: float  # multiplies the explicit scheme's tau = A_min^2/150
+    linear_start: bool  # with fixed vertices, start from the linearised minimiser when that lowers the energy
+    refine: bool  # refine the region Liepa-style before the flow (hole fills)
+    keep_size: bool  # Willmore, Laplacian of H: a component without fixed vertices keeps its centroid and area
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> FairOptions: ...
+
+class FairResult:
+    """Result of fair()"""
+
+    __fields__: list[str]
+    vertices: numpy.ndarray  # (n', 3) the input's vertices first (same indices), then new ones
+    faces: numpy.ndarray  # (m', 3) row f < m holds a child of input face f, extra children follow
+    face_origin: numpy.ndarray  # (m',) input face each output face comes from
+    energy: numpy.ndarray  # Willmore energy after each iteration; energy[0] is the input's
+    moved: numpy.ndarray  # (n',) bool: vertices that were free to move at the last level
+    level_iterations: numpy.ndarray  # iterations spent on each level
+    iterations: int  # iterations of all levels
+    converged: bool  # the last level met the tolerance
+    lam: float  # last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
+    linear_start: bool  # the flow started from the linearised minimiser
+    energy_rose: bool  # some level ended above its start energy and returned its lowest-energy state
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> FairResult: ...
+
+class FeatureOptions:
+    """Crest-line guidance of decimate() and segment(): F(d) of eq. 4.12"""
+
+    __fields__: list[str]
+    feature_weight: float  # eta of eq. 4.12; 0: not guided
+    rings: int  # fitting rings of the detected crest lines
+    threshold: float  # strength threshold T of the detected crest lines
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> FeatureOptions: ...
+
+class MultiresOptions:
+    """Options of Multires.build()"""
+
+    __fields__: list[str]
+    control_faces: int  # target face count of the decimated control mesh
+    level: int  # 1..5: adaptive isolation level of the limit patches and density of the closest-point seeds
+    min_quality: float  # decimation sliver guard, triangle quality in [0, 1)
+    fit_iterations: int  # least-squares fits of the control vertices, each followed by a re-bind; 0 = plain decimation
+    fit_regularization: float  # Tikhonov weight of the fit towards the decimated positions (relative)
+    projection_iterations: int  # Gauss-Newton steps of the closest-point projection
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> MultiresOptions: ...
+
+class MultiresTimings:
+    """Seconds spent in each stage of Multires.build()"""
+
+    __fields__: list[str]
+    decimate: float  # quadric decimation to the control mesh
+    surface: float  # limit surface (OpenSubdiv patch table)
+    bind: float  # closest-point binding of the dense vertices
+    fit: float  # least-squares fits and re-binds
+    stencils: float  # precomputed reconstruction stencils
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> MultiresTimings: ...
+
+class RegularizeOptions:
+    """Options of regularize() (the mask is a separate argument)"""
+
+    __fields__: list[str]
+    iterations: int  # drift steps
+    boundary: FairBoundary  # mesh-boundary vertices: fixed or sliding
+    step_scale: float  # multiplies the thesis's eps = 12 A_min (A_min within two rings of each vertex)
+    project: bool  # project moved vertices back onto the input surface each step
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> RegularizeOptions: ...
+
+class RemeshOptions:
+    """Options of remesh(); see dgmesh/remesh.h for each step"""
+
+    __fields__: list[str]
+    target_vertices: int  # total output vertices, boundary included
+    adaptivity: float  # 0: uniform density; 1: density proportional to curvature
+    resolution: int  # raster size of the control map, 16..4096
+    mode: RemeshMode  # sampling and triangulation maps
+    boundary: RemeshBoundary  # keep or resample the chart's boundary
+    domain: UvBoundary  # parameter domain of U0 and Uopt: circle or square (convex)
+    boundary_clearance: float  # interior samples closer to the boundary than this fraction of the target spacing are dropped
+    curvature_clip: float  # curvature density clipped at this multiple of its mean
+    max_uopt_iterations: int  # cap on Uopt's equalization steps
+    eta: float  # eq. 5.6's exponent of the low-stretch map, (0, 1]
+    uopt_steps: int  # equalization steps (-1: until eq. 5.5 stops decreasing)
+    flip_3d: bool  # 3D Delaunay edge flips after the triangulation
+    lloyd_iterations: int  # at most this many density-weighted Lloyd steps, 0..100
+    smooth_iterations: int  # sweeps of tangential smoothing, 0..100
+    relax_metric: RemeshRelaxMetric  # metric of the Lloyd steps' Voronoi cells
+    min_separation: float  # interior samples closer than this fraction of the target spacing are dropped, [0, 1)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> RemeshOptions: ...
+
+class RemeshResult:
+    """Result of remesh()"""
+
+    __fields__: list[str]
+    V: numpy.ndarray  # (n, 3) the new vertices: the n_boundary boundary vertices first, in loop order
+    F: numpy.ndarray  # (m, 3) triangles, oriented like the input
+    n_boundary: int  # boundary vertices
+    boundary_source: numpy.ndarray  # keep: input vertex of each boundary vertex; resample: empty
+    uv: numpy.ndarray  # (n, 2) the output vertices in the triangulation map
+    source_face: numpy.ndarray  # (n,) input face each output vertex lies on
+    source_bary: numpy.ndarray  # (n, 3) its barycentric weights there
+    n_interior_target: int  # interior samples asked (target minus boundary)
+    n_rejected: int  # interior samples dropped by the boundary clearance (last pass)
+    passes: int  # error-diffusion passes, all rounds
+    resolution: int  # raster size used (coarser than asked for small targets)
+    sampling_rounds: int  # diffusion + relaxation + separation rounds
+    uopt_iterations: int  # equalization steps of Uopt
+    n_flips: int  # 3D Delaunay edge flips
+    lloyd_iterations: int  # Lloyd steps made
+    n_separated: int  # interior samples dropped by min_separation (last round)
+    smooth_moves: int  # vertex moves of the smoothing sweeps
+    n_removed: int  # interior valence-3/4 vertices removed by the smoothing
+    seconds_parameterize: float  # wall time: U0 and Uopt
+    seconds_sample: float  # wall time: rasterizing and error diffusion
+    seconds_relax: float  # wall time: Lloyd steps and separation
+    seconds_triangulate: float  # wall time: Delaunay, lift, flips, smoothing
+    warnings: list  # notes for the user (e.g. a resolution too low for the target)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> RemeshResult: ...
+
+class SegmentOptions:
+    """Options of segment() (variational shape approximation, thesis 4.9)"""
+
+    __fields__: list[str]
+    segments: int  # segments to make
+    iterations: int  # Lloyd iterations once every seed is placed
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SegmentOptions: ...
+
+class SegmentResult:
+    """Result of segment()"""
+
+    __fields__: list[str]
+    labels: numpy.ndarray  # (m,) segment of each face, 0 .. n_segments-1
+    proxy_normals: numpy.ndarray  # (n_segments, 3) unit normal of each segment
+    n_segments: int  # segments made (more only with more components)
+    iterations: int  # Lloyd iterations run
+    error: float  # total L^{2,1} distortion
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SegmentResult: ...
 
 class SimilarityOptions:
     """Options of similarity()"""
@@ -99,6 +421,76 @@ class SimilarityOptions:
     shape_only: bool  # true: compare shapes in each vertex's own frame (fig. 2.1c); false: the filter's weights
     max_patch: int  # as DenoiseOptions.max_patch
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SimilarityOptions: ...
+
+class SkeletalDeformOptions:
+    """Options of SkeletalRig.deform()"""
+
+    __fields__: list[str]
+    method: SkeletalMethod  # the reconstruction
+    fairing_steps: int  # steps of eq. 6.15 (variational) or eq. 6.6 (basic)
+    fairing_step: float  # epsilon of eq. 6.15
+    projection: float  # weight of the explicit step towards each vertex's rest distance to the union of balls (0: off)
+    projection_passes: int  # passes of that step, at most
+    dense_projection_passes: int  # passes of the dense mesh's step (multiresolution layer)
+    dual_quaternion: bool  # pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)
+    bone_clearance: float  # keep each vertex at least this fraction of its rest distance from its bones (0: off)
+    homotopy_steps: int  # L of eq. 6.3 (basic)
+    fold_iterations: int  # steps of eq. 6.5 (basic)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SkeletalDeformOptions: ...
+
+class SkeletalMesh:
+    """Result of skeletal_mesh(): M = S + d N (eq. 6.1)"""
+
+    __fields__: list[str]
+    S: numpy.ndarray  # (n, 3) skeletal vertices, one per mesh vertex; faces are the mesh's
+    radii: numpy.ndarray  # (n,) medial-ball radius d(i) = |x_i - s_i| (eq. 6.7)
+    n_fallback: int  # vertices without an inner Voronoi pole
+    n_postsmoothed: int  # vertices moved by the post-smoothing
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SkeletalMesh: ...
+
+class SkeletalRigOptions:
+    """Options of SkeletalRig.bind()"""
+
+    __fields__: list[str]
+    skeleton: SkeletonOptions  # the skeletal mesh's SkeletonOptions
+    control_faces: int  # meshes with more faces go through a multiresolution control mesh of about this many
+    multires_level: int  # subdivision level of the multiresolution layer
+    multires_fit_iterations: int  # fitting iterations of the multiresolution layer
+    gaussian_sigma: float  # width of the Gaussian bone weights when none are given (0: a fifth of the median medial radius)
+    frame_regularization: float  # weight of the bone rotation in the frames of degenerate skeletal triangles
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SkeletalRigOptions: ...
+
+class SkeletonOptions:
+    """Options of skeletal_mesh() (thesis 6.1)"""
+
+    __fields__: list[str]
+    presmooth_iterations: int  # bilaplacian tangential flow steps on a copy of the mesh before the Voronoi poles
+    presmooth_step: float  # its step, of the uniform bi-umbrella (< 0.5)
+    postsmooth_iterations: int  # bi-umbrella steps on the skeletal mesh (inward-pointing, spikes, inverted vertices)
+    postsmooth_step: float  # their step
+    spike_factor: float  # a radius above this times the median of its ring's radii is a spike
+    max_pole_angle: float  # inner pole candidates lie within this angle (radians) of the inward normal
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> SkeletonOptions: ...
+
+class Topology:
+    """Result of topology(): edges, boundary loops and components of a valid mesh"""
+
+    __fields__: list[str]
+    n_vertices: int  # vertices
+    n_faces: int  # faces
+    edges: numpy.ndarray  # (E, 2) unique undirected edges, v0 < v1
+    face_edges: numpy.ndarray  # (m, 3) edge from F[f, k] to F[f, (k + 1) % 3]
+    edge_faces: numpy.ndarray  # (E, 2) the faces of each edge; -1 on the boundary
+    boundary_loops: list  # vertex cycles (lists), oriented as the faces
+    component: numpy.ndarray  # (n,) connected component of each vertex
+    n_components: int  # connected components (loose vertices count)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> Topology: ...
 
 class UnwrapChartsResult:
     """Result of unwrap_charts()"""
@@ -107,6 +499,7 @@ class UnwrapChartsResult:
     uv: numpy.ndarray  # (3m, 2) row 3f + k: corner k of triangle f in its chart's map
     charts: list  # charts[c]: unwrap() of chart c (its vertices in increasing order of their index)
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> UnwrapChartsResult: ...
 
 class UnwrapOptions:
     """Options of unwrap() (thesis chapter 5)"""
@@ -125,6 +518,7 @@ class UnwrapOptions:
     stretch_cap: float  # triangle stretches above this are clipped in eq. 5.1
     slide_boundary: bool  # every step also slides the outer boundary vertices along the polygon (beyond the thesis)
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> UnwrapOptions: ...
 
 class UnwrapResult:
     """Result of unwrap()"""
@@ -141,6 +535,7 @@ class UnwrapResult:
     warnings: list  # fallbacks and negative weights, for people
     solver: str  # the linear solver used
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> UnwrapResult: ...
 
 class UnwrapStep:
     """One map of unwrap(): U0 or an equalization step"""
@@ -150,6 +545,7 @@ class UnwrapStep:
     seconds: float  # wall time of the step (solve and metrics)
     solver_iterations: int  # BiCGSTAB iterations (0 for direct solvers)
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> UnwrapStep: ...
 
 class UvMetrics:
     """Distortion of a parameterization (thesis 5.3)"""
@@ -164,6 +560,7 @@ class UvMetrics:
     flipped: int  # UV triangles oriented against the total orientation
     zero_area: int  # UV triangles of zero area
     def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> UvMetrics: ...
 
 class Multires:
     base_face: numpy.ndarray
@@ -176,11 +573,11 @@ class Multires:
     n_control: int
     n_dense: int
     n_patch_points: int
-    timings: dict
+    timings: MultiresTimings
     @staticmethod
     def bind(control_V: numpy.ndarray, control_F: numpy.ndarray, V: numpy.ndarray, level: int, projection_iterations: int, progress: object = ...) -> Multires: ...
     @staticmethod
-    def build(V: numpy.ndarray, F: numpy.ndarray, control_faces: int, level: int, min_quality: float, fit_iterations: int, fit_regularization: float, projection_iterations: int, progress: object = ...) -> Multires: ...
+    def build(V: numpy.ndarray, F: numpy.ndarray, options: MultiresOptions, progress: object = ...) -> Multires: ...
     def evaluate(self, control_V: numpy.ndarray, face: numpy.ndarray, st: numpy.ndarray) -> tuple: ...
     @staticmethod
     def from_arrays(control_V: numpy.ndarray, control_F: numpy.ndarray, level: int, face: numpy.ndarray, st: numpy.ndarray, disp: numpy.ndarray) -> Multires: ...
@@ -199,26 +596,29 @@ class SkeletalRig:
     skeleton_vertices: numpy.ndarray
     weights: numpy.ndarray
     @staticmethod
-    def bind(V: numpy.ndarray, F: numpy.ndarray, bones_rest: numpy.ndarray, weights: numpy.ndarray | None, heads: numpy.ndarray | None, tails: numpy.ndarray | None, control_faces: int, level: int, fit_iterations: int, gaussian_sigma: float, frame_regularization: float, presmooth_iterations: int, postsmooth_iterations: int, progress: object) -> SkeletalRig: ...
+    def bind(V: numpy.ndarray, F: numpy.ndarray, bones_rest: numpy.ndarray, weights: numpy.ndarray | None, heads: numpy.ndarray | None, tails: numpy.ndarray | None, options: SkeletalRigOptions, progress: object = ...) -> SkeletalRig: ...
     def data(self) -> dict: ...
-    def deform(self, pose: numpy.ndarray, method: str, fairing_steps: int, fairing_step: float, homotopy_steps: int, fold_iterations: int, projection: float = ..., out: object = ..., dual_quaternion: bool = ..., bone_clearance: float = ...) -> object: ...
-    def deform_control(self, pose: numpy.ndarray, method: str, fairing_steps: int, fairing_step: float, homotopy_steps: int, fold_iterations: int, projection: float = ..., dual_quaternion: bool = ..., bone_clearance: float = ...) -> tuple: ...
+    def deform(self, pose: numpy.ndarray, options: SkeletalDeformOptions, out: object = ...) -> object: ...
+    def deform_control(self, pose: numpy.ndarray, options: SkeletalDeformOptions) -> tuple: ...
     @staticmethod
     def from_data(arg0: dict) -> SkeletalRig: ...
     def skeleton_pose(self, arg0: numpy.ndarray) -> numpy.ndarray: ...
 
 def connected_labels(n: int, pairs: numpy.ndarray) -> numpy.ndarray: ...
-def crest_face_distance(V: numpy.ndarray, F: numpy.ndarray, segments: numpy.ndarray, segment_face: list[int], point_edge: numpy.ndarray) -> numpy.ndarray: ...
-def crest_lines(V: numpy.ndarray, F: numpy.ndarray, rings: int = ..., smooth: bool = ..., use_normals: bool = ..., ridges: bool = ..., valleys: bool = ..., join_gaps: bool = ..., skip_boundary: bool = ..., progress: object = ...) -> tuple: ...
-def curvature(V: numpy.ndarray, F: numpy.ndarray) -> dict: ...
-def curvature_derivatives(V: numpy.ndarray, F: numpy.ndarray, rings: int = ..., smooth: bool = ..., use_normals: bool = ..., fit_tangent_plane: bool = ..., transport_to_vertex: bool = ..., progress: object = ...) -> dict: ...
-def decimate(V: numpy.ndarray, F: numpy.ndarray, target_faces: int, face_weights: numpy.ndarray | None = ..., preserve_boundary: bool = ..., min_quality: float = ..., max_normal_angle: float = ..., max_error: float = ..., progress: object = ..., locked: list[int] | None = ..., batched: bool = ..., feature_weight: float = ..., rings: int = ..., threshold: float = ..., crest: tuple[numpy.ndarray, list[int], numpy.ndarray] | None = ..., planes: list[int] | None = ...) -> tuple: ...
+def crest_face_distance(V: numpy.ndarray, F: numpy.ndarray, lines: CrestLines) -> numpy.ndarray: ...
+def crest_lines(V: numpy.ndarray, F: numpy.ndarray, fit: DerivativeOptions, options: CrestOptions, progress: object = ...) -> tuple[CurvatureDerivatives, CrestLines]: ...
+def curvature(V: numpy.ndarray, F: numpy.ndarray) -> Curvature: ...
+def curvature_derivatives(V: numpy.ndarray, F: numpy.ndarray, options: DerivativeOptions, progress: object = ...) -> CurvatureDerivatives: ...
+def decimate(V: numpy.ndarray, F: numpy.ndarray, options: DecimateOptions, features: FeatureOptions, crest: CrestLines = ..., locked: list[int] | None = ..., planes: list[int] | None = ..., progress: object = ...) -> DecimateResult: ...
+def decimate_feature_defaults() -> FeatureOptions: ...
 def delaunay_2d(points: numpy.ndarray) -> numpy.ndarray: ...
 def delaunay_3d(points: numpy.ndarray) -> dict: ...
 def denoise_defaults(method: DenoiseMethod) -> DenoiseOptions: ...
 def denoise_mesh(V: numpy.ndarray, F: numpy.ndarray, options: DenoiseOptions, mask: object = ..., progress: object = ...) -> DenoiseResult: ...
 def denoise_points(V: numpy.ndarray, N: numpy.ndarray, options: DenoiseOptions, mask: object = ..., progress: object = ...) -> DenoiseResult: ...
-def fair(V: numpy.ndarray, F: numpy.ndarray, method: str, scheme: str, boundary: str, mask: numpy.ndarray | None, face_mask: numpy.ndarray | None, subdivisions: int, tolerance: float, max_iterations: int, max_seconds: float, tangential: bool, step_scale: float, progress: object, linear_start: bool = ..., refine: bool = ..., keep_size: bool = ...) -> dict: ...
+def fair(V: numpy.ndarray, F: numpy.ndarray, options: FairOptions, mask: numpy.ndarray | None = ..., face_mask: numpy.ndarray | None = ..., progress: object = ...) -> FairResult: ...
+def fair_defaults(scheme: FairScheme) -> FairOptions: ...
+def filter_crest_lines(lines: CrestLines, threshold: float, ridges: bool = ..., valleys: bool = ...) -> CrestLines: ...
 def gaussian_bone_weights(arg0: numpy.ndarray, arg1: numpy.ndarray, arg2: numpy.ndarray, arg3: float) -> numpy.ndarray: ...
 def grid(nx: int, ny: int) -> tuple: ...
 def icosphere(level: int, radius: float = ...) -> tuple: ...
@@ -227,18 +627,19 @@ def num_threads() -> int: ...
 def point_mesh_distance(P: numpy.ndarray, V: numpy.ndarray, F: numpy.ndarray, candidates: int = ...) -> numpy.ndarray: ...
 def read_mesh(path: str) -> tuple: ...
 def refine_region(V: numpy.ndarray, F: numpy.ndarray, face_mask: numpy.ndarray | None, density: float) -> tuple: ...
-def regularize(V: numpy.ndarray, F: numpy.ndarray, iterations: int, mask: numpy.ndarray | None, boundary: str, step_scale: float, project: bool, progress: object) -> numpy.ndarray: ...
-def remesh(V: numpy.ndarray, F: numpy.ndarray, target_vertices: int, adaptivity: float = ..., resolution: int = ..., mode: str = ..., boundary: str = ..., domain: str = ..., boundary_clearance: float = ..., curvature_clip: float = ..., flip_3d: bool = ..., eta: float = ..., uopt_steps: int = ..., lloyd_iterations: int = ..., relax_metric: str = ..., min_separation: float = ..., smooth_iterations: int = ..., progress: object = ...) -> dict: ...
+def regularize(V: numpy.ndarray, F: numpy.ndarray, options: RegularizeOptions, mask: numpy.ndarray | None = ..., progress: object = ...) -> numpy.ndarray: ...
+def remesh(V: numpy.ndarray, F: numpy.ndarray, options: RemeshOptions, progress: object = ...) -> RemeshResult: ...
 def residual_entropy(residual: numpy.ndarray) -> float: ...
-def segment(V: numpy.ndarray, F: numpy.ndarray, segments: int, face_feature: numpy.ndarray | None = ..., iterations: int = ..., progress: object = ..., feature_weight: float = ..., rings: int = ..., threshold: float = ..., crest: tuple[numpy.ndarray, list[int], numpy.ndarray] | None = ...) -> dict: ...
+def segment(V: numpy.ndarray, F: numpy.ndarray, options: SegmentOptions, features: FeatureOptions, crest: CrestLines = ..., progress: object = ...) -> SegmentResult: ...
+def segment_feature_defaults() -> FeatureOptions: ...
 def set_num_threads(n: int) -> None: ...
 def similarity_mesh(V: numpy.ndarray, F: numpy.ndarray, vertex: int, options: SimilarityOptions, progress: object = ...) -> numpy.ndarray: ...
 def similarity_points(V: numpy.ndarray, N: numpy.ndarray, vertex: int, options: SimilarityOptions, progress: object = ...) -> numpy.ndarray: ...
-def skeletal_mesh(arg0: numpy.ndarray, arg1: numpy.ndarray, arg2: int, arg3: float, arg4: int, arg5: float, arg6: float, arg7: float) -> tuple: ...
+def skeletal_mesh(V: numpy.ndarray, F: numpy.ndarray, options: SkeletonOptions) -> SkeletalMesh: ...
 def skeletal_subspace_deform(P: numpy.ndarray, W: numpy.ndarray, rest: numpy.ndarray, pose: numpy.ndarray, dual_quaternion: bool = ...) -> numpy.ndarray: ...
 def subdivide_linear(V: numpy.ndarray, F: numpy.ndarray) -> tuple: ...
 def subdivide_region(V: numpy.ndarray, F: numpy.ndarray, face_mask: numpy.ndarray | None) -> tuple: ...
-def topology(V: numpy.ndarray, F: numpy.ndarray) -> dict: ...
+def topology(V: numpy.ndarray, F: numpy.ndarray) -> Topology: ...
 def torus(R: float, r: float, nu: int, nv: int) -> tuple: ...
 def union_of_balls_distance(arg0: numpy.ndarray, arg1: numpy.ndarray, arg2: numpy.ndarray) -> numpy.ndarray: ...
 def unwrap(V: numpy.ndarray, F: numpy.ndarray, options: UnwrapOptions, progress: object = ...) -> UnwrapResult: ...

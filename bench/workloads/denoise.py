@@ -27,7 +27,7 @@ import numpy as np
 import dgmesh
 from bench.common import IMAGES, ROOT, bbox_diagonal, cgal_mesh, loop_subdivide, median_time, run_blender, table
 from dgmesh import colors
-from dgmesh.denoise import residual_entropy
+from dgmesh.denoising import residual_entropy
 
 NOISE_LEVELS = (0.1, 0.2, 0.3)
 SEEDS = {0.1: 101, 0.2: 102, 0.3: 103}

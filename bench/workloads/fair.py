@@ -15,7 +15,7 @@ import numpy as np
 import dgmesh
 from bench.common import bbox_diagonal, cgal_mesh, table
 from bench.common import cgal_tool as common_cgal_tool
-from dgmesh.fair import refine_region
+from dgmesh.fairing import refine_region
 
 
 

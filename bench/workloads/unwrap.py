@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 import dgmesh
-from dgmesh.unwrap import chart_labels
+from dgmesh.unwrapping import chart_labels
 from bench.common import (IMAGES, ROOT, cgal_dir, cgal_mesh, cgal_tool, loop_subdivide, machine,
                           run_blender, table)
 

@@ -27,6 +27,7 @@
 #include "dgmesh/fair.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -42,6 +43,7 @@
 #include "dgmesh/parallel.h"
 #include "dgmesh/regularization.h"
 #include "dgmesh/sparse_solver.h"
+#include "dgmesh/unwrap.h"  // connected_labels
 #include "dgmesh/validate.h"
 
 namespace dgmesh {
@@ -1140,18 +1142,9 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
   progress(1.0);
   return res;
 }
-}  // namespace
 
-FairOptions fair_defaults(FairScheme scheme) {
-  FairOptions o;
-  if (scheme == FairScheme::Explicit) {
-    o.scheme = FairScheme::Explicit;
-    o.max_iterations = 5000;
-  }
-  return o;
-}
-
-FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
+// One region (or the whole mesh), independent of the order of the faces' rows.
+FairResult fair_region(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
   check_input(V, F, opt.vertex_mask, &opt.face_mask);
   if (!opt.refine && opt.subdivisions == 0) return fair_rows(V, F, opt, progress_fn);
   // Refinement and subdivision make, flip and split faces in the order they meet them, so the
@@ -1185,6 +1178,137 @@ FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const 
     r.face_origin[row] = perm[origin[i]];
   }
   return r;
+}
+
+// Vertex masks of the parts of a region that do not interact: the movable vertices and the
+// region's faces, grouped by the connected components of their two-ring neighbourhoods (the flows
+// read two rings around a vertex: H on its ring, the Laplacian of H on the next), in the order
+// of their smallest vertex. One part or none: empty.
+std::vector<std::vector<char>> independent_parts(const MatX3i& F, const std::vector<char>& vertex_mask,
+                                                 const std::vector<char>& face_mask) {
+  const int n = static_cast<int>(vertex_mask.size()), m = static_cast<int>(F.rows());
+  std::vector<char> region(vertex_mask);
+  for (int f = 0; f < m && !face_mask.empty(); ++f)
+    if (face_mask[f])
+      for (int k = 0; k < 3; ++k) region[F(f, k)] = 1;
+  if (std::none_of(region.begin(), region.end(), [](char c) { return c; })) return {};
+  std::vector<char> zone(region);
+  for (int ring = 0; ring < 2; ++ring) {
+    std::vector<char> grown(zone);
+    for (int f = 0; f < m; ++f)
+      if (zone[F(f, 0)] || zone[F(f, 1)] || zone[F(f, 2)])
+        for (int k = 0; k < 3; ++k) grown[F(f, k)] = 1;
+    zone = std::move(grown);
+  }
+  std::vector<std::array<int, 2>> pairs;
+  for (int f = 0; f < m; ++f)
+    if (zone[F(f, 0)] && zone[F(f, 1)] && zone[F(f, 2)])
+      for (int k = 0; k < 3; ++k) pairs.push_back({F(f, k), F(f, (k + 1) % 3)});
+  MatX2i P(static_cast<Eigen::Index>(pairs.size()), 2);
+  for (size_t i = 0; i < pairs.size(); ++i) P.row(static_cast<Eigen::Index>(i)) << pairs[i][0], pairs[i][1];
+  const VecXi label = connected_labels(n, P);
+  std::vector<int> ids;
+  for (int v = 0; v < n; ++v)
+    if (region[v]) ids.push_back(label[v]);
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  if (ids.size() < 2) return {};
+  std::vector<std::vector<char>> parts;
+  for (const int id : ids) {
+    std::vector<char> part(n, 0);
+    for (int v = 0; v < n; ++v) part[v] = region[v] && label[v] == id;
+    parts.push_back(std::move(part));
+  }
+  return parts;
+}
+
+// Fairs independent parts one after the other on the same mesh, so each flow keeps its own step
+// size and stopping test (a shared step control let one part's energy drop carry another part's
+// rise). The input's vertices keep their indices and the rows of faces outside a part are
+// untouched, so each part's masks carry over to the mesh the previous parts left.
+FairResult fair_parts(const MatX3d& V, const MatX3i& F, const FairOptions& opt,
+                      const std::vector<std::vector<char>>& parts, const ProgressFn& progress_fn) {
+  const int n0 = static_cast<int>(V.rows()), m0 = static_cast<int>(F.rows());
+  const int np = static_cast<int>(parts.size());
+  MatX3d Vc = V;
+  MatX3i Fc = F;
+  VecXi origin = VecXi::LinSpaced(m0, 0, m0 - 1);
+  std::vector<FairResult> results;
+  for (int k = 0; k < np; ++k) {
+    FairOptions o = opt;
+    o.vertex_mask.assign(Vc.rows(), 0);
+    for (int v = 0; v < n0; ++v) o.vertex_mask[v] = opt.vertex_mask[v] && parts[k][v];
+    if (!opt.face_mask.empty()) {
+      o.face_mask.assign(Fc.rows(), 0);
+      for (int f = 0; f < m0; ++f)
+        o.face_mask[f] = opt.face_mask[f] && (parts[k][F(f, 0)] || parts[k][F(f, 1)] || parts[k][F(f, 2)]);
+    }
+    ProgressFn sub;
+    if (progress_fn) sub = [&progress_fn, k, np](double f) { return progress_fn((k + f) / np); };
+    FairResult r = fair_region(Vc, Fc, o, sub);
+    Vc = r.V;
+    Fc = r.F;
+    VecXi o2(r.face_origin.size());
+    for (Eigen::Index i = 0; i < o2.size(); ++i) o2[i] = origin[r.face_origin[i]];
+    origin = std::move(o2);
+    results.push_back(std::move(r));
+  }
+  FairResult out;
+  out.V = std::move(Vc);
+  out.F = std::move(Fc);
+  out.face_origin = std::move(origin);
+  size_t length = 0, levels = 0;
+  for (const FairResult& r : results) {
+    length = std::max(length, r.energy.size());
+    levels = std::max(levels, r.level_iterations.size());
+  }
+  out.energy.assign(length, 0.0);  // the parts' energies, each held at its last value once done
+  for (const FairResult& r : results)
+    for (size_t i = 0; i < length; ++i) out.energy[i] += r.energy[std::min(i, r.energy.size() - 1)];
+  out.vertex_mask.assign(out.V.rows(), 0);
+  out.level_iterations.assign(levels, 0);
+  out.converged = true;
+  out.lambda = results.front().lambda;
+  for (const FairResult& r : results) {
+    for (size_t v = 0; v < r.vertex_mask.size(); ++v) out.vertex_mask[v] |= r.vertex_mask[v];
+    for (size_t i = 0; i < r.level_iterations.size(); ++i)
+      out.level_iterations[i] = std::max(out.level_iterations[i], r.level_iterations[i]);
+    out.iterations = std::max(out.iterations, r.iterations);
+    out.converged = out.converged && r.converged;
+    out.lambda = std::min(out.lambda, r.lambda);
+    out.linear_start = out.linear_start || r.linear_start;
+    out.energy_rose = out.energy_rose || r.energy_rose;
+  }
+  return out;
+}
+
+}  // namespace
+
+FairOptions fair_defaults(FairScheme scheme) {
+  FairOptions o;
+  if (scheme == FairScheme::Explicit) {
+    o.scheme = FairScheme::Explicit;
+    o.max_iterations = 5000;
+  }
+  return o;
+}
+
+FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
+  check_input(V, F, opt.vertex_mask, &opt.face_mask);
+  FairOptions o = opt;
+  if (o.vertex_mask.empty() && !o.face_mask.empty()) {
+    // A face mask alone: the vertices of the region's faces move, except its border with the rest.
+    const int n = static_cast<int>(V.rows());
+    std::vector<char> inner(n, 0), border(n, 0);
+    for (int f = 0; f < F.rows(); ++f)
+      for (int k = 0; k < 3; ++k) (o.face_mask[f] ? inner : border)[F(f, k)] = 1;
+    o.vertex_mask.assign(n, 0);
+    for (int v = 0; v < n; ++v) o.vertex_mask[v] = inner[v] && !border[v];
+  }
+  if (o.vertex_mask.empty()) return fair_region(V, F, o, progress_fn);
+  const std::vector<std::vector<char>> parts = independent_parts(F, o.vertex_mask, o.face_mask);
+  if (parts.size() < 2) return fair_region(V, F, o, progress_fn);
+  return fair_parts(V, F, o, parts, progress_fn);
 }
 
 }  // namespace dgmesh

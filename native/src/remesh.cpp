@@ -13,6 +13,7 @@
 #include "dgmesh/delaunay.h"
 #include "dgmesh/detail/math.h"
 #include "dgmesh/detail/remesh_map.h"
+#include "dgmesh/detail/remesh_retry.h"
 #include "dgmesh/detail/timer.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
@@ -285,7 +286,9 @@ std::vector<Sample> triangulate_chart(const SamplingChart& c, const std::vector<
 
 }  // namespace
 
-RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
+namespace {
+
+RemeshResult remesh_once(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
   if (o.target_vertices < 4) throw MeshError("remesh: target_vertices must be at least 4, got " + std::to_string(o.target_vertices));
   if (!(o.adaptivity >= 0 && o.adaptivity <= 1))
     throw MeshError("remesh: adaptivity must be in [0, 1], got " + std::to_string(o.adaptivity));
@@ -377,8 +380,8 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
     for (int v = 0; ok && v < nb; ++v) ok = out.on_boundary[v] && !out.is_loose(v);
     if (!ok) throw MeshError("the triangulation's boundary is not the chart's boundary");
   } catch (const MeshError& e) {
-    throw Error(std::string("remesh: internal error, the new triangulation is invalid (") + e.what() +
-                "); try another resolution or target");
+    throw detail::InvalidTriangulation(std::string("remesh: internal error, the new triangulation is invalid (") +
+                                       e.what() + "); try another resolution or target");
   }
   res.seconds_triangulate = seconds_since(t_tri);
   res.source_face.resize(nout);
@@ -393,6 +396,12 @@ RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, co
   }
   report(1);
   return res;
+}
+
+}  // namespace
+
+RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
+  return detail::remesh_with_retry(o, [&](const RemeshOptions& oo) { return remesh_once(V, F, oo, progress); });
 }
 
 }  // namespace dgmesh

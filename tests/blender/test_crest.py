@@ -58,12 +58,12 @@ def test_crest_lines_marks_real_edges_on_quads(cube):
 def test_threshold_redo_uses_cache(cube):
     from dgmesh.blender import ops_crest
 
-    ops_crest._CACHE.clear()
+    ops_crest.FIT_CACHE.clear()
     bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=0.0)
     low = edge_attr(cube.data, "dg_ridge").sum()
-    assert len(ops_crest._CACHE) == 1
+    assert len(ops_crest.FIT_CACHE) == 1
     bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=1000.0)
-    assert len(ops_crest._CACHE) == 1  # same mesh and rings: no new fit
+    assert len(ops_crest.FIT_CACHE) == 1  # same mesh and rings: no new fit
     assert edge_attr(cube.data, "dg_ridge").sum() < low
 
 

@@ -326,7 +326,7 @@ def test_errors_leave_the_mesh_untouched():
 
 
 def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
-    """The operator's own prepare/work/_failed through the shared Job (what the modal run does):
+    """The operator's own prepare/work/report_failure through the shared Job (what the modal run does):
     setting job.cancelled (Esc) stops the native flow with Cancelled and nothing is written."""
     import threading
 
@@ -338,11 +338,11 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
         method, scheme, boundary = 'WILLMORE', 'EXPLICIT', 'FIXED'
         subdivisions, tolerance, max_iterations, tangential, keep_border = 0, 0.0, 100000, True, True
         linear_start, refine, keep_size = True, False, True
-        _collect = ops_fair.DGMESH_OT_fair._collect
+        collect_targets = ops_fair.DGMESH_OT_fair.collect_targets
         prepare = ops_fair.DGMESH_OT_fair.prepare
-        _run_mirrored = ops_fair.DGMESH_OT_fair._run_mirrored
-        _run = ops_fair.DGMESH_OT_fair._run
-        _failed = jobs.NativeJobOperator._failed
+        run_mirrored = ops_fair.DGMESH_OT_fair.run_mirrored
+        run_target = ops_fair.DGMESH_OT_fair.run_target
+        report_failure = jobs.NativeJobOperator.report_failure
 
         def __init__(self):
             self.reports = []
@@ -372,7 +372,7 @@ def test_esc_cancels_the_fair_job_and_leaves_the_mesh_unchanged():
     job.cancelled = True  # what Esc does in NativeJobOperator.modal
     assert job.wait(60)
     assert isinstance(job.error, dgmesh.Cancelled) and job.result is None
-    assert op._failed(job.error) == {'CANCELLED'}
+    assert op.report_failure(job.error) == {'CANCELLED'}
     assert op.reports[-1] == ({'WARNING'}, "Fair: cancelled, nothing was changed")
     assert mesh_snapshot(obj.data) == snap
 

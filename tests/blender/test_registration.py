@@ -63,7 +63,7 @@ def test_panel_and_menus():
     assert (panel.bl_space_type, panel.bl_region_type, panel.bl_category, panel.bl_label) == (
         'VIEW_3D', 'UI', "DG Mesh", "DG Mesh")
     for menu in ("VIEW3D_MT_object", "VIEW3D_MT_edit_mesh"):
-        assert _menu_funcs(menu).count(ui._menu_entry) == 1, menu
+        assert _menu_funcs(menu).count(ui.menu_entry) == 1, menu
 
     # Panel and submenu list every registered entry of ui.OPERATORS.
     expected = [idname for idname, _label, _icon in ui.OPERATORS]
@@ -85,7 +85,7 @@ def test_disable_enable_cycle():
         assert not any(_registered().values())
         from dgmesh.blender import ui
         for menu in ("VIEW3D_MT_object", "VIEW3D_MT_edit_mesh"):
-            assert ui._menu_entry not in _menu_funcs(menu)
+            assert ui.menu_entry not in _menu_funcs(menu)
         with pytest.raises((KeyError, AttributeError)):
             bpy.ops.dgmesh.curvature_map.get_rna_type()
     finally:
@@ -101,7 +101,7 @@ def test_disable_enable_cycle():
     dgmesh.register()
     assert all(_registered().values())
     for menu in ("VIEW3D_MT_object", "VIEW3D_MT_edit_mesh"):
-        assert _menu_funcs(menu).count(dgmesh.blender.ui._menu_entry) == 1
+        assert _menu_funcs(menu).count(dgmesh.blender.ui.menu_entry) == 1
 
     # Another add-on's handlers named like ours stay.
     namespace = {"__name__": "other_addon"}

@@ -6,9 +6,11 @@
 #include <cmath>
 #include <limits>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "dgmesh/delaunay.h"
+#include "dgmesh/detail/remesh_retry.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/mesh.h"
 #include "dgmesh/remesh.h"
@@ -289,4 +291,47 @@ TEST(Remesh, EveryModeHitsTheCount) {
       EXPECT_GT(r.sampling_rounds, 1);
     }
   }
+}
+
+// remesh()'s safety net on its own (detail/remesh_retry.h): the algorithm has no known input
+// left that needs it, so the policy is tested with attempts that fail on purpose.
+TEST(RemeshRetry, InvalidTriangulationIsRetriedWithFullClearance) {
+  using dgmesh::detail::InvalidTriangulation;
+  RemeshOptions o;
+  o.boundary_clearance = 0.5;
+  std::vector<double> clearances;
+  const RemeshResult r = dgmesh::detail::remesh_with_retry(o, [&](const RemeshOptions& oo) {
+    clearances.push_back(oo.boundary_clearance);
+    if (clearances.size() == 1) throw InvalidTriangulation("remesh: internal error, the new triangulation is invalid");
+    return RemeshResult{};
+  });
+  EXPECT_EQ(clearances, (std::vector<double>{0.5, 1.0}));
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_NE(r.warnings[0].find("boundary_clearance 0.5 -> 1"), std::string::npos);
+}
+
+TEST(RemeshRetry, AKeptBoundaryThatCannotBeMetIsAMeshErrorOthersStayInternal) {
+  using dgmesh::detail::InvalidTriangulation;
+  const auto failing = [](const RemeshOptions&) -> RemeshResult { throw InvalidTriangulation("invalid"); };
+  RemeshOptions keep;
+  keep.boundary = RemeshBoundary::Keep;
+  try {
+    dgmesh::detail::remesh_with_retry(keep, failing);
+    FAIL() << "no error";
+  } catch (const dgmesh::MeshError& e) {
+    EXPECT_NE(std::string(e.what()).find("smoother border"), std::string::npos);
+  }
+  RemeshOptions resample = keep;
+  resample.boundary = RemeshBoundary::Resample;
+  EXPECT_THROW(dgmesh::detail::remesh_with_retry(resample, failing), InvalidTriangulation);
+  RemeshOptions wide = keep;
+  wide.boundary_clearance = 1.0;  // nothing to widen: no second attempt
+  int calls = 0;
+  EXPECT_THROW(dgmesh::detail::remesh_with_retry(wide,
+                                                 [&](const RemeshOptions&) -> RemeshResult {
+                                                   ++calls;
+                                                   throw InvalidTriangulation("invalid");
+                                                 }),
+               InvalidTriangulation);
+  EXPECT_EQ(calls, 1);
 }

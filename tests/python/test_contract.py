@@ -115,7 +115,7 @@ def test_fair_scheme_defaults():
     scheme's start, the explicit scheme's small steps get more iterations."""
     semi = _native.fair_defaults(_native.FairScheme.semi_implicit)
     assert semi == _native.FairOptions() and semi.scheme == _native.FairScheme.semi_implicit
-    explicit = sys.modules["dgmesh.fair"].defaults("explicit")
+    explicit = sys.modules["dgmesh.fairing"].defaults("explicit")
     assert explicit.scheme == _native.FairScheme.explicit and explicit.max_iterations > semi.max_iterations
     V, F = _native.icosphere(1, 1.0)
     r = dgmesh.fair(V * np.array([2.0, 1.0, 1.0]), F, scheme="explicit", tolerance=0.0, max_iterations=None)

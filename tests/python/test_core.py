@@ -331,7 +331,7 @@ def test_masks_index_lists_of_every_length():
     Vn = V + 0.01 * np.random.default_rng(0).standard_normal(V.shape)
     R = dgmesh.regularize(Vn, F, iterations=3, mask=np.arange(n))
     assert np.array_equal(R, dgmesh.regularize(Vn, F, iterations=3))
-    from dgmesh.fair import subdivide_region
+    from dgmesh.fairing import subdivide_region
     assert len(subdivide_region(V, F, np.arange(len(F)))[1]) == 4 * len(F)
 
 

@@ -7,7 +7,7 @@ import pytest
 
 import dgmesh
 from dgmesh import shapes
-from dgmesh.denoise import residual_entropy
+from dgmesh.denoising import residual_entropy
 
 CGAL = Path(__file__).resolve().parents[2] / ".cache" / "cgal-data" / "data" / "meshes"
 

@@ -66,7 +66,7 @@ def test_fill_without_interior_vertices_needs_subdivision():
     region[-len(fan):] = True
     with pytest.raises(dgmesh.MeshError, match="nothing to fair"):
         dgmesh.fair(V, F2, mask=np.zeros(len(V), bool))
-    from dgmesh.fair import subdivide_region
+    from dgmesh.fairing import subdivide_region
 
     flat = subdivide_region(V, F2, region)[0][len(V):]
     r = dgmesh.fair(V, F2, faces=region, subdivisions=3)
@@ -101,7 +101,7 @@ def _edge_lengths(V, F):
 
 
 def test_refine_region_sizes_a_coarse_fill_like_the_rim():
-    from dgmesh.fair import refine_region
+    from dgmesh.fairing import refine_region
 
     V, F, region, loop = _fan_filled_cap()
     rim = np.linalg.norm(V[loop] - V[np.roll(loop, -1)], axis=1).mean()
@@ -281,7 +281,7 @@ def _bunny_fan_hole():
 def test_refined_fan_fill_has_no_valence3_vertices():
     """Centroid splits the flips cannot dissolve (next to the rim) are merged back: their
     degenerate umbrella put them on spikes in the linear start."""
-    from dgmesh.fair import refine_region
+    from dgmesh.fairing import refine_region
 
     V, _F, _hole, F2, fill = _bunny_fan_hole()
     Vr, Fr, origin = refine_region(V, F2, fill)
@@ -327,7 +327,7 @@ def test_refine_region_retriangulates_a_fill_by_min_weight():
     triangulation of its loop (smallest largest dihedral angle, then area): two fans over the same
     hole, from different apexes, refine to the same mesh, and the refined fill does not keep a
     fan's folds across a non-planar rim."""
-    from dgmesh.fair import refine_region
+    from dgmesh.fairing import refine_region
 
     V, F, hole, F2, fill = _bunny_fan_hole()
     k = len(F2) - int(fill.sum())

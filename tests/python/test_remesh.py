@@ -493,29 +493,6 @@ def test_grid_corner_ears_meet_the_kept_boundary_without_a_retry():
     assert sorted(t.boundary_loops[0]) == list(range(r.n_boundary))
 
 
-def test_a_triangulation_that_misses_the_boundary_is_retried_with_full_clearance(monkeypatch):
-    """The safety net: an 'invalid triangulation' is run once more with the boundary samples' full
-    clearance, and the result says so."""
-    import sys
-
-    remesh_module = sys.modules["dgmesh.remesh"]
-    native = remesh_module._native.remesh
-    clearances = []
-
-    def first_fails(V, F, options, progress=None):
-        clearances.append(options.boundary_clearance)
-        if len(clearances) == 1:
-            raise dgmesh.Error("remesh: internal error, the new triangulation is invalid (the triangulation's "
-                               "boundary is not the chart's boundary); try another resolution or target")
-        return native(V, F, options, progress)
-
-    monkeypatch.setattr(remesh_module._native, "remesh", first_fails)
-    V, F = dgmesh.shapes.grid(8, 8)
-    r = dgmesh.remesh_full(V, F, target_vertices=200)
-    assert clearances == [0.5, 1.0]
-    assert any("missed the kept boundary" in w for w in r.warnings)
-
-
 def test_point_mesh_distance_validates_the_mesh():
     V, F = dgmesh.shapes.icosphere(2)
     V = V.copy()
@@ -545,25 +522,6 @@ def test_target_beyond_the_charts_pixels_is_an_error():
     V, F = dgmesh.shapes.grid(24, 24)
     with pytest.raises(dgmesh.MeshError, match="raise the resolution to at least"):
         dgmesh.remesh(V, F, target_vertices=5_000_000, resolution=512)
-
-
-def test_unstitchable_kept_boundary_is_a_mesh_error(monkeypatch):
-    """When even the retry cannot meet the kept boundary, the user gets what to change (a smoother
-    border, or the boundary resampled), not an internal error."""
-    import sys
-
-    remesh_module = sys.modules["dgmesh.remesh"]
-
-    def failing(*args, **kwargs):
-        raise dgmesh.Error("remesh: internal error, the new triangulation is invalid (the triangulation's "
-                           "boundary is not the chart's boundary); try another resolution or target")
-
-    monkeypatch.setattr(remesh_module._native, "remesh", failing)
-    V, F = dgmesh.shapes.grid(8, 8)
-    with pytest.raises(dgmesh.MeshError, match="smoother border"):
-        dgmesh.remesh(V, F, target_vertices=100)
-    with pytest.raises(dgmesh.Error, match="internal error"):
-        dgmesh.remesh(V, F, target_vertices=100, boundary="resample")
 
 
 def test_post_processing_ends_with_smoothing_at_creases(cgal):

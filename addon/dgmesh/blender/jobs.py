@@ -99,7 +99,7 @@ class NativeJobOperator:
     def finish(self, context, result):  # pragma: no cover - overridden
         raise NotImplementedError
 
-    def _failed(self, exc):
+    def report_failure(self, exc):
         dg = api()
         if isinstance(exc, dg.Cancelled):
             self.report({'WARNING'}, f"{self.bl_label}: cancelled, nothing was changed")
@@ -118,7 +118,7 @@ class NativeJobOperator:
         try:
             result = work(lambda f: (wm.progress_update(int(1000 * f)), True)[1])
         except Exception as exc:
-            return self._failed(exc)
+            return self.report_failure(exc)
         finally:
             wm.progress_end()
         return self.finish(context, result)
@@ -152,7 +152,7 @@ class NativeJobOperator:
         wm.progress_end()
         context.workspace.status_text_set(None)
         if job.error is not None:
-            return self._failed(job.error)
+            return self.report_failure(job.error)
         changed = changed_meshes(self._meshes)
         if changed:
             self.report({'ERROR'}, f"{self.bl_label}: {', '.join(map(repr, changed[:3]))} changed while it was "

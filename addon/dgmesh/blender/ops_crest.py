@@ -76,8 +76,8 @@ THRESHOLD_HELP = ("Keep crest lines whose strength T is at least this. T = line 
                   "dimensionless, so it does not depend on the model's size; 0 keeps every line, "
                   "about 10 keeps the salient lines of typical scans")
 
-_CACHE = {}  # (mesh key, rings) -> unfiltered CrestLines; a few entries only
-_CACHE_SIZE = 4
+FIT_CACHE = {}  # (mesh key, rings) -> unfiltered CrestLines; a few entries only
+FIT_CACHE_SIZE = 4
 
 
 class _PerObjectJob(NativeJobOperator):
@@ -173,12 +173,12 @@ def cached_crest_lines(arrays, rings, progress=None):
     """Every traced line (threshold 0) of the mesh, from the cache when the mesh is unchanged."""
     dg = api()
     key = (_mesh_key(arrays), int(rings))
-    lines = _CACHE.get(key)
+    lines = FIT_CACHE.get(key)
     if lines is None:
         lines = dg.crest_lines(arrays.V, arrays.F, rings=rings, threshold=0.0, progress=progress)
-        if len(_CACHE) >= _CACHE_SIZE:
-            _CACHE.pop(next(iter(_CACHE)))
-        _CACHE[key] = lines
+        if len(FIT_CACHE) >= FIT_CACHE_SIZE:
+            FIT_CACHE.pop(next(iter(FIT_CACHE)))
+        FIT_CACHE[key] = lines
     return lines
 
 

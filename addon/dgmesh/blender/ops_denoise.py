@@ -23,8 +23,8 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors, polymesh
-from ..denoise import DenoiseMethod, DenoiseOptions, SimilarityOptions
-from ..denoise import defaults as method_defaults
+from ..denoising import DenoiseMethod, DenoiseOptions, SimilarityOptions
+from ..denoising import defaults as method_defaults
 from . import bridge
 from .common import (enum_id, enum_items, plural as _plural, poll_active_mesh, poll_mesh_targets, read_only_reason, report_shown_shape,
                      target_objects)

@@ -28,8 +28,8 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import polymesh
-from ..fair import FairBoundary, FairMethod, FairOptions, FairScheme, RegularizeOptions, refine_region
-from ..fair import defaults as scheme_defaults
+from ..fairing import FairBoundary, FairMethod, FairOptions, FairScheme, RegularizeOptions, refine_region
+from ..fairing import defaults as scheme_defaults
 from . import bridge
 from .common import enum_id, enum_items, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator
@@ -124,7 +124,7 @@ class _FairBase(NativeJobOperator):
     def poll(cls, context):
         return poll_mesh_targets(cls, context)
 
-    def _collect(self, context):
+    def collect_targets(self, context):
         edit = context.mode == 'EDIT_MESH'
         targets, failures = [], []
         for obj in target_objects(context):
@@ -144,7 +144,7 @@ class _FairBase(NativeJobOperator):
         return targets
 
     def prepare(self, context):
-        targets = self._collect(context)
+        targets = self.collect_targets(context)
         if targets is None:
             return None
         self._t0 = time.perf_counter()
@@ -169,14 +169,14 @@ class _FairBase(NativeJobOperator):
                 def sub(f, i=i):
                     return progress((i + f) / n)
                 try:
-                    t.result = self._run_mirrored(t, sub)
+                    t.result = self.run_mirrored(t, sub)
                 except api().MeshError as exc:  # name the object: several may be selected
                     raise api().MeshError(f"'{t.name}': {exc}") from None
             return targets
 
         return work
 
-    def _run_mirrored(self, t, progress):
+    def run_mirrored(self, t, progress):
         """_run on the mesh the Mirror modifier shows (both halves welded), so the halves meet
         smoothly at the plane instead of the base half's rim being held fixed (flat into it); the
         base half's part of the result. Refine Fill refines the half first (the welded whole's
@@ -195,12 +195,12 @@ class _FairBase(NativeJobOperator):
         m = polymesh.mirrored(V1, F1, (mask1, faces1), t.mirror) if t.mirror else None
         t.mirrored = m is not None
         if m is None:
-            return self._run(t, V0, F0, t.mask, t.faces, t.refine, progress)
+            return self.run_target(t, V0, F0, t.mask, t.faces, t.refine, progress)
         V, F, (mask, faces) = m
         # As the native Refine Fill does: a fill the refinement gave no inner vertex (a small hole; at
         # most the plane's edge was split) is subdivided once.
         levels = 1 if t.refine and not refined else None
-        r = self._run(t, V, F, mask, faces, False, progress, levels)
+        r = self.run_target(t, V, F, mask, faces, False, progress, levels)
         n1, m1 = len(V1), len(F1)
         if isinstance(r, np.ndarray):  # Regularize: positions
             return polymesh.on_mirror_planes(r[:n1].copy(), V0, t.mirror)
@@ -285,7 +285,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             col.prop(self, "keep_border")
             col.prop(self, "refine")
 
-    def _run(self, t, V, F, mask, faces, refine, progress, levels=None):
+    def run_target(self, t, V, F, mask, faces, refine, progress, levels=None):
         return api().fair(
             V, F, method=self.method.lower(), mask=mask, faces=faces,
             boundary=self.boundary.lower(), subdivisions=max(self.subdivisions, levels or 0), tolerance=self.tolerance,
@@ -551,7 +551,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         if context.mode == 'EDIT_MESH':
             col.prop(self, "keep_border")
 
-    def _run(self, t, V, F, mask, faces, refine, progress, levels=None):
+    def run_target(self, t, V, F, mask, faces, refine, progress, levels=None):
         V = api().regularize(V, F, iterations=self.iterations, mask=mask,
                              boundary=self.boundary.lower(), step_scale=self.strength,
                              project=self.keep_on_surface, progress=progress)

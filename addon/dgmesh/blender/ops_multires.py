@@ -130,12 +130,12 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
             self._arrays = bridge.read_object(obj)
         except Exception as exc:  # reported like a native error; nothing was changed
             cancel_event.clear()
-            self._failed(exc)
+            self.report_failure(exc)
             return None
         return make_work(self._arrays.V, self._arrays.F, control_faces=self.control_faces, level=self.level,
                          min_quality=self.min_quality, fit_iterations=self.fit_iterations)
 
-    def _failed(self, exc):
+    def report_failure(self, exc):
         dg = api()
         if isinstance(exc, dg.MeshError) and not isinstance(exc, dg.Cancelled):
             self.report({'ERROR'}, f"Multires preview failed on '{self._name}': {exc}")
@@ -144,7 +144,7 @@ class DGMESH_OT_multires_preview(NativeJobOperator, bpy.types.Operator):
             self.report({'ERROR'}, f"Multires preview failed on '{self._name}': internal error: "
                                    f"{type(exc).__name__}: {exc}")
             return {'CANCELLED'}
-        return super()._failed(exc)
+        return super().report_failure(exc)
 
     def finish(self, context, result):
         """Writes the attributes and the control object (main thread) and reports."""

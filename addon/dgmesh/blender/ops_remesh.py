@@ -22,7 +22,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import polymesh
 from ..polymesh import flip_off_mirror_planes
-from ..remesh import RemeshBoundary, RemeshMode, RemeshOptions
+from ..remeshing import RemeshBoundary, RemeshMode, RemeshOptions
 from . import bridge
 from .common import enum_id, enum_items, plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator

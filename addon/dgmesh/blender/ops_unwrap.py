@@ -27,7 +27,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors
 from ..polymesh import ranges, split_charts
-from ..unwrap import UnwrapOptions, UvBoundary, UvWeights
+from ..unwrapping import UnwrapOptions, UvBoundary, UvWeights
 from . import bridge, compat
 from .common import enum_id, enum_items, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
 from .jobs import NativeJobOperator

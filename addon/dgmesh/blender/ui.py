@@ -89,7 +89,7 @@ class DGMESH_MT_menu(bpy.types.Menu):
         _draw_operators(self.layout)
 
 
-def _menu_entry(self, context):
+def menu_entry(self, context):
     self.layout.separator()
     self.layout.menu(DGMESH_MT_menu.bl_idname)
 
@@ -103,12 +103,12 @@ classes = (DGMESH_MT_menu, DGMESH_PT_main)
 def register_menus():
     for name in MENUS:
         menu = getattr(bpy.types, name)
-        menu.remove(_menu_entry)  # no-op if absent; keeps register() idempotent
-        menu.append(_menu_entry)
+        menu.remove(menu_entry)  # no-op if absent; keeps register() idempotent
+        menu.append(menu_entry)
 
 
 def unregister_menus():
     for name in MENUS:
         menu = getattr(bpy.types, name, None)
         if menu is not None:
-            menu.remove(_menu_entry)
+            menu.remove(menu_entry)

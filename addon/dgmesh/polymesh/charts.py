@@ -5,7 +5,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..core import MeshError
-from ..unwrap import chart_labels
+from ..unwrapping import chart_labels
 
 
 def split_charts(start, total, face_mask, loop_edge, seam, loop_vertex: Optional[np.ndarray] = None

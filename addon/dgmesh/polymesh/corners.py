@@ -4,7 +4,7 @@ apart across seams."""
 
 import numpy as np
 
-from ..unwrap import chart_labels
+from ..unwrapping import chart_labels
 from .edges import edge_keys
 
 

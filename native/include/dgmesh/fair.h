@@ -88,6 +88,13 @@ struct FairResult {
   bool energy_rose = false;
 };
 
+/// Fairs V, F by the flow of `opt.method` (thesis eq. 3.5-3.12), the whole mesh or a region.
+/// A face mask alone selects its faces' vertices except the region's border. Parts of a region
+/// that do not interact (their two-ring neighbourhoods are disjoint) are faired one after the
+/// other, each with its own step control; the result sums their energies (each held at its last
+/// value) and reports the most iterations, the smallest lambda, converged only if all did.
+/// Pre: a valid triangle mesh (validate.h, kSurface) when anything moves; masks of size n / m.
+/// Throws MeshError (bad input or options, nothing to fair), CancelledError (progress false).
 FairResult fair(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress = {});
 
 struct RegularizeOptions {

@@ -127,7 +127,9 @@ struct RemeshResult {
 
 // Throws MeshError when the input is not a single chart of disk topology (closed, annulus or
 // holes, several pieces, handles), for options out of range, or when target_vertices does not
-// exceed the boundary; CancelledError when the progress callback returns false.
+// exceed the boundary; CancelledError when the progress callback returns false. A triangulation
+// that misses the boundary samples (an internal error) is remeshed once more with the boundary
+// samples' full clearance, noted in `warnings` (detail/remesh_retry.h).
 RemeshResult remesh(const MatX3d& V, const MatX3i& F, const RemeshOptions& options = {},
                     const ProgressFn& progress = {});
 

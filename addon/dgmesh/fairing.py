@@ -104,81 +104,9 @@ def fair(V, F, *, method: str = _D.method.name, mask=None, faces=None, boundary:
                  max_iterations=None if max_iterations is None else as_count(max_iterations, "max_iterations"))
     vm = as_mask(mask, len(V), "mask")
     fm = as_mask(faces, len(F), "faces")
-    if fm is not None and vm is None:
-        vm = np.zeros(len(V), dtype=bool)
-        inner = np.zeros(len(V), dtype=bool)
-        inner[F[fm].ravel()] = True
-        # Without a vertex mask, the vertices of the region's faces move except its border.
-        border = np.zeros(len(V), dtype=bool)
-        border[F[~fm].ravel()] = True
-        vm = inner & ~border
-
-    def run(Vc, Fc, vmc, fmc, prog):
-        return _native.fair(Vc, Fc, o, vmc, fmc, prog)
-
-    parts = _independent_parts(F, vm, fm, len(V))
-    if len(parts) < 2:
-        return run(V, F, vm, fm, progress)
-    return _fair_parts(V, F, vm, fm, parts, run, progress)
-
-
-def _independent_parts(F, vm, fm, n):
-    """Vertex masks of the parts of a region that do not interact: the movable vertices and the
-    region's faces, grouped by the connected components of their two-ring neighbourhoods (the
-    flows read two rings around a vertex: H on its ring, the Laplacian of H on the next). One part
-    or none: []."""
-    if vm is None:
-        return []
-    region = vm.copy()
-    if fm is not None:
-        region[F[fm].ravel()] = True
-    if not region.any():
-        return []
-    zone = region
-    for _ in range(2):
-        zone = zone.copy()
-        zone[F[zone[F].any(1)].ravel()] = True
-    inside = zone[F].all(1)
-    pairs = np.concatenate([F[inside][:, [0, 1]], F[inside][:, [1, 2]], F[inside][:, [2, 0]]])
-    pairs = np.ascontiguousarray(pairs, dtype=np.int32)
-    labels = np.asarray(_native.connected_labels(int(n), pairs))
-    ids = np.unique(labels[region])
-    return [region & (labels == i) for i in ids] if len(ids) > 1 else []
-
-
-def _fair_parts(V, F, vm, fm, parts, run, progress):
-    """Fairs independent parts of a region one after the other on the same mesh, so each flow keeps
-    its own step size and stopping test (a shared step control let one part's energy drop carry
-    another part's rise: two feet of the elephant faired together ended 0.09-0.49 of the diagonal
-    from each faired alone). The input's vertices keep their indices and rows of faces outside a
-    part are untouched, so each part's masks carry over to the mesh the previous parts left."""
-    n0, m0 = len(V), len(F)
-    Vc, Fc, origin = V, F, np.arange(m0)
-    results = []
-    for k, part in enumerate(parts):
-        vmc = np.zeros(len(Vc), dtype=bool)
-        vmc[:n0] = vm & part
-        fmc = None
-        if fm is not None:
-            fmc = np.zeros(len(Fc), dtype=bool)
-            fmc[:m0] = fm & part[F].any(1)
-        prog = None if progress is None else (lambda f, k=k: progress((k + f) / len(parts)))
-        r = run(Vc, Fc, vmc, fmc, prog)
-        Vc, Fc, origin = r.vertices, r.faces, origin[r.face_origin]
-        results.append(r)
-    length = max(len(r.energy) for r in results)
-    energy = sum(np.pad(r.energy, (0, length - len(r.energy)), mode="edge") for r in results)
-    moved = np.zeros(len(Vc), dtype=bool)
-    for r in results:
-        moved[:len(r.moved)] |= r.moved
-    levels = max(len(r.level_iterations) for r in results)
-    return results[-1].replace(
-        vertices=Vc, faces=Fc, face_origin=origin.astype(np.int32), energy=energy, moved=moved,
-        iterations=max(r.iterations for r in results),
-        level_iterations=[max((int(r.level_iterations[i]) for r in results if i < len(r.level_iterations)), default=0)
-                          for i in range(levels)],
-        converged=all(r.converged for r in results), lam=min(r.lam for r in results),
-        linear_start=any(r.linear_start for r in results), energy_rose=any(r.energy_rose for r in results))
+    # A face mask alone, and regions in independent parts (each faired with its own step
+    # control): handled by dgmesh::fair (fair.h), so C++ and Python callers get the same result.
+    return _native.fair(V, F, o, vm, fm, progress)
 
 
 def regularize(V, F, *, iterations: int = _R.iterations, mask=None, boundary: str = _R.boundary.name,

@@ -16,7 +16,7 @@ scheme); ``"single_u0"`` and ``"single_uopt"`` sample and triangulate on one map
 
 import numpy as np
 
-from .core import Error, MeshError, _native, as_count, as_faces, as_vertices, make_options
+from .core import MeshError, _native, as_count, as_faces, as_vertices, make_options
 
 __all__ = ["RemeshOptions", "RemeshResult", "RemeshMode", "RemeshBoundary", "RemeshRelaxMetric", "remesh",
            "remesh_full", "point_mesh_distance"]
@@ -91,31 +91,8 @@ def remesh_full(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity
                      lloyd_iterations=as_count(lloyd_iterations, "lloyd_iterations"), relax_metric=relax_metric,
                      min_separation=min_separation, smooth_iterations=as_count(smooth_iterations, "smooth_iterations"),
                      boundary_clearance=boundary_clearance)
-    try:
-        r = _native.remesh(V, F, o, progress)
-        retried = None
-    except Error as exc:
-        # A safety net: samples close to the boundary can keep the map's Delaunay triangulation from
-        # meeting a resampled boundary (the ears of a kept one are triangulated apart; Add > Grid 60x60
-        # at 30000 vertices on 256^2 needed this before): once more with the boundary samples' full
-        # clearance.
-        if "triangulation is invalid" not in str(exc) or o.boundary_clearance >= 1.0:
-            raise
-        try:
-            r = _native.remesh(V, F, o.replace(boundary_clearance=1.0), progress)
-        except Error as exc2:
-            if "triangulation is invalid" not in str(exc2) or o.boundary != RemeshBoundary.keep:
-                raise
-            # No known case left (the left half of a subdivided lion-head was one: needle ears side by
-            # side, now triangulated apart); what the user can do is change the border.
-            raise MeshError("remesh: the new triangulation could not be stitched to the kept boundary of this "
-                            "region; select a region with a smoother border, or remesh the whole disk with the "
-                            "boundary resampled (boundary='resample'; Object mode: Resample Boundary)") from None
-        retried = ("the first triangulation missed the kept boundary: remeshed again with more room between the "
-                   f"boundary and the inner vertices (boundary_clearance {o.boundary_clearance:g} -> 1)")
-    if retried:
-        r = r.replace(warnings=list(r.warnings) + [retried])
-    return r
+    # A triangulation that misses the boundary is retried in dgmesh::remesh (detail/remesh_retry.h).
+    return _native.remesh(V, F, o, progress)
 
 
 def remesh(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity, resolution: int = _D.resolution,
