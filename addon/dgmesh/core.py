@@ -6,8 +6,11 @@ Native work runs with the GIL released. Errors are raised as MeshError (a ValueE
 """
 
 import os
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 try:
     from . import _native
@@ -32,8 +35,11 @@ MeshIOError = _native.MeshIOError
 SolverError = _native.SolverError
 Cancelled = _native.Cancelled
 
+# A progress callback: callable(fraction in [0, 1]); a falsy result other than None cancels.
+Progress = Callable[[float], bool | None]
 
-def as_vertices(V, name="V"):
+
+def as_vertices(V: npt.ArrayLike, name: str = "V") -> np.ndarray:
     """(n, 3) float64 C-contiguous view or copy of V; a clear error for the wrong shape."""
     if np.iscomplexobj(V):
         raise MeshError(f"{name} must hold real coordinates, got complex numbers")
@@ -43,7 +49,7 @@ def as_vertices(V, name="V"):
     return V
 
 
-def as_faces(F, name="F", n=None):
+def as_faces(F: npt.ArrayLike, name: str = "F", n: int | None = None) -> np.ndarray:
     """(m, 3) int32 C-contiguous view or copy of F; a clear error for the wrong shape or for
     indices out of range (below 0, or at least ``n`` when given)."""
     F = np.asarray(F)
@@ -61,7 +67,7 @@ def as_faces(F, name="F", n=None):
     return np.ascontiguousarray(F, dtype=np.int32)
 
 
-def as_mask(mask, n, name="mask"):
+def as_mask(mask: npt.ArrayLike | None, n: int, name: str = "mask") -> np.ndarray | None:
     """A selection of n items as an (n,) bool array. Accepted: bool per item; integer indices (an
     index list of any length, n included); per-item flags, that is numbers of length n, non-zero
     = selected (an integer array of length n holding only 0 and 1 is read as flags, as Blender's
@@ -92,14 +98,14 @@ def as_mask(mask, n, name="mask"):
 INT_MAX = 2**31 - 1  # the native side's int
 
 
-def _scalar(value):
+def _scalar(value: Any) -> Any:
     """numpy scalars and 0-d arrays as the Python number they hold; other values unchanged."""
     if isinstance(value, np.generic) or (isinstance(value, np.ndarray) and value.ndim == 0):
         return value.item()
     return value
 
 
-def as_count(value, name, lo=0, hi=INT_MAX):
+def as_count(value: Any, name: str, lo: int = 0, hi: int = INT_MAX) -> int:
     """An integer option as an int in [lo, hi], else a MeshError naming it (beyond a C int,
     pybind11's own TypeError printed the whole call, mesh arrays included). A float with an
     integer value (5000.0) and numpy scalars count too; 2.5, True and NaN do not."""
@@ -112,7 +118,7 @@ def as_count(value, name, lo=0, hi=INT_MAX):
     return int(value)
 
 
-def as_real(value, name, lo=-np.inf, hi=np.inf, lo_open=False):
+def as_real(value: Any, name: str, lo: float = -np.inf, hi: float = np.inf, lo_open: bool = False) -> float:
     """A real option as a finite float in [lo, hi] ((lo, hi] with ``lo_open``), else a MeshError
     naming it."""
     value = _scalar(value)
@@ -124,7 +130,7 @@ def as_real(value, name, lo=-np.inf, hi=np.inf, lo_open=False):
     return float(value)
 
 
-def as_choice(value, enum, name):
+def as_choice(value: Any, enum: type, name: str) -> Any:
     """An enum option given as a member of the native ``enum`` or by its name (any case), else a
     MeshError naming the option and the choices."""
     if isinstance(value, enum):
@@ -135,7 +141,7 @@ def as_choice(value, enum, name):
     raise MeshError(f"unknown {name} {value!r} (use {', '.join(repr(k) for k in members)})")
 
 
-def make_options(options, **values):
+def make_options(options: Any, **values: Any) -> Any:
     """Sets fields of a native options object (``_native.DenoiseOptions()``, ...), whose C++
     initialisers are the defaults; None keeps a field's value. Enum fields take a member or its
     name; a value of the wrong type is a MeshError naming the field. Returns ``options``."""
@@ -155,12 +161,12 @@ def make_options(options, **values):
     return options
 
 
-def fields(obj):
+def fields(obj: Any) -> dict[str, Any]:
     """The fields of a native options or result object as a dict (in declaration order)."""
     return {name: getattr(obj, name) for name in type(obj).__fields__}
 
 
-def set_num_threads(n):
+def set_num_threads(n: int) -> None:
     """Threads for the native parallel loops, for the whole process (every thread); 0 means all
     cores."""
     try:
@@ -170,23 +176,25 @@ def set_num_threads(n):
     _native.set_num_threads(n)
 
 
-def num_threads():
+def num_threads() -> int:
+    """Threads the native parallel loops use (see :func:`set_num_threads`)."""
     return _native.num_threads()
 
 
-def read_mesh(path):
+def read_mesh(path: str | bytes | os.PathLike) -> tuple[np.ndarray, np.ndarray]:
     """Reads an OBJ, OFF or PLY file: returns (V, F) with polygons fan-triangulated."""
     V, F, _N = _native.read_mesh(os.fsdecode(path))  # str, bytes or path-like
     return V, F
 
 
-def write_mesh(path, V, F, normals=None):
+def write_mesh(path: str | bytes | os.PathLike, V: npt.ArrayLike, F: npt.ArrayLike,
+               normals: npt.ArrayLike | None = None) -> None:
     """Writes an OBJ, OFF or PLY (binary) file, chosen by the extension."""
     N = None if normals is None else as_vertices(normals, "normals")
     _native.write_mesh(os.fsdecode(path), as_vertices(V), as_faces(F), N)
 
 
-def validate(V, F, allow_loose_vertices=True):
+def validate(V: npt.ArrayLike, F: npt.ArrayLike, allow_loose_vertices: bool = True) -> None:
     """Raises MeshError if (V, F) is not a valid manifold triangle mesh: empty, out-of-range
     indices, NaN/inf coordinates, degenerate or duplicate faces, non-manifold edges or vertices,
     inconsistent orientation (and loose vertices unless allowed)."""
@@ -201,7 +209,7 @@ Topology = _native.Topology
 Curvature = _native.Curvature
 
 
-def topology(V, F) -> Topology:
+def topology(V: npt.ArrayLike, F: npt.ArrayLike) -> Topology:
     """Edges, edge faces, boundary loops and connected components of a valid mesh: a
     :class:`Topology` (``edges`` (E, 2) with v0 < v1, ``face_edges`` (m, 3), ``edge_faces`` (E, 2),
     -1 on the boundary, ``boundary_loops`` (lists of vertices, oriented as the faces),
@@ -209,7 +217,7 @@ def topology(V, F) -> Topology:
     return _native.topology(as_vertices(V), as_faces(F))
 
 
-def curvature(V, F) -> Curvature:
+def curvature(V: npt.ArrayLike, F: npt.ArrayLike) -> Curvature:
     """Discrete curvatures per vertex (thesis 3.1).
 
     Returns a :class:`Curvature`: ``mean`` H (cotangent Laplace-Beltrami with mixed Voronoi areas,

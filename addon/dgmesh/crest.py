@@ -9,8 +9,9 @@
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from .core import MeshError, _native, as_count, as_faces, as_mask, as_real, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_count, as_faces, as_mask, as_real, as_vertices, make_options
 
 # The contract is the C++ one (dgmesh/crest_lines.h, decimate.h, segment.h), bound as it is: the
 # options with their defaults, the results, the line kinds, and the feature-guidance presets of
@@ -28,8 +29,17 @@ SegmentResult = _native.SegmentResult
 RIDGE = int(CrestKind.ridge)
 VALLEY = int(CrestKind.valley)
 
-decimate_feature_defaults = _native.decimate_feature_defaults  # eta 6 (thesis fig. 4.19)
-segment_feature_defaults = _native.segment_feature_defaults    # eta 2 (thesis fig. 4.26-4.27)
+
+
+def decimate_feature_defaults() -> FeatureOptions:
+    """Feature guidance of :func:`decimate`: eta 6 (thesis fig. 4.19), lines with T >= 10."""
+    return _native.decimate_feature_defaults()
+
+
+def segment_feature_defaults() -> FeatureOptions:
+    """Feature guidance of :func:`segment`: eta 2 (thesis fig. 4.26-4.27), lines with T >= 10."""
+    return _native.segment_feature_defaults()
+
 
 _FIT = DerivativeOptions()
 _CREST = CrestOptions()
@@ -61,39 +71,40 @@ class CrestLines:
 
     __slots__ = ("lines", "derivatives", "threshold", "all_lines")
 
-    def __init__(self, lines, derivatives, threshold=0.0, all_lines=None):
+    def __init__(self, lines: _native.CrestLines, derivatives: CurvatureDerivatives, threshold: float = 0.0,
+                 all_lines: _native.CrestLines | None = None) -> None:
         self.lines = lines
         self.derivatives = derivatives
         self.threshold = threshold
         self.all_lines = lines if all_lines is None else all_lines
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.line_kind)
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         ridges = int((self.line_kind == RIDGE).sum())
         return (f"CrestLines({len(self)} lines: {ridges} ridges, {len(self) - ridges} valleys; "
                 f"{len(self.points)} points, length {self.total_length:.4g}, threshold {self.threshold:g})")
 
     @property
-    def n_lines(self):
+    def n_lines(self) -> int:
         return len(self.line_kind)
 
     @property
-    def polylines(self):
+    def polylines(self) -> list[np.ndarray]:
         """List of (k, 3) point arrays, one per line, in order along the line."""
         o = self.line_offset
         return [self.points[self.line_points[o[i]:o[i + 1]]] for i in range(len(self))]
 
     @property
-    def is_ridge(self):
+    def is_ridge(self) -> np.ndarray:
         return self.line_kind == RIDGE
 
     @property
-    def total_length(self):
+    def total_length(self) -> float:
         return float(self.line_length.sum())
 
-    def filter(self, threshold=None, ridges=True, valleys=True):
+    def filter(self, threshold: float | None = None, ridges: bool = True, valleys: bool = True) -> "CrestLines":
         """Lines with strength T >= threshold of the requested kinds, re-indexed. Filtering always
         starts from every traced line, so a lower threshold brings lines back."""
         threshold = self.threshold if threshold is None else float(threshold)
@@ -114,9 +125,10 @@ def _check_rings(rings):
     return as_count(rings, "rings", 1, 8)
 
 
-def curvature_derivatives(V, F, *, rings: int = _FIT.rings, smooth: bool = _FIT.smooth,
+def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, smooth: bool = _FIT.smooth,
                           use_normals: bool = _FIT.use_normals, fit_tangent_plane: bool = _FIT.fit_tangent_plane,
-                          transport_to_vertex: bool = _FIT.transport_to_vertex, progress=None) -> CurvatureDerivatives:
+                          transport_to_vertex: bool = _FIT.transport_to_vertex,
+                          progress: Progress | None = None) -> CurvatureDerivatives:
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
     A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
@@ -137,9 +149,10 @@ def curvature_derivatives(V, F, *, rings: int = _FIT.rings, smooth: bool = _FIT.
     return _native.curvature_derivatives(as_vertices(V), as_faces(F), fit, progress)
 
 
-def crest_lines(V, F, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold, ridges: bool = _CREST.ridges,
-                valleys: bool = _CREST.valleys, smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps,
-                skip_boundary: bool = _CREST.skip_boundary, progress=None) -> CrestLines:
+def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold,
+                ridges: bool = _CREST.ridges, valleys: bool = _CREST.valleys, smooth: bool = _FIT.smooth,
+                join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
+                progress: Progress | None = None) -> CrestLines:
     """Crest lines of a triangle mesh (thesis 4.5-4.6).
 
     ``rings`` (1..8, thesis 1..4) is the fitting neighbourhood: larger gives smoother lines and
@@ -160,7 +173,7 @@ def crest_lines(V, F, *, rings: int = _FIT.rings, threshold: float = _CREST.thre
     return CrestLines(lines, d).filter(threshold, ridges, valleys)
 
 
-def crest_face_distance(V, F, lines):
+def crest_face_distance(V: npt.ArrayLike, F: npt.ArrayLike, lines: CrestLines) -> np.ndarray:
     """Geodesic distance from each face to the nearest crest line (thesis 4.8), over the face graph
     with centroid - edge midpoint - centroid steps; 0 on faces holding a line."""
     V = as_vertices(V)
@@ -168,7 +181,7 @@ def crest_face_distance(V, F, lines):
     return _native.crest_face_distance(V, F, _native_lines(lines))
 
 
-def feature_function(distance, eta, eps=0.1):
+def feature_function(distance: npt.ArrayLike, eta: float, eps: float = 0.1) -> np.ndarray:
     """F(d) = (d / max d + eps)^eta of eq. 4.12 (all ones when eta is 0 or there is no line)."""
     d = np.asarray(distance, dtype=np.float64)
     eta = as_real(eta, "feature weight (eta)", 0.0)
@@ -214,12 +227,13 @@ def _features(V, F, feature_weight, crest_lines, rings, threshold, defaults):
     return features, lines
 
 
-def decimate(V, F, *, target_faces: int, feature_weight: float = _DECIMATE_FEATURES.feature_weight,
-             crest_lines: CrestLines | None = None, rings: int = _DECIMATE_FEATURES.rings,
-             threshold: float = _DECIMATE_FEATURES.threshold, preserve_boundary: bool = _DECIMATE.preserve_boundary,
-             min_quality: float = _DECIMATE.min_quality, max_normal_angle: float = _DECIMATE.max_normal_angle,
-             progress=None, return_map=False, return_face_map=False, locked=None, greedy: bool = not _DECIMATE.batched,
-             planes=None):
+def decimate(V: npt.ArrayLike, F: npt.ArrayLike, *, target_faces: int,
+             feature_weight: float = _DECIMATE_FEATURES.feature_weight, crest_lines: CrestLines | None = None,
+             rings: int = _DECIMATE_FEATURES.rings, threshold: float = _DECIMATE_FEATURES.threshold,
+             preserve_boundary: bool = _DECIMATE.preserve_boundary, min_quality: float = _DECIMATE.min_quality,
+             max_normal_angle: float = _DECIMATE.max_normal_angle, progress: Progress | None = None,
+             return_map: bool = False, return_face_map: bool = False, locked: npt.ArrayLike | None = None,
+             greedy: bool = not _DECIMATE.batched, planes: npt.ArrayLike | None = None) -> tuple[np.ndarray, ...]:
     """Quadric edge-collapse decimation (Garland-Heckbert) to ``target_faces`` faces.
 
     ``feature_weight`` is eta of thesis eq. 4.12: each face's quadric is weighted by 1 / F(d), d its
@@ -260,10 +274,11 @@ def decimate(V, F, *, target_faces: int, feature_weight: float = _DECIMATE_FEATU
     return out + ((r.face_map, r.source_vertex) if return_face_map else ())
 
 
-def segment(V, F, *, segments: int = _SEGMENT.segments, feature_weight: float = _SEGMENT_FEATURES.feature_weight,
-            crest_lines: CrestLines | None = None, rings: int = _SEGMENT_FEATURES.rings,
-            threshold: float = _SEGMENT_FEATURES.threshold, iterations: int = _SEGMENT.iterations, progress=None,
-            return_info=False):
+def segment(V: npt.ArrayLike, F: npt.ArrayLike, *, segments: int = _SEGMENT.segments,
+            feature_weight: float = _SEGMENT_FEATURES.feature_weight, crest_lines: CrestLines | None = None,
+            rings: int = _SEGMENT_FEATURES.rings, threshold: float = _SEGMENT_FEATURES.threshold,
+            iterations: int = _SEGMENT.iterations, progress: Progress | None = None,
+            return_info: bool = False) -> np.ndarray | tuple[np.ndarray, SegmentResult]:
     """Segments the mesh into ``segments`` connected, nearly planar charts by variational shape
     approximation (L^{2,1} metric, Lloyd iterations; thesis 4.9). ``feature_weight`` is eta of eq.
     4.12: region growing weighs the error of a face reached from a face of a segment by
@@ -284,7 +299,7 @@ def segment(V, F, *, segments: int = _SEGMENT.segments, feature_weight: float = 
     return (r.labels, r) if return_info else r.labels
 
 
-def snap_to_vertices(lines, V, F):
+def snap_to_vertices(lines: CrestLines, V: npt.ArrayLike, F: npt.ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Mesh-vertex pairs approximating each crest segment: every point is moved to the nearer end
     of its edge (a junction point to the nearest corner of its triangle). Returns (S', 2) int32
     pairs of distinct vertices (segments whose ends snap to the same vertex are dropped) and the

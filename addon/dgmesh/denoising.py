@@ -12,8 +12,9 @@ copies move identically, so no cracks open) and point clouds with normals (``F=N
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from .core import MeshError, _native, as_choice, as_count, as_faces, as_mask, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_choice, as_count, as_faces, as_mask, as_vertices, make_options
 
 __all__ = ["DenoiseOptions", "DenoiseResult", "DenoiseMethod", "SimilarityOptions", "denoise", "defaults", "similarity",
            "residual_entropy"]
@@ -26,16 +27,17 @@ DenoiseMethod = _native.DenoiseMethod
 SimilarityOptions = _native.SimilarityOptions
 
 
-def defaults(method="similarity") -> DenoiseOptions:
+def defaults(method: str | DenoiseMethod = "similarity") -> DenoiseOptions:
     """The options a method starts from: the thesis's suggested setting for similarity (section
     2.3: eta 0.4, 1.0, 0.75, 3 iterations), its Fandisk setting for bilateral (table 2.1: 0.25,
     1.0, 1.0, 3)."""
     return _native.denoise_defaults(as_choice(method, DenoiseMethod, "method"))
 
 
-def denoise(V, F=None, normals=None, *, method: str = DenoiseOptions().method.name, eta1: float | None = None,
-            eta2: float | None = None, eta3: float | None = None, iterations: int | None = None, mask=None,
-            progress=None) -> DenoiseResult:
+def denoise(V: npt.ArrayLike, F: npt.ArrayLike | None = None, normals: npt.ArrayLike | None = None, *,
+            method: str | DenoiseMethod = DenoiseOptions().method.name, eta1: float | None = None,
+            eta2: float | None = None, eta3: float | None = None, iterations: int | None = None,
+            mask: npt.ArrayLike | None = None, progress: Progress | None = None) -> DenoiseResult:
     """Denoise a mesh, a triangle soup or a point cloud.
 
     Parameters
@@ -79,8 +81,9 @@ def denoise(V, F=None, normals=None, *, method: str = DenoiseOptions().method.na
     return _native.denoise_mesh(V, as_faces(F, n=len(V)), o, m, progress)
 
 
-def similarity(V, F, vertex, normals=None, *, eta1: float = SimilarityOptions().eta1,
-               eta3: float = SimilarityOptions().eta3, mode: str = "shape", progress=None) -> np.ndarray:
+def similarity(V: npt.ArrayLike, F: npt.ArrayLike | None, vertex: int, normals: npt.ArrayLike | None = None, *,
+               eta1: float = SimilarityOptions().eta1, eta3: float = SimilarityOptions().eta3, mode: str = "shape",
+               progress: Progress | None = None) -> np.ndarray:
     """Similarity of every vertex to ``vertex`` (thesis fig. 2.1c): (n,) weights in [0, 1].
 
     The weight is w(x, y) = exp(-D(x, y) / (2 sigma1^2)) (eq. 2.7) with D of eq. 2.9: the
@@ -108,7 +111,7 @@ def similarity(V, F, vertex, normals=None, *, eta1: float = SimilarityOptions().
     return _native.similarity_mesh(V, as_faces(F, n=len(V)), vertex, o, progress)
 
 
-def residual_entropy(residual) -> float:
+def residual_entropy(residual: npt.ArrayLike) -> float:
     """Shannon entropy (bits) of the distribution of residual magnitudes: the histogram of
     r / mean(r) over [0, 4) in 64 bins plus an overflow bin (scale-free, 0 .. log2(65))."""
     r = np.ascontiguousarray(residual, dtype=np.float64).ravel()

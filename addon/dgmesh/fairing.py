@@ -8,8 +8,9 @@ tangent planes to even out triangle sizes and shapes.
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from .core import _native, as_choice, as_count, as_faces, as_mask, as_vertices, make_options
+from .core import Progress, _native, as_choice, as_count, as_faces, as_mask, as_vertices, make_options
 
 __all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "RegularizeOptions", "fair",
            "defaults", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
@@ -26,17 +27,19 @@ _D = FairOptions()
 _R = RegularizeOptions()
 
 
-def defaults(scheme=_D.scheme.name) -> FairOptions:
+def defaults(scheme: str | FairScheme = _D.scheme.name) -> FairOptions:
     """The options a scheme starts from: ``FairOptions()`` (300 iterations per level) for
     "semi_implicit"; 5000 iterations per level for "explicit", whose steps are far smaller."""
     return _native.fair_defaults(as_choice(scheme, FairScheme, "scheme"))
 
 
-def fair(V, F, *, method: str = _D.method.name, mask=None, faces=None, boundary: str = _D.boundary.name,
-         subdivisions: int = _D.subdivisions, tolerance: float = _D.tolerance, max_iterations: int | None = None,
-         tangential: bool = _D.tangential, scheme: str = _D.scheme.name, max_seconds: float = _D.max_seconds,
+def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.method.name,
+         mask: npt.ArrayLike | None = None, faces: npt.ArrayLike | None = None,
+         boundary: str | FairBoundary = _D.boundary.name, subdivisions: int = _D.subdivisions,
+         tolerance: float = _D.tolerance, max_iterations: int | None = None, tangential: bool = _D.tangential,
+         scheme: str | FairScheme = _D.scheme.name, max_seconds: float = _D.max_seconds,
          step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start, refine: bool = _D.refine,
-         keep_size: bool = _D.keep_size, progress=None) -> FairResult:
+         keep_size: bool = _D.keep_size, progress: Progress | None = None) -> FairResult:
     """Fair a triangle mesh (or a region of it) by a curvature flow.
 
     Every option's default is :class:`FairOptions`'s (dgmesh/fair.h).
@@ -109,8 +112,10 @@ def fair(V, F, *, method: str = _D.method.name, mask=None, faces=None, boundary:
     return _native.fair(V, F, o, vm, fm, progress)
 
 
-def regularize(V, F, *, iterations: int = _R.iterations, mask=None, boundary: str = _R.boundary.name,
-               step_scale: float = _R.step_scale, project: bool = _R.project, progress=None) -> np.ndarray:
+def regularize(V: npt.ArrayLike, F: npt.ArrayLike, *, iterations: int = _R.iterations,
+               mask: npt.ArrayLike | None = None, boundary: str | FairBoundary = _R.boundary.name,
+               step_scale: float = _R.step_scale, project: bool = _R.project,
+               progress: Progress | None = None) -> np.ndarray:
     """Tangential regularisation (thesis eq. 3.8 with tau = 0, fig. 3.3-3.4): vertices drift in
     their tangent planes by the tangent part of the area-weighted bi-umbrella operator, which
     evens out triangle sizes and shapes while keeping the surface. Returns the new (n, 3)
@@ -126,13 +131,14 @@ def regularize(V, F, *, iterations: int = _R.iterations, mask=None, boundary: st
     return _native.regularize(V, F, o, as_mask(mask, len(V), "mask"), progress)
 
 
-def willmore_energy(V, F) -> float:
+def willmore_energy(V: npt.ArrayLike, F: npt.ArrayLike) -> float:
     """Discrete Willmore energy sum H_i^2 A_i (mixed areas): 4 pi for a sphere, 2 pi^2 for the
     torus with radii ratio sqrt(2)."""
     return _native.willmore_energy(as_vertices(V), as_faces(F))
 
 
-def subdivide_region(V, F, faces):
+def subdivide_region(V: npt.ArrayLike, F: npt.ArrayLike,
+                     faces: npt.ArrayLike | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Linear 1-to-4 subdivision of the faces selected by ``faces`` only; edges shared with other
     faces are not split (the faces along the border become 2 or 3 triangles). Returns
     (V, F, face_origin)."""
@@ -144,7 +150,8 @@ def subdivide_region(V, F, faces):
     return _native.subdivide_region(V, F, fm)
 
 
-def refine_region(V, F, faces, density=2 ** 0.5):
+def refine_region(V: npt.ArrayLike, F: npt.ArrayLike, faces: npt.ArrayLike | None,
+                  density: float = 2 ** 0.5) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Liepa-style refinement of the faces selected by ``faces`` (a hole fill): triangles larger
     than the mesh around the region are split at their centroid and region-interior edges are
     flipped to Delaunay until the triangles match the border's edge lengths (``density`` is

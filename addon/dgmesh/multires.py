@@ -24,9 +24,14 @@ squares so that the limit surface passes close to the dense mesh (the optimisati
 better; ``fit_iterations=0`` keeps the decimated positions.
 """
 
-import numpy as np
+import os
+from collections.abc import Mapping
+from typing import Any
 
-from .core import MeshError, _native, as_count, as_faces, as_vertices, make_options
+import numpy as np
+import numpy.typing as npt
+
+from .core import MeshError, Progress, _native, as_count, as_faces, as_vertices, make_options
 
 __all__ = ["Multires", "MultiresOptions", "MultiresTimings", "FORMAT_VERSION"]
 
@@ -47,15 +52,16 @@ class Multires:
     share; every array property returns a fresh copy.
     """
 
-    def __init__(self, native):
+    def __init__(self, native: _native.Multires) -> None:
         self._m = native
 
     # -- construction ---------------------------------------------------------------------------
     @classmethod
-    def build(cls, V, F, *, control_faces: int = _D.control_faces, level: int = _D.level,
+    def build(cls, V: npt.ArrayLike, F: npt.ArrayLike, *, control_faces: int = _D.control_faces, level: int = _D.level,
               min_quality: float = _D.min_quality, fit_iterations: int = _D.fit_iterations,
               fit_regularization: float = _D.fit_regularization,
-              projection_iterations: int = _D.projection_iterations, progress=None) -> "Multires":
+              projection_iterations: int = _D.projection_iterations,
+              progress: Progress | None = None) -> "Multires":
         """Builds the control mesh of (V, F) and binds every vertex of V. The defaults are
         :class:`MultiresOptions`'s (dgmesh/multires.h).
 
@@ -88,8 +94,9 @@ class Multires:
         return cls(_native.Multires.build(V, F, o, progress))
 
     @classmethod
-    def bind(cls, control_vertices, control_faces, V, *, level: int = _D.level,
-             projection_iterations: int = _D.projection_iterations, progress=None) -> "Multires":
+    def bind(cls, control_vertices: npt.ArrayLike, control_faces: npt.ArrayLike, V: npt.ArrayLike, *,
+             level: int = _D.level, projection_iterations: int = _D.projection_iterations,
+             progress: Progress | None = None) -> "Multires":
         """Binds the points V to the limit surface of a given control mesh (no decimation, no fit);
         ``level`` and ``projection_iterations`` as in :meth:`build`."""
         return cls(_native.Multires.bind(as_vertices(control_vertices, "control_vertices"),
@@ -98,11 +105,11 @@ class Multires:
                                          as_count(projection_iterations, "projection_iterations"), progress))
 
     # -- persistence ----------------------------------------------------------------------------
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:
         # pickle / copy.deepcopy through the exact array round trip (e.g. to send it to another process)
         return (type(self).from_arrays, (self.to_arrays(),))
 
-    def to_arrays(self):
+    def to_arrays(self) -> dict[str, np.ndarray]:
         """The bind data as plain numpy arrays (a dict), enough to rebuild this object exactly with
         :meth:`from_arrays`: control_vertices (rest pose), control_faces, level, base_face,
         base_st, displacement, and format_version."""
@@ -118,7 +125,7 @@ class Multires:
         }
 
     @classmethod
-    def from_arrays(cls, arrays):
+    def from_arrays(cls, arrays: Mapping[str, npt.ArrayLike]) -> "Multires":
         """Rebuilds a binding from :meth:`to_arrays` output (a dict or an ``np.load`` archive).
         Raises MeshError on missing or inconsistent data."""
         missing = [k for k in _KEYS if k not in arrays]
@@ -139,18 +146,19 @@ class Multires:
             np.ascontiguousarray(face, dtype=np.int32), st,
             as_vertices(arrays["displacement"], "displacement")))
 
-    def save(self, path):
+    def save(self, path: str | bytes | os.PathLike) -> None:
         """Writes the bind data to an ``.npz`` archive."""
         with open(path, "wb") as fh:  # a file object: numpy would add ".npz" to a path without it
             np.savez_compressed(fh, **self.to_arrays())
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: str | bytes | os.PathLike) -> "Multires":
+        """Reads bind data written by :meth:`save`."""
         with np.load(path) as data:
             return cls.from_arrays({k: data[k] for k in data.files})
 
     # -- evaluation -----------------------------------------------------------------------------
-    def reconstruct(self, control_vertices, out=None):
+    def reconstruct(self, control_vertices: npt.ArrayLike, out: np.ndarray | None = None) -> np.ndarray:
         """Dense vertex positions for new control vertex positions ((n_control, 3)).
 
         With ``out`` (a C-contiguous float64 or float32 (n_dense, 3) array) the result is written
@@ -166,13 +174,14 @@ class Multires:
         self._m.reconstruct(X, out)
         return out
 
-    def limit_points(self, control_vertices=None):
+    def limit_points(self, control_vertices: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(points, normals): the base points S(f, s, t) of the dense vertices on the limit surface
         and the unit limit normals there, for the given (default: rest) control vertices."""
         X = self._m.control_vertices if control_vertices is None else as_vertices(control_vertices)
         return self._m.limit_points(X)
 
-    def evaluate(self, face, st, control_vertices=None):
+    def evaluate(self, face: npt.ArrayLike, st: npt.ArrayLike,
+                 control_vertices: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Limit positions and derivatives (P, dP/ds, dP/dt) at locations (face[i], st[i]) of the
         control mesh (s, t >= 0, s + t <= 1; corners 0, 1, 2 of a face at (0,0), (1,0), (0,1))."""
         X = self._m.control_vertices if control_vertices is None else as_vertices(control_vertices)
@@ -183,7 +192,7 @@ class Multires:
         st = np.ascontiguousarray(st, dtype=np.float64).reshape(-1, 2)
         return self._m.evaluate(X, face, st)
 
-    def limit_matrix(self):
+    def limit_matrix(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, tuple[int, int]]:
         """Position weights of the base points over the control vertices, as (data, indices,
         indptr, shape) of a CSR matrix W (n_dense x n_control, rows sum to 1) with
         ``limit_points = W @ control_vertices``; pass it to ``scipy.sparse.csr_matrix``."""
@@ -191,52 +200,52 @@ class Multires:
 
     # -- properties -----------------------------------------------------------------------------
     @property
-    def control_vertices(self):
+    def control_vertices(self) -> np.ndarray:
         """(n_control, 3) rest positions of the control mesh."""
         return self._m.control_vertices
 
     @property
-    def control_faces(self):
+    def control_faces(self) -> np.ndarray:
         """(m_control, 3) triangles of the control mesh."""
         return self._m.control_faces
 
     @property
-    def level(self):
+    def level(self) -> int:
         return self._m.level
 
     @property
-    def n_dense(self):
+    def n_dense(self) -> int:
         return self._m.n_dense
 
     @property
-    def n_control(self):
+    def n_control(self) -> int:
         return self._m.n_control
 
     @property
-    def base_face(self):
+    def base_face(self) -> np.ndarray:
         return self._m.base_face
 
     @property
-    def base_st(self):
+    def base_st(self) -> np.ndarray:
         return self._m.base_st
 
     @property
-    def displacement(self):
+    def displacement(self) -> np.ndarray:
         """(n_dense, 3) displacement (a, b, c) in the frame (t1, t2, n) of each base point."""
         return self._m.displacement
 
     @property
-    def normal_displacement(self):
+    def normal_displacement(self) -> np.ndarray:
         """(n_dense,) the DSS scalar c: signed distance along the limit normal."""
         return self._m.displacement[:, 2].copy()
 
     @property
-    def displacement_magnitude(self):
+    def displacement_magnitude(self) -> np.ndarray:
         """(n_dense,) |x - S|: distance of each dense vertex from its base point."""
         return np.linalg.norm(self._m.displacement, axis=1)
 
     @property
-    def memory_bytes(self):
+    def memory_bytes(self) -> int:
         """Bytes held by the stencils and bind data."""
         return self._m.memory_bytes
 
@@ -246,6 +255,6 @@ class Multires:
         ``stencils`` (a :class:`MultiresTimings`)."""
         return self._m.timings
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return (f"Multires({self.n_dense} dense vertices on {self.n_control} control vertices / "
                 f"{len(self._m.control_faces)} faces, level {self.level})")

@@ -15,8 +15,9 @@ scheme); ``"single_u0"`` and ``"single_uopt"`` sample and triangulate on one map
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from .core import MeshError, _native, as_count, as_faces, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_count, as_faces, as_vertices, make_options
 
 __all__ = ["RemeshOptions", "RemeshResult", "RemeshMode", "RemeshBoundary", "RemeshRelaxMetric", "remesh",
            "remesh_full", "point_mesh_distance"]
@@ -31,12 +32,14 @@ RemeshRelaxMetric = _native.RemeshRelaxMetric
 _D = RemeshOptions()
 
 
-def remesh_full(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity, resolution: int = _D.resolution,
-                mode: str = _D.mode.name, boundary: str = _D.boundary.name, domain: str = _D.domain.name,
+def remesh_full(V: npt.ArrayLike, F: npt.ArrayLike, *, target_vertices: int, adaptivity: float = _D.adaptivity,
+                resolution: int = _D.resolution, mode: str | RemeshMode = _D.mode.name,
+                boundary: str | RemeshBoundary = _D.boundary.name, domain: str | _native.UvBoundary = _D.domain.name,
                 boundary_clearance: float = _D.boundary_clearance, flip_3d: bool = _D.flip_3d, eta: float = _D.eta,
                 uopt_steps: int = _D.uopt_steps, lloyd_iterations: int = _D.lloyd_iterations,
-                relax_metric: str = _D.relax_metric.name, min_separation: float = _D.min_separation,
-                smooth_iterations: int = _D.smooth_iterations, progress=None) -> RemeshResult:
+                relax_metric: str | RemeshRelaxMetric = _D.relax_metric.name,
+                min_separation: float = _D.min_separation, smooth_iterations: int = _D.smooth_iterations,
+                progress: Progress | None = None) -> RemeshResult:
     """:func:`remesh` with all options and diagnostics; see there for the common ones.
 
     lloyd_iterations: density-weighted Lloyd steps after the error diffusion (Lloyd 1982; the
@@ -95,8 +98,10 @@ def remesh_full(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity
     return _native.remesh(V, F, o, progress)
 
 
-def remesh(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity, resolution: int = _D.resolution,
-           mode: str = _D.mode.name, boundary: str = _D.boundary.name, progress=None) -> tuple[np.ndarray, np.ndarray]:
+def remesh(V: npt.ArrayLike, F: npt.ArrayLike, *, target_vertices: int, adaptivity: float = _D.adaptivity,
+           resolution: int = _D.resolution, mode: str | RemeshMode = _D.mode.name,
+           boundary: str | RemeshBoundary = _D.boundary.name,
+           progress: Progress | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Remesh one disk-shaped chart with about ``target_vertices`` vertices (thesis 5.4).
 
     V: (n, 3) vertex positions; F: (m, 3) triangles forming one piece with one boundary loop and
@@ -121,7 +126,7 @@ def remesh(V, F, *, target_vertices: int, adaptivity: float = _D.adaptivity, res
     return r.V, r.F
 
 
-def point_mesh_distance(P, V, F, *, candidates: int = 16) -> np.ndarray:
+def point_mesh_distance(P: npt.ArrayLike, V: npt.ArrayLike, F: npt.ArrayLike, *, candidates: int = 16) -> np.ndarray:
     """Distance from each point of P (k, 3) to the triangle mesh (V, F): exact distances to the
     triangles whose centroids are among the ``candidates`` nearest (so it can only over-estimate)."""
     V = as_vertices(V)

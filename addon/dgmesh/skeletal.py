@@ -15,9 +15,14 @@ bone), Z and the head. Dense meshes (more faces than ``control_faces``) go throu
 multiresolution layer: the skeletal machinery runs on a decimated control mesh.
 """
 
-import numpy as np
+import os
+from collections.abc import Mapping
+from typing import Any
 
-from .core import MeshError, _native, as_choice, as_count, as_faces, as_real, as_vertices, make_options
+import numpy as np
+import numpy.typing as npt
+
+from .core import MeshError, Progress, _native, as_choice, as_count, as_faces, as_real, as_vertices, make_options
 
 __all__ = [
     "SkeletalRig",
@@ -82,19 +87,19 @@ def _default_segments(bones_rest, V):
 class SkeletalRig:
     """A mesh bound to a set of bones. Create with :meth:`bind` or :meth:`from_arrays`."""
 
-    def __init__(self, native):
+    def __init__(self, native: _native.SkeletalRig) -> None:
         self._rig = native
 
     @classmethod
     def bind(
         cls,
-        V,
-        F,
-        bones_rest,
-        weights=None,
+        V: npt.ArrayLike,
+        F: npt.ArrayLike,
+        bones_rest: npt.ArrayLike,
+        weights: npt.ArrayLike | None = None,
         *,
-        bone_heads=None,
-        bone_tails=None,
+        bone_heads: npt.ArrayLike | None = None,
+        bone_tails: npt.ArrayLike | None = None,
         control_faces: int = _BIND.control_faces,
         multires_level: int = _BIND.multires_level,
         fit_iterations: int = _BIND.multires_fit_iterations,
@@ -102,7 +107,7 @@ class SkeletalRig:
         frame_regularization: float = _BIND.frame_regularization,
         presmooth_iterations: int = _BIND.skeleton.presmooth_iterations,
         postsmooth_iterations: int = _BIND.skeleton.postsmooth_iterations,
-        progress=None,
+        progress: Progress | None = None,
     ) -> "SkeletalRig":
         """Binds a closed manifold mesh (V, F) to bones.
 
@@ -154,9 +159,10 @@ class SkeletalRig:
                      postsmooth_iterations=as_count(postsmooth_iterations, "postsmooth_iterations"))
         return cls(_native.SkeletalRig.bind(V, F, R, W, heads, tails, o, progress))
 
-    def deform(self, bones_pose, *, fairing_steps: int = _DEFORM.fairing_steps, method: str = _DEFORM.method.name,
-               fairing_step: float = _DEFORM.fairing_step, homotopy_steps: int = _DEFORM.homotopy_steps,
-               fold_iterations: int = _DEFORM.fold_iterations, projection: float = _DEFORM.projection, out=None,
+    def deform(self, bones_pose: npt.ArrayLike, *, fairing_steps: int = _DEFORM.fairing_steps,
+               method: str | SkeletalMethod = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
+               homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
+               projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
                bone_clearance: float = _DEFORM.bone_clearance) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
@@ -201,17 +207,17 @@ class SkeletalRig:
                                 "(%d, 3)" % self.n_vertices)
         return self._rig.deform(P, o, out)
 
-    def deform_control(self, bones_pose, *, fairing_steps: int = _DEFORM.fairing_steps,
-                       method: str = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
+    def deform_control(self, bones_pose: npt.ArrayLike, *, fairing_steps: int = _DEFORM.fairing_steps,
+                       method: str | SkeletalMethod = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
                        homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
-                       bone_clearance: float = _DEFORM.bone_clearance):
+                       bone_clearance: float = _DEFORM.bone_clearance) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                                  dual_quaternion, bone_clearance)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o)
 
-    def skeleton_pose(self, bones_pose):
+    def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
         """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""
         return self._rig.skeleton_pose(_mats(bones_pose, "bones_pose", self.n_bones))
 
@@ -225,20 +231,21 @@ class SkeletalRig:
                             dual_quaternion=bool(dual_quaternion), bone_clearance=float(bone_clearance))
 
     # --- bind data ---------------------------------------------------------------------------
-    def __reduce__(self):
+    def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:
         # pickle / copy.deepcopy through the exact array round trip (e.g. to send it to another process)
         return (type(self).from_arrays, (self.to_arrays(),))
 
     # Bind data entries that are single values (the rest are arrays).
     _SCALARS = {"frame_regularization": float, "has_multires": bool, "mr_level": int}
 
-    def to_arrays(self):
+    def to_arrays(self) -> dict[str, np.ndarray]:
         """The bind data as a dict of numpy arrays (np.savez-able); :meth:`from_arrays` restores it.
         Single values are 0-d arrays."""
         return {k: np.asarray(v) if k in self._SCALARS else np.ascontiguousarray(v) for k, v in self._rig.data().items()}
 
     @classmethod
-    def from_arrays(cls, arrays):
+    def from_arrays(cls, arrays: Mapping[str, npt.ArrayLike]) -> "SkeletalRig":
+        """Restores a binding from :meth:`to_arrays` output (a dict or an ``np.load`` archive)."""
         d = dict(arrays)
         for k, kind in cls._SCALARS.items():
             # Data saved before 0-d arrays holds these as 1-element arrays (numpy 2.4 no longer
@@ -253,13 +260,14 @@ class SkeletalRig:
                 d[k] = np.ascontiguousarray(d[k], dtype=np.int32)
         return cls(_native.SkeletalRig.from_data(d))
 
-    def save(self, path):
+    def save(self, path: str | bytes | os.PathLike) -> None:
         """Writes the bind data to a .npz file."""
         with open(path, "wb") as fh:  # a file object: numpy would add ".npz" to a path without it
             np.savez_compressed(fh, **self.to_arrays())
 
     @classmethod
-    def load(cls, path):
+    def load(cls, path: str | bytes | os.PathLike) -> "SkeletalRig":
+        """Reads bind data written by :meth:`save`."""
         with np.load(path) as z:
             return cls.from_arrays({k: z[k] for k in z.files})
 
@@ -276,11 +284,11 @@ class SkeletalRig:
     weights = property(lambda self: np.ascontiguousarray(self._rig.weights), doc="(n_control, B) bone weights of the skeletal vertices")
 
 
-def skeletal_mesh(V, F, *, presmooth_iterations: int = _SKELETON.presmooth_iterations,
+def skeletal_mesh(V: npt.ArrayLike, F: npt.ArrayLike, *, presmooth_iterations: int = _SKELETON.presmooth_iterations,
                   presmooth_step: float = _SKELETON.presmooth_step,
                   postsmooth_iterations: int = _SKELETON.postsmooth_iterations,
                   postsmooth_step: float = _SKELETON.postsmooth_step, spike_factor: float = _SKELETON.spike_factor,
-                  max_pole_angle: float = _SKELETON.max_pole_angle):
+                  max_pole_angle: float = _SKELETON.max_pole_angle) -> tuple[np.ndarray, np.ndarray]:
     """Skeletal mesh of a closed mesh (thesis 6.1): (S (n, 3), radii (n,)), views of one
     :class:`SkeletalMesh`. Faces are F's. Defaults: ``SkeletonOptions()``."""
     V = as_vertices(V)
@@ -295,19 +303,20 @@ def skeletal_mesh(V, F, *, presmooth_iterations: int = _SKELETON.presmooth_itera
     return s.S, s.radii
 
 
-def union_of_balls_distance(X, centers, radii):
+def union_of_balls_distance(X: npt.ArrayLike, centers: npt.ArrayLike, radii: npt.ArrayLike) -> np.ndarray:
     """Signed distance of points to the union of balls (eq. 6.13): min_j |x - c_j| - r_j."""
     return _native.union_of_balls_distance(as_vertices(X), as_vertices(centers, "centers"),
                                            np.ascontiguousarray(radii, dtype=np.float64))
 
 
-def gaussian_bone_weights(P, heads, tails, sigma):
+def gaussian_bone_weights(P: npt.ArrayLike, heads: npt.ArrayLike, tails: npt.ArrayLike, sigma: float) -> np.ndarray:
     """Normalised Gaussian weights (n, B) of the distances of points to bone segments."""
     return _native.gaussian_bone_weights(as_vertices(P), as_vertices(heads, "heads"), as_vertices(tails, "tails"),
                                          float(sigma))
 
 
-def skeletal_subspace_deform(P, weights, bones_rest, bones_pose, *, dual_quaternion=False):
+def skeletal_subspace_deform(P: npt.ArrayLike, weights: npt.ArrayLike, bones_rest: npt.ArrayLike,
+                             bones_pose: npt.ArrayLike, *, dual_quaternion: bool = False) -> np.ndarray:
     """Linear blend skinning / SSD (eq. 6.2) of points with (n, B) weights, or with
     ``dual_quaternion`` dual quaternion blending of the bone motions (how SkeletalRig poses its
     skeletal mesh by default, before its bone clearance)."""
@@ -316,13 +325,13 @@ def skeletal_subspace_deform(P, weights, bones_rest, bones_pose, *, dual_quatern
                                             _mats(bones_pose, "bones_pose", len(R)), bool(dual_quaternion))
 
 
-def delaunay_3d(points):
+def delaunay_3d(points: npt.ArrayLike) -> dict[str, np.ndarray]:
     """Delaunay tetrahedralisation (Qhull): dict with tets (m, 4), circumcenters (m, 3) (the Voronoi
     vertices), circumradii, and the tets around each point as CSR point_offset / point_tets."""
     return _native.delaunay_3d(as_vertices(points, "points"))
 
 
-def delaunay_2d(points):
+def delaunay_2d(points: npt.ArrayLike) -> np.ndarray:
     """Delaunay triangulation (Qhull) of (n, 2) points: (m, 3) counter-clockwise triangles."""
     P = np.ascontiguousarray(points, dtype=np.float64)
     if P.ndim != 2 or P.shape[1] != 2:
@@ -330,7 +339,8 @@ def delaunay_2d(points):
     return _native.delaunay_2d(P)
 
 
-def capsule(radius=0.5, length=6.0, around=32, cap_rings=6, cylinder_rings=48):
+def capsule(radius: float = 0.5, length: float = 6.0, around: int = 32, cap_rings: int = 6,
+            cylinder_rings: int = 48) -> tuple[np.ndarray, np.ndarray]:
     """Closed capsule along x (cylinder of ``length`` plus two hemispherical caps), centred at the
     origin, with alternating ring offsets so that triangles are near-equilateral: (V, F)."""
     prof = []

@@ -25,8 +25,9 @@ normalisation: 1 is an isometry up to scale; infinite when a UV triangle has zer
 """
 
 import numpy as np
+import numpy.typing as npt
 
-from .core import MeshError, _native, as_count, as_faces, as_real, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_count, as_faces, as_real, as_vertices, make_options
 
 __all__ = ["UnwrapOptions", "UnwrapResult", "UnwrapStep", "UnwrapChartsResult", "UnwrapChartError", "UvMetrics",
            "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults", "unwrap", "unwrap_charts", "uv_metrics",
@@ -67,10 +68,11 @@ def _options(boundary, weights, eta, iterations, slide_boundary, max_iterations,
                         min_improvement=min_improvement, solver=solver)
 
 
-def unwrap(V, F, *, boundary: str = _D.boundary.name, weights: str = _D.weights.name, eta: float = _D.eta,
-           iterations: int | str = _D.iterations, slide_boundary: bool = _D.slide_boundary,
-           max_iterations: int = _D.max_iterations, min_improvement: float = _D.min_improvement,
-           solver: str = _D.solver.name, progress=None) -> UnwrapResult:
+def unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, boundary: str | UvBoundary = _D.boundary.name,
+           weights: str | UvWeights = _D.weights.name, eta: float = _D.eta, iterations: int | str = _D.iterations,
+           slide_boundary: bool = _D.slide_boundary, max_iterations: int = _D.max_iterations,
+           min_improvement: float = _D.min_improvement, solver: str | UvSolver = _D.solver.name,
+           progress: Progress | None = None) -> UnwrapResult:
     """Low-stretch parameterization of one disk-like chart (thesis chapter 5).
 
     V: (n, 3) vertex positions, F: (m, 3) triangles (one connected piece of genus 0 with at least
@@ -114,10 +116,11 @@ def unwrap(V, F, *, boundary: str = _D.boundary.name, weights: str = _D.weights.
     return _native.unwrap(V, F, o, progress)
 
 
-def unwrap_charts(V, F, charts, *, boundary: str = _D.boundary.name, weights: str = _D.weights.name,
+def unwrap_charts(V: npt.ArrayLike, F: npt.ArrayLike, charts: npt.ArrayLike, *,
+                  boundary: str | UvBoundary = _D.boundary.name, weights: str | UvWeights = _D.weights.name,
                   eta: float = _D.eta, iterations: int | str = _D.iterations, slide_boundary: bool = _D.slide_boundary,
                   max_iterations: int = _D.max_iterations, min_improvement: float = _D.min_improvement,
-                  solver: str = _D.solver.name, progress=None) -> UnwrapChartsResult:
+                  solver: str | UvSolver = _D.solver.name, progress: Progress | None = None) -> UnwrapChartsResult:
     """Every chart of a mesh in one call: ``charts`` (m,) labels the triangles 0 .. k-1 (every
     label used), and chart c (the triangles labelled c) is unwrapped as :func:`unwrap` unwraps it
     alone (its vertices in increasing order of their index in V, its triangles in the order of F).
@@ -153,7 +156,8 @@ def _as_uv(V, F, UV):
         f"UV must be per vertex ({len(V)}, 2) or per triangle corner ({len(F)}, 3, 2), got {UV.shape}")
 
 
-def uv_metrics(V, F, UV, *, zero_area_eps: float = _D.zero_area_eps) -> UvMetrics:
+def uv_metrics(V: npt.ArrayLike, F: npt.ArrayLike, UV: npt.ArrayLike, *,
+               zero_area_eps: float = _D.zero_area_eps) -> UvMetrics:
     """Distortion metrics of thesis 5.3 for a UV map (:class:`UvMetrics`).
 
     UV: per-vertex (n, 2), or per triangle corner (m, 3, 2) (e.g. a Blender UV map with seams).
@@ -168,8 +172,8 @@ def uv_metrics(V, F, UV, *, zero_area_eps: float = _D.zero_area_eps) -> UvMetric
     return _native.uv_metrics(Vs, Fs, UVs, as_real(zero_area_eps, "zero_area_eps", 0.0))
 
 
-def uv_stretch(V, F, UV, *, uv_faces=None, per: str = "vertex",
-               zero_area_eps: float = _D.zero_area_eps) -> np.ndarray:
+def uv_stretch(V: npt.ArrayLike, F: npt.ArrayLike, UV: npt.ArrayLike, *, uv_faces: npt.ArrayLike | None = None,
+               per: str = "vertex", zero_area_eps: float = _D.zero_area_eps) -> np.ndarray:
     """Sander's stretch (normalised, 1 = no stretch) per triangle (``per="face"``) or per vertex
     (``per="vertex"``: eq. 5.1, area-weighted over the incident triangles). UV as in
     :func:`uv_metrics`; or, with ``uv_faces`` (m, 3), any (k, 2) array whose row ``uv_faces[i, j]``
@@ -201,7 +205,7 @@ def uv_stretch(V, F, UV, *, uv_faces=None, per: str = "vertex",
         return np.where(den > 0, np.sqrt(num / np.where(den > 0, den, 1.0)), 0.0)
 
 
-def chart_labels(n, pairs):
+def chart_labels(n: int, pairs: npt.ArrayLike) -> np.ndarray:
     """Connected components of n items linked by (k, 2) index pairs (union-find, native)."""
     pairs = np.ascontiguousarray(np.asarray(pairs, dtype=np.int32).reshape(-1, 2))
     return np.asarray(_native.connected_labels(int(n), pairs))
