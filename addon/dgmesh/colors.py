@@ -1,4 +1,4 @@
-"""Colour maps for scalar fields on meshes (numpy only, no bpy).
+"""Colour maps for scalar fields on meshes and distinct colours for labels (numpy only, no bpy).
 
 Every map returns an (n, 4) float32 RGBA array in *linear* colour space,
 which is what Blender's FLOAT_COLOR attributes store (BYTE_COLOR's ``color``
@@ -6,6 +6,8 @@ property converts from linear as well).  The palettes are defined by sRGB
 control points and converted, so the viewport shows the intended colours.
 Non-finite input values map to a neutral grey.
 """
+
+import colorsys
 
 import numpy as np
 
@@ -18,6 +20,7 @@ __all__ = [
     "upper_limit",
     "diverging",
     "sequential",
+    "segment_colors",
 ]
 
 # Signed fields (curvature): blue negative, near-white zero, red positive.
@@ -133,3 +136,14 @@ def sequential(values, vmax=None, vmin=0.0, percentile=95.0):
         span = 1.0
     v = np.asarray(values, dtype=np.float64).ravel()
     return _lookup((v - float(vmin)) / span, SEQUENTIAL_SRGB)
+
+
+def segment_colors(n: int) -> np.ndarray:
+    """n distinct linear RGBA colours (golden-ratio hue steps), (n, 4) float32: one per segment
+    label (Segment's face colours)."""
+    hues = (np.arange(n) * 0.618033988749895) % 1.0
+    rgb = np.array([colorsys.hsv_to_rgb(h, 0.55 + 0.3 * (i % 2), 0.9 - 0.15 * (i % 3 == 2))
+                    for i, h in enumerate(hues)])
+    out = np.ones((n, 4), dtype=np.float32)
+    out[:, :3] = srgb_to_linear(rgb)
+    return out

@@ -53,3 +53,12 @@ def test_sequential_is_ordered():
 def test_srgb_to_linear():
     np.testing.assert_allclose(colors.srgb_to_linear(np.array([0.0, 0.5, 1.0])),
                                [0.0, 0.21404, 1.0], atol=1e-5)
+
+
+def test_segment_colors_are_distinct_linear_rgba():
+    rgba = colors.segment_colors(7)
+    assert rgba.shape == (7, 4) and rgba.dtype == np.float32 and np.all(rgba[:, 3] == 1.0)
+    # Label 0: hue 0, saturation 0.55, value 0.9 -> sRGB (0.9, 0.405, 0.405), stored linear.
+    assert np.allclose(rgba[0, :3], [0.787412, 0.136400, 0.136400], atol=1e-6)
+    assert len(np.unique(rgba.round(4), axis=0)) == 7
+    assert np.array_equal(colors.segment_colors(3), rgba[:3])  # a label keeps its colour

@@ -1,5 +1,6 @@
 """dgmesh.polymesh: the add-on's polygon-mesh work in plain numpy (n-gon triangle repair, edge
-lookup and routing, region orientation, mirror planes, seam charts, attribute transfer)."""
+lookup and routing, region orientation, mirror planes, seam charts, attribute transfer, corners of
+new triangles, result measures, vertex references, crest lines as edges)."""
 
 import numpy as np
 import pytest
@@ -413,3 +414,106 @@ def test_corner_values_follow_their_vertex_across_a_merge():
     assert out[4].tolist() == [9, 9] and out[3].tolist() == [0, 0]
     ints = np.arange(6, dtype=np.int32)[:, None]
     assert polymesh.decimated_corner_values(ints, plan, None, None, 3).ravel().tolist() == [3, 4, 4, 0, 1, 2]
+
+
+# --- corners of triangles that replace polygons ---------------------------------------------
+
+def test_corner_weights_are_inverse_squared_distances_and_exact_at_corners():
+    Q = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]], float)  # a unit square
+    P = np.array([[[0.5, 0, 0], [1, 1, 0], [0.5, 0.5, 0]]])
+    W = polymesh.corner_weights(P, Q)
+    assert W.shape == (1, 3, 4)
+    # Distances 0.5, 0.5, sqrt(1.25), sqrt(1.25): weights 4, 4, 0.8, 0.8 over 9.6.
+    assert np.allclose(W[0, 0], [5 / 12, 5 / 12, 1 / 12, 1 / 12])
+    assert W[0, 1].tolist() == [0, 0, 1, 0]  # on a corner: that corner's alone
+    assert np.allclose(W[0, 2], 0.25)
+
+
+def test_interpolate_corners_blends_floats_and_takes_the_nearest_integer():
+    """A quad (vertices 0-3, loops 0-3) replaced by a fan around its centre (vertex 4) and a
+    triangle (vertices 1, 5, 2, loops 4-6) kept as it is: polygons of two sizes."""
+    V = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0], [2, 0.5, 0]], float)
+    loop_start, loop_total = np.array([0, 4]), np.array([4, 3])
+    loop_vertex = np.array([0, 1, 2, 3, 1, 5, 2])
+    tris = np.array([[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4], [1, 5, 2]])
+    src = np.array([0, 0, 0, 0, 1])
+    uv = V[loop_vertex, :2] + np.array([[0, 0]] * 4 + [[10, 0]] * 3)  # the triangle's UVs apart
+    ids = np.array([[10], [11], [12], [13], [20], [21], [22]], dtype=np.int32)
+    for chunk in (1 << 20, 3):  # all rows at once, or one at a time
+        (k1, cu), (k2, ci) = polymesh.interpolate_corners(V, tris, src, loop_start, loop_total, loop_vertex,
+                                                          [("uv", uv), ("id", ids)], chunk=chunk)
+        assert (k1, k2) == ("uv", "id") and cu.shape == (5, 3, 2) and ci.dtype == np.int32
+        assert np.allclose(cu[0], [[0, 0], [1, 0], [0.5, 0.5]])  # the centre: the mean of four
+        assert np.allclose(cu[2], [[1, 1], [0, 1], [0.5, 0.5]])
+        assert np.allclose(cu[4], [[11, 0], [12, 0.5], [11, 1]])  # the triangle's own loops
+        assert ci[:, :, 0].tolist() == [[10, 11, 10], [11, 12, 10], [12, 13, 10], [13, 10, 10], [20, 21, 22]]
+
+
+# --- measures of a result --------------------------------------------------------------------
+
+def test_moved_count_ignores_rounding():
+    V0 = np.array([[0, 0, 0], [2, 0, 0], [0, 2, 0], [0, 0, 2]], float)
+    V = V0.copy()
+    V[1, 0] += 1e-6   # moved
+    V[2, 1] += 1e-12  # rounding: below 1e-9 of the size 2
+    V[3] = [0, 0, 1]  # moved
+    assert polymesh.moved_count(V, V0) == 2
+    assert polymesh.moved_count(V0, V0) == 0
+    assert polymesh.moved_count(np.zeros((0, 3)), np.zeros((0, 3))) == 0
+
+
+def test_min_angle_deg():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0.5, 3 ** 0.5 / 2, 0]])
+    assert polymesh.min_angle_deg(V, np.array([[0, 1, 2]])) == pytest.approx(45.0)
+    assert polymesh.min_angle_deg(V, np.array([[0, 1, 3]])) == pytest.approx(60.0)
+    assert polymesh.min_angle_deg(V, np.array([[0, 1, 3], [0, 1, 2]])) == pytest.approx(45.0)
+    assert polymesh.min_angle_deg(V, np.zeros((0, 3), int)) == 0.0
+
+
+def test_nearest_output_sends_a_removed_vertex_to_the_nearest_new_one():
+    ids = np.array([10, 11, 12])  # the region's mesh vertices
+    V = np.array([[0, 0, 0], [1, 0, 0], [2, 0, 0]], float)
+    V_out = np.array([[1.9, 0, 0], [0.2, 0, 0], [1.2, 0, 0]])
+    nearest = polymesh.nearest_output(V_out, ids, V, np.array([100, 101, 102]))
+    assert [int(nearest(v)) for v in (10, 11, 12)] == [101, 102, 100]
+    with pytest.raises(KeyError):
+        nearest(13)  # not in the region
+
+
+# --- crest lines as mesh edges ---------------------------------------------------------------
+
+def quad_arrays(V, quads):
+    """MeshArrays of a quad mesh: two triangles per quad, the quads' own edges (no diagonals)."""
+    Q = np.asarray(quads)
+    F = np.concatenate([Q[:, [0, 1, 2]], Q[:, [0, 2, 3]]]).astype(np.int32)
+    tri_poly = np.r_[np.arange(len(Q)), np.arange(len(Q))].astype(np.int32)
+    edges = np.unique(np.sort(np.stack([Q, np.roll(Q, -1, axis=1)], -1).reshape(-1, 2), axis=1), axis=0)
+    return MeshArrays(np.asarray(V, float), F, np.zeros_like(F), tri_poly, edges.astype(np.int32))
+
+
+def test_crest_edges_follow_the_rounded_edges_of_a_cube_on_its_quad_edges():
+    V, quads = shapes.rounded_cube(12, 0.3, quads=True)
+    arrays = quad_arrays(V, quads)
+    lines = dgmesh.crest_lines(arrays.V, arrays.F)
+    assert len(lines) > 0 and lines.is_ridge.all()  # ridges only
+    ridge, valley = polymesh.crest_edges(lines, arrays)
+    assert ridge.shape == valley.shape == (len(arrays.edges),)
+    assert not valley.any()
+    # Every marked edge lies on a rounded edge (two coordinates in the rounding, |c| > 1 - r), and
+    # each of the 12 rounded edges is followed along most of its length.
+    on = (np.abs(arrays.V) > 0.7 - 1e-9).sum(1) >= 2
+    E = arrays.edges[ridge]
+    assert on[E].all()
+    assert ridge.sum() >= 12 * 6
+    # Where a line crosses a quad's diagonal, the marked quad edges are routed around it: the
+    # marked edges form paths without gaps, whose only ends are the lines' ends.
+    degree = np.bincount(E.ravel(), minlength=len(V))
+    assert np.count_nonzero(degree == 1) <= 2 * len(lines)
+
+
+def test_crest_edges_of_no_lines_mark_nothing():
+    V, F = shapes.grid(4, 4)
+    E = np.unique(np.sort(F[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0).astype(np.int32)
+    arrays = MeshArrays(V, F, np.zeros_like(F), np.arange(len(F), dtype=np.int32), E)
+    ridge, valley = polymesh.crest_edges(dgmesh.crest_lines(V, F), arrays)
+    assert ridge.shape == (len(E),) and not ridge.any() and not valley.any()

@@ -42,7 +42,6 @@ and CrestOptions for Crest Lines, decimate_feature_defaults() for Feature Decima
 SegmentOptions and segment_feature_defaults() for Segment.
 """
 
-import colorsys
 import hashlib
 
 import bpy
@@ -182,34 +181,6 @@ def cached_crest_lines(arrays, rings, progress=None):
     return lines
 
 
-def crest_edges(lines, arrays):
-    """Boolean masks over the mesh's own edges following the ridges and the valleys.
-
-    Points snap to the nearer end of their edge; consecutive snapped vertices are joined by the
-    real (polygon) edge between them, or by a short path of real edges when they are joined by a
-    triangulation diagonal of an n-gon or a gap jump.
-    """
-    dg = api()
-    E = arrays.edges
-    nv = len(arrays.V)
-    ridge = np.zeros(len(E), bool)
-    valley = np.zeros(len(E), bool)
-    if len(lines) == 0 or len(E) == 0:
-        return ridge, valley
-    pairs, line = dg.crest.snap_to_vertices(lines, arrays.V, arrays.F)
-    kind = lines.line_kind[line]
-    lookup = polymesh.edge_lookup(E, nv)
-    idx = polymesh.find_edges(lookup, pairs)
-    missing = np.flatnonzero(idx < 0)
-    if missing.size:
-        routed, owner = polymesh.route_edges(pairs[missing], E, lookup)
-        idx = np.concatenate([idx, routed])
-        kind = np.concatenate([kind, kind[missing[owner]]])
-    ridge[idx[(idx >= 0) & (kind == dg.crest.RIDGE)]] = True
-    valley[idx[(idx >= 0) & (kind == dg.crest.VALLEY)]] = True
-    return ridge, valley
-
-
 def _write_edge_bool(mesh, name, values):
     attr = mesh.attributes.get(name)
     if attr is not None and (attr.data_type != 'BOOLEAN' or attr.domain != 'EDGE'):
@@ -274,16 +245,6 @@ def _curve_objects(context, objects, lines):
         cobj.parent = obj
 
 
-def _segment_colors(n):
-    """n distinct linear RGBA colours (golden-ratio hue steps)."""
-    hues = (np.arange(n) * 0.618033988749895) % 1.0
-    rgb = np.array([colorsys.hsv_to_rgb(h, 0.55 + 0.3 * (i % 2), 0.9 - 0.15 * (i % 3 == 2))
-                    for i, h in enumerate(hues)])
-    out = np.ones((n, 4), dtype=np.float32)
-    out[:, :3] = colors.srgb_to_linear(rgb)
-    return out
-
-
 class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
     bl_idname = "dgmesh.crest_lines"
     bl_label = "Crest Lines"
@@ -316,7 +277,7 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
     def compute(data, p, progress):
         arrays = data["arrays"]
         lines = cached_crest_lines(arrays, p["rings"], progress).filter(p["threshold"], p["ridges"], p["valleys"])
-        ridge, valley = crest_edges(lines, arrays)
+        ridge, valley = polymesh.crest_edges(lines, arrays)
         return lines, ridge, valley
 
     def write(self, context, obj, data, result):
@@ -693,7 +654,7 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
             mesh.attributes.new(ATTR_SEGMENT, 'INT', 'FACE')
         mesh.attributes[ATTR_SEGMENT].data.foreach_set("value", labels)
         # Flat colour per face: a face-corner colour attribute.
-        rgba = _segment_colors(max(n_seg, 1))[labels[loop_poly]]
+        rgba = colors.segment_colors(max(n_seg, 1))[labels[loop_poly]]
         cattr = mesh.attributes.get(ATTR_SEGMENT_COLOR)
         if cattr is not None and (cattr.data_type != 'FLOAT_COLOR' or cattr.domain != 'CORNER'):
             mesh.attributes.remove(cattr)

@@ -316,7 +316,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             r = t.result
             e0, e1 = float(r.energy[0]), float(r.energy[-1])
             n = len(t.arrays.V)
-            moved = _moved_count(r.vertices[:n], t.arrays.V)
+            moved = polymesh.moved_count(r.vertices[:n], t.arrays.V)
             if r.energy_rose and self.method == 'BILAPLACIAN':
                 level = 'WARNING'
                 status = (" (the bilaplacian flow shrinks a closed part towards a point: its lowest-energy state "
@@ -351,12 +351,6 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         return {'FINISHED'}
 
 
-def _moved_count(V, V0):
-    """Vertices moved by more than rounding (1e-9 of the mesh's size)."""
-    size = float(np.ptp(V0, axis=0).max()) if len(V0) else 0.0
-    return int((np.abs(V - V0).max(axis=1) > 1e-9 * max(size, 1e-300)).sum())
-
-
 def _modifier_note(t):
     """' (its base mesh, before Mirror, Subdivision)' when modifiers change what the user sees
     (' (both halves of its Mirror)' when the mirrored mesh was faired)."""
@@ -368,45 +362,6 @@ def _modifier_note(t):
         why = "a face lies in its plane"
     return (f" (its base mesh, before {', '.join(names[:3])}" + (f"; the Mirror is not used: {why}" if why else "")
             + ")") if names else ""
-
-
-def _corner_weights(P, Q):
-    """Weights (t, 3, k) of new corners P (t, 3, 3) over the k corners Q (t, k, 3) of the polygon
-    each triangle replaces: inverse squared distances, normalised; all on the first corner at the
-    same place (exact at shared vertices)."""
-    d = np.linalg.norm(P[:, :, None, :] - Q[:, None, :, :], axis=-1)
-    exact = d < 1e-12
-    w = 1.0 / np.maximum(d, 1e-12) ** 2
-    hit = np.nonzero(exact.any(-1))
-    w[hit] = 0.0
-    w[hit + (exact[hit].argmax(-1),)] = 1.0
-    return w / w.sum(-1, keepdims=True)
-
-
-def _interpolate_corners(V, tris, src, loop_start, loop_total, loop_vertex, layers, chunk=1 << 20):
-    """Corner data (UVs, colours, generic attributes) of new triangles from the polygons they
-    replace: corner j of triangle t (at V[tris[t, j]]) blends the corners of polygon src[t] (its
-    loops from loop_start/loop_total, their vertices loop_vertex, as read before the write) by
-    _corner_weights; integers and booleans come from the nearest corner. ``layers``: [(key, (loops,
-    k) values)]; returns [(key, (t, 3, k) values)]. All triangles at once, grouped by polygon size:
-    with a Python loop per face, writing 25K new faces with 7 corner layers took 1.6 s, now 0.2 s
-    (BMLoop.copy_from_face_interp would do it per face but fails on Blender 3.4 with Python 3.11)."""
-    out = [np.zeros((len(tris), 3, C.shape[1]), C.dtype if C.dtype.kind in "ib" else float) for _, C in layers]
-    size = loop_total[src]
-    for k in np.unique(size).tolist():
-        rows_k = np.flatnonzero(size == k)
-        for s in range(0, len(rows_k), max(1, chunk // (3 * k))):  # bounded memory for large n-gons
-            rows = rows_k[s:s + max(1, chunk // (3 * k))]
-            loops = loop_start[src[rows]][:, None] + np.arange(k)
-            W = _corner_weights(V[tris[rows]], V[loop_vertex[loops]])
-            near = W.argmax(-1)
-            for o, (_key, C) in zip(out, layers):
-                Cs = C[loops]  # (g, k, width)
-                if C.dtype.kind in "ib":
-                    o[rows] = Cs[np.arange(len(rows))[:, None], near]
-                else:
-                    o[rows] = np.einsum("gjk,gkw->gjw", W, Cs)
-    return [(key, o) for (key, _C), o in zip(layers, out)]
 
 
 def _write_subdivided(t, select):
@@ -496,8 +451,8 @@ def _write_subdivided(t, select):
     if len(made_rows):
         loops = bridge.new_face_loops(mesh, made_polys, vindex[F[made_rows]])
         if layers:
-            corner = _interpolate_corners(V, F[made_rows], poly_of_row[made_rows], loop_start, loop_total,
-                                          loop_vertex, layers)
+            corner = polymesh.interpolate_corners(V, F[made_rows], poly_of_row[made_rows], loop_start, loop_total,
+                                                  loop_vertex, layers)
             bridge.write_corners(mesh, loops, corner)
     _select_faces(mesh, np.concatenate([made_polys, kept_polys]), select)
     mesh.update()
@@ -561,7 +516,7 @@ class DGMESH_OT_regularize(_FairBase, bpy.types.Operator):
         with bridge.object_mode(context):
             for t in targets:
                 bridge.write_positions(t.obj.data, t.result)
-        moved = sum(_moved_count(t.result, t.arrays.V) for t in targets)
+        moved = sum(polymesh.moved_count(t.result, t.arrays.V) for t in targets)
         secs = time.perf_counter() - self._t0
         mods = "".join(_modifier_note(t) for t in targets[:1])
         self.report({'INFO'}, f"Regularize: {moved} vertices moved on {len(targets)} object(s){mods}, "

@@ -37,18 +37,6 @@ MODES = enum_items(RemeshMode, {
 DEFAULTS = RemeshOptions()  # property defaults: the library's own (dgmesh/remesh.h)
 
 
-def _min_angle_deg(V, F):
-    if len(F) == 0:
-        return 0.0
-    out = 180.0
-    for k in range(3):
-        a, b, c = V[F[:, k]], V[F[:, (k + 1) % 3]], V[F[:, (k + 2) % 3]]
-        u, v = b - a, c - a
-        cos = (u * v).sum(1) / np.maximum(np.linalg.norm(u, axis=1) * np.linalg.norm(v, axis=1), 1e-300)
-        out = min(out, float(np.degrees(np.arccos(np.clip(cos, -1, 1))).min()))
-    return out
-
-
 class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
     bl_idname = "dgmesh.remesh"
     bl_label = "Remesh (Double Parameterization)"
@@ -198,10 +186,12 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                 refs = bridge.has_vertex_references(mesh)
                 new_index, out_index = _replace_region(mesh, it, select_new=edit, renumbering=refs)
                 if refs:
-                    bridge.remap_vertex_references(mesh, new_index, _nearest_output(it, out_index))
+                    nearest = polymesh.nearest_output(it["result"].V, it["ids"], it["V"], out_index)
+                    bridge.remap_vertex_references(mesh, new_index, nearest)
                 r = it["result"]
                 lines.append(f"'{it['name']}': {len(it['ids'])} -> {len(r.V)} vertices, "
-                             f"{len(it['F'])} -> {len(r.F)} triangles, min angle {_min_angle_deg(r.V, r.F):.1f} deg")
+                             f"{len(it['F'])} -> {len(r.F)} triangles, "
+                             f"min angle {polymesh.min_angle_deg(r.V, r.F):.1f} deg")
         for w in sorted({w for it in items for w in it["result"].warnings})[:3]:
             self.report({'WARNING'}, w)
         # A kept boundary far coarser than the new spacing (Add > Plane: 4 corners for thousands of
@@ -294,17 +284,6 @@ def _write_new_faces(mesh, polys, want, corner, material, smooth, select_new):
         edge[bridge.get_array(mesh.loops, "edge_index", np.int32)[loops]] = True
         for coll, sel in ((mesh.polygons, poly), (mesh.vertices, vert), (mesh.edges, edge)):
             coll.foreach_set("select", sel)
-
-
-def _nearest_output(it, out_index):
-    """Where references to a removed vertex of the region go: the mesh vertex of the output vertex
-    nearest to it."""
-    r = it["result"]
-    chart = {int(v): k for k, v in enumerate(it["ids"])}
-
-    def nearest(old):
-        return out_index[np.argmin(np.linalg.norm(r.V - it["V"][chart[old]], axis=1))]
-    return nearest
 
 
 def _source_polygons(mesh, it, r):

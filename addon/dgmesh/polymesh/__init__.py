@@ -16,30 +16,40 @@ Blender. One purpose per module:
   :func:`nearest_sources`);
 * ``decimation``: a mesh's data carried onto its decimated triangles (:func:`corner_plan`,
   :func:`moved_vertex_lookup`, ...);
-* ``corners``: corner values of a re-triangulated region (:func:`island_corners`).
+* ``corners``: corner values of a re-triangulated region (:func:`island_corners`) and of triangles
+  that replace polygons (:func:`interpolate_corners`, :func:`corner_weights`);
+* ``measures``: numbers reported about a result (:func:`moved_count`, :func:`min_angle_deg`);
+* ``references``: where references to removed vertices go (:func:`nearest_output`);
+* ``lines``: crest lines as the mesh's own edges (:func:`crest_edges`).
 """
 
 from .attributes import blend_attributes, blend_group_weights, nearest_sources
 from .charts import split_charts
-from .corners import island_corners, shared_edges
+from .corners import corner_weights, interpolate_corners, island_corners, shared_edges
 from .decimation import (corner_plan, decimated_corner_values, largest_source_values, locked_vertices,
                          moved_vertex_lookup, moved_vertex_values, surviving_edges, transfer_corner_values,
                          vertex_sources, wire_edges)
 from .edges import EdgeLookup, edge_key, edge_keys, edge_lookup, face_edge_keys, find_edges, half_edge_keys
+from .lines import crest_edges
+from .measures import min_angle_deg, moved_count
 from .mesh import MeshArrays, ranges
 from .mirror import flip_off_mirror_planes, mirror_plane_bits, mirrored, on_mirror_planes, split_seam_edges
+from .references import nearest_output
 from .routing import adjacency, route, route_edges
 from .triangulation import orient_region, repair_ngon_triangles, unfold_ngon_triangles
 
 __all__ = [
     "blend_attributes", "blend_group_weights", "nearest_sources",
     "split_charts",
-    "island_corners", "shared_edges",
+    "corner_weights", "interpolate_corners", "island_corners", "shared_edges",
     "corner_plan", "decimated_corner_values", "largest_source_values", "locked_vertices", "moved_vertex_lookup",
     "moved_vertex_values", "surviving_edges", "transfer_corner_values", "vertex_sources", "wire_edges",
     "EdgeLookup", "edge_key", "edge_keys", "edge_lookup", "face_edge_keys", "find_edges", "half_edge_keys",
+    "crest_edges",
+    "min_angle_deg", "moved_count",
     "MeshArrays", "ranges",
     "flip_off_mirror_planes", "mirror_plane_bits", "mirrored", "on_mirror_planes", "split_seam_edges",
+    "nearest_output",
     "adjacency", "route", "route_edges",
     "orient_region", "repair_ngon_triangles", "unfold_ngon_triangles",
 ]

