@@ -111,7 +111,7 @@ class Struct {
     cls_.def(pb::init<>());
     cls_.attr("__fields__") = names_;
     cls_.def("__repr__", [](const pb::object& self) {
-      std::string s = pb::str(self.get_type().attr("__name__")).cast<std::string>() + "(";
+      std::string s = pb::str(pb::type::handle_of(self).attr("__name__")).cast<std::string>() + "(";
       bool first = true;
       for (const auto& f : self.attr("__fields__")) {
         if (!first) s += ", ";
@@ -126,7 +126,7 @@ class Struct {
       return s + ")";
     });
     cls_.def("__eq__", [](const pb::object& self, const pb::object& other) {
-      if (!other.get_type().is(self.get_type())) return false;
+      if (!pb::type::handle_of(other).is(pb::type::handle_of(self))) return false;
       for (const auto& f : self.attr("__fields__"))
         if (!pb::module_::import("numpy").attr("array_equal")(self.attr(f), other.attr(f)).cast<bool>()) return false;
       return true;
