@@ -1,6 +1,7 @@
-// Shared pieces of the mesh file readers and writers (io.cpp dispatches by extension to io_obj.cpp,
-// io_off.cpp and io_ply.cpp): errors naming the file and line, bounds-checked token parsing on
-// [begin, end) ranges, and a buffered writer. Not part of the library's interface.
+/// \file
+/// Shared pieces of the mesh file readers and writers (io.cpp dispatches by extension to io_obj.cpp,
+/// io_off.cpp and io_ply.cpp): errors naming the file and line, bounds-checked token parsing on
+/// [begin, end) ranges, and a buffered writer. Not part of the library's interface.
 #pragma once
 #include <algorithm>
 #include <cerrno>
@@ -45,7 +46,7 @@ inline const char* token_end(const char* p, const char* e) {
   return p;
 }
 
-// Token at p, shortened for error messages.
+/// Token at p, shortened for error messages.
 inline std::string show_token(const char* p, const char* e) {
   const char* t = token_end(p, e);
   std::string s(p, t);
@@ -53,7 +54,7 @@ inline std::string show_token(const char* p, const char* e) {
   return "'" + s + "'";
 }
 
-// Parses a double starting exactly at p. Returns the end of the number or nullptr.
+/// Parses a double starting exactly at p. Returns the end of the number or nullptr.
 inline const char* parse_double(const char* p, const char* e, double& out) {
   const char* s = p;
   if (s < e && *s == '+') {
@@ -71,7 +72,7 @@ inline const char* parse_double(const char* p, const char* e, double& out) {
   return r.ptr;
 }
 
-// Parses an integer starting exactly at p. Returns the end or nullptr (also on overflow).
+/// Parses an integer starting exactly at p. Returns the end or nullptr (also on overflow).
 inline const char* parse_int(const char* p, const char* e, int64_t& out) {
   const char* s = p;
   if (s < e && *s == '+') {
@@ -83,7 +84,7 @@ inline const char* parse_int(const char* p, const char* e, int64_t& out) {
   return r.ptr;
 }
 
-// Moves a flat buffer into an Eigen matrix with 3 columns.
+/// Moves a flat buffer into an Eigen matrix with 3 columns.
 template <class Mat, class T>
 Mat to_matrix(const std::vector<T>& v) {
   Mat m(static_cast<Eigen::Index>(v.size() / 3), 3);
@@ -156,7 +157,7 @@ class Writer {
   std::string buf_;
 };
 
-// The formats: readers take the whole file's bytes, writers the mesh already checked by write_mesh.
+/// The formats: readers take the whole file's bytes, writers the mesh already checked by write_mesh.
 MeshData read_obj(const std::string& path, const std::string& buf);
 MeshData read_off(const std::string& path, const std::string& buf);
 MeshData read_ply(const std::string& path, const std::string& buf);
