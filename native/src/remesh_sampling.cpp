@@ -300,6 +300,339 @@ ControlRaster control_raster(const SamplingChart& c, const VecXd& area3, const R
   return r;
 }
 
+namespace {
+
+// The point of the sampling map (map_point) or of the surface (surface_point) at input location q.
+Vec2 map_point(const MatX2d& Us, const MatX3i& F, const Sample& q) {
+  return Vec2(q.w0 * uv_row(Us, F(q.face, 0)) + q.w1 * uv_row(Us, F(q.face, 1)) + q.w2 * uv_row(Us, F(q.face, 2)));
+}
+
+Vec3 surface_point(const MatX3d& V, const MatX3i& F, const Sample& q) {
+  return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
+}
+
+  // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
+  // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
+  // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
+  // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
+  // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
+  // Voronoi cell over the points of the Lloyd grid (the sampling map rasterized at RL, a multiple of
+  // the control map's resolution). The cells are measured in the surface metric (nearest generator
+  // in 3D; the centroid is then taken in 3D and pulled onto the surface) or in the sampling map's
+  // own metric; boundary samples are fixed generators. The same step for all three modes. Error
+  // diffusion leaves a pattern that is isotropic in the sampling map, so stretched on the surface
+  // as the map is, and Lloyd steps undo that only slowly (a stretched lattice is itself a fixed
+  // point): with 4 steps sampling on U0 stayed more uniform than on Uopt where U0 is the less
+  // anisotropic map (nefertiti: 1.24 vs 1.33); steps until the samples settle make the map's
+  // signature small against the tie margins.
+// The interior samples with keep set move (samples); sets res.lloyd_iterations, adds to
+// res.seconds_relax. Relaxing requires o.lloyd_iterations > 0.
+void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const RemeshOptions& o, Progress& report,
+                 std::vector<Sample>& samples, const std::vector<char>& keep, RemeshResult& res) {
+  const MatX3d& V = c.V;
+  const MatX3i& F = c.F;
+  const Topology& topo = c.topo;
+  const MatX2d& Us = c.Us;
+  const MatX2d& Ut = c.Ut;
+  const VecXd& rho = c.rho;
+  const double rho_integral = c.rho_integral;
+  const int n_int = c.n_int, nb = int(c.bnd.x.size());
+  const std::vector<Vec3>& bnd_x = c.bnd.x;
+  const std::vector<Vec2>& bnd_s = c.bnd.s;
+  const ChartPieces& pieces = c.pieces;
+  const int R = raster.R, RL = raster.RL;
+  const std::vector<int>& lpix_face = RL != R ? raster.lpix_face_own : raster.pix_face;
+  const std::vector<double>& lpix_val = RL != R ? raster.lpix_val_own : raster.pix_val;
+  const std::vector<float>& lpix_x = RL != R ? raster.lpix_x_own : raster.pix_x;
+  const long nlpix = long(RL) * RL;
+  const bool relax_surface = o.relax_metric == RemeshRelaxMetric::Surface;
+  const double margin = 1e-9;
+  const auto t_relax = Clock::now();
+  std::vector<int> ids;  // interior samples taking part
+  for (size_t q = 0; q < samples.size(); ++q)
+    if (keep[q]) ids.push_back(int(q));
+  const int ni = int(ids.size());
+  const int ng = nb + ni;
+  MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
+  auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
+    if (relax_surface) G.row(g) = x.transpose();
+    else G.row(g) << su.x(), su.y(), 0.0;
+  };
+  for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
+  const int nthreads = nlpix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
+  constexpr int kAcc = 9;  // per generator: mass, mass x (map position, 3D position, face normal)
+  const MatX3d Nf = relax_surface ? face_normals(V, F) : MatX3d();
+  std::vector<double> acc(size_t(kAcc) * ng);
+  auto locate = [&](const Vec2& p, int f, Sample& out) { return locate_in_map(Us, F, topo, p, f, out); };
+  // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
+  // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
+  // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
+  // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
+  // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
+  std::vector<int> label(nlpix, -1);
+  std::vector<double> move2(ni);
+  constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
+  std::vector<int> nbr(size_t(ng) * kMaxNbr), nbr_n(ng);
+  auto pix_point = [&](long idx) {
+    if (relax_surface) return Vec3(lpix_x[3 * idx], lpix_x[3 * idx + 1], lpix_x[3 * idx + 2]);
+    return Vec3((idx % RL + 0.5) / RL, (idx / RL + 0.5) / RL, 0.0);
+  };
+  // Row bands list their neighbour pairs apart (the build was the step's largest serial part at
+  // 1024^2), then each generator's lists are merged and sorted: the walk's visiting order, and so
+  // the labels, must not depend on the number of bands.
+  const int nadj = std::clamp(nthreads, 1, 4);
+  std::vector<int> band_nbr(size_t(nadj) * ng * kMaxNbr), band_n(size_t(nadj) * ng);
+  auto build_adjacency = [&]() {
+    std::fill(band_n.begin(), band_n.end(), 0);
+#pragma omp parallel for schedule(static, 1) num_threads(nadj) if (nadj > 1)
+    for (int t = 0; t < nadj; ++t) {
+      int* tl = band_nbr.data() + size_t(t) * ng * kMaxNbr;
+      int* tn = band_n.data() + size_t(t) * ng;
+      auto add1 = [&](int a, int b) {
+        int* l = tl + size_t(a) * kMaxNbr;
+        for (int k = 0; k < tn[a]; ++k)
+          if (l[k] == b) return;
+        if (tn[a] < kMaxNbr) l[tn[a]++] = b;
+      };
+      auto add = [&](int a, int b) {
+        if (a == b || a < 0 || b < 0) return;
+        add1(a, b);
+        add1(b, a);
+      };
+      for (int j = RL * t / nadj; j < RL * (t + 1) / nadj; ++j)
+        for (int i = 0; i < RL; ++i) {
+          const long idx = long(j) * RL + i;
+          const int l = label[idx];
+          if (l < 0) continue;
+          if (i + 1 < RL) add(l, label[idx + 1]);
+          if (j + 1 < RL) add(l, label[idx + RL]);
+          if (i + 1 < RL && j + 1 < RL) add(l, label[idx + RL + 1]);
+          if (i > 0 && j + 1 < RL) add(l, label[idx + RL - 1]);
+        }
+    }
+#pragma omp parallel for schedule(static) if (ng > kParallelMin)
+    for (int g = 0; g < ng; ++g) {
+      int* l = nbr.data() + size_t(g) * kMaxNbr;
+      int n = 0;
+      for (int t = 0; t < nadj; ++t) {
+        const int* tl = band_nbr.data() + (size_t(t) * ng + g) * kMaxNbr;
+        for (int k = 0, m = band_n[size_t(t) * ng + g]; k < m; ++k)
+          if (n < kMaxNbr && std::find(l, l + n, tl[k]) == l + n) l[n++] = tl[k];
+      }
+      std::sort(l, l + n);
+      nbr_n[g] = n;
+    }
+  };
+  for (int it = 0; it < o.lloyd_iterations; ++it) {
+    for (int q = 0; q < ni; ++q) {
+      const Sample& sm = samples[ids[q]];
+      set_gen(nb + q, map_point(Us, F, sm), surface_point(V, F, sm));
+    }
+    std::unique_ptr<KdTree> tree;
+    if (it == 0) tree = std::make_unique<KdTree>(G);
+    else build_adjacency();
+    // Labels in parallel; the mass sums then in raster order, so that the centroids do not
+    // depend on the thread count or schedule (bit-identical results run to run).
+#pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
+    for (int j = 0; j < RL; ++j) {
+      for (int i = 0; i < RL; ++i) {
+        const long idx = long(j) * RL + i;
+        if (lpix_face[idx] < 0) continue;
+        const Vec3 qp = pix_point(idx);
+        int g;
+        if (tree) {
+          g = tree->nearest(qp);
+        } else {
+          g = label[idx];
+          double best = (row3(G, g) - qp).squaredNorm();
+          for (bool improved = true; improved;) {
+            improved = false;
+            const int* l = nbr.data() + size_t(g) * kMaxNbr;
+            const int n = nbr_n[g];
+            for (int k = 0; k < n; ++k) {
+              const double d = (row3(G, l[k]) - qp).squaredNorm();
+              if (d < best) {
+                best = d;
+                g = l[k];
+                improved = true;
+                break;  // walk on from the closer generator
+              }
+            }
+          }
+        }
+        label[idx] = g;
+      }
+    }
+    std::fill(acc.begin(), acc.end(), 0.0);
+    for (int j = 0; j < RL; ++j) {
+      const double y = (j + 0.5) / RL;
+      for (int i = 0; i < RL; ++i) {
+        const long idx = long(j) * RL + i;
+        if (lpix_face[idx] < 0) continue;
+        const double x = (i + 0.5) / RL;
+        const double m = lpix_val[idx];
+        double* ag = acc.data() + kAcc * label[idx];
+        ag[0] += m;
+        ag[1] += m * x;
+        ag[2] += m * y;
+        if (relax_surface) {
+          ag[3] += m * lpix_x[3 * idx];
+          ag[4] += m * lpix_x[3 * idx + 1];
+          ag[5] += m * lpix_x[3 * idx + 2];
+          const int f = lpix_face[idx];
+          ag[6] += m * Nf(f, 0);
+          ag[7] += m * Nf(f, 1);
+          ag[8] += m * Nf(f, 2);
+        }
+      }
+    }
+    // Each sample moves to its cell's mass centroid. In the surface metric that is the centroid
+    // in 3D pulled onto the surface (the constrained centroidal Voronoi tessellation of Du,
+    // Gunzburger and Ju 2003), here the 3D centroid's offset from the sample within the cell's
+    // mean tangent plane: Gauss-Newton steps from the sample towards the surface point nearest to
+    // it, through each face's Jacobian. The map's own centroid is not it wherever the map's
+    // Jacobian varies across the cell (a cell spans several input faces), and that bias depends
+    // on the map: on lion-head's Uopt (anisotropy 4.8) it made more steps raise the area CV
+    // instead of lowering it. The steps end at o.lloyd_iterations or when the samples' RMS move
+    // falls under kLloydTolerance local spacings (12 steps at 100K vertices, 18-30 at 3000-5000).
+    int moved = 0;
+#pragma omp parallel for schedule(static) reduction(+ : moved) if (ni > kParallelMin)
+    for (int q = 0; q < ni; ++q) {
+      const int g = nb + q;
+      move2[q] = 0;
+      const double* ag = acc.data() + kAcc * g;
+      if (!(ag[0] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
+      Sample& sm = samples[ids[q]];
+      Sample next;
+      Vec2 c;
+      if (relax_surface) {
+        // Gauss-Newton from the sample itself: a cell can wrap a thin feature, its pixels then lie
+        // in two far-apart parts of the map, and their map centroid in neither (from there ~60 of
+        // 100K samples on mannequin-devil jumped by half a spacing or more at every step).
+        next = sm;
+        c = map_point(Us, F, sm);
+      } else {
+        c = Vec2(ag[1] / ag[0], ag[2] / ag[0]);  // the map's own centroid
+        const int pi = std::clamp(int(c.x() * RL), 0, RL - 1), pj = std::clamp(int(c.y() * RL), 0, RL - 1);
+        const int start = lpix_face[long(pj) * RL + pi] >= 0 ? lpix_face[long(pj) * RL + pi] : sm.face;
+        if (!locate(c, start, next)) continue;
+      }
+      if (relax_surface) {
+        // The 3D centroid's offset from the sample, within the cell's mean tangent plane: at a
+        // peak or a ridge the 3D centroid lies inside the solid, and the surface point nearest to
+        // it is on a flank, so the plain constrained centroid drives samples off sharp tips and
+        // crests (three_peaks, targets 4800-5200: mean Hausdorff 0.0080 of the diagonal, 0.0056
+        // with this). A cell whose normals cancel (it wraps a thin feature) uses the sample's own.
+        const Vec3 x0 = surface_point(V, F, sm);
+        Vec3 x3(ag[3] / ag[0], ag[4] / ag[0], ag[5] / ag[0]);
+        const Vec3 nm(ag[6], ag[7], ag[8]);
+        const Vec3 n = nm.norm() > 0.5 * ag[0] ? Vec3(nm.normalized()) : Vec3(row3(Nf, sm.face));
+        x3 -= n * n.dot(x3 - x0);
+        for (int step = 0; step < 5; ++step) {
+          const int f = next.face;
+          const Vec2 ua = uv_row(Us, F(f, 0)), ub = uv_row(Us, F(f, 1)), uc = uv_row(Us, F(f, 2));
+          const Vec3 xa = row3(V, F(f, 0)), xb = row3(V, F(f, 1)), xc = row3(V, F(f, 2));
+          Eigen::Matrix2d M;
+          M << ub.x() - ua.x(), uc.x() - ua.x(), ub.y() - ua.y(), uc.y() - ua.y();
+          if (!(std::abs(M.determinant()) > 0)) break;
+          Eigen::Matrix<double, 3, 2> E;
+          E.col(0) = xb - xa;
+          E.col(1) = xc - xa;
+          const Eigen::Matrix<double, 3, 2> J = E * M.inverse();  // d(3D) / d(map)
+          const Eigen::Matrix2d JtJ = J.transpose() * J;
+          if (!(std::abs(JtJ.determinant()) > 0)) break;
+          const Vec3 x = next.w0 * xa + next.w1 * xb + next.w2 * xc;
+          const Vec2 du = JtJ.ldlt().solve(J.transpose() * (x3 - x));
+          const Vec2 c1 = c + du;
+          Sample at;
+          if (!locate(c1, next.face, at)) break;  // off the chart: keep the last point
+          c = c1;
+          next = at;
+          if (du.norm() < 1e-3 / RL) break;
+        }
+      }
+      const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
+                     next.w2 * uv_row(Ut, F(next.face, 2));
+      if (!pieces.inside(next.face, u, margin)) continue;  // must stay strictly inside for the Delaunay step
+      {
+        const double r = next.w0 * rho[F(next.face, 0)] + next.w1 * rho[F(next.face, 1)] + next.w2 * rho[F(next.face, 2)];
+        const double h = spacing(n_int * r / rho_integral);
+        move2[q] = (surface_point(V, F, next) - surface_point(V, F, sm)).squaredNorm() / (h * h);
+      }
+      sm = next;
+      ++moved;
+    }
+    res.lloyd_iterations = it + 1;
+    report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
+    if (moved == 0) break;
+    // Converged: the samples' RMS move, in local target spacings, under kLloydTolerance.
+    const double rms = std::sqrt(ordered_sums<1>(ni, ni > kParallelMin, [&](int q, std::array<double, 1>& a) { a[0] += move2[q]; })[0] / ni);
+    if (rms < kLloydTolerance) break;
+  }
+  res.seconds_relax += seconds_since(t_relax);
+}
+
+  // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
+  // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
+  // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
+// Clears keep of the dropped samples, counts them in res.n_separated and adds to res.seconds_relax.
+void separate(const SamplingChart& c, const RemeshOptions& o, const std::vector<Sample>& samples,
+              std::vector<char>& keep, RemeshResult& res) {
+  const MatX3d& V = c.V;
+  const MatX3i& F = c.F;
+  const VecXd& rho = c.rho;
+  const double rho_integral = c.rho_integral;
+  const int n_int = c.n_int, nb = int(c.bnd.x.size());
+  const std::vector<Vec3>& bnd_x = c.bnd.x;
+  const auto t_sep = Clock::now();
+  MatX3d G(nb + int(samples.size()), 3);
+  for (int k = 0; k < nb; ++k) G.row(k) = bnd_x[k].transpose();
+  for (size_t q = 0; q < samples.size(); ++q) {
+    const Sample& sm = samples[q];
+    G.row(nb + int(q)) = sm.w0 * V.row(F(sm.face, 0)) + sm.w1 * V.row(F(sm.face, 1)) + sm.w2 * V.row(F(sm.face, 2));
+  }
+  const KdTree tree(G);
+  const int ns = int(samples.size());
+  // Only a sample with some kept neighbour inside its radius can be dropped: find those in
+  // parallel, then decide them in order (the verdict depends on earlier drops).
+  std::vector<char> crowded(ns, 0);
+  std::vector<double> radius(ns, 0.0);
+#pragma omp parallel if (ns > kParallelMin)
+  {
+    std::vector<std::pair<int, double>> near;
+#pragma omp for schedule(static)
+    for (int q = 0; q < ns; ++q) {
+      if (!keep[q]) continue;
+      const Sample& sm = samples[q];
+      const double r = sm.w0 * rho[F(sm.face, 0)] + sm.w1 * rho[F(sm.face, 1)] + sm.w2 * rho[F(sm.face, 2)];
+      radius[q] = o.min_separation * spacing(n_int * r / rho_integral);
+      tree.radius(row3(G, nb + q), radius[q], near);
+      for (const auto& gd : near)
+        if (gd.first != nb + q && (gd.first < nb || keep[gd.first - nb])) {
+          crowded[q] = 1;
+          break;
+        }
+    }
+  }
+  std::vector<std::pair<int, double>> near;
+  for (int q = 0; q < ns; ++q) {
+    if (!crowded[q]) continue;
+    tree.radius(row3(G, nb + q), radius[q], near);
+    for (const auto& gd : near) {
+      const int g = gd.first, other = g - nb;
+      if (other == q) continue;
+      if (g < nb || (other < q && keep[other])) {
+        keep[q] = 0;
+        ++res.n_separated;
+        break;
+      }
+    }
+  }
+  res.seconds_relax += seconds_since(t_sep);
+}
+
+}  // namespace
+
 void sample_interior(const SamplingChart& c, const ControlRaster& raster, const RemeshOptions& o, Progress& report,
                      Clock::time_point t_sample, std::vector<Sample>& samples, std::vector<char>& keep,
                      RemeshResult& res) {
@@ -311,21 +644,14 @@ void sample_interior(const SamplingChart& c, const ControlRaster& raster, const 
   const MatX2d& Ut = c.Ut;
   const VecXd& rho = c.rho;
   const double rho_integral = c.rho_integral;
-  const int n_int = c.n_int, nf = topo.n_faces, nb = int(c.bnd.x.size());
-  const std::vector<Vec3>& bnd_x = c.bnd.x;
-  const std::vector<Vec2>& bnd_s = c.bnd.s;
+  const int n_int = c.n_int, nf = topo.n_faces;
   const ChartPieces& pieces = c.pieces;
-  const int R = raster.R, RL = raster.RL;
+  const int R = raster.R;
   const long npix = long(R) * R;
   const std::vector<int>& pix_face = raster.pix_face;
   const std::vector<double>& pix_val = raster.pix_val;
-  const std::vector<int>& lpix_face = RL != R ? raster.lpix_face_own : raster.pix_face;
-  const std::vector<double>& lpix_val = RL != R ? raster.lpix_val_own : raster.pix_val;
-  const std::vector<float>& lpix_x = RL != R ? raster.lpix_x_own : raster.pix_x;
-  const long nlpix = long(RL) * RL;
   const double pix_sum = raster.pix_sum;
   const bool relax = o.lloyd_iterations > 0;
-  const bool relax_surface = relax && o.relax_metric == RemeshRelaxMetric::Surface;
   // 4. Error diffusion (serpentine Floyd-Steinberg), then the samples: the same face and barycentric
   // coordinates give the point in the triangulation map and in 3D. Interior samples too close to
   // the boundary are dropped, and the density is rescaled until the count hits the target.
@@ -444,302 +770,11 @@ void sample_interior(const SamplingChart& c, const ControlRaster& raster, const 
     }
     res.seconds_sample = seconds_since(t_sample) - res.seconds_relax;
 
-    // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
-    // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
-    // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
-    // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
-    // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
-    // Voronoi cell over the points of the Lloyd grid (the sampling map rasterized at RL, a multiple of
-    // the control map's resolution). The cells are measured in the surface metric (nearest generator
-    // in 3D; the centroid is then taken in 3D and pulled onto the surface) or in the sampling map's
-    // own metric; boundary samples are fixed generators. The same step for all three modes. Error
-    // diffusion leaves a pattern that is isotropic in the sampling map, so stretched on the surface
-    // as the map is, and Lloyd steps undo that only slowly (a stretched lattice is itself a fixed
-    // point): with 4 steps sampling on U0 stayed more uniform than on Uopt where U0 is the less
-    // anisotropic map (nefertiti: 1.24 vs 1.33); steps until the samples settle make the map's
-    // signature small against the tie margins.
-    if (relax) {
-      const auto t_relax = Clock::now();
-      std::vector<int> ids;  // interior samples taking part
-      for (size_t q = 0; q < samples.size(); ++q)
-        if (keep[q]) ids.push_back(int(q));
-      const int ni = int(ids.size());
-      const int ng = nb + ni;
-      MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
-      auto sample_s = [&](const Sample& q) {
-        return Vec2(q.w0 * uv_row(Us, F(q.face, 0)) + q.w1 * uv_row(Us, F(q.face, 1)) + q.w2 * uv_row(Us, F(q.face, 2)));
-      };
-      auto sample_x = [&](const Sample& q) {
-        return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
-      };
-      auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
-        if (relax_surface) G.row(g) = x.transpose();
-        else G.row(g) << su.x(), su.y(), 0.0;
-      };
-      for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
-      const int nthreads = nlpix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
-      constexpr int kAcc = 9;  // per generator: mass, mass x (map position, 3D position, face normal)
-      const MatX3d Nf = relax_surface ? face_normals(V, F) : MatX3d();
-      std::vector<double> acc(size_t(kAcc) * ng);
-      auto locate = [&](const Vec2& p, int f, Sample& out) { return locate_in_map(Us, F, topo, p, f, out); };
-      // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
-      // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
-      // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
-      // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
-      // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
-      std::vector<int> label(nlpix, -1);
-      std::vector<double> move2(ni);
-      constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
-      std::vector<int> nbr(size_t(ng) * kMaxNbr), nbr_n(ng);
-      auto pix_point = [&](long idx) {
-        if (relax_surface) return Vec3(lpix_x[3 * idx], lpix_x[3 * idx + 1], lpix_x[3 * idx + 2]);
-        return Vec3((idx % RL + 0.5) / RL, (idx / RL + 0.5) / RL, 0.0);
-      };
-      // Row bands list their neighbour pairs apart (the build was the step's largest serial part at
-      // 1024^2), then each generator's lists are merged and sorted: the walk's visiting order, and so
-      // the labels, must not depend on the number of bands.
-      const int nadj = std::clamp(nthreads, 1, 4);
-      std::vector<int> band_nbr(size_t(nadj) * ng * kMaxNbr), band_n(size_t(nadj) * ng);
-      auto build_adjacency = [&]() {
-        std::fill(band_n.begin(), band_n.end(), 0);
-  #pragma omp parallel for schedule(static, 1) num_threads(nadj) if (nadj > 1)
-        for (int t = 0; t < nadj; ++t) {
-          int* tl = band_nbr.data() + size_t(t) * ng * kMaxNbr;
-          int* tn = band_n.data() + size_t(t) * ng;
-          auto add1 = [&](int a, int b) {
-            int* l = tl + size_t(a) * kMaxNbr;
-            for (int k = 0; k < tn[a]; ++k)
-              if (l[k] == b) return;
-            if (tn[a] < kMaxNbr) l[tn[a]++] = b;
-          };
-          auto add = [&](int a, int b) {
-            if (a == b || a < 0 || b < 0) return;
-            add1(a, b);
-            add1(b, a);
-          };
-          for (int j = RL * t / nadj; j < RL * (t + 1) / nadj; ++j)
-            for (int i = 0; i < RL; ++i) {
-              const long idx = long(j) * RL + i;
-              const int l = label[idx];
-              if (l < 0) continue;
-              if (i + 1 < RL) add(l, label[idx + 1]);
-              if (j + 1 < RL) add(l, label[idx + RL]);
-              if (i + 1 < RL && j + 1 < RL) add(l, label[idx + RL + 1]);
-              if (i > 0 && j + 1 < RL) add(l, label[idx + RL - 1]);
-            }
-        }
-  #pragma omp parallel for schedule(static) if (ng > kParallelMin)
-        for (int g = 0; g < ng; ++g) {
-          int* l = nbr.data() + size_t(g) * kMaxNbr;
-          int n = 0;
-          for (int t = 0; t < nadj; ++t) {
-            const int* tl = band_nbr.data() + (size_t(t) * ng + g) * kMaxNbr;
-            for (int k = 0, m = band_n[size_t(t) * ng + g]; k < m; ++k)
-              if (n < kMaxNbr && std::find(l, l + n, tl[k]) == l + n) l[n++] = tl[k];
-          }
-          std::sort(l, l + n);
-          nbr_n[g] = n;
-        }
-      };
-      for (int it = 0; it < o.lloyd_iterations; ++it) {
-        for (int q = 0; q < ni; ++q) {
-          const Sample& sm = samples[ids[q]];
-          set_gen(nb + q, sample_s(sm), sample_x(sm));
-        }
-        std::unique_ptr<KdTree> tree;
-        if (it == 0) tree = std::make_unique<KdTree>(G);
-        else build_adjacency();
-        // Labels in parallel; the mass sums then in raster order, so that the centroids do not
-        // depend on the thread count or schedule (bit-identical results run to run).
-  #pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
-        for (int j = 0; j < RL; ++j) {
-          for (int i = 0; i < RL; ++i) {
-            const long idx = long(j) * RL + i;
-            if (lpix_face[idx] < 0) continue;
-            const Vec3 qp = pix_point(idx);
-            int g;
-            if (tree) {
-              g = tree->nearest(qp);
-            } else {
-              g = label[idx];
-              double best = (row3(G, g) - qp).squaredNorm();
-              for (bool improved = true; improved;) {
-                improved = false;
-                const int* l = nbr.data() + size_t(g) * kMaxNbr;
-                const int n = nbr_n[g];
-                for (int k = 0; k < n; ++k) {
-                  const double d = (row3(G, l[k]) - qp).squaredNorm();
-                  if (d < best) {
-                    best = d;
-                    g = l[k];
-                    improved = true;
-                    break;  // walk on from the closer generator
-                  }
-                }
-              }
-            }
-            label[idx] = g;
-          }
-        }
-        std::fill(acc.begin(), acc.end(), 0.0);
-        for (int j = 0; j < RL; ++j) {
-          const double y = (j + 0.5) / RL;
-          for (int i = 0; i < RL; ++i) {
-            const long idx = long(j) * RL + i;
-            if (lpix_face[idx] < 0) continue;
-            const double x = (i + 0.5) / RL;
-            const double m = lpix_val[idx];
-            double* ag = acc.data() + kAcc * label[idx];
-            ag[0] += m;
-            ag[1] += m * x;
-            ag[2] += m * y;
-            if (relax_surface) {
-              ag[3] += m * lpix_x[3 * idx];
-              ag[4] += m * lpix_x[3 * idx + 1];
-              ag[5] += m * lpix_x[3 * idx + 2];
-              const int f = lpix_face[idx];
-              ag[6] += m * Nf(f, 0);
-              ag[7] += m * Nf(f, 1);
-              ag[8] += m * Nf(f, 2);
-            }
-          }
-        }
-        // Each sample moves to its cell's mass centroid. In the surface metric that is the centroid
-        // in 3D pulled onto the surface (the constrained centroidal Voronoi tessellation of Du,
-        // Gunzburger and Ju 2003), here the 3D centroid's offset from the sample within the cell's
-        // mean tangent plane: Gauss-Newton steps from the sample towards the surface point nearest to
-        // it, through each face's Jacobian. The map's own centroid is not it wherever the map's
-        // Jacobian varies across the cell (a cell spans several input faces), and that bias depends
-        // on the map: on lion-head's Uopt (anisotropy 4.8) it made more steps raise the area CV
-        // instead of lowering it. The steps end at o.lloyd_iterations or when the samples' RMS move
-        // falls under kLloydTolerance local spacings (12 steps at 100K vertices, 18-30 at 3000-5000).
-        int moved = 0;
-  #pragma omp parallel for schedule(static) reduction(+ : moved) if (ni > kParallelMin)
-        for (int q = 0; q < ni; ++q) {
-          const int g = nb + q;
-          move2[q] = 0;
-          const double* ag = acc.data() + kAcc * g;
-          if (!(ag[0] > 0)) continue;  // no pixel: the sample stays (and is dropped below)
-          Sample& sm = samples[ids[q]];
-          Sample next;
-          Vec2 c;
-          if (relax_surface) {
-            // Gauss-Newton from the sample itself: a cell can wrap a thin feature, its pixels then lie
-            // in two far-apart parts of the map, and their map centroid in neither (from there ~60 of
-            // 100K samples on mannequin-devil jumped by half a spacing or more at every step).
-            next = sm;
-            c = sample_s(sm);
-          } else {
-            c = Vec2(ag[1] / ag[0], ag[2] / ag[0]);  // the map's own centroid
-            const int pi = std::clamp(int(c.x() * RL), 0, RL - 1), pj = std::clamp(int(c.y() * RL), 0, RL - 1);
-            const int start = lpix_face[long(pj) * RL + pi] >= 0 ? lpix_face[long(pj) * RL + pi] : sm.face;
-            if (!locate(c, start, next)) continue;
-          }
-          if (relax_surface) {
-            // The 3D centroid's offset from the sample, within the cell's mean tangent plane: at a
-            // peak or a ridge the 3D centroid lies inside the solid, and the surface point nearest to
-            // it is on a flank, so the plain constrained centroid drives samples off sharp tips and
-            // crests (three_peaks, targets 4800-5200: mean Hausdorff 0.0080 of the diagonal, 0.0056
-            // with this). A cell whose normals cancel (it wraps a thin feature) uses the sample's own.
-            const Vec3 x0 = sample_x(sm);
-            Vec3 x3(ag[3] / ag[0], ag[4] / ag[0], ag[5] / ag[0]);
-            const Vec3 nm(ag[6], ag[7], ag[8]);
-            const Vec3 n = nm.norm() > 0.5 * ag[0] ? Vec3(nm.normalized()) : Vec3(row3(Nf, sm.face));
-            x3 -= n * n.dot(x3 - x0);
-            for (int step = 0; step < 5; ++step) {
-              const int f = next.face;
-              const Vec2 ua = uv_row(Us, F(f, 0)), ub = uv_row(Us, F(f, 1)), uc = uv_row(Us, F(f, 2));
-              const Vec3 xa = row3(V, F(f, 0)), xb = row3(V, F(f, 1)), xc = row3(V, F(f, 2));
-              Eigen::Matrix2d M;
-              M << ub.x() - ua.x(), uc.x() - ua.x(), ub.y() - ua.y(), uc.y() - ua.y();
-              if (!(std::abs(M.determinant()) > 0)) break;
-              Eigen::Matrix<double, 3, 2> E;
-              E.col(0) = xb - xa;
-              E.col(1) = xc - xa;
-              const Eigen::Matrix<double, 3, 2> J = E * M.inverse();  // d(3D) / d(map)
-              const Eigen::Matrix2d JtJ = J.transpose() * J;
-              if (!(std::abs(JtJ.determinant()) > 0)) break;
-              const Vec3 x = next.w0 * xa + next.w1 * xb + next.w2 * xc;
-              const Vec2 du = JtJ.ldlt().solve(J.transpose() * (x3 - x));
-              const Vec2 c1 = c + du;
-              Sample at;
-              if (!locate(c1, next.face, at)) break;  // off the chart: keep the last point
-              c = c1;
-              next = at;
-              if (du.norm() < 1e-3 / RL) break;
-            }
-          }
-          const Vec2 u = next.w0 * uv_row(Ut, F(next.face, 0)) + next.w1 * uv_row(Ut, F(next.face, 1)) +
-                         next.w2 * uv_row(Ut, F(next.face, 2));
-          if (!pieces.inside(next.face, u, margin)) continue;  // must stay strictly inside for the Delaunay step
-          {
-            const double r = next.w0 * rho[F(next.face, 0)] + next.w1 * rho[F(next.face, 1)] + next.w2 * rho[F(next.face, 2)];
-            const double h = spacing(n_int * r / rho_integral);
-            move2[q] = (sample_x(next) - sample_x(sm)).squaredNorm() / (h * h);
-          }
-          sm = next;
-          ++moved;
-        }
-        res.lloyd_iterations = it + 1;
-        report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
-        if (moved == 0) break;
-        // Converged: the samples' RMS move, in local target spacings, under kLloydTolerance.
-        const double rms = std::sqrt(ordered_sums<1>(ni, ni > kParallelMin, [&](int q, std::array<double, 1>& a) { a[0] += move2[q]; })[0] / ni);
-        if (rms < kLloydTolerance) break;
-      }
-      res.seconds_relax += seconds_since(t_relax);
-    }
+    // 4b. Density-weighted Lloyd relaxation of the interior samples.
+    if (relax) lloyd_relax(c, raster, o, report, samples, keep, res);
 
-    // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
-    // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
-    // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
-    if (o.min_separation > 0) {
-      const auto t_sep = Clock::now();
-      MatX3d G(nb + int(samples.size()), 3);
-      for (int k = 0; k < nb; ++k) G.row(k) = bnd_x[k].transpose();
-      for (size_t q = 0; q < samples.size(); ++q) {
-        const Sample& sm = samples[q];
-        G.row(nb + int(q)) = sm.w0 * V.row(F(sm.face, 0)) + sm.w1 * V.row(F(sm.face, 1)) + sm.w2 * V.row(F(sm.face, 2));
-      }
-      const KdTree tree(G);
-      const int ns = int(samples.size());
-      // Only a sample with some kept neighbour inside its radius can be dropped: find those in
-      // parallel, then decide them in order (the verdict depends on earlier drops).
-      std::vector<char> crowded(ns, 0);
-      std::vector<double> radius(ns, 0.0);
-  #pragma omp parallel if (ns > kParallelMin)
-      {
-        std::vector<std::pair<int, double>> near;
-  #pragma omp for schedule(static)
-        for (int q = 0; q < ns; ++q) {
-          if (!keep[q]) continue;
-          const Sample& sm = samples[q];
-          const double r = sm.w0 * rho[F(sm.face, 0)] + sm.w1 * rho[F(sm.face, 1)] + sm.w2 * rho[F(sm.face, 2)];
-          radius[q] = o.min_separation * spacing(n_int * r / rho_integral);
-          tree.radius(row3(G, nb + q), radius[q], near);
-          for (const auto& gd : near)
-            if (gd.first != nb + q && (gd.first < nb || keep[gd.first - nb])) {
-              crowded[q] = 1;
-              break;
-            }
-        }
-      }
-      std::vector<std::pair<int, double>> near;
-      for (int q = 0; q < ns; ++q) {
-        if (!crowded[q]) continue;
-        tree.radius(row3(G, nb + q), radius[q], near);
-        for (const auto& gd : near) {
-          const int g = gd.first, other = g - nb;
-          if (other == q) continue;
-          if (g < nb || (other < q && keep[other])) {
-            keep[q] = 0;
-            ++res.n_separated;
-            break;
-          }
-        }
-      }
-      res.seconds_relax += seconds_since(t_sep);
-    }
+    // 4c. Minimum separation.
+    if (o.min_separation > 0) separate(c, o, samples, keep, res);
     kept = 0;
     for (char k : keep) kept += k;
     res.sampling_rounds = round + 1;

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "dgmesh/delaunay.h"
+#include "dgmesh/detail/skeletal_util.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/parallel.h"
@@ -17,11 +18,14 @@
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
 
-
 namespace dgmesh {
 
-using Mat3 = Eigen::Matrix3d;
-using MatX9d = Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>;
+using detail::Mat3;
+using detail::MatX9d;
+using detail::nearest_rotation;
+using detail::segment_sq_dist;
+using detail::signed_volume;
+using detail::union_distance;
 
 namespace {
 
@@ -31,37 +35,6 @@ namespace {
 // anyway). Control deform of bench skeletal_speed's 2502-vertex control mesh, A/B interleaved:
 // 6.4 -> 4.0 ms; the whole 178K-vertex deform 16.6 -> 13.2 ms.
 constexpr int kParallelHeavy = 1024;
-
-// Nearest rotation (polar decomposition) of a 3x3 matrix; the identity for a zero matrix.
-// Scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3 inverses, with the SVD as
-// the fallback for (nearly) singular or reflecting input.
-Mat3 nearest_rotation(const Mat3& C) {
-  if (!(C.squaredNorm() > 1e-300) || !C.allFinite()) return Mat3::Identity();
-  {
-    Mat3 R = C;
-    const double scale = C.norm();
-    bool ok = C.determinant() > 1e-6 * scale * scale * scale;
-    for (int it = 0; ok && it < 30; ++it) {
-      const double det = R.determinant();
-      if (!(det > 0)) {
-        ok = false;
-        break;
-      }
-      const Mat3 Rit = R.inverse().transpose();
-      const double g = std::sqrt(std::sqrt(Rit.squaredNorm() / R.squaredNorm()));
-      const Mat3 Rn = 0.5 * (g * R + Rit / g);
-      const double diff = (Rn - R).squaredNorm();
-      R = Rn;
-      if (diff < 1e-26) return R;
-    }
-    if (ok && (R.transpose() * R - Mat3::Identity()).squaredNorm() < 1e-20) return R;
-  }
-  Eigen::JacobiSVD<Mat3> svd(C, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Mat3 U = svd.matrixU();
-  const Mat3 V = svd.matrixV();
-  if ((U * V.transpose()).determinant() < 0) U.col(2) = -U.col(2);
-  return U * V.transpose();
-}
 
 // The same polar factor from a nearby rotation G (the triangle's blended bone rotation, usually a
 // few degrees off): Newton's method for max tr(R^T A) over rotations R = G exp([w]). With
@@ -115,37 +88,6 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-double signed_volume(const MatX3d& V, const MatX3i& F) {
-  double vol = 0;
-  for (int f = 0; f < F.rows(); ++f) vol += row3(V, F(f, 0)).dot(row3(V, F(f, 1)).cross(row3(V, F(f, 2))));
-  return vol / 6;
-}
-
-// Tangential part of the uniform bi-umbrella flow (thesis 6.1 pre-smoothing [WDSB00]).
-MatX3d bilaplacian_tangential(MatX3d V, const MatX3i& F, const Topology& topo, int iterations, double step) {
-  const int n = static_cast<int>(V.rows());
-  for (int it = 0; it < iterations; ++it) {
-    const MatX3d U2 = bi_umbrella(V, topo, Umbrella::Uniform);
-    const MatX3d N = vertex_normals(V, F, topo, NormalWeights::Area);
-#pragma omp parallel for schedule(static)
-    for (int i = 0; i < n; ++i) {
-      if (topo.on_boundary[i] || topo.is_loose(i)) continue;
-      const Vec3 u = row3(U2, i), nn = row3(N, i);
-      V.row(i) -= step * (u - u.dot(nn) * nn).transpose();
-    }
-  }
-  return V;
-}
-
-// Closest point of segment [a, b] to p, squared distance.
-double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
-  const Vec3 ab = b - a;
-  const double l2 = ab.squaredNorm();
-  double t = l2 > 0 ? (p - a).dot(ab) / l2 : 0;
-  t = std::clamp(t, 0.0, 1.0);
-  return (a + t * ab - p).squaredNorm();
-}
-
 // Push p out to at least distance e from the segment (h, h + v) (a point on the segment itself has
 // no direction: kept). Returns whether p moved.
 inline bool push_from_segment(Vec3& p, const Vec3& h, const Vec3& v, double e) {
@@ -193,243 +135,7 @@ struct BoneClearance {
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------------
-// Skeletal mesh (thesis 6.1)
-
-SkeletalMesh skeletal_mesh(const Mesh& mesh, const SkeletonOptions& opt) {
-  const int n = static_cast<int>(mesh.V.rows());
-  const Topology& topo = mesh.topo;
-  // Poles are taken on a regularised copy: sliver triangles give spiky Voronoi poles (fig. 6.6).
-  const MatX3d Vs = bilaplacian_tangential(mesh.V, mesh.F, topo, opt.presmooth_iterations, opt.presmooth_step);
-  MatX3d N = vertex_normals(Vs, mesh.F, topo, NormalWeights::Area);
-  if (signed_volume(Vs, mesh.F) < 0) N = -N;  // inside-out faces: the inner side is along +N
-  const Delaunay3 del = delaunay_3d(Vs);
-  const double cos_max = std::cos(opt.max_pole_angle);
-
-  SkeletalMesh out;
-  out.S.resize(n, 3);
-  std::vector<char> found(n, 0);
-  // Inner Voronoi pole: the farthest vertex of the Voronoi cell on the inner side of the surface
-  // (against the outward normal), i.e. the centre of the largest empty ball touching x_i inside.
-#pragma omp parallel for schedule(static)
-  for (int i = 0; i < n; ++i) {
-    const Vec3 p = row3(Vs, i), inward = -row3(N, i);
-    double best = -1;
-    Vec3 pole = p;
-    for (int k = del.point_offset[i]; k < del.point_offset[i + 1]; ++k) {
-      const Vec3 c = row3(del.circumcenters, del.point_tets[k]);
-      const Vec3 d = c - p;
-      const double r = d.norm();
-      if (!(r > 0) || !std::isfinite(r) || d.dot(inward) < cos_max * r) continue;
-      if (r > best) best = r, pole = c;
-    }
-    if (best > 0) {
-      out.S.row(i) = pole.transpose();
-      found[i] = 1;
-    }
-  }
-  // Vertices without a pole (duplicates Qhull dropped, isolated needles): their ring's mean depth.
-  std::vector<double> depth(n, 0.0);
-  for (int i = 0; i < n; ++i)
-    if (found[i]) depth[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
-  for (int pass = 0; pass < 20; ++pass) {
-    bool missing = false;
-    for (int i = 0; i < n; ++i) {
-      if (found[i]) continue;
-      double sum = 0;
-      int c = 0;
-      for (int k = topo.vv_offset[i]; k < topo.vv_offset[i + 1]; ++k)
-        if (found[topo.vv_index[k]] == 1) sum += depth[topo.vv_index[k]], ++c;
-      if (c == 0) {
-        missing = true;
-        continue;
-      }
-      depth[i] = sum / c;
-      out.S.row(i) = (row3(mesh.V, i) - depth[i] * row3(N, i)).transpose();
-      found[i] = 2;
-      ++out.n_fallback;
-    }
-    for (int i = 0; i < n; ++i)
-      if (found[i] == 2) found[i] = 1;
-    if (!missing) break;
-  }
-  for (int i = 0; i < n; ++i)
-    if (!found[i]) {  // a component without any pole: shrink to its vertex (radius 0 handled below)
-      out.S.row(i) = mesh.V.row(i);
-      ++out.n_fallback;
-    }
-
-  // Post-smoothing (thesis 6.1 end).
-  std::vector<char> moved(n, 0);
-  const SpMatR W = umbrella_matrix(out.S, topo, Umbrella::Uniform);  // uniform: depends on topology only
-  std::vector<double> ring;
-  for (int it = 0; it < opt.postsmooth_iterations; ++it) {
-    const MatX3d U = W * out.S;
-    const MatX3d U2 = W * U;
-    VecXd rad(n);
-    for (int i = 0; i < n; ++i) rad[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
-    int changed = 0;
-#pragma omp parallel for schedule(static) reduction(+ : changed)
-    for (int i = 0; i < n; ++i) {
-      if (topo.is_loose(i)) continue;
-      const Vec3 v = -row3(U2, i);  // smoothing vector of the bilaplacian flow
-      const Vec3 nn = row3(N, i);
-      const bool inverted = (row3(mesh.V, i) - row3(out.S, i)).dot(nn) <= 0;
-      double mx = 0, sum = 0;
-      int c = 0;
-      for (int k = topo.vv_offset[i]; k < topo.vv_offset[i + 1]; ++k) {
-        sum += rad[topo.vv_index[k]];
-        mx = std::max(mx, rad[topo.vv_index[k]]);
-        ++c;
-      }
-      const bool spike = c > 0 && rad[i] > opt.spike_factor * (sum / c);
-      if (v.dot(nn) < 0 || spike || inverted) {
-        out.S.row(i) += opt.postsmooth_step * v.transpose();
-        if (spike || inverted) {  // pull a spike fully to its ring (a single step is too weak)
-          out.S.row(i) = out.S.row(i) * 0.5 + 0.5 * (out.S.row(i) + row3(U, i).transpose());
-        }
-        moved[i] = 1;
-        ++changed;
-      }
-    }
-    if (!changed) break;
-  }
-  for (char m : moved) out.n_postsmoothed += m;
-
-  out.radii.resize(n);
-  for (int i = 0; i < n; ++i) out.radii[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
-  return out;
-}
-
-// ---------------------------------------------------------------------------------------------
-// Skeletal mesh editing (thesis 6.2)
-
-Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, const MatX3d& tails, double sigma) {
-  const int n = static_cast<int>(P.rows()), B = static_cast<int>(heads.rows());
-  if (B == 0 || tails.rows() != B) throw MeshError("Gaussian weights need as many bone heads as tails (and at least one)");
-  if (!(sigma > 0)) throw MeshError("Gaussian weights need sigma > 0");
-  Eigen::MatrixXd W(n, B);
-#pragma omp parallel for schedule(static)
-  for (int i = 0; i < n; ++i) {
-    double dmin = std::numeric_limits<double>::infinity();
-    for (int j = 0; j < B; ++j) {
-      W(i, j) = segment_sq_dist(row3(P, i), row3(heads, j), row3(tails, j));
-      dmin = std::min(dmin, W(i, j));
-    }
-    double sum = 0;
-    for (int j = 0; j < B; ++j) sum += (W(i, j) = std::exp(-(W(i, j) - dmin) / (2 * sigma * sigma)));
-    W.row(i) /= sum;
-  }
-  return W;
-}
-
-MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const std::vector<Mat4>& rest,
-                                const std::vector<Mat4>& pose, MatX9d* linear, bool dual_quaternion) {
-  const int n = static_cast<int>(P.rows()), B = static_cast<int>(rest.size());
-  if (static_cast<int>(pose.size()) != B || W.cols() != B || W.rows() != n)
-    throw MeshError("SSD: expected " + std::to_string(B) + " pose matrices and an n x B weight matrix");
-  // A_j = B_j^d B_j^-1 as one affine map per bone (eq. 6.2).
-  std::vector<Eigen::Matrix<double, 3, 4>> A(B);
-  for (int j = 0; j < B; ++j) {
-    const Mat4 m = pose[j] * rest[j].inverse();
-    if (!m.allFinite()) throw MeshError("SSD: bone " + std::to_string(j) + " has a singular rest matrix");
-    A[j] = m.topRows<3>();
-  }
-  // Bone rotations as quaternions, for the blended frames (see below).
-  std::vector<Eigen::Quaterniond> q(B);
-  // Dual quaternions need rigid bone motions; a scaled or sheared pose keeps the linear blend
-  // (the tolerance admits the float32 rounding of the matrices Blender hands over).
-  bool dq = dual_quaternion;
-  for (int j = 0; dq && j < B; ++j) {
-    const Mat3 L = A[j].leftCols<3>();
-    if ((L.transpose() * L - Mat3::Identity()).cwiseAbs().maxCoeff() > 1e-4 || !(L.determinant() > 0)) dq = false;
-  }
-  if (linear || dq)
-    for (int j = 0; j < B; ++j) q[j] = Eigen::Quaterniond(nearest_rotation(A[j].leftCols<3>())).normalized();
-  // Dual parts d_j = t_j q_j / 2 (t_j the translation as a pure quaternion).
-  std::vector<Eigen::Vector4d> qd(dq ? B : 0);
-  for (int j = 0; dq && j < B; ++j) {
-    const Eigen::Quaterniond t(0, A[j](0, 3), A[j](1, 3), A[j](2, 3));
-    qd[j] = 0.5 * (t * q[j]).coeffs();
-  }
-  MatX3d out(n, 3);
-  if (linear) linear->resize(n, 9);
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-  for (int i = 0; i < n; ++i) {
-    if (dq) {
-      // Dual quaternion blending (Kavan et al. 2007): rigid per point, so the skeletal mesh does
-      // not collapse towards a bone's axis under a twist the way the linear blend does (a point at
-      // distance delta from the axis of a 180-degree twist keeps |w0 - w1| delta under eq. 6.2).
-      int ref = 0;
-      for (int j = 1; j < B; ++j)
-        if (W(i, j) > W(i, ref)) ref = j;
-      Eigen::Vector4d r = Eigen::Vector4d::Zero(), dd = Eigen::Vector4d::Zero();
-      for (int j = 0; j < B; ++j) {
-        const double w = W(i, j);
-        if (w == 0) continue;
-        const double sgn = q[j].coeffs().dot(q[ref].coeffs()) < 0 ? -1.0 : 1.0;
-        r += sgn * w * q[j].coeffs();
-        dd += sgn * w * qd[j];
-      }
-      const double len = r.norm();
-      if (len > 1e-12) {
-        const Eigen::Quaterniond qr(r / len), qdn(dd / len);
-        // translation t = 2 (d - (d.r) r) r^*, the part of d orthogonal to r (normalisation).
-        const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(qr.coeffs()) * qr.coeffs());
-        const Vec3 t = 2.0 * (qdo * qr.conjugate()).vec();
-        out.row(i) = (qr.toRotationMatrix() * row3(P, i) + t).transpose();
-      } else {
-        out.row(i) = P.row(i);
-      }
-    } else {
-      Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
-      for (int j = 0; j < B; ++j) {
-        const double w = W(i, j);
-        if (w != 0) M += w * A[j];
-      }
-      out.row(i) = (M.leftCols<3>() * row3(P, i) + M.col(3)).transpose();
-    }
-    if (linear) {
-      // The rotation of the point's local frame: the bone rotations blended as quaternions
-      // (normalised, hemisphere-aligned). A linear blend of rotation matrices loses rank under
-      // twists (0.5 I + 0.5 R_x(pi) has no y, z axes), the frames' candy wrapper.
-      Eigen::Vector4d acc = Eigen::Vector4d::Zero();
-      int ref = -1;
-      for (int j = 0; j < B; ++j) {
-        const double w = W(i, j);
-        if (w == 0) continue;
-        if (ref < 0 || w > W(i, ref)) ref = j;
-      }
-      for (int j = 0; j < B; ++j) {
-        const double w = W(i, j);
-        if (w == 0) continue;
-        const double sgn = q[j].coeffs().dot(q[ref].coeffs()) < 0 ? -1.0 : 1.0;
-        acc += sgn * w * q[j].coeffs();
-      }
-      const Mat3 R = acc.norm() > 1e-12 ? Eigen::Quaterniond(acc / acc.norm()).toRotationMatrix() : Mat3::Identity();
-      for (int r = 0; r < 3; ++r)
-        for (int c = 0; c < 3; ++c) (*linear)(i, 3 * r + c) = R(r, c);
-    }
-  }
-  return out;
-}
-
 namespace {
-
-// min_j |x - s_j| - r_j over the balls, with the kd-tree over the centres. `bound_index` gives a
-// first candidate (its ball bounds the search); -1 starts from the nearest centre.
-double union_distance(const KdTree& tree, const MatX3d& centers, const VecXd& radii, double r_max, const Vec3& x,
-                      int bound_index, int& arg, std::vector<std::pair<int, double>>& scratch) {
-  if (bound_index < 0) bound_index = tree.nearest(x);
-  double best = (x - row3(centers, bound_index)).norm() - radii[bound_index];
-  arg = bound_index;
-  tree.radius(x, std::max(best + r_max, 0.0), scratch);
-  for (const auto& [j, d2] : scratch) {
-    const double f = std::sqrt(d2) - radii[j];
-    if (f < best) best = f, arg = j;
-  }
-  return best;
-}
 
 // Bounding-volume tree over medial balls for the exact minimum of eq. 6.13, min_j |x - s_j| - r_j:
 // the balls of a node are at least dist(x, box of their centres) - (their largest radius) from x, a
@@ -603,26 +309,6 @@ double union_distance_local(const KdTree& tree, const std::vector<int>& reps, co
 }
 
 }  // namespace
-
-VecXd union_of_balls_distance(const MatX3d& X, const MatX3d& centers, const VecXd& radii, std::vector<int>* nearest) {
-  if (centers.rows() == 0 || radii.size() != centers.rows()) throw MeshError("union of balls: need centres and radii");
-  const KdTree tree(centers);
-  const double r_max = radii.maxCoeff();
-  const int n = static_cast<int>(X.rows());
-  VecXd f(n);
-  if (nearest) nearest->assign(n, -1);
-#pragma omp parallel
-  {
-    std::vector<std::pair<int, double>> scratch;
-#pragma omp for schedule(dynamic, 256)
-    for (int i = 0; i < n; ++i) {
-      int arg;
-      f[i] = union_distance(tree, centers, radii, r_max, row3(X, i), -1, arg, scratch);
-      if (nearest) (*nearest)[i] = arg;
-    }
-  }
-  return f;
-}
 
 // ---------------------------------------------------------------------------------------------
 // The rig

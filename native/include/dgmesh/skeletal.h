@@ -108,35 +108,20 @@ struct SkeletalDeformOptions {
   int projection_passes = 8;
   // Passes of the dense mesh's explicit step (multiresolution layer). A pass after the first visits
   // only the vertices whose minimising ball changed or whose move may have taken them into another
-  // candidate ball, so three cost little more than one (bench skeletal_speed).
+  // candidate ball, so three cost little more than one.
   int dense_projection_passes = 3;
   // Skeletal mesh editing (6.2) by dual quaternion blending of the bone motions (rigid per skeletal
-  // vertex) instead of the linear blend of eq. 6.2 (false). The linear blend pulls skeletal vertices
-  // that lie off a bone's axis (a limb whose medial surface is a sheet, not a curve) towards it
-  // under a twist, by |w0 - w1| at 180 degrees: halfway through the knee's blend the sheet collapses
-  // onto the bone, the bone clearance then pushes its vertices out in directions the collapse left
-  // arbitrary, and the mesh rebuilt on that sheet tears open around the knee (armadillo leg
-  // twisted 180 degrees, bench skeletal_limb). In a bend the two are about even. Measured against
-  // its own posed skeleton each has a small thickness error, against the other's the twist's is
-  // large (armadillo: linear 0.021 / 2.3 of DQS's, dual quaternion 0.006 / 0.87): eq. 6.13 only
-  // measures how well the surface follows a posed skeleton, not whether that skeleton is sound.
+  // vertex) instead of the linear blend of eq. 6.2 (false), which pulls skeletal vertices that lie
+  // off a bone's axis towards it under a twist (a limb whose medial surface is a sheet collapses
+  // onto the bone and the mesh rebuilt on it tears open). See bench/notes/skeletal.md.
   bool dual_quaternion = true;
-  // Surface bone clearance (variational method, fairing_steps > 0): after the thickness steps, each
-  // control vertex is pushed radially out until its distance to the posed stick skeleton of the
-  // bones it has weight on and of their parents (the union of their segments; a child limb's flesh
-  // folds against the parent limb's, not onto its bone) is at least this fraction of its rest
-  // distance to it: the surface counterpart of the skeletal vertices' clearance. Rest pose and rigid
-  // motions: no push. Where a limb's medial surface is a sheet off the stick bones (camel leg), the
-  // surface rebuilt on the SSD-posed sheet keeps its medial distance, but a few vertices in the
-  // joint's crease still come closer to the bones (min ratio 0.75 bend / 0.70 twist without this
-  // step). 1 keeps every rest distance but costs thickness: under a twist the leg turns about its
-  // sheet rather than about the bone and hundreds of vertices come slightly closer (camel twist:
-  // sum (f - f_rest)^2 0.23 of DQS's); 0.95 moves only the deepest crease vertices (0.12 of DQS's;
-  // bench skeletal_limb). Known cost: in a capsule's 90-degree bend, whose inner crease already
-  // folds, the crease vertices it pushes add self-intersecting triangle pairs (bench). Through the
-  // multiresolution layer the dense vertices get the same push, each against the bones its base
-  // face's control vertices have weight on (camel knee through a 5000-face control mesh: min ratio
-  // 0.19 bend / 0.35 twist without it). 0 = off.
+  // Surface bone clearance (variational method, fairing_steps > 0), in [0, 1]: after the thickness
+  // steps, each control vertex is pushed radially out until its distance to the union of the posed
+  // segments of the bones it has weight on and of their parents is at least this fraction of its
+  // rest distance to them (the surface counterpart of the skeletal vertices' clearance; no push in
+  // the rest pose or under rigid motions). Through the multiresolution layer the dense vertices get
+  // the same push, against the bones of their base face's control vertices. 1 keeps every rest
+  // distance but costs thickness under twists; 0 = off. See bench/notes/skeletal.md.
   double bone_clearance = 0.95;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)

@@ -1,7 +1,8 @@
-// The working mesh of the curvature flows and the tangential regularisation (fair.cpp,
-// regularization.cpp): the faces within reach of the movable vertices, validated, with per-level
-// vertex roles, and the original boundary polylines that sliding vertices follow. Not part of the
-// library's interface.
+/// \file
+/// The working mesh of the curvature flows and the tangential regularisation (fair.cpp,
+/// regularization.cpp): the faces within reach of the movable vertices, validated, with per-level
+/// vertex roles, and the original boundary polylines that sliding vertices follow. Not part of the
+/// library's interface.
 #pragma once
 #include <algorithm>
 #include <limits>
@@ -14,12 +15,12 @@
 
 namespace dgmesh::detail {
 
-// Below this many elements a loop runs serially. The per-vertex loops are a few hundred
-// flops each; on a loaded 2-core machine, waking (and spin-waiting) OpenMP threads around every
-// small loop slowed a 5K-vertex hole fill from 0.9 s to 17 s, so only large meshes go parallel.
+/// Below this many elements a loop runs serially. The per-vertex loops are a few hundred
+/// flops each; on a loaded 2-core machine, waking (and spin-waiting) OpenMP threads around every
+/// small loop slowed a 5K-vertex hole fill from 0.9 s to 17 s, so only large meshes go parallel.
 constexpr int kFairParallelMin = 1 << 16;
 
-// Working state of one level: a validated submesh in normalised coordinates.
+/// Working state of one level: a validated submesh in normalised coordinates.
 struct Work {
   MatX3d P;
   MatX3i F;
@@ -31,14 +32,14 @@ struct Work {
   std::vector<char> near;      // per face: touches a movable vertex (for A_min)
 };
 
-// Sets the vertex roles of a level from w.movable: fixed boundary vertices stop moving (or slide),
-// the energy set and the faces near movable vertices.
+/// Sets the vertex roles of a level from w.movable: fixed boundary vertices stop moving (or slide),
+/// the energy set and the faces near movable vertices.
 void prepare_level(Work& w, FairBoundary boundary);
 
-// Mean edge length (the unit of the normalised coordinates); 1 without edges.
+/// Mean edge length (the unit of the normalised coordinates); 1 without edges.
 double mean_edge_length(const MatX3d& P, const Topology& t);
 
-// The original boundary polylines, onto which sliding vertices are projected.
+/// The original boundary polylines, onto which sliding vertices are projected.
 struct BoundaryCurves {
   std::vector<std::vector<Vec3>> loops;
   std::vector<std::pair<int, int>> hint;  // per vertex: (loop, segment) last found; (-1, -1) unknown
@@ -62,7 +63,7 @@ struct BoundaryCurves {
     d2 = (p - q).squaredNorm();
     return q;
   }
-  // Projects p onto the curves; searches near the hint, or everywhere without one.
+  /// Projects p onto the curves; searches near the hint, or everywhere without one.
   Vec3 project(const Vec3& p, std::pair<int, int>& h) const {
     double best = std::numeric_limits<double>::infinity();
     Vec3 q = p;
@@ -85,28 +86,28 @@ struct BoundaryCurves {
   }
 };
 
-// 1D equalisation of sliding boundary vertices along their boundary, then projection.
+/// 1D equalisation of sliding boundary vertices along their boundary, then projection.
 void slide_boundary(Work& w, BoundaryCurves& curves, double step);
 
-// Area-weighted unit vertex normals (eq. 3.7) and face areas, serial below kFairParallelMin.
+/// Area-weighted unit vertex normals (eq. 3.7) and face areas, serial below kFairParallelMin.
 void area_normals(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& N, VecXd& farea, MatX3d& fcross);
 
-// The input reduced to the faces within reach of the movable vertices and the region.
+/// The input reduced to the faces within reach of the movable vertices and the region.
 struct Submesh {
   std::vector<int> verts;  // local -> full vertex
   std::vector<int> faces;  // local -> full face
   Work work;
 };
 
-// The faces touching a vertex that is movable or in a region face, and the faces touching those
-// (every face when `whole`), with local indices and roles.
+/// The faces touching a vertex that is movable or in a region face, and the faces touching those
+/// (every face when `whole`), with local indices and roles.
 Submesh extract(const MatX3d& V, const MatX3i& F, const std::vector<char>& movable_full,
                 const std::vector<char>& region_full, bool whole);
 
-// MeshError for an empty or invalid input, or masks of the wrong size (fmask may be null).
+/// MeshError for an empty or invalid input, or masks of the wrong size (fmask may be null).
 void check_input(const MatX3d& V, const MatX3i& F, const std::vector<char>& vmask, const std::vector<char>* fmask);
 
-// validate(w.P, w.F, kSurface), its message saying when the problem is in a region's submesh.
+/// validate(w.P, w.F, kSurface), its message saying when the problem is in a region's submesh.
 Topology validated_topology(Work& w, bool whole);
 
 }  // namespace dgmesh::detail

@@ -1,5 +1,6 @@
-// Small helpers shared by the algorithms' sources: constants and 2D vectors (the UV and chart maps).
-// Not part of the library's interface.
+/// \file
+/// Small helpers shared by the algorithms' sources: constants and 2D vectors (the UV and chart maps).
+/// Not part of the library's interface.
 #pragma once
 #include <Eigen/Core>
 #include <limits>
@@ -11,8 +12,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 
 using Vec2 = Eigen::Vector2d;
 
-// z component of the 3D cross product of (a, 0) and (b, 0): twice the signed area of the triangle
-// (0, a, b), positive when b lies counter-clockwise of a.
+/// z component of the 3D cross product of (a, 0) and (b, 0): twice the signed area of the triangle
+/// (0, a, b), positive when b lies counter-clockwise of a.
 inline double cross2(const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 }  // namespace dgmesh::detail

@@ -1,5 +1,6 @@
-// Wall-clock timing of the algorithms' stages (reported seconds, time budgets) and an opt-in CPU
-// profile of a call's phases. Not part of the library's interface.
+/// \file
+/// Wall-clock timing of the algorithms' stages (reported seconds, time budgets) and an opt-in CPU
+/// profile of a call's phases. Not part of the library's interface.
 #pragma once
 #include <chrono>
 #include <cstdio>
@@ -15,7 +16,7 @@ using Clock = std::chrono::steady_clock;
 
 inline double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-// Wall seconds since construction (seconds) or since the previous lap (lap).
+/// Wall seconds since construction (seconds) or since the previous lap (lap).
 class Stopwatch {
  public:
   double seconds() const { return seconds_since(t0_); }
@@ -30,9 +31,9 @@ class Stopwatch {
   Clock::time_point t0_ = Clock::now();
 };
 
-// Process CPU seconds spent in the named phases of one call, summed per name and printed to stderr
-// when the call ends, if the environment variable `env` is set (how the speed work was measured).
-// mark(name) ends the phase `name` (it began at the previous mark).
+/// Process CPU seconds spent in the named phases of one call, summed per name and printed to stderr
+/// when the call ends, if the environment variable `env` is set (how the speed work was measured).
+/// mark(name) ends the phase `name` (it began at the previous mark).
 class Profile {
  public:
   explicit Profile(const char* env) : on_(std::getenv(env) != nullptr) {}
@@ -62,15 +63,15 @@ class Profile {
   std::vector<std::pair<std::string, double>> acc_;
 };
 
-// The profile of the call running on this thread (null when profiling is off), so that helpers
-// deep in the call (a linear solver) can mark phases.
+/// The profile of the call running on this thread (null when profiling is off), so that helpers
+/// deep in the call (a linear solver) can mark phases.
 inline thread_local Profile* current_profile = nullptr;
 
 inline void profile_mark(const char* name) {
   if (current_profile) current_profile->mark(name);
 }
 
-// Profiles the enclosing call (a public entry point) on this thread.
+/// Profiles the enclosing call (a public entry point) on this thread.
 class ProfileScope {
  public:
   explicit ProfileScope(const char* env) : prof_(env) { current_profile = prof_.on() ? &prof_ : nullptr; }

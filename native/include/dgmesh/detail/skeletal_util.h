@@ -1,0 +1,32 @@
+/// \file
+/// Pieces shared by the skeletal deformation's sources (skeletal.cpp: the rig; skeletal_mesh.cpp,
+/// skinning.cpp, union_of_balls.cpp). Not part of the library's interface.
+#pragma once
+#include <utility>
+#include <vector>
+
+#include "dgmesh/spatial_index.h"
+#include "dgmesh/types.h"
+
+namespace dgmesh::detail {
+
+using Mat3 = Eigen::Matrix3d;
+using MatX9d = Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>;  // a 3x3 matrix per row
+
+/// Nearest rotation (polar decomposition) of a 3x3 matrix; the identity for a zero matrix.
+/// Scaled Newton iteration R <- (g R + R^-T / g) / 2 (Higham), a few 3x3 inverses, with the SVD as
+/// the fallback for (nearly) singular or reflecting input.
+Mat3 nearest_rotation(const Mat3& C);
+
+/// Signed volume enclosed by the closed triangle mesh (V, F) (positive for outward faces).
+double signed_volume(const MatX3d& V, const MatX3i& F);
+
+/// Closest point of segment [a, b] to p, squared distance.
+double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b);
+
+/// min_j |x - s_j| - r_j over the balls, with the kd-tree over the centres. `bound_index` gives a
+/// first candidate (its ball bounds the search); -1 starts from the nearest centre.
+double union_distance(const KdTree& tree, const MatX3d& centers, const VecXd& radii, double r_max, const Vec3& x,
+                      int bound_index, int& arg, std::vector<std::pair<int, double>>& scratch);
+
+}  // namespace dgmesh::detail
