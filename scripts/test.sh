@@ -30,6 +30,10 @@ if [ "$mode" != --lane ]; then
   # Style is checked once, with bookworm's tools (newer ones format and warn differently).
   step "lint (pyflakes: scripts/lint.py)"; current="lint"
   check /usr/bin/python3 scripts/lint.py
+  step "format (clang-format --dry-run -Werror, .clang-format)"; current="format"
+  mapfile -t cxx < <(git ls-files 'native/*.h' 'native/*.cpp' 'tests/native/*.cpp' 'tests/native/*.h' \
+    'packaging/*.cpp' 'bench/tools/*.cpp' 2>/dev/null || find native tests/native -name '*.[ch]*')
+  check clang-format --dry-run -Werror "${cxx[@]}"
 fi
 
 step "build (Release)"

@@ -52,8 +52,8 @@ int main(int argc, char** argv) {
     std::vector<Mesh::Vertex_index> added;
     bool ok = true;
     if (mode == "trf") {
-      ok = std::get<0>(PMP::triangulate_refine_and_fair_hole(m, border, std::back_inserter(faces),
-                                                             std::back_inserter(added)));
+      ok = std::get<0>(
+          PMP::triangulate_refine_and_fair_hole(m, border, std::back_inserter(faces), std::back_inserter(added)));
     } else {
       PMP::triangulate_and_refine_hole(m, border, std::back_inserter(faces), std::back_inserter(added));
     }

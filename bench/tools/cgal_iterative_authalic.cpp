@@ -14,13 +14,13 @@
 // out.txt: line 1 "wall <median s> cpu <median s> status <CGAL error code> best_iteration <i>
 // runs <k>", line 2 the wall seconds of every timed run, then one "u v" line per vertex in the
 // OFF's vertex order (%.17g).
+#include <CGAL/Polygon_mesh_processing/measure.h>
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_parameterization/Discrete_authalic_parameterizer_3.h>
 #include <CGAL/Surface_mesh_parameterization/Iterative_authalic_parameterizer_3.h>
 #include <CGAL/Surface_mesh_parameterization/Square_border_parameterizer_3.h>
 #include <CGAL/Surface_mesh_parameterization/parameterize.h>
-#include <CGAL/Polygon_mesh_processing/measure.h>
 
 #include <algorithm>
 #include <chrono>
@@ -43,8 +43,8 @@ namespace PMP = CGAL::Polygon_mesh_processing;
 
 // One parameterization call with border parameterizer B; iterations in/out (best iteration).
 template <class B>
-static SMP::Error_code run_once(const std::string& method, Mesh& m, HD bhd,
-                                Mesh::Property_map<VD, K::Point_2> uvmap, unsigned& iters) {
+static SMP::Error_code run_once(const std::string& method, Mesh& m, HD bhd, Mesh::Property_map<VD, K::Point_2> uvmap,
+                                unsigned& iters) {
   if (method == "iterative") {
     SMP::Iterative_authalic_parameterizer_3<Mesh, B> p;
     auto vimap = get(boost::vertex_index, m);
@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
   const int runs = std::max(1, std::atoi(argv[4]));
   const int warmups = argc > 5 ? std::max(0, std::atoi(argv[5])) : 1;
   const unsigned iterations = argc > 6 ? unsigned(std::atoi(argv[6])) : 15u;  // CGAL's default
-  const std::string border = argc > 7 ? argv[7] : "circle";  // CGAL's default
+  const std::string border = argc > 7 ? argv[7] : "circle";                   // CGAL's default
   if (border != "circle" && border != "square") {
     std::cerr << "unknown border " << border << "\n";
     return 2;

@@ -119,7 +119,8 @@ class Struct {
         const pb::object v = self.attr(f);
         s += f.cast<std::string>() + "=";
         if (pb::isinstance<pb::array>(v) && pb::array(v).size() > 8)  // arrays by shape and type
-          s += "<" + pb::str(v.attr("dtype")).cast<std::string>() + " " + pb::str(v.attr("shape")).cast<std::string>() + ">";
+          s += "<" + pb::str(v.attr("dtype")).cast<std::string>() + " " + pb::str(v.attr("shape")).cast<std::string>() +
+               ">";
         else
           s += pb::repr(v).cast<std::string>();
       }

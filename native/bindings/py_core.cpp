@@ -75,13 +75,16 @@ void bind_core(pb::module_& m) {
 
   // Surfaces with known answers.
   auto tuple = [](TriMesh t) { return pb::make_tuple(std::move(t.V), std::move(t.F)); };
-  m.def("icosphere", [tuple](int level, double r) { return tuple(icosphere(level, r)); }, pb::arg("level"),
-        pb::arg("radius") = 1.0);
-  m.def("torus", [tuple](double R, double r, int nu, int nv) { return tuple(torus(R, r, nu, nv)); }, pb::arg("R"),
-        pb::arg("r"), pb::arg("nu"), pb::arg("nv"));
-  m.def("grid", [tuple](int nx, int ny) { return tuple(grid(nx, ny)); }, pb::arg("nx"), pb::arg("ny"));
-  m.def("subdivide_linear", [tuple](InV V, InF F) { return tuple(subdivide_linear(V, F)); }, pb::arg("V"),
-        pb::arg("F"));
+  m.def(
+      "icosphere", [tuple](int level, double r) { return tuple(icosphere(level, r)); }, pb::arg("level"),
+      pb::arg("radius") = 1.0);
+  m.def(
+      "torus", [tuple](double R, double r, int nu, int nv) { return tuple(torus(R, r, nu, nv)); }, pb::arg("R"),
+      pb::arg("r"), pb::arg("nu"), pb::arg("nv"));
+  m.def(
+      "grid", [tuple](int nx, int ny) { return tuple(grid(nx, ny)); }, pb::arg("nx"), pb::arg("ny"));
+  m.def(
+      "subdivide_linear", [tuple](InV V, InF F) { return tuple(subdivide_linear(V, F)); }, pb::arg("V"), pb::arg("F"));
   m.def(
       "loop_subdivide",
       [tuple](InV V, InF F, int levels) {

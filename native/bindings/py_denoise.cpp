@@ -57,8 +57,7 @@ void bind_denoise(pb::module_& m) {
         NativeScope nogil;
         return denoise(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(),
-      pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(), pb::arg("progress") = pb::none());
 
   m.def(
       "denoise_points",
@@ -68,8 +67,7 @@ void bind_denoise(pb::module_& m) {
         NativeScope nogil;
         return denoise_points(V, N, o, cb);
       },
-      pb::arg("V"), pb::arg("N"), pb::arg("options"), pb::arg("mask") = pb::none(),
-      pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("N"), pb::arg("options"), pb::arg("mask") = pb::none(), pb::arg("progress") = pb::none());
 
   Struct<SimilarityOptions>(m, "SimilarityOptions", "Options of similarity()")
       .field("eta1", &SimilarityOptions::eta1, "deviation of the similarity kernel (2.7)")

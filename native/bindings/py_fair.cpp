@@ -85,8 +85,8 @@ void bind_fair(pb::module_& m) {
         NativeScope nogil;
         return fair(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(),
-      pb::arg("face_mask") = pb::none(), pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(), pb::arg("face_mask") = pb::none(),
+      pb::arg("progress") = pb::none());
 
   Struct<RegularizeOptions>(m, "RegularizeOptions", "Options of regularize() (the mask is a separate argument)")
       .field("iterations", &RegularizeOptions::iterations, "drift steps")
@@ -104,8 +104,7 @@ void bind_fair(pb::module_& m) {
         NativeScope nogil;
         return regularize(V, F, o, cb);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(),
-      pb::arg("progress") = pb::none());
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("mask") = pb::none(), pb::arg("progress") = pb::none());
 
   m.def(
       "willmore_energy",

@@ -57,8 +57,8 @@ void bind_multires(pb::module_& m) {
             NativeScope nogil;
             return Multires::bind(control_V, control_F, V, level, cb, projection_iterations);
           },
-          pb::arg("control_V"), pb::arg("control_F"), pb::arg("V"), pb::arg("level"),
-          pb::arg("projection_iterations"), pb::arg("progress") = pb::none())
+          pb::arg("control_V"), pb::arg("control_F"), pb::arg("V"), pb::arg("level"), pb::arg("projection_iterations"),
+          pb::arg("progress") = pb::none())
       .def_static(
           "from_arrays",
           [](InV control_V, InF control_F, int level, const VecXi& face, const MatX2dR& st, InV disp) {
@@ -72,8 +72,7 @@ void bind_multires(pb::module_& m) {
             NativeScope nogil;
             return Multires::from_data(d);
           },
-          pb::arg("control_V"), pb::arg("control_F"), pb::arg("level"), pb::arg("face"), pb::arg("st"),
-          pb::arg("disp"))
+          pb::arg("control_V"), pb::arg("control_F"), pb::arg("level"), pb::arg("face"), pb::arg("st"), pb::arg("disp"))
       .def_property_readonly("n_dense", &Multires::n_dense)
       .def_property_readonly("n_control", &Multires::n_control)
       .def_property_readonly("level", &Multires::level)

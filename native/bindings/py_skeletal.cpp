@@ -131,12 +131,14 @@ void bind_skeletal(pb::module_& m) {
     NativeScope nogil;
     return gaussian_bone_weights(P, heads, tails, sigma);
   });
-  m.def("skeletal_subspace_deform", [](InV P, const Eigen::MatrixXd& W, const Mats& rest, const Mats& pose,
-                                       bool dual_quaternion) {
-    const auto r = to_mats(rest, "bones_rest"), p = to_mats(pose, "bones_pose");
-    NativeScope nogil;
-    return skeletal_subspace_deform(P, W, r, p, nullptr, dual_quaternion);
-  }, pb::arg("P"), pb::arg("W"), pb::arg("rest"), pb::arg("pose"), pb::arg("dual_quaternion") = false);
+  m.def(
+      "skeletal_subspace_deform",
+      [](InV P, const Eigen::MatrixXd& W, const Mats& rest, const Mats& pose, bool dual_quaternion) {
+        const auto r = to_mats(rest, "bones_rest"), p = to_mats(pose, "bones_pose");
+        NativeScope nogil;
+        return skeletal_subspace_deform(P, W, r, p, nullptr, dual_quaternion);
+      },
+      pb::arg("P"), pb::arg("W"), pb::arg("rest"), pb::arg("pose"), pb::arg("dual_quaternion") = false);
 
   pb::class_<SkeletalRig>(m, "SkeletalRig")
       .def_static(
@@ -146,8 +148,8 @@ void bind_skeletal(pb::module_& m) {
             const auto r = to_mats(rest, "bones_rest");
             const ProgressFn cb = progress_from(progress);
             NativeScope nogil;
-            return SkeletalRig::bind(V, F, r, weights ? *weights : Eigen::MatrixXd(),
-                                     heads ? *heads : MatX3d(0, 3), tails ? *tails : MatX3d(0, 3), o, cb);
+            return SkeletalRig::bind(V, F, r, weights ? *weights : Eigen::MatrixXd(), heads ? *heads : MatX3d(0, 3),
+                                     tails ? *tails : MatX3d(0, 3), o, cb);
           },
           pb::arg("V"), pb::arg("F"), pb::arg("bones_rest"), pb::arg("weights"), pb::arg("heads"), pb::arg("tails"),
           pb::arg("options"), pb::arg("progress") = pb::none())
@@ -177,17 +179,18 @@ void bind_skeletal(pb::module_& m) {
             return out;
           },
           pb::arg("pose"), pb::arg("options"), pb::arg("out") = pb::none())
-      .def("deform_control",
-           [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o) {
-             const auto p = to_mats(pose, "bones_pose");
-             MatX3d X, Sd;
-             {
-               NativeScope nogil;
-               X = rig.deform_control(p, o, &Sd);
-             }
-             return pb::make_tuple(std::move(X), std::move(Sd));
-           },
-           pb::arg("pose"), pb::arg("options"))
+      .def(
+          "deform_control",
+          [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o) {
+            const auto p = to_mats(pose, "bones_pose");
+            MatX3d X, Sd;
+            {
+              NativeScope nogil;
+              X = rig.deform_control(p, o, &Sd);
+            }
+            return pb::make_tuple(std::move(X), std::move(Sd));
+          },
+          pb::arg("pose"), pb::arg("options"))
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");

@@ -72,8 +72,7 @@ void bind_unwrap(pb::module_& m) {
   Struct<UnwrapResult>(m, "UnwrapResult", "Result of unwrap()")
       .result("uv", &UnwrapResult::uv, "(n, 2) the returned map, in [0, 1]^2")
       .result("uv_initial", &UnwrapResult::uv_initial, "(n, 2) U0, the start of the equalization")
-      .result("steps", &UnwrapResult::steps,
-              "steps[h] is U^h (U0 first); for Uopt the last may be the rejected step")
+      .result("steps", &UnwrapResult::steps, "steps[h] is U^h (U0 first); for Uopt the last may be the rejected step")
       .result("chosen", &UnwrapResult::chosen, "index into steps of the returned map")
       .result("boundary_used", &UnwrapResult::boundary_used, "the boundary used (see warnings for fallbacks)")
       .result("boundary_convex", &UnwrapResult::boundary_convex, "the fixed polygon is convex (then no flips)")

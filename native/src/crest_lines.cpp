@@ -17,7 +17,6 @@ namespace dgmesh {
 
 namespace {
 
-
 // Unit vector orthogonal to n.
 inline Vec3 any_perpendicular(const Vec3& n) {
   const Vec3 a = std::abs(n.x()) < 0.6 ? Vec3::UnitX() : (std::abs(n.y()) < 0.6 ? Vec3::UnitY() : Vec3::UnitZ());
@@ -300,8 +299,8 @@ CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, co
   const Topology& topo = mesh.topo;
   const int nv = topo.n_vertices, ne = topo.n_edges(), nf = topo.n_faces;
   if (d.k_max.size() != nv || d.e_max.size() != nv || d.t_max.rows() != nv)
-    throw MeshError("curvature derivatives do not match the mesh (" + std::to_string(d.k_max.size()) +
-                    " values for " + std::to_string(nv) + " vertices)");
+    throw MeshError("curvature derivatives do not match the mesh (" + std::to_string(d.k_max.size()) + " values for " +
+                    std::to_string(nv) + " vertices)");
   // Cyclideness C = sqrt(e_max^2 + e_min^2) (eq. 4.11) per vertex.
   const VecXd C = (d.e_max.array().square() + d.e_min.array().square()).sqrt();
 
@@ -407,9 +406,7 @@ CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, co
     };
     std::vector<Candidate> cand;
     const double third = detail::kPi / 3, half = detail::kPi / 2;
-    auto angle = [](const Vec3& x, const Vec3& y) {
-      return std::atan2(x.cross(y).norm(), x.dot(y));
-    };
+    auto angle = [](const Vec3& x, const Vec3& y) { return std::atan2(x.cross(y).norm(), x.dot(y)); };
     for (size_t g = 0; g < owner.size();) {
       size_t h = g;
       while (h < owner.size() && owner[h].first == owner[g].first) ++h;
@@ -421,7 +418,8 @@ CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, co
           const Vec3 c = pts[b] - pts[a];
           if (c.squaredNorm() == 0 || da.squaredNorm() == 0 || db.squaredNorm() == 0) continue;
           const double alpha = angle(da, c), beta = angle(db, -c), gamma = angle(da, -db);
-          if (alpha <= third && beta <= third && gamma <= half) cand.push_back({alpha + beta, std::min(a, b), std::max(a, b)});
+          if (alpha <= third && beta <= third && gamma <= half)
+            cand.push_back({alpha + beta, std::min(a, b), std::max(a, b)});
         }
       g = h;
     }

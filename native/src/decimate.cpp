@@ -360,8 +360,7 @@ bool Decimator::no_new_folds(int u, int v) const {
         for (int j = start_[p]; j < start_[p] + count_[p] && !found; ++j) {
           const int g = refs_[j];
           const int a = F_(g, 0), b = F_(g, 1), c = F_(g, 2);
-          if (g == m.f || (a != q && b != q && c != q) || a == u || b == u || c == u || a == v ||
-              b == v || c == v)
+          if (g == m.f || (a != q && b != q && c != q) || a == u || b == u || c == u || a == v || b == v || c == v)
             continue;
           g0 = g1 = (V_.row(b) - V_.row(a)).cross(V_.row(c) - V_.row(a)).transpose();
           found = true;
@@ -423,8 +422,8 @@ int Decimator::run_batched(Progress& progress, int to_remove) {
     // Sorted windows of the cheapest candidates until `take` collapses succeeded: refused ones
     // (link condition, flips) do not use up the pass.
     bool stop = false;
-    for (size_t lo = 0; lo < keys.size() && !stop && size_t(collapses - before) < take &&
-                        n_faces_ > opt_.target_faces;) {
+    for (size_t lo = 0;
+         lo < keys.size() && !stop && size_t(collapses - before) < take && n_faces_ > opt_.target_faces;) {
       const size_t hi = std::min(keys.size(), lo + take);
       std::nth_element(keys.begin() + lo, keys.begin() + (hi - 1), keys.end());
       std::sort(keys.begin() + lo, keys.begin() + hi);
@@ -537,8 +536,8 @@ DecimateResult Decimator::run(const ProgressFn& progress_fn) {
       if (f < 0) continue;
       const int a = topo.edges(e, 0), b = topo.edges(e, 1);
       const Vec3 pa = V_.row(a), pb = V_.row(b);
-      const Vec3 fn = (Vec3(V_.row(F_(f, 1))) - Vec3(V_.row(F_(f, 0))))
-                          .cross(Vec3(V_.row(F_(f, 2))) - Vec3(V_.row(F_(f, 0))));
+      const Vec3 fn =
+          (Vec3(V_.row(F_(f, 1))) - Vec3(V_.row(F_(f, 0)))).cross(Vec3(V_.row(F_(f, 2))) - Vec3(V_.row(F_(f, 0))));
       const Vec3 n = (pb - pa).cross(fn).normalized();
       if (!n.allFinite()) continue;
       double w = opt_.boundary_weight * (opt_.area_weighted ? (pb - pa).squaredNorm() : 1.0);

@@ -31,7 +31,7 @@ namespace {
 
 constexpr int kMaxPatch = 64;  // hard limit of DenoiseOptions::max_patch (stack-sized RBF systems)
 constexpr int kMaxSys = kMaxPatch + 3;
-constexpr int kMinPatch = 6;    // fewest points of an RBF patch when the neighbourhood has them
+constexpr int kMinPatch = 6;  // fewest points of an RBF patch when the neighbourhood has them
 constexpr int kDensityK = 6;  // neighbours for the point-cloud spacing and area element
 using detail::kPi;
 
@@ -56,7 +56,8 @@ void check_options(const DenoiseOptions& opt, Eigen::Index n) {
   positive(opt.eta1, "eta1");
   positive(opt.eta2, "eta2");
   positive(opt.eta3, "eta3");
-  if (opt.eta2 > 20 || opt.eta3 > 20) throw MeshError("eta2 and eta3 must be at most 20 (neighbourhoods of 40 edge lengths)");
+  if (opt.eta2 > 20 || opt.eta3 > 20)
+    throw MeshError("eta2 and eta3 must be at most 20 (neighbourhoods of 40 edge lengths)");
   if (opt.iterations < 0 || opt.iterations > 1000) throw MeshError("iterations must be in [0, 1000]");
   if (opt.max_patch != 0 && (opt.max_patch < 3 || opt.max_patch > kMaxPatch))
     throw MeshError("max_patch must be 0 (automatic) or in [3, " + std::to_string(kMaxPatch) + "]");
@@ -133,7 +134,8 @@ Welded weld(const MatX3d& V, double tol) {
   }
   std::vector<int> order(count);
   std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](int a, int b) { return code[a] < code[b] || (code[a] == code[b] && a < b); });
+  std::sort(order.begin(), order.end(),
+            [&](int a, int b) { return code[a] < code[b] || (code[a] == code[b] && a < b); });
   std::vector<int> position(count);
   w.P.resize(count, 3);
   for (int k = 0; k < count; ++k) {
@@ -183,8 +185,8 @@ struct Neighbourhoods {
 };
 
 // `act` maps kd-tree indices to point indices; points not in the tree get empty lists.
-void build_neighbourhoods(const KdTree& tree, const std::vector<int>& act, int n_points, double r2ball,
-                          double r3ball, int cap2, int cap3, Neighbourhoods& nb) {
+void build_neighbourhoods(const KdTree& tree, const std::vector<int>& act, int n_points, double r2ball, double r3ball,
+                          int cap2, int cap3, Neighbourhoods& nb) {
   const int na = static_cast<int>(act.size());
   const double R = std::max(r2ball, r3ball);
   nb.len.assign(n_points, 0);
@@ -255,8 +257,7 @@ inline float fast_log(float x) {
   float m;
   std::memcpy(&m, &b, 4);
   const float t = (m - 1.0f) / (m + 1.0f), t2 = t * t;
-  return ex * 0.693147181f +
-         2.0f * t * (1.0f + t2 * (1.0f / 3 + t2 * (1.0f / 5 + t2 * (1.0f / 7 + t2 * (1.0f / 9)))));
+  return ex * 0.693147181f + 2.0f * t * (1.0f + t2 * (1.0f / 3 + t2 * (1.0f / 5 + t2 * (1.0f / 7 + t2 * (1.0f / 9)))));
 }
 
 // The kernel of the fit uses the same logarithm as the evaluation, so the patch interpolates its
@@ -464,12 +465,12 @@ void segment_weights(Scratch& s, int S, double eta1, double eta3, std::vector<do
 // ---- the filters ---------------------------------------------------------------------------------
 
 struct State {
-  MatX3d P;                 // current welded positions
-  MatX3d N;                 // unit normals (zero: the point does not move)
-  VecXd A;                  // area elements (zero: not part of the surface)
+  MatX3d P;  // current welded positions
+  MatX3d N;  // unit normals (zero: the point does not move)
+  VecXd A;   // area elements (zero: not part of the surface)
   double e = 0;
-  double mean_area = 1;     // mean area element over the surface points
-  std::vector<int> act;     // points in the kd-tree (A > 0)
+  double mean_area = 1;  // mean area element over the surface points
+  std::vector<int> act;  // points in the kd-tree (A > 0)
   Neighbourhoods nb;
 };
 
@@ -572,8 +573,10 @@ void pca_normals(State& st) {
 void normalize_rows(MatX3d& N) {
   for (Eigen::Index i = 0; i < N.rows(); ++i) {
     const double l = N.row(i).norm();
-    if (l > 0 && std::isfinite(l)) N.row(i) /= l;
-    else N.row(i).setZero();
+    if (l > 0 && std::isfinite(l))
+      N.row(i) /= l;
+    else
+      N.row(i).setZero();
   }
 }
 
@@ -671,9 +674,8 @@ DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const Den
         const int x = st.act[a];
         if (!movable[x] || st.N.row(x).squaredNorm() == 0) continue;
         const int t = thread_index();
-        const double k = o.method == DenoiseMethod::Similarity
-                             ? similarity_step(st, x, o, scratch[t], wbuf[t], fb[t])
-                             : bilateral_step(st, x, o);
+        const double k = o.method == DenoiseMethod::Similarity ? similarity_step(st, x, o, scratch[t], wbuf[t], fb[t])
+                                                               : bilateral_step(st, x, o);
         if (std::isfinite(k)) Pn.row(x) += (k * st.e) * st.N.row(x);  // eq. 2.3
       }
       progress((it + static_cast<double>(end) / na) / o.iterations);
@@ -695,7 +697,8 @@ DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const Den
     const bool part = cloud || (st.A.size() == nw && st.A(w) > 0);
     if (movable[w] && part) moved.push_back(res.residual(i));
   }
-  res.residual_entropy = residual_entropy(Eigen::Map<const VecXd>(moved.data(), static_cast<Eigen::Index>(moved.size())));
+  res.residual_entropy =
+      residual_entropy(Eigen::Map<const VecXd>(moved.data(), static_cast<Eigen::Index>(moved.size())));
   res.iterations = o.iterations;
   res.rbf_fallbacks = fallbacks;
   res.welded = wd.merged;

@@ -71,8 +71,8 @@ struct Geo {
   Mat3Row cot, cmix, ang;  // per face corner: cotangent, mixed (Voronoi) area, angle
   MatX3d fcross;           // per face: (b-a) x (c-a) = 2 area n
   VecXd farea;
-  VecXd A, H, K;           // per vertex: mixed area, mean curvature (thesis sign), Gaussian
-  MatX3d N, LP;            // area-weighted unit normal (eq. 3.7), Laplace_S(P) (eq. 3.11)
+  VecXd A, H, K;  // per vertex: mixed area, mean curvature (thesis sign), Gaussian
+  MatX3d N, LP;   // area-weighted unit normal (eq. 3.7), Laplace_S(P) (eq. 3.11)
 };
 
 void extend_to_boundary(VecXd& x, const Topology& t, const VecXd& interior) {
@@ -178,8 +178,6 @@ double min_area_near(const Work& w, const Geo& g) {
   return std::isfinite(a) ? a : 0.0;
 }
 
-
-
 // Willmore / Laplacian-of-H speed F at movable vertices (eq. 3.5 / 3.12), with the thesis's
 // rescaling of H where the discrete H^2 - K < 0 (applied in the nonlinear term, so that
 // Laplace_S(H) stays a smooth function of the geometry). Returns lambda.
@@ -215,10 +213,10 @@ double normal_speed(const Work& w, const Geo& g, FairMethod method, VecXd& speed
 // 26K-vertex armadillo).
 struct ImplicitSystem {
   SpMat A;
-  std::vector<int> corner_slot;  // per face corner k: L's ring slots of edge (k+1, k+2), both ways
-  std::vector<int> term_offset;  // per vertex k: start of its closed ring's pairs in term_slot
-  std::vector<int> term_slot;    // per pair (a, b) of k's closed ring: A's value index, -1 if fixed
-  std::vector<int> diag_slot;    // per movable vertex: A's diagonal value index
+  std::vector<int> corner_slot;          // per face corner k: L's ring slots of edge (k+1, k+2), both ways
+  std::vector<int> term_offset;          // per vertex k: start of its closed ring's pairs in term_slot
+  std::vector<int> term_slot;            // per pair (a, b) of k's closed ring: A's value index, -1 if fixed
+  std::vector<int> diag_slot;            // per movable vertex: A's diagonal value index
   std::vector<double> lring, ldiag, cv;  // L by ring slot (aligned with vv_index), its diagonal
 
   void setup(const Work& w, const std::vector<int>& idx, int nm) {
@@ -317,7 +315,8 @@ struct LevelReport {
 
 class Driver {
  public:
-  Driver(const FairOptions& o, Progress& p, Stopwatch& c, std::vector<double>& e) : opt_(o), progress_(p), clock_(c), energy_(e) {}
+  Driver(const FairOptions& o, Progress& p, Stopwatch& c, std::vector<double>& e)
+      : opt_(o), progress_(p), clock_(c), energy_(e) {}
 
   // first_new: the level's first vertex made by its subdivision (0 on the first level).
   LevelReport run(Work& w, int level, int levels, int first_new) {
@@ -469,8 +468,8 @@ class Driver {
   // B's rows of the solved vertices (idx[v] >= 0, ns of them) split into solved columns (Bmm) and
   // the others (Bmf), and the other vertices' positions Xf in Bmf's column order: B P = 0 becomes
   // Bmm x = -Bmf Xf.
-  static void split_fixed(const SpMat& B, const MatX3d& P, const std::vector<int>& idx, int ns, SpMat& Bmm,
-                          SpMat& Bmf, MatX3d& Xf) {
+  static void split_fixed(const SpMat& B, const MatX3d& P, const std::vector<int>& idx, int ns, SpMat& Bmm, SpMat& Bmf,
+                          MatX3d& Xf) {
     const int n = static_cast<int>(P.rows());
     std::vector<int> fixed_idx(n, -1);
     int nf = 0;
@@ -582,8 +581,8 @@ class Driver {
   // meshes a flow cannot improve (a cylinder whose caps are triangle fans, slivers) the unjudged
   // tangential sub-steps or the explicit scheme's instability can raise the energy step after step
   // and inflate the mesh, and the bi-umbrella flow shrinks a closed mesh without fixed vertices
-  // towards a point (the only case where it applies to that flow, see run_bilaplacian). (Only then: a level that ends below its start keeps its last state, whose slow
-  // energy creep goes with real progress of the mesh; see the report.)
+  // towards a point (the only case where it applies to that flow, see run_bilaplacian). (Only then: a level that ends
+  // below its start keeps its last state, whose slow energy creep goes with real progress of the mesh; see the report.)
   struct Lowest {
     double start, best;
     MatX3d P;
@@ -818,8 +817,10 @@ class Driver {
           SpMat A = Bmm * tau;
           for (int i = 0; i < nm_; ++i) A.coeffRef(i, i) += 1.0;
           A.makeCompressed();
-          if (tau_factored < 0) solver.factor(A, SparseSolver::Kind::LU);
-          else solver.refactor(A);
+          if (tau_factored < 0)
+            solver.factor(A, SparseSolver::Kind::LU);
+          else
+            solver.refactor(A);
           tau_factored = tau;
         }
         Eigen::MatrixXd rhs(nm_, 3);
@@ -892,20 +893,19 @@ class Driver {
   double h_ = 1, t_acc_ = 0, e_mark_ = 0;
   std::vector<int> movable_idx_;
   std::vector<char> free_comp_;  // components whose every vertex moves (see remove_translation)
-  bool any_free_ = false;   // some component has no fixed vertex
+  bool any_free_ = false;        // some component has no fixed vertex
   bool keep_size_ = false;
   MatX3d comp_center_, cur_center_;  // per component (restore_place_and_size)
   VecXd comp_area_, cur_area_;
   Geo g_, g_try_;  // g_try_: a semi-implicit trial step's geometry (swapped in when accepted)
   VecXd speed_;
   TangentialDrift tan_;
-  ImplicitSystem system_;             // semi-implicit matrix (pattern per level)
-  VecXd ulen_;                        // step lengths (semi-implicit scratch)
+  ImplicitSystem system_;  // semi-implicit matrix (pattern per level)
+  VecXd ulen_;             // step lengths (semi-implicit scratch)
   std::vector<double> ulen_sorted_;
   BoundaryCurves curves_;
   MatX3d fixed_pos_;
 };
-
 
 }  // namespace
 
@@ -1014,8 +1014,9 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
     }
   }
   if (std::none_of(w.movable.begin(), w.movable.end(), [](char c) { return c; }) && !whole)
-    throw MeshError("nothing to fair: every selected vertex is on the border of the selection or the mesh boundary; "
-                    "select the region's interior or add subdivisions");
+    throw MeshError(
+        "nothing to fair: every selected vertex is on the border of the selection or the mesh boundary; "
+        "select the region's interior or add subdivisions");
   if (res.energy.empty()) {  // a whole mesh with nothing to move (every vertex on a fixed boundary)
     Geo g;
     compute_geometry(w.P, w.F, w.topo, g);

@@ -29,8 +29,7 @@ void prepare_level(Work& w, FairBoundary boundary) {
     for (int j = t.vv_offset[v]; j < t.vv_offset[v + 1]; ++j) w.energy_set[t.vv_index[j]] = 1;
   }
   w.near.assign(w.F.rows(), 0);
-  for (int f = 0; f < w.F.rows(); ++f)
-    w.near[f] = w.movable[w.F(f, 0)] || w.movable[w.F(f, 1)] || w.movable[w.F(f, 2)];
+  for (int f = 0; f < w.F.rows(); ++f) w.near[f] = w.movable[w.F(f, 0)] || w.movable[w.F(f, 1)] || w.movable[w.F(f, 2)];
 }
 
 double mean_edge_length(const MatX3d& P, const Topology& t) {

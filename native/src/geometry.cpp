@@ -12,10 +12,10 @@ namespace {
 
 // Quantities of one face seen from one of its corners a, with b, c the next corners (CCW).
 struct CornerGeometry {
-  Vec3 ab, ac;        // edges leaving a
-  Vec3 cross;         // ab x ac = 2 * area * unit normal
-  double area;        // triangle area
-  double angle;       // interior angle at a
+  Vec3 ab, ac;          // edges leaving a
+  Vec3 cross;           // ab x ac = 2 * area * unit normal
+  double area;          // triangle area
+  double angle;         // interior angle at a
   double cot_b, cot_c;  // cotangents of the angles at b and c
   bool obtuse_a, obtuse_any;
 };
@@ -107,7 +107,9 @@ MatX3d vertex_normals(const MatX3d& V, const MatX3i& F, const Topology& t, Norma
           if (d > 0) n += c / d;
           break;
         }
-        case NormalWeights::Area: n += c; break;
+        case NormalWeights::Area:
+          n += c;
+          break;
         case NormalWeights::Angle: {
           const double len = c.norm();
           if (len > 0) n += std::atan2(len, ab.dot(ac)) * c / len;
@@ -225,9 +227,7 @@ SpMatR umbrella_matrix(const MatX3d& V, const Topology& t, Umbrella kind) {
   return W;
 }
 
-MatX3d umbrella(const MatX3d& V, const Topology& t, Umbrella kind) {
-  return umbrella_matrix(V, t, kind) * V;
-}
+MatX3d umbrella(const MatX3d& V, const Topology& t, Umbrella kind) { return umbrella_matrix(V, t, kind) * V; }
 
 MatX3d bi_umbrella(const MatX3d& V, const Topology& t, Umbrella kind) {
   const SpMatR W = umbrella_matrix(V, t, kind);

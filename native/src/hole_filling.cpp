@@ -83,7 +83,6 @@ std::vector<Eigen::Vector3i> min_weight_triangulation(const std::vector<Vec3>& P
   return out;
 }
 
-
 namespace {
 // A new vertex of valence 3 (a centroid split the flips could not dissolve, e.g. next to the
 // region's border, whose edges never flip) is removed and its three triangles merged back into
@@ -214,7 +213,8 @@ void retriangulate_fill(const std::vector<Vec3>& P, const MatX3i& F, const std::
     const Vec3 c = (P[F(f, 1)] - P[F(f, 0)]).cross(P[F(f, 2)] - P[F(f, 0)]);
     if (c.norm() > 0) outer[i] = c.normalized();
   }
-  const auto tri = min_weight_triangulation(P, loop, outer, [&](int a, int b) { return fixed_edge.count(edge_key(a, b)) > 0; });
+  const auto tri =
+      min_weight_triangulation(P, loop, outer, [&](int a, int b) { return fixed_edge.count(edge_key(a, b)) > 0; });
   if (tri.size() != rows.size()) return;
   for (size_t j = 0; j < rows.size(); ++j) T[rows[j]] = tri[j];
 }
@@ -222,7 +222,8 @@ void retriangulate_fill(const std::vector<Vec3>& P, const MatX3i& F, const std::
 
 RegionSubdivision refine_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask, double density) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  if (face_mask.size() != static_cast<size_t>(m)) throw MeshError("refine_region: face mask size differs from the face count");
+  if (face_mask.size() != static_cast<size_t>(m))
+    throw MeshError("refine_region: face mask size differs from the face count");
   if (!(density > 0)) throw MeshError("refine_region: density must be > 0");
   // Edges touched by a face outside the region are fixed (never flipped).
   std::unordered_map<long long, char> fixed_edge;

@@ -71,7 +71,6 @@ std::string lower_extension(const std::string& path) {
 
 }  // namespace
 
-
 MeshData read_mesh(const std::string& path) {
   const std::string ext = lower_extension(path);
   if (ext != ".obj" && ext != ".off" && ext != ".ply")
@@ -88,8 +87,8 @@ void write_mesh(const std::string& path, const MatX3d& V, const MatX3i& F, const
   if (ext != ".obj" && ext != ".off" && ext != ".ply")
     fail(path, "unsupported file extension '" + ext + "' (expected .obj, .off or .ply)");
   if (N && N->rows() != V.rows())
-    fail(path, "normals have " + std::to_string(N->rows()) + " rows but there are " + std::to_string(V.rows()) +
-                   " vertices");
+    fail(path,
+         "normals have " + std::to_string(N->rows()) + " rows but there are " + std::to_string(V.rows()) + " vertices");
   if (V.rows() > kMaxIndexCount || F.rows() > kMaxIndexCount) fail(path, "mesh too large to write");
   for (Eigen::Index i = 0; i < F.rows(); ++i)
     for (int k = 0; k < 3; ++k)
@@ -97,11 +96,13 @@ void write_mesh(const std::string& path, const MatX3d& V, const MatX3i& F, const
         fail(path, "cannot write: face " + std::to_string(i) + " has vertex index " + std::to_string(F(i, k)) +
                        " out of range (" + std::to_string(V.rows()) + " vertices)");
   Writer w(path);
-  if (ext == ".obj") write_obj(w, V, F, N);
-  else if (ext == ".off") write_off(w, V, F, N);
-  else write_ply(w, V, F, N);
+  if (ext == ".obj")
+    write_obj(w, V, F, N);
+  else if (ext == ".off")
+    write_off(w, V, F, N);
+  else
+    write_ply(w, V, F, N);
   w.close();
 }
 
 }  // namespace dgmesh
-

@@ -15,10 +15,10 @@ namespace {
 // Statements of the OBJ specification (Wavefront, appendix B1) besides v, vn and f.
 bool is_obj_keyword(std::string_view kw) {
   static const std::string_view known[] = {
-      "vt", "vp", "p", "l", "g", "o", "s", "mg", "usemtl", "mtllib", "cstype", "deg", "bmat",
-      "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp", "end", "con", "bevel",
-      "c_interp", "d_interp", "lod", "usemap", "maplib", "shadow_obj", "trace_obj", "ctech",
-      "stech", "call", "csh"};
+      "vt",     "vp",     "p",      "l",          "g",         "o",     "s",     "mg",       "usemtl",
+      "mtllib", "cstype", "deg",    "bmat",       "step",      "curv",  "curv2", "surf",     "parm",
+      "trim",   "hole",   "scrv",   "sp",         "end",       "con",   "bevel", "c_interp", "d_interp",
+      "lod",    "usemap", "maplib", "shadow_obj", "trace_obj", "ctech", "stech", "call",     "csh"};
   for (std::string_view k : known)
     if (kw == k) return true;
   return false;
@@ -45,8 +45,7 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
       if (q == le) fail_line(path, line, std::string("expected 3 coordinates after '") + what + "'");
       double x;
       const char* r = parse_double(q, le, x);
-      if (!r || (r < le && !is_blank(*r)))
-        fail_line(path, line, "invalid number " + show_token(q, le));
+      if (!r || (r < le && !is_blank(*r))) fail_line(path, line, "invalid number " + show_token(q, le));
       out.push_back(x);
       q = r;
     }
@@ -67,8 +66,9 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
     } else if (idx < 0) {
       r = static_cast<int64_t>(count) + idx;
       if (r < 0)
-        fail_line(path, line, std::string(what) + " index " + std::to_string(idx) +
-                                  " out of range (only " + std::to_string(count) + " defined)");
+        fail_line(path, line,
+                  std::string(what) + " index " + std::to_string(idx) + " out of range (only " + std::to_string(count) +
+                      " defined)");
     } else {
       fail_line(path, line, std::string(what) + " index 0 is invalid (OBJ indices start at 1)");
     }
@@ -124,8 +124,7 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
             }
           }
         }
-        if (!r || (r < le && !is_blank(*r)))
-          fail_line(path, line, "invalid face corner " + show_token(tok, le));
+        if (!r || (r < le && !is_blank(*r))) fail_line(path, line, "invalid face corner " + show_token(tok, le));
         poly.push_back(resolve(vi, nv, "vertex", fwd_v, fwd_v_line));
         if (has_n) {
           polyn.push_back(resolve(ni, nn, "normal", fwd_n, fwd_n_line));
@@ -147,11 +146,11 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
   if (nv == 0 && unknown_line)
     fail_line(path, unknown_line, "not an OBJ file: " + show_token(unknown_kw, end) + " is not an OBJ statement");
   if (fwd_v >= static_cast<int64_t>(nv))
-    fail_line(path, fwd_v_line, "vertex index " + std::to_string(fwd_v + 1) + " out of range (" +
-                                    std::to_string(nv) + " vertices)");
+    fail_line(path, fwd_v_line,
+              "vertex index " + std::to_string(fwd_v + 1) + " out of range (" + std::to_string(nv) + " vertices)");
   if (fwd_n >= static_cast<int64_t>(nn))
-    fail_line(path, fwd_n_line, "normal index " + std::to_string(fwd_n + 1) + " out of range (" +
-                                    std::to_string(nn) + " normals)");
+    fail_line(path, fwd_n_line,
+              "normal index " + std::to_string(fwd_n + 1) + " out of range (" + std::to_string(nn) + " normals)");
 
   MeshData out;
   out.V = to_matrix<MatX3d>(V);
@@ -181,8 +180,10 @@ MeshData read_obj(const std::string& path, const std::string& buf) {
     int n = vn_of[v];
     if (n < 0) {
       if (used[v]) return out;  // a face corner without normal: incomplete, drop N
-      if (nn == nv) n = static_cast<int>(v);
-      else continue;  // isolated vertex: zero normal
+      if (nn == nv)
+        n = static_cast<int>(v);
+      else
+        continue;  // isolated vertex: zero normal
     }
     std::memcpy(&N[3 * v], &VN[3 * size_t(n)], 3 * sizeof(double));
   }

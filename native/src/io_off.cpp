@@ -86,9 +86,10 @@ MeshData read_off(const std::string& path, const std::string& buf) {
   // so that a malformed short face is still reported as such).
   const int64_t remaining = static_cast<int64_t>(lr.end - lr.p);
   if (nv > kMaxIndexCount || nf > kMaxIndexCount || nv * 6 + nf * 2 > remaining + 1)
-    fail_line(path, count_line, "header counts (" + std::to_string(nv) + " vertices, " + std::to_string(nf) +
-                                    " faces) exceed what the file can hold (" + std::to_string(remaining) +
-                                    " bytes left; truncated file or bad counts)");
+    fail_line(path, count_line,
+              "header counts (" + std::to_string(nv) + " vertices, " + std::to_string(nf) +
+                  " faces) exceed what the file can hold (" + std::to_string(remaining) +
+                  " bytes left; truncated file or bad counts)");
 
   std::vector<double> V(static_cast<size_t>(3 * nv)), N(has_normals ? static_cast<size_t>(3 * nv) : 0);
   const int ncoord = has_normals ? 6 : 3;
@@ -104,8 +105,10 @@ MeshData read_off(const std::string& path, const std::string& buf) {
       const char* r = parse_double(c, lr.e, x);
       if (!r || (r < lr.e && !is_blank(*r)))
         fail_line(path, lr.line, "vertex " + std::to_string(i) + ": invalid number " + show_token(c, lr.e));
-      if (k < 3) V[static_cast<size_t>(3 * i + k)] = x;
-      else N[static_cast<size_t>(3 * i + k - 3)] = x;
+      if (k < 3)
+        V[static_cast<size_t>(3 * i + k)] = x;
+      else
+        N[static_cast<size_t>(3 * i + k - 3)] = x;
       c = r;
     }
     // Colors / texture coordinates after the coordinates are ignored.
@@ -122,21 +125,24 @@ MeshData read_off(const std::string& path, const std::string& buf) {
     if (!r || (r < lr.e && !is_blank(*r)))
       fail_line(path, lr.line, "face " + std::to_string(i) + ": invalid vertex count " + show_token(c, lr.e));
     if (n < 3)
-      fail_line(path, lr.line, "face " + std::to_string(i) + " has " + std::to_string(n) + " vertices (need at least 3)");
+      fail_line(path, lr.line,
+                "face " + std::to_string(i) + " has " + std::to_string(n) + " vertices (need at least 3)");
     c = r;
     poly.clear();
     for (int64_t k = 0; k < n; ++k) {
       c = skip_blanks(c, lr.e);
       if (c == lr.e)
-        fail_line(path, lr.line, "face " + std::to_string(i) + ": expected " + std::to_string(n) + " vertex indices, found " +
-                                     std::to_string(k));
+        fail_line(path, lr.line,
+                  "face " + std::to_string(i) + ": expected " + std::to_string(n) + " vertex indices, found " +
+                      std::to_string(k));
       int64_t idx;
       r = parse_int(c, lr.e, idx);
       if (!r || (r < lr.e && !is_blank(*r)))
         fail_line(path, lr.line, "face " + std::to_string(i) + ": invalid vertex index " + show_token(c, lr.e));
       if (idx < 0 || idx >= nv)
-        fail_line(path, lr.line, "face " + std::to_string(i) + ": vertex index " + std::to_string(idx) +
-                                     " out of range (" + std::to_string(nv) + " vertices)");
+        fail_line(path, lr.line,
+                  "face " + std::to_string(i) + ": vertex index " + std::to_string(idx) + " out of range (" +
+                      std::to_string(nv) + " vertices)");
       poly.push_back(static_cast<int>(idx));
       c = r;
     }

@@ -15,24 +15,41 @@ namespace {
 enum class PT { I8, U8, I16, U16, I32, U32, F32, F64 };
 
 bool parse_ply_type(std::string_view s, PT& t) {
-  if (s == "char" || s == "int8") t = PT::I8;
-  else if (s == "uchar" || s == "uint8") t = PT::U8;
-  else if (s == "short" || s == "int16") t = PT::I16;
-  else if (s == "ushort" || s == "uint16") t = PT::U16;
-  else if (s == "int" || s == "int32") t = PT::I32;
-  else if (s == "uint" || s == "uint32") t = PT::U32;
-  else if (s == "float" || s == "float32") t = PT::F32;
-  else if (s == "double" || s == "float64") t = PT::F64;
-  else return false;
+  if (s == "char" || s == "int8")
+    t = PT::I8;
+  else if (s == "uchar" || s == "uint8")
+    t = PT::U8;
+  else if (s == "short" || s == "int16")
+    t = PT::I16;
+  else if (s == "ushort" || s == "uint16")
+    t = PT::U16;
+  else if (s == "int" || s == "int32")
+    t = PT::I32;
+  else if (s == "uint" || s == "uint32")
+    t = PT::U32;
+  else if (s == "float" || s == "float32")
+    t = PT::F32;
+  else if (s == "double" || s == "float64")
+    t = PT::F64;
+  else
+    return false;
   return true;
 }
 
 inline size_t pt_size(PT t) {
   switch (t) {
-    case PT::I8: case PT::U8: return 1;
-    case PT::I16: case PT::U16: return 2;
-    case PT::I32: case PT::U32: case PT::F32: return 4;
-    case PT::F64: return 8;
+    case PT::I8:
+    case PT::U8:
+      return 1;
+    case PT::I16:
+    case PT::U16:
+      return 2;
+    case PT::I32:
+    case PT::U32:
+    case PT::F32:
+      return 4;
+    case PT::F64:
+      return 8;
   }
   return 1;
 }
@@ -54,27 +71,42 @@ inline T load(const unsigned char* p, bool swap) {
 
 inline double load_double(PT t, const unsigned char* p, bool swap) {
   switch (t) {
-    case PT::I8: return load<int8_t>(p, swap);
-    case PT::U8: return load<uint8_t>(p, swap);
-    case PT::I16: return load<int16_t>(p, swap);
-    case PT::U16: return load<uint16_t>(p, swap);
-    case PT::I32: return load<int32_t>(p, swap);
-    case PT::U32: return load<uint32_t>(p, swap);
-    case PT::F32: return load<float>(p, swap);
-    case PT::F64: return load<double>(p, swap);
+    case PT::I8:
+      return load<int8_t>(p, swap);
+    case PT::U8:
+      return load<uint8_t>(p, swap);
+    case PT::I16:
+      return load<int16_t>(p, swap);
+    case PT::U16:
+      return load<uint16_t>(p, swap);
+    case PT::I32:
+      return load<int32_t>(p, swap);
+    case PT::U32:
+      return load<uint32_t>(p, swap);
+    case PT::F32:
+      return load<float>(p, swap);
+    case PT::F64:
+      return load<double>(p, swap);
   }
   return 0;
 }
 
 inline int64_t load_int(PT t, const unsigned char* p, bool swap) {  // t must be an integer type
   switch (t) {
-    case PT::I8: return load<int8_t>(p, swap);
-    case PT::U8: return load<uint8_t>(p, swap);
-    case PT::I16: return load<int16_t>(p, swap);
-    case PT::U16: return load<uint16_t>(p, swap);
-    case PT::I32: return load<int32_t>(p, swap);
-    case PT::U32: return load<uint32_t>(p, swap);
-    default: return 0;
+    case PT::I8:
+      return load<int8_t>(p, swap);
+    case PT::U8:
+      return load<uint8_t>(p, swap);
+    case PT::I16:
+      return load<int16_t>(p, swap);
+    case PT::U16:
+      return load<uint16_t>(p, swap);
+    case PT::I32:
+      return load<int32_t>(p, swap);
+    case PT::U32:
+      return load<uint32_t>(p, swap);
+    default:
+      return 0;
   }
 }
 
@@ -123,8 +155,10 @@ struct PlyBuilder {
   }
   void end_face() { fan_triangulate(poly, F); }
   void set_scalar(int role, int64_t i, double x) {
-    if (role >= kX && role <= kZ) V[static_cast<size_t>(3 * i + (role - kX))] = x;
-    else if (role >= kNX && role <= kNZ) N[static_cast<size_t>(3 * i + (role - kNX))] = x;
+    if (role >= kX && role <= kZ)
+      V[static_cast<size_t>(3 * i + (role - kX))] = x;
+    else if (role >= kNX && role <= kNZ)
+      N[static_cast<size_t>(3 * i + (role - kNX))] = x;
   }
 };
 
@@ -209,7 +243,9 @@ void read_ply_ascii(const std::string& path, const std::vector<PlyElem>& elems, 
       for (const PlyProp& pr : el.props) {
         const char* b;
         const char* e;
-        auto where = [&]() { return "element '" + el.name + "' " + std::to_string(i) + ", property '" + pr.name + "'"; };
+        auto where = [&]() {
+          return "element '" + el.name + "' " + std::to_string(i) + ", property '" + pr.name + "'";
+        };
         auto next_tok = [&]() {
           if (!tk.next(b, e))
             fail(path, "unexpected end of file in " + where() + " (" + std::to_string(el.count) + " declared)");
@@ -241,8 +277,9 @@ void read_ply_ascii(const std::string& path, const std::vector<PlyElem>& elems, 
           for (int64_t k = 0; k < n; ++k) {
             const int64_t idx = get_int();
             if (idx < 0 || idx >= mb.nv)
-              fail_line(path, tk.line, "vertex index " + std::to_string(idx) + " out of range (" +
-                                           std::to_string(mb.nv) + " vertices) in " + where());
+              fail_line(path, tk.line,
+                        "vertex index " + std::to_string(idx) + " out of range (" + std::to_string(mb.nv) +
+                            " vertices) in " + where());
             mb.poly.push_back(static_cast<int>(idx));
           }
           mb.end_face();
@@ -295,10 +332,14 @@ MeshData read_ply(const std::string& path, const std::string& buf) {
     }
     if (kw == "format") {
       if (toks.size() != 3) fail_line(path, line, "bad format line");
-      if (toks[1] == "ascii") format = PlyFormat::Ascii;
-      else if (toks[1] == "binary_little_endian") format = PlyFormat::BinaryLE;
-      else if (toks[1] == "binary_big_endian") format = PlyFormat::BinaryBE;
-      else fail_line(path, line, "unknown PLY format '" + std::string(toks[1]) + "'");
+      if (toks[1] == "ascii")
+        format = PlyFormat::Ascii;
+      else if (toks[1] == "binary_little_endian")
+        format = PlyFormat::BinaryLE;
+      else if (toks[1] == "binary_big_endian")
+        format = PlyFormat::BinaryBE;
+      else
+        fail_line(path, line, "unknown PLY format '" + std::string(toks[1]) + "'");
       if (toks[2] != "1.0") fail_line(path, line, "unsupported PLY version '" + std::string(toks[2]) + "'");
       have_format = true;
     } else if (kw == "element") {
@@ -367,14 +408,14 @@ MeshData read_ply(const std::string& path, const std::string& buf) {
       bool found = false;
       for (PlyProp& pr : el.props) {
         if (!found && pr.is_list && (pr.name == "vertex_indices" || pr.name == "vertex_index")) {
-          if (!pt_is_int(pr.type))
-            fail_line(path, el.line, "face indices must have an integer type");
+          if (!pt_is_int(pr.type)) fail_line(path, el.line, "face indices must have an integer type");
           pr.role = kFaceIndices;
           found = true;
         }
       }
       if (!found) fail_line(path, el.line, "face element has no 'vertex_indices' list property");
-      if (el.count > kMaxIndexCount) fail_line(path, el.line, "face count " + std::to_string(el.count) + " is too large");
+      if (el.count > kMaxIndexCount)
+        fail_line(path, el.line, "face count " + std::to_string(el.count) + " is too large");
     }
   }
   if (!seen_vertex) fail(path, "no 'vertex' element in header");
@@ -388,9 +429,9 @@ MeshData read_ply(const std::string& path, const std::string& buf) {
     for (const PlyProp& pr : el.props) min_size += ascii ? 2 : pt_size(pr.is_list ? pr.count_type : pr.type);
     if (min_size == 0) continue;
     if (static_cast<uint64_t>(el.count) > remaining / min_size)
-      fail_line(path, el.line, "element '" + el.name + "' count " + std::to_string(el.count) +
-                                   " exceeds what the file can hold (" + std::to_string(end - p) +
-                                   " data bytes; truncated file or bad count)");
+      fail_line(path, el.line,
+                "element '" + el.name + "' count " + std::to_string(el.count) + " exceeds what the file can hold (" +
+                    std::to_string(end - p) + " data bytes; truncated file or bad count)");
     remaining -= static_cast<uint64_t>(el.count) * min_size;
     for (const PlyProp& pr : el.props)
       if (pr.role == kFaceIndices) face_count = el.count;

@@ -119,18 +119,16 @@ void LimitSurface::init(const MatX3i& F_, int n_vertices, int level) {
   }
 }
 
-
 int LimitSurface::basis(int f, double s, double t, const int*& cvs, double* wP, double* wS, double* wT, double* wSS,
-          double* wST, double* wTT, bool* second) const {
+                        double* wST, double* wTT, bool* second) const {
   clamp_st(s, t);
   const Far::PatchTable::PatchHandle* h = map->FindPatch(ptex[f], s, t);
   if (!h) return 0;
   const Far::PatchDescriptor desc = patches->GetPatchArrayDescriptor(h->arrayIndex);
   const int k = desc.GetNumControlVertices();
   const Far::PatchDescriptor::Type type = desc.GetType();
-  const bool gregory = type == Far::PatchDescriptor::GREGORY_TRIANGLE ||
-                       type == Far::PatchDescriptor::GREGORY_BASIS || type == Far::PatchDescriptor::GREGORY ||
-                       type == Far::PatchDescriptor::GREGORY_BOUNDARY;
+  const bool gregory = type == Far::PatchDescriptor::GREGORY_TRIANGLE || type == Far::PatchDescriptor::GREGORY_BASIS ||
+                       type == Far::PatchDescriptor::GREGORY || type == Far::PatchDescriptor::GREGORY_BOUNDARY;
   const Far::ConstIndexArray idx = patches->GetPatchVertices(*h);
   cvs = patch_cvs.data() + (&idx[0] - &patches->GetPatchControlVerticesTable()[0]);  // our numbering
   if (second) *second = wSS && !gregory;
@@ -194,8 +192,7 @@ int LimitSurface::basis(int f, double s, double t, const int*& cvs, double* wP, 
   return k;
 }
 
-bool LimitSurface::eval(const MatX4d& P, const Loc& l, Vec3& S, Vec3& Ss, Vec3& St, Vec3* H,
-          bool* second) const {
+bool LimitSurface::eval(const MatX4d& P, const Loc& l, Vec3& S, Vec3& Ss, Vec3& St, Vec3* H, bool* second) const {
   double wP[kMaxCvs], wS[kMaxCvs], wT[kMaxCvs], wSS[kMaxCvs], wST[kMaxCvs], wTT[kMaxCvs];
   const int* cvs = nullptr;
   bool has2 = false;
@@ -239,9 +236,12 @@ Loc LimitSurface::advance(Loc l, double ds, double dt) const {
     const int va = F(l.f, ka), vb = F(l.f, kb);
     int ga = 0, gb = 0, gc = 0;
     for (int j = 0; j < 3; ++j) {
-      if (F(g, j) == va) ga = j;
-      else if (F(g, j) == vb) gb = j;
-      else gc = j;
+      if (F(g, j) == va)
+        ga = j;
+      else if (F(g, j) == vb)
+        gb = j;
+      else
+        gc = j;
     }
     // Corner hit of f sits at va + vb - (g's third corner) in the unfolded parallelogram.
     double nb[3], nd[3];

@@ -13,9 +13,9 @@ namespace {
 
 struct VertexReport {
   // Defects found at one vertex, kept so the message can name the first one.
-  int bad_edge_other = -1;       // non-manifold edge v-other (more than two faces)
-  int misoriented_other = -1;    // two faces traverse v->other in the same direction
-  bool bad_fan = false;          // faces around v form more than one fan
+  int bad_edge_other = -1;     // non-manifold edge v-other (more than two faces)
+  int misoriented_other = -1;  // two faces traverse v->other in the same direction
+  bool bad_fan = false;        // faces around v form more than one fan
 };
 
 int count_next(const Corner* c, int d, int w) {
@@ -62,8 +62,10 @@ bool order_fan(Corner* c, int d, bool& boundary, VertexReport& rep) {
     for (int i = 0; i < d; ++i)
       for (int w : {c[i].next, c[i].prev}) {
         const int nn = count_next(c, d, w), np = count_prev(c, d, w);
-        if (nn + np > 2) rep.bad_edge_other = w;
-        else if (nn > 1 || np > 1) rep.misoriented_other = w;
+        if (nn + np > 2)
+          rep.bad_edge_other = w;
+        else if (nn > 1 || np > 1)
+          rep.misoriented_other = w;
       }
     return false;
   }
@@ -148,9 +150,12 @@ Topology build_topology(const VertexCorners& vc, int n_faces) {
       misoriented += (r.misoriented_other > v);
       bad_fans += r.bad_fan;
       if (first_kind) continue;
-      if (r.bad_edge_other >= 0) first_kind = "non-manifold edge", first_v = v, first_w = r.bad_edge_other;
-      else if (r.misoriented_other >= 0) first_kind = "inconsistently oriented edge", first_v = v, first_w = r.misoriented_other;
-      else if (r.bad_fan) first_kind = "non-manifold vertex", first_v = v;
+      if (r.bad_edge_other >= 0)
+        first_kind = "non-manifold edge", first_v = v, first_w = r.bad_edge_other;
+      else if (r.misoriented_other >= 0)
+        first_kind = "inconsistently oriented edge", first_v = v, first_w = r.misoriented_other;
+      else if (r.bad_fan)
+        first_kind = "non-manifold vertex", first_v = v;
     }
     std::ostringstream s;
     s << "mesh is not manifold:";
@@ -195,7 +200,7 @@ Topology build_topology(const VertexCorners& vc, int n_faces) {
       if (w < v) continue;
       t.edges(e, 0) = v;
       t.edges(e, 1) = w;
-      const Corner* left = i < d ? &c[i] : nullptr;                           // traverses v -> w
+      const Corner* left = i < d ? &c[i] : nullptr;                                // traverses v -> w
       const Corner* right = i > 0 ? &c[i - 1] : (boundary ? nullptr : &c[d - 1]);  // w -> v
       int slot = 0;
       if (left) {

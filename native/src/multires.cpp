@@ -49,7 +49,8 @@ using detail::MatX4d;
 namespace Far = OpenSubdiv::Far;
 
 using Vec4 = Eigen::Vector4d;
-using CMap4 = Eigen::Map<const Vec4, Eigen::Aligned16>;  // largest patch (Gregory basis); Loop patches have 12 or 18 points
+using CMap4 =
+    Eigen::Map<const Vec4, Eigen::Aligned16>;  // largest patch (Gregory basis); Loop patches have 12 or 18 points
 constexpr int kMaxLevel = 5;
 
 // Runs fn(i) for i in [0, n) in parallel, in blocks so that the (single-threaded) progress callback
@@ -86,15 +87,15 @@ inline void make_frame(const Vec3& Ds, const Vec3& Dt, const Vec3& face_normal, 
 
 // The dense stencils (see Multires::Impl) and what one evaluation reads and writes.
 struct DenseArgs {
-  const int* vsup;       // per dense vertex: its support list
-  const int* sup_off;    // support list s: control vertices sup_idx[sup_off[s] .. sup_off[s + 1])
+  const int* vsup;     // per dense vertex: its support list
+  const int* sup_off;  // support list s: control vertices sup_idx[sup_off[s] .. sup_off[s + 1])
   const int* sup_idx;
   const int64_t* w_off;  // per dense vertex: its weights w[w_off[i] ..], 3 per support entry after the first
   const float* w;
-  const double* X4;      // control vertices, 4 doubles per row (the 4th unused)
-  const double* disp;    // (a, b, c) per dense vertex, or null: frames
-  double* out;           // positions (3 per vertex), or frames (12 per vertex: S, t1, t2, n) if disp is null
-  float* out_f;          // single-precision positions instead of out (disp given)
+  const double* X4;    // control vertices, 4 doubles per row (the 4th unused)
+  const double* disp;  // (a, b, c) per dense vertex, or null: frames
+  double* out;         // positions (3 per vertex), or frames (12 per vertex: S, t1, t2, n) if disp is null
+  float* out_f;        // single-precision positions instead of out (disp given)
 };
 
 // Dense vertices [i0, i1): limit point S and derivatives Ds, Dt as one sparse product over the
@@ -207,8 +208,8 @@ struct Multires::Impl {
   // patch's support list (control vertices, ascending); the weights of every entry after the first,
   // (wP, wS, wT) as floats, are per vertex in dense order, read as one stream.
   std::vector<int> sup_off, sup_idx;
-  std::vector<int> vsup;        // per dense vertex: support list
-  std::vector<int64_t> w_off;   // per dense vertex (+1): offset into w
+  std::vector<int> vsup;       // per dense vertex: support list
+  std::vector<int64_t> w_off;  // per dense vertex (+1): offset into w
   std::vector<float> w;
 
   DenseArgs args(const double* X4, const double* disp_ptr, double* out, float* out_f) const {
@@ -290,7 +291,8 @@ struct Multires::Impl {
 #ifdef _OPENMP
       nt = omp_get_num_threads(), t = omp_get_thread_num();
 #endif
-      block(static_cast<int>(static_cast<int64_t>(nd) * t / nt), static_cast<int>(static_cast<int64_t>(nd) * (t + 1) / nt));
+      block(static_cast<int>(static_cast<int64_t>(nd) * t / nt),
+            static_cast<int>(static_cast<int64_t>(nd) * (t + 1) / nt));
     }
   }
 
@@ -358,7 +360,8 @@ void Multires::Impl::compute_weights() {
     }
   }
   w_off.assign(nd + 1, 0);
-  for (int i = 0; i < nd; ++i) w_off[i + 1] = w_off[i] + 3 * static_cast<int64_t>(sup_off[vsup[i] + 1] - sup_off[vsup[i]] - 1);
+  for (int i = 0; i < nd; ++i)
+    w_off[i + 1] = w_off[i] + 3 * static_cast<int64_t>(sup_off[vsup[i] + 1] - sup_off[vsup[i]] - 1);
   w.assign(w_off[nd] + 4, 0.0f);  // padded: the kernel loads 4 floats per entry of 3
   // 3. Per vertex: the patch basis (double) composed with the patch-point stencils, then stored
   // in single precision for every entry after the list's first (see dense_kernel).
@@ -480,7 +483,7 @@ SpMatR limit_rows(const LimitSurface& L, const VecXi& face, const MatX2d& st, co
   std::vector<int> row_nnz(nr, 0);
   std::vector<int> chunk_begin(nt + 1);
   for (int t = 0; t <= nt; ++t) chunk_begin[t] = static_cast<int>(static_cast<int64_t>(nr) * t / nt);
-  // One contiguous chunk of rows per task, each with its own output lists (concatenated in order).
+    // One contiguous chunk of rows per task, each with its own output lists (concatenated in order).
 #pragma omp parallel for schedule(static, 1)
   for (int t = 0; t < nt; ++t) {
     std::vector<double> acc(L.n_control, 0.0);
@@ -609,8 +612,7 @@ Multires Multires::build(const Mesh& dense, const MultiresOptions& opt, const Pr
   // 2. Bind, fit, re-bind (warm started from the previous base points).
   const int rounds = opt.fit_iterations;
   const double span = 0.55 / (1 + rounds);
-  bind_points(m, m.control_V, dense.V, opt.projection_iterations, false, progress, 0.4, 0.4 + span,
-              &dec.vertex_map);
+  bind_points(m, m.control_V, dense.V, opt.projection_iterations, false, progress, 0.4, 0.4 + span, &dec.vertex_map);
   m.timings.bind = stopwatch.lap();
   for (int r = 0; r < rounds; ++r) {
     m.control_V = fit_control(m, m.control_V, dense.V, opt.fit_regularization);
@@ -779,8 +781,7 @@ void Multires::limit_points(const MatX3d& X, MatX3d& points, MatX3d* normals) co
   }
 }
 
-void Multires::evaluate(const MatX3d& X, const VecXi& face, const MatX2d& st, MatX3d& P, MatX3d* Ds,
-                        MatX3d* Dt) const {
+void Multires::evaluate(const MatX3d& X, const VecXi& face, const MatX2d& st, MatX3d& P, MatX3d* Ds, MatX3d* Dt) const {
   const Impl& m = *impl_;
   {
     std::vector<double> X4;

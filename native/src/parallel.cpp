@@ -27,7 +27,7 @@ void set_blas_threads(int n) {
   if (fn) fn(n);
 }
 #endif
-}
+}  // namespace
 
 void set_num_threads(int n) {
 #ifdef _OPENMP

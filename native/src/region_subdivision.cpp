@@ -16,7 +16,8 @@ using detail::edge_key;
 
 RegionSubdivision subdivide_region(const MatX3d& V, const MatX3i& F, const std::vector<char>& face_mask) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  if (face_mask.size() != static_cast<size_t>(m)) throw MeshError("subdivide_region: face mask size differs from the face count");
+  if (face_mask.size() != static_cast<size_t>(m))
+    throw MeshError("subdivide_region: face mask size differs from the face count");
   // Count, for each edge of a region face, its region faces and all its faces.
   std::unordered_map<long long, std::pair<int, int>> count;  // key -> (region, all)
   for (int f = 0; f < m; ++f)

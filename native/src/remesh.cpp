@@ -40,9 +40,9 @@ using detail::cross2;
 using detail::delaunay_flips_3d;
 using detail::delaunay_flips_map;
 using detail::Ear;
+using detail::Sample;
 using detail::sample_boundary;
 using detail::sample_interior;
-using detail::Sample;
 using detail::SamplingChart;
 using detail::seconds_since;
 using detail::smooth_remeshed;
@@ -52,7 +52,8 @@ using detail::Vec2;
 // Rejects non-disk input with a message that says what is wrong and what to do.
 Topology check_disk(const MatX3d& V, const MatX3i& F) {
   Topology t = validate(V, F, kSurface | kNoLooseVertices);
-  const std::string hint = " Remeshing needs one disk-shaped chart: select a disk-shaped region of faces or cut the mesh open.";
+  const std::string hint =
+      " Remeshing needs one disk-shaped chart: select a disk-shaped region of faces or cut the mesh open.";
   if (t.n_components != 1)
     throw MeshError("remesh: the mesh has " + std::to_string(t.n_components) + " separate pieces." + hint);
   if (t.boundary_loops.empty()) throw MeshError("remesh: the mesh is closed (it has no boundary)." + hint);
@@ -123,7 +124,8 @@ VecXd vertex_density(const MatX3d& V, const MatX3i& F, const Topology& topo, con
     }
     const double mean = den > 0 ? num / den : 0;
     if (mean > 0)
-      for (int v = 0; v < nv; ++v) rho[v] = (1 - o.adaptivity) + o.adaptivity * std::min(kappa[v] / mean, o.curvature_clip);
+      for (int v = 0; v < nv; ++v)
+        rho[v] = (1 - o.adaptivity) + o.adaptivity * std::min(kappa[v] / mean, o.curvature_clip);
   }
   return rho;
 }
@@ -194,7 +196,8 @@ std::vector<Sample> triangulate_chart(const SamplingChart& c, const std::vector<
       const Sample& q = samples[s];
       const int f = q.face;
       const Vec2 u = (q.w0 * Ut.row(F(f, 0)) + q.w1 * Ut.row(F(f, 1)) + q.w2 * Ut.row(F(f, 2))).transpose();
-      if (std::any_of(disks.begin(), disks.end(), [&](const auto& d) { return (u - d.first).squaredNorm() < d.second; })) {
+      if (std::any_of(disks.begin(), disks.end(),
+                      [&](const auto& d) { return (u - d.first).squaredNorm() < d.second; })) {
         keep[s] = 0;
         continue;
       }
@@ -289,7 +292,8 @@ std::vector<Sample> triangulate_chart(const SamplingChart& c, const std::vector<
 namespace {
 
 RemeshResult remesh_once(const MatX3d& V, const MatX3i& F, const RemeshOptions& o, const ProgressFn& progress) {
-  if (o.target_vertices < 4) throw MeshError("remesh: target_vertices must be at least 4, got " + std::to_string(o.target_vertices));
+  if (o.target_vertices < 4)
+    throw MeshError("remesh: target_vertices must be at least 4, got " + std::to_string(o.target_vertices));
   if (!(o.adaptivity >= 0 && o.adaptivity <= 1))
     throw MeshError("remesh: adaptivity must be in [0, 1], got " + std::to_string(o.adaptivity));
   if (o.resolution < 16 || o.resolution > 4096)
@@ -320,8 +324,8 @@ RemeshResult remesh_once(const MatX3d& V, const MatX3i& F, const RemeshOptions& 
   const ChartMaps maps = parameterize(V, F, o, progress, res);
   const MatX2d& U0 = maps.U0;
   const MatX2d& Uopt = maps.Uopt;
-  const MatX2d& Us = o.mode == RemeshMode::SingleU0 ? U0 : Uopt;  // sampling map
-  const MatX2d& Ut = o.mode == RemeshMode::SingleUopt ? Uopt : U0; // triangulation map
+  const MatX2d& Us = o.mode == RemeshMode::SingleU0 ? U0 : Uopt;    // sampling map
+  const MatX2d& Ut = o.mode == RemeshMode::SingleUopt ? Uopt : U0;  // triangulation map
   res.seconds_parameterize = seconds_since(t_param);
   report(0.4);
   const auto t_sample = Clock::now();
@@ -341,9 +345,10 @@ RemeshResult remesh_once(const MatX3d& V, const MatX3i& F, const RemeshOptions& 
   const int nb = int(bnd.x.size());
   const int n_int = N - nb;
   if (n_int < 1)
-    throw MeshError("remesh: target_vertices (" + std::to_string(N) + ") must exceed the number of boundary vertices (" +
-                    std::to_string(nb) + ")" +
-                    (o.boundary == RemeshBoundary::Keep ? ", which are kept; raise the target or resample the boundary" : ""));
+    throw MeshError(
+        "remesh: target_vertices (" + std::to_string(N) + ") must exceed the number of boundary vertices (" +
+        std::to_string(nb) + ")" +
+        (o.boundary == RemeshBoundary::Keep ? ", which are kept; raise the target or resample the boundary" : ""));
   res.n_interior_target = n_int;
   res.n_boundary = nb;
 

@@ -29,8 +29,7 @@ constexpr double kSliverDihedralCos = 0.0;
 // accept(a, b, c, d) says so; the pair becomes f = (a, d, c), g = (d, b, c) (set(f, g, ...)), the
 // twins are relinked and the four outer half-edges pushed. At most max_flips; returns the count.
 template <class Corner, class Set, class Accept>
-int lawson_flips(std::vector<int>& opp, std::vector<int> stack, long max_flips, Corner corner, Set set,
-                 Accept accept) {
+int lawson_flips(std::vector<int>& opp, std::vector<int> stack, long max_flips, Corner corner, Set set, Accept accept) {
   auto link = [&](int x, int y) {
     opp[x] = y;
     if (y >= 0) opp[y] = x;
@@ -128,7 +127,8 @@ int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient
           auto tri_max_cos = [&](int p, int q, int r) { return min_angle_cos(row3(X, p), row3(X, q), row3(X, r)); };
           if (closing)
             return c_old >= kFlipCos && c_new >= kFlipCos &&
-                   std::max(tri_max_cos(a, d, c), tri_max_cos(d, b, c)) <= std::max(tri_max_cos(a, b, c), tri_max_cos(b, a, d));
+                   std::max(tri_max_cos(a, d, c), tri_max_cos(d, b, c)) <=
+                       std::max(tri_max_cos(a, b, c), tri_max_cos(b, a, d));
           // A flip that unfolds a fold (the new pair within 60 degrees of coplanar and much flatter
           // than the old one) is allowed too: such folds are the scan defects' needles and caps.
           // So is one that makes a moderately bent pair (within ~37 degrees) no sharper.

@@ -15,11 +15,11 @@ namespace dgmesh::detail {
 
 namespace {
 
-constexpr int kBand = 16;               // raster rows per band (one band per task, no write races)
-constexpr double kPixelsPerSample = 256;  // at most this many chart pixels per interior sample
+constexpr int kBand = 16;                   // raster rows per band (one band per task, no write races)
+constexpr double kPixelsPerSample = 256;    // at most this many chart pixels per interior sample
 constexpr double kLloydPointsPerCell = 32;  // Lloyd quadrature points wanted per Voronoi cell
 constexpr int kLloydMaxResolution = 1024;   // ... up to this grid size
-constexpr double kLloydTolerance = 0.003;  // Lloyd steps end when the samples' RMS move is under this (spacings)
+constexpr double kLloydTolerance = 0.003;   // Lloyd steps end when the samples' RMS move is under this (spacings)
 
 // The point (1 - t) a + t b of the boundary edge (a, b) (a == b: the vertex a), on the input face
 // holding that edge; face -1 if there is none.
@@ -29,8 +29,10 @@ Sample on_edge(const MatX3i& F, const Topology& topo, int a, int b, double t) {
     double w[3] = {0, 0, 0};
     int hits = 0;
     for (int k = 0; k < 3; ++k) {
-      if (F(f, k) == a) w[k] += 1 - t, ++hits;
-      else if (F(f, k) == b) w[k] += t, ++hits;
+      if (F(f, k) == a)
+        w[k] += 1 - t, ++hits;
+      else if (F(f, k) == b)
+        w[k] += t, ++hits;
     }
     if (a == b ? hits == 1 : hits == 2) return Sample{f, w[0], w[1], w[2]};
   }
@@ -114,7 +116,7 @@ BoundarySamples sample_boundary(const MatX3d& V, const MatX3i& F, const Topology
   BoundarySamples out;
   std::vector<Vec3>& bnd_x = out.x;
   std::vector<Vec2>& bnd_u = out.u;
-  std::vector<Vec2>& bnd_s = out.s;  // the same boundary samples in the sampling map (Lloyd generators)
+  std::vector<Vec2>& bnd_s = out.s;        // the same boundary samples in the sampling map (Lloyd generators)
   std::vector<Sample>& bnd_src = out.src;  // the same on the input: face and barycentric weights
   if (o.boundary == RemeshBoundary::Keep) {
     res.boundary_source.resize(nbl);
@@ -252,7 +254,8 @@ ControlRaster control_raster(const SamplingChart& c, const VecXd& area3, const R
   // sample; larger targets keep the resolution asked for.
   double chart_uv_area = 0;
   for (int f = 0; f < nf; ++f)
-    chart_uv_area += 0.5 * std::abs(cross2(uv_row(Us, F(f, 1)) - uv_row(Us, F(f, 0)), uv_row(Us, F(f, 2)) - uv_row(Us, F(f, 0))));
+    chart_uv_area +=
+        0.5 * std::abs(cross2(uv_row(Us, F(f, 1)) - uv_row(Us, F(f, 0)), uv_row(Us, F(f, 2)) - uv_row(Us, F(f, 0))));
   const double r_fit = std::ceil(std::sqrt(kPixelsPerSample * n_int / std::max(chart_uv_area, 1e-12)));
   const int R = std::max(16, int(std::min(r_fit, double(o.resolution))));
   res.resolution = R;
@@ -311,20 +314,18 @@ Vec3 surface_point(const MatX3d& V, const MatX3i& F, const Sample& q) {
   return Vec3(q.w0 * row3(V, F(q.face, 0)) + q.w1 * row3(V, F(q.face, 1)) + q.w2 * row3(V, F(q.face, 2)));
 }
 
-  // 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
-  // Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
-  // "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres and puts
-  // neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior
-  // sample to the mass centroid (mass = control map value, i.e. density times 3D area) of its
-  // Voronoi cell over the points of the Lloyd grid (the sampling map rasterized at RL, a multiple of
-  // the control map's resolution). The cells are measured in the surface metric (nearest generator
-  // in 3D; the centroid is then taken in 3D and pulled onto the surface) or in the sampling map's
-  // own metric; boundary samples are fixed generators. The same step for all three modes. Error
-  // diffusion leaves a pattern that is isotropic in the sampling map, so stretched on the surface
-  // as the map is, and Lloyd steps undo that only slowly (a stretched lattice is itself a fixed
-  // point): with 4 steps sampling on U0 stayed more uniform than on Uopt where U0 is the less
-  // anisotropic map (nefertiti: 1.24 vs 1.33); steps until the samples settle make the map's
-  // signature small against the tie margins.
+// 4b. Density-weighted Lloyd relaxation of the interior samples (Lloyd 1982; the centroidal
+// Voronoi sampling of a parameter map in Alliez, de Verdiere, Devillers, Isenburg 2003,
+// "Isotropic surface remeshing"; beyond the thesis's list of steps). Error diffusion quantizes samples to pixel centres
+// and puts neighbours anywhere from 1 to several pixels apart; each Lloyd step moves every interior sample to the mass
+// centroid (mass = control map value, i.e. density times 3D area) of its Voronoi cell over the points of the Lloyd grid
+// (the sampling map rasterized at RL, a multiple of the control map's resolution). The cells are measured in the
+// surface metric (nearest generator in 3D; the centroid is then taken in 3D and pulled onto the surface) or in the
+// sampling map's own metric; boundary samples are fixed generators. The same step for all three modes. Error diffusion
+// leaves a pattern that is isotropic in the sampling map, so stretched on the surface as the map is, and Lloyd steps
+// undo that only slowly (a stretched lattice is itself a fixed point): with 4 steps sampling on U0 stayed more uniform
+// than on Uopt where U0 is the less anisotropic map (nefertiti: 1.24 vs 1.33); steps until the samples settle make the
+// map's signature small against the tie margins.
 // The interior samples with keep set move (samples); sets res.lloyd_iterations, adds to
 // res.seconds_relax. Relaxing requires o.lloyd_iterations > 0.
 void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const RemeshOptions& o, Progress& report,
@@ -355,8 +356,10 @@ void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const Reme
   const int ng = nb + ni;
   MatX3d G(ng, 3);  // generator coordinates for the nearest-neighbour search
   auto set_gen = [&](int g, const Vec2& su, const Vec3& x) {
-    if (relax_surface) G.row(g) = x.transpose();
-    else G.row(g) << su.x(), su.y(), 0.0;
+    if (relax_surface)
+      G.row(g) = x.transpose();
+    else
+      G.row(g) << su.x(), su.y(), 0.0;
   };
   for (int k = 0; k < nb; ++k) set_gen(k, bnd_s[k], bnd_x[k]);
   const int nthreads = nlpix > kParallelMin * 4 ? std::max(1, num_threads()) : 1;
@@ -367,8 +370,8 @@ void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const Reme
   // Nearest generator of every pixel: a kd-tree the first time; afterwards a greedy walk from the
   // pixel's previous generator over the Voronoi-neighbour graph read off the previous labels
   // (pixels side by side with different labels). Greedy descent on the Delaunay graph finds the
-  // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a few distance
-  // evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
+  // nearest site (this graph is its pixel approximation), and samples move less than a cell per step, so the walk is a
+  // few distance evaluations instead of a tree search (the relaxation's cost at 1024^2 pixels).
   std::vector<int> label(nlpix, -1);
   std::vector<double> move2(ni);
   constexpr int kMaxNbr = 24;  // Voronoi neighbours kept per generator (a cell has ~6)
@@ -429,10 +432,12 @@ void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const Reme
       set_gen(nb + q, map_point(Us, F, sm), surface_point(V, F, sm));
     }
     std::unique_ptr<KdTree> tree;
-    if (it == 0) tree = std::make_unique<KdTree>(G);
-    else build_adjacency();
-    // Labels in parallel; the mass sums then in raster order, so that the centroids do not
-    // depend on the thread count or schedule (bit-identical results run to run).
+    if (it == 0)
+      tree = std::make_unique<KdTree>(G);
+    else
+      build_adjacency();
+      // Labels in parallel; the mass sums then in raster order, so that the centroids do not
+      // depend on the thread count or schedule (bit-identical results run to run).
 #pragma omp parallel for schedule(dynamic, 4) num_threads(nthreads) if (nthreads > 1)
     for (int j = 0; j < RL; ++j) {
       for (int i = 0; i < RL; ++i) {
@@ -555,7 +560,8 @@ void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const Reme
                      next.w2 * uv_row(Ut, F(next.face, 2));
       if (!pieces.inside(next.face, u, margin)) continue;  // must stay strictly inside for the Delaunay step
       {
-        const double r = next.w0 * rho[F(next.face, 0)] + next.w1 * rho[F(next.face, 1)] + next.w2 * rho[F(next.face, 2)];
+        const double r =
+            next.w0 * rho[F(next.face, 0)] + next.w1 * rho[F(next.face, 1)] + next.w2 * rho[F(next.face, 2)];
         const double h = spacing(n_int * r / rho_integral);
         move2[q] = (surface_point(V, F, next) - surface_point(V, F, sm)).squaredNorm() / (h * h);
       }
@@ -566,15 +572,16 @@ void lloyd_relax(const SamplingChart& c, const ControlRaster& raster, const Reme
     report(std::min(0.79, 0.7 + 0.09 * (it + 1) / o.lloyd_iterations));
     if (moved == 0) break;
     // Converged: the samples' RMS move, in local target spacings, under kLloydTolerance.
-    const double rms = std::sqrt(ordered_sums<1>(ni, ni > kParallelMin, [&](int q, std::array<double, 1>& a) { a[0] += move2[q]; })[0] / ni);
+    const double rms = std::sqrt(
+        ordered_sums<1>(ni, ni > kParallelMin, [&](int q, std::array<double, 1>& a) { a[0] += move2[q]; })[0] / ni);
     if (rms < kLloydTolerance) break;
   }
   res.seconds_relax += seconds_since(t_relax);
 }
 
-  // 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
-  // spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
-  // or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
+// 4c. Minimum separation: an interior sample closer in 3D than min_separation x the local target
+// spacing to a boundary sample or to an earlier kept interior sample is dropped. Pixel-quantized
+// or stuck samples (a Lloyd cell with no pixel) otherwise make the near-degenerate triangles.
 // Clears keep of the dropped samples, counts them in res.n_separated and adds to res.seconds_relax.
 void separate(const SamplingChart& c, const RemeshOptions& o, const std::vector<Sample>& samples,
               std::vector<char>& keep, RemeshResult& res) {
@@ -669,7 +676,7 @@ void sample_interior(const SamplingChart& c, const ControlRaster& raster, const 
       const Vec3 g = (a + b + c) / 3.0;
       const double rad = std::max({(a - g).norm(), (b - g).norm(), (c - g).norm()});
       const double rmin = std::min({rho[F(f, 0)], rho[F(f, 1)], rho[F(f, 2)]});
-      face_far[f] = (*bdist)(g) - rad > o.boundary_clearance * spacing(n_int * rmin / rho_integral);
+      face_far[f] = (*bdist)(g)-rad > o.boundary_clearance * spacing(n_int * rmin / rho_integral);
     }
   }
   const double margin = 1e-9;
@@ -726,7 +733,7 @@ void sample_interior(const SamplingChart& c, const ControlRaster& raster, const 
       const int ns = int(picked.size());
       samples.assign(ns, Sample{});
       keep.assign(ns, 0);
-  #pragma omp parallel for schedule(static) if (ns > kParallelMin)
+#pragma omp parallel for schedule(static) if (ns > kParallelMin)
       for (int s = 0; s < ns; ++s) {
         const long idx = picked[s];
         const int i = int(idx % R), j = int(idx / R);
@@ -784,8 +791,9 @@ void sample_interior(const SamplingChart& c, const ControlRaster& raster, const 
     scale *= shortfall;
   }  // rounds
   if (kept == 0 && n_int > 0)
-    throw MeshError("remesh: no inner vertex could be placed (every sample fell within the boundary clearance); "
-                    "raise the target or lower the resolution");
+    throw MeshError(
+        "remesh: no inner vertex could be placed (every sample fell within the boundary clearance); "
+        "raise the target or lower the resolution");
   if (res.n_separated > std::max(1, n_int / 100))
     res.warnings.push_back(std::to_string(res.n_separated) + " of " + std::to_string(n_goal) +
                            " interior samples were closer than " + std::to_string(o.min_separation) +

@@ -19,8 +19,8 @@ constexpr double kSmoothSharpMinAngle = 33 * kPi / 180;  // the goal at vertices
 constexpr int kRepairRounds = 3;  // smoothing rounds after the closing pass, over stars below that goal
 // Interior vertices of valence 3 or 4 whose star holds an angle under 20 degrees are removed.
 const double kLowValenceCos = std::cos(20 * kPi / 180);
-constexpr double kSmoothFeatureCos = 0.7;    // ~45 degrees between a triangle and its star's normal
-constexpr int kMaxStar = 64;                  // stars with more triangles are not smoothed
+constexpr double kSmoothFeatureCos = 0.7;  // ~45 degrees between a triangle and its star's normal
+constexpr int kMaxStar = 64;               // stars with more triangles are not smoothed
 
 }  // namespace
 
@@ -191,120 +191,122 @@ int smooth_in_map(const MatX3d& V, const MatX3i& F, const Topology& topo, const 
   const double cos_min = std::cos(kSmoothMinAngle), cos_sharp = std::cos(kSmoothSharpMinAngle);
   const int ngroups = int(group_off.size()) - 1;
   for (int c = 0; c < ngroups; ++c) {
-  const int g0 = group_off[c], g1 = group_off[c + 1];
-  const bool par = c + 1 < ngroups && g1 - g0 > kParallelMin / 4;  // heavy items: ~1 us each
+    const int g0 = group_off[c], g1 = group_off[c + 1];
+    const bool par = c + 1 < ngroups && g1 - g0 > kParallelMin / 4;  // heavy items: ~1 us each
 #pragma omp parallel for schedule(static) reduction(+ : moves) if (par)
-  for (int gi = g0; gi < g1; ++gi) {
-    const int i = groups[gi];
-    const int deg = ring_off[i + 1] - ring_off[i];
-    if (deg == 0 || deg > kMaxStar) continue;
-    Vec3 c = Vec3::Zero(), nsum = Vec3::Zero();
-    double wsum = 0, len2 = 0;
-    Vec3 nt[kMaxStar];
-    for (int q = ring_off[i], m = 0; q < ring_off[i + 1]; ++q, ++m) {
-      const int t = ring[q];
-      const Vec3 a = row3(X, T(t, 0)), b = row3(X, T(t, 1)), d = row3(X, T(t, 2));
-      nt[m] = (b - a).cross(d - a);
-      nsum += nt[m];
-      const double w = 0.5 * nt[m].norm() * (rho_out[T(t, 0)] + rho_out[T(t, 1)] + rho_out[T(t, 2)]);
-      // Optimal Delaunay triangulation step (Chen & Xu 2004; Alliez et al. 2005, "Variational
-      // tetrahedral meshing"): the weighted mean of the triangles' circumcentres, not centroids;
-      // it equalizes shapes as well as sizes.
-      const Vec3 ab = b - a, ad = d - a, n = nt[m];
-      const double n2 = n.squaredNorm();
-      const Vec3 cc = n2 > 0 ? Vec3(a + (ab.squaredNorm() * ad.cross(n) + ad.squaredNorm() * n.cross(ab)) / (2 * n2))
-                             : Vec3((a + b + d) / 3.0);
-      c += w * cc;
-      wsum += w;
-      len2 += (b - a).squaredNorm() + (d - b).squaredNorm() + (a - d).squaredNorm();
-    }
-    if (!(wsum > 0)) continue;
-    const Vec3 disp = c / wsum - row3(X, i);
-    const double before = star_max_cos(i, row3(X, i));
-    // Converged here: a move below 2% of the mean edge length does not change the angles much.
-    if (before <= cos_min && disp.squaredNorm() < 4e-4 * len2 / (3 * deg)) continue;
-    // A vertex on a sharp feature (an incident triangle's normal more than ~45 degrees from the
-    // star's mean normal) only moves to lift a bad angle: sliding it would cut the feature.
-    bool sharp = false;
-    {
-      const Vec3 nm = nsum.normalized();
-      for (int m = 0; !sharp && m < deg; ++m) {
-        const double l = nt[m].norm();
-        sharp = l > 0 && nt[m].dot(nm) < kSmoothFeatureCos * l;
-      }
-    }
-    // On a feature the goal is lower (kSmoothSharpMinAngle): lifting angles there moves the feature.
-    const double goal = sharp ? cos_sharp : cos_min;
-    if (sharp && before <= goal) continue;
-    const Sample& s0 = S[i];
-    const int f = s0.face;
-    // Jacobian of the input face's affine map from Ut to 3D: J = [x1-x0, x2-x0] [u1-u0, u2-u0]^-1.
-    const Vec2 u0 = uv_row(Ut, F(f, 0)), e1 = uv_row(Ut, F(f, 1)) - u0, e2 = uv_row(Ut, F(f, 2)) - u0;
-    const Vec3 x0 = row3(V, F(f, 0)), g1 = row3(V, F(f, 1)) - x0, g2 = row3(V, F(f, 2)) - x0;
-    const double det = cross2(e1, e2);
-    if (det == 0) continue;
-    Eigen::Matrix2d Minv;
-    Minv << e2.y(), -e2.x(), -e1.y(), e1.x();
-    Minv /= det;
-    Eigen::Matrix<double, 3, 2> G;
-    G.col(0) = g1;
-    G.col(1) = g2;
-    const Eigen::Matrix<double, 3, 2> J = G * Minv;
-    const Eigen::Matrix2d JtJ = J.transpose() * J;
-    const double jd = JtJ.determinant();
-    if (!(jd > 1e-300)) continue;
-    Vec2 du = JtJ.inverse() * (J.transpose() * disp);
-    if (!du.allFinite()) continue;
-    const Vec2 ui = uv_row(P, i);
-    // Moves i to `un` in the map if that keeps the star embedded and passes `accept(after)` on the
-    // star's new largest angle cosine; the star's current one is `cur`.
-    double cur = before;
-    auto try_move = [&](const Vec2& un, auto accept) {
-      for (int q = ring_off[i]; q < ring_off[i + 1]; ++q) {
+    for (int gi = g0; gi < g1; ++gi) {
+      const int i = groups[gi];
+      const int deg = ring_off[i + 1] - ring_off[i];
+      if (deg == 0 || deg > kMaxStar) continue;
+      Vec3 c = Vec3::Zero(), nsum = Vec3::Zero();
+      double wsum = 0, len2 = 0;
+      Vec3 nt[kMaxStar];
+      for (int q = ring_off[i], m = 0; q < ring_off[i + 1]; ++q, ++m) {
         const int t = ring[q];
-        Vec2 p[3];
-        for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? un : uv_row(P, T(t, k));
-        if (!(orient_sign * cross2(p[1] - p[0], p[2] - p[0]) > 1e-14)) return false;
+        const Vec3 a = row3(X, T(t, 0)), b = row3(X, T(t, 1)), d = row3(X, T(t, 2));
+        nt[m] = (b - a).cross(d - a);
+        nsum += nt[m];
+        const double w = 0.5 * nt[m].norm() * (rho_out[T(t, 0)] + rho_out[T(t, 1)] + rho_out[T(t, 2)]);
+        // Optimal Delaunay triangulation step (Chen & Xu 2004; Alliez et al. 2005, "Variational
+        // tetrahedral meshing"): the weighted mean of the triangles' circumcentres, not centroids;
+        // it equalizes shapes as well as sizes.
+        const Vec3 ab = b - a, ad = d - a, n = nt[m];
+        const double n2 = n.squaredNorm();
+        const Vec3 cc = n2 > 0 ? Vec3(a + (ab.squaredNorm() * ad.cross(n) + ad.squaredNorm() * n.cross(ab)) / (2 * n2))
+                               : Vec3((a + b + d) / 3.0);
+        c += w * cc;
+        wsum += w;
+        len2 += (b - a).squaredNorm() + (d - b).squaredNorm() + (a - d).squaredNorm();
       }
-      Sample sn;
-      if (!locate_in_map(Ut, F, topo, un, S[i].face, sn)) return false;
-      const Vec3 xn = sn.w0 * row3(V, F(sn.face, 0)) + sn.w1 * row3(V, F(sn.face, 1)) + sn.w2 * row3(V, F(sn.face, 2));
-      const double after = star_max_cos(i, xn);  // cosines: larger is a smaller angle
-      if (!accept(after)) return false;
-      S[i] = sn;
-      P.row(i) = un.transpose();
-      X.row(i) = xn.transpose();
-      rho_out[i] = sn.w0 * rho[F(sn.face, 0)] + sn.w1 * rho[F(sn.face, 1)] + sn.w2 * rho[F(sn.face, 2)];
-      cur = after;
-      return true;
-    };
-    // "Smart" smoothing (Freitag 1997): no move may push the star's smallest 3D angle down below
-    // kSmoothMinAngle, so smoothing never creates the bad triangles it is meant to remove.
-    auto smart = [&](double after) { return !(after > before && after > cos_min) && !(sharp && !(after < before)); };
-    bool moved = false;
-    for (int attempt = 0; attempt < 4 && !moved; ++attempt, du *= 0.5) moved = try_move(ui + du, smart);
-    if (moved) ++moves;
-    if (cur <= goal) continue;
-    // A star still holding an angle below kSmoothMinAngle: a pattern search in the map (8
-    // directions, halving steps from a quarter of the star's mean edge) for the position with the
-    // largest smallest angle; the centroid is not where the worst angle is best.
-    double h = 0;
-    for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
-      for (int k = 0; k < 3; ++k) h += (uv_row(P, T(ring[q], k)) - uv_row(P, i)).norm();
-    h *= 0.25 / (2 * deg);
-    for (int level = 0; level < 4; ++level, h *= 0.5) {
-      bool better = true;
-      for (int walk = 0; better && cur > goal && walk < 8; ++walk) {
-        better = false;
-        const Vec2 uc = uv_row(P, i);
-        for (int dir = 0; dir < 8 && !better; ++dir) {
-          const double a = dir * kPi / 4;
-          better = try_move(uc + h * Vec2(std::cos(a), std::sin(a)), [&](double after) { return after < cur - 1e-9; });
+      if (!(wsum > 0)) continue;
+      const Vec3 disp = c / wsum - row3(X, i);
+      const double before = star_max_cos(i, row3(X, i));
+      // Converged here: a move below 2% of the mean edge length does not change the angles much.
+      if (before <= cos_min && disp.squaredNorm() < 4e-4 * len2 / (3 * deg)) continue;
+      // A vertex on a sharp feature (an incident triangle's normal more than ~45 degrees from the
+      // star's mean normal) only moves to lift a bad angle: sliding it would cut the feature.
+      bool sharp = false;
+      {
+        const Vec3 nm = nsum.normalized();
+        for (int m = 0; !sharp && m < deg; ++m) {
+          const double l = nt[m].norm();
+          sharp = l > 0 && nt[m].dot(nm) < kSmoothFeatureCos * l;
         }
-        if (better) ++moves;
+      }
+      // On a feature the goal is lower (kSmoothSharpMinAngle): lifting angles there moves the feature.
+      const double goal = sharp ? cos_sharp : cos_min;
+      if (sharp && before <= goal) continue;
+      const Sample& s0 = S[i];
+      const int f = s0.face;
+      // Jacobian of the input face's affine map from Ut to 3D: J = [x1-x0, x2-x0] [u1-u0, u2-u0]^-1.
+      const Vec2 u0 = uv_row(Ut, F(f, 0)), e1 = uv_row(Ut, F(f, 1)) - u0, e2 = uv_row(Ut, F(f, 2)) - u0;
+      const Vec3 x0 = row3(V, F(f, 0)), g1 = row3(V, F(f, 1)) - x0, g2 = row3(V, F(f, 2)) - x0;
+      const double det = cross2(e1, e2);
+      if (det == 0) continue;
+      Eigen::Matrix2d Minv;
+      Minv << e2.y(), -e2.x(), -e1.y(), e1.x();
+      Minv /= det;
+      Eigen::Matrix<double, 3, 2> G;
+      G.col(0) = g1;
+      G.col(1) = g2;
+      const Eigen::Matrix<double, 3, 2> J = G * Minv;
+      const Eigen::Matrix2d JtJ = J.transpose() * J;
+      const double jd = JtJ.determinant();
+      if (!(jd > 1e-300)) continue;
+      Vec2 du = JtJ.inverse() * (J.transpose() * disp);
+      if (!du.allFinite()) continue;
+      const Vec2 ui = uv_row(P, i);
+      // Moves i to `un` in the map if that keeps the star embedded and passes `accept(after)` on the
+      // star's new largest angle cosine; the star's current one is `cur`.
+      double cur = before;
+      auto try_move = [&](const Vec2& un, auto accept) {
+        for (int q = ring_off[i]; q < ring_off[i + 1]; ++q) {
+          const int t = ring[q];
+          Vec2 p[3];
+          for (int k = 0; k < 3; ++k) p[k] = T(t, k) == i ? un : uv_row(P, T(t, k));
+          if (!(orient_sign * cross2(p[1] - p[0], p[2] - p[0]) > 1e-14)) return false;
+        }
+        Sample sn;
+        if (!locate_in_map(Ut, F, topo, un, S[i].face, sn)) return false;
+        const Vec3 xn =
+            sn.w0 * row3(V, F(sn.face, 0)) + sn.w1 * row3(V, F(sn.face, 1)) + sn.w2 * row3(V, F(sn.face, 2));
+        const double after = star_max_cos(i, xn);  // cosines: larger is a smaller angle
+        if (!accept(after)) return false;
+        S[i] = sn;
+        P.row(i) = un.transpose();
+        X.row(i) = xn.transpose();
+        rho_out[i] = sn.w0 * rho[F(sn.face, 0)] + sn.w1 * rho[F(sn.face, 1)] + sn.w2 * rho[F(sn.face, 2)];
+        cur = after;
+        return true;
+      };
+      // "Smart" smoothing (Freitag 1997): no move may push the star's smallest 3D angle down below
+      // kSmoothMinAngle, so smoothing never creates the bad triangles it is meant to remove.
+      auto smart = [&](double after) { return !(after > before && after > cos_min) && !(sharp && !(after < before)); };
+      bool moved = false;
+      for (int attempt = 0; attempt < 4 && !moved; ++attempt, du *= 0.5) moved = try_move(ui + du, smart);
+      if (moved) ++moves;
+      if (cur <= goal) continue;
+      // A star still holding an angle below kSmoothMinAngle: a pattern search in the map (8
+      // directions, halving steps from a quarter of the star's mean edge) for the position with the
+      // largest smallest angle; the centroid is not where the worst angle is best.
+      double h = 0;
+      for (int q = ring_off[i]; q < ring_off[i + 1]; ++q)
+        for (int k = 0; k < 3; ++k) h += (uv_row(P, T(ring[q], k)) - uv_row(P, i)).norm();
+      h *= 0.25 / (2 * deg);
+      for (int level = 0; level < 4; ++level, h *= 0.5) {
+        bool better = true;
+        for (int walk = 0; better && cur > goal && walk < 8; ++walk) {
+          better = false;
+          const Vec2 uc = uv_row(P, i);
+          for (int dir = 0; dir < 8 && !better; ++dir) {
+            const double a = dir * kPi / 4;
+            better =
+                try_move(uc + h * Vec2(std::cos(a), std::sin(a)), [&](double after) { return after < cur - 1e-9; });
+          }
+          if (better) ++moves;
+        }
       }
     }
-  }
   }  // colours
   return moves;
 }
@@ -390,8 +392,8 @@ void smooth_remeshed(const MatX3d& V, const MatX3i& F, const Topology& topo, con
       for (int i = nb; i < nout; ++i)
         if (colour[i] >= 0) groups[fill[colour[i]]++] = i;
     }
-    res.smooth_moves += smooth_in_map(V, F, topo, Ut, rho, ring_off, ring, groups, group_off, orient_sign,
-                                      res.F, res.V, res.uv, S, rho_out);
+    res.smooth_moves += smooth_in_map(V, F, topo, Ut, rho, ring_off, ring, groups, group_off, orient_sign, res.F, res.V,
+                                      res.uv, S, rho_out);
     // After the closing pass (it == smooth_iterations, on the final connectivity) and each repair
     // round: done unless an angle is still below the sharp-feature goal, or when the last round
     // did not lift the worst angle (at 100K vertices on lion-head the same few stars stayed stuck

@@ -15,9 +15,9 @@ namespace {
 
 struct Vsa {
   const Topology& topo;
-  const MatX3d& N;   // face normals
-  const VecXd& A;    // face areas
-  const VecXd& Fw;   // F(T) per face
+  const MatX3d& N;  // face normals
+  const VecXd& A;   // face areas
+  const VecXd& Fw;  // F(T) per face
   std::vector<int> labels;
   std::vector<Vec3> proxies;
 
@@ -232,4 +232,3 @@ SegmentResult segment(const Mesh& mesh, const SegmentOptions& opt, const Progres
 }
 
 }  // namespace dgmesh
-

@@ -165,16 +165,19 @@ class BallTree {
   // Lowers (best, arg) to the minimum of |x - s_j| - r_j over the balls and its ball (an index of
   // `centers`); (best, arg) comes in as any ball's value, or +inf.
   void query(const Vec3& x, double& best, int& arg) const {
-    visit(x, [&] { return best; }, [&](double f, int j) {
-      if (f < best) best = f, arg = j;
-    });
+    visit(
+        x, [&] { return best; },
+        [&](double f, int j) {
+          if (f < best) best = f, arg = j;
+        });
   }
   // The K deepest balls at x (lowest values |x - s_j| - r_j), deepest first: (ids, val)[0..K) come
   // in as some balls' values, ascending (padded with -1 and +inf), e.g. nearby balls that make a
   // tight first bound, and leave as the K deepest of all (-1 where there are fewer than K balls).
   template <int K>
   void deepest(const Vec3& x, int* ids, double* val) const {
-    visit(x, [&] { return val[K - 1]; }, [&](double f, int j) { insert_sorted<K>(f, j, ids, val); });
+    visit(
+        x, [&] { return val[K - 1]; }, [&](double f, int j) { insert_sorted<K>(f, j, ids, val); });
   }
   // Inserts ball j of value f into the ascending (ids, val)[0..K) unless it is there or not lower.
   template <int K>
@@ -263,9 +266,9 @@ constexpr int kDenseBalls = 4;
 // from a surface point, and would change the candidate balls.
 // `cand` (kUnionNeighbours slots, -1 = empty): with `query` the k nearest centres found are stored
 // there; without, the stored ones are the candidates (a later step of the same pose reuses them).
-double union_distance_local(const KdTree& tree, const std::vector<int>& reps, const MatX3d& centers,
-                            const VecXd& radii, double r_max, const Topology& topo, const Vec3& x, int p, int& arg,
-                            int hint = -1, bool query = true, int* cand = nullptr) {
+double union_distance_local(const KdTree& tree, const std::vector<int>& reps, const MatX3d& centers, const VecXd& radii,
+                            double r_max, const Topology& topo, const Vec3& x, int p, int& arg, int hint = -1,
+                            bool query = true, int* cand = nullptr) {
   double best = (x - row3(centers, p)).norm() - radii[p];
   arg = p;
   auto ring = [&](int c) {
@@ -318,14 +321,14 @@ struct SkeletalRig::Impl {
   VertexCorners corners;
   MatX3d S;
   VecXd radii;
-  MatX3d dirs;       // (x - s) / d: the rest unit normals of representation (6.1)
-  VecXd f_rest;      // eq. 6.13 at rest (the fairing targets the rest thickness)
+  MatX3d dirs;                // (x - s) / d: the rest unit normals of representation (6.1)
+  VecXd f_rest;               // eq. 6.13 at rest (the fairing targets the rest thickness)
   std::vector<int> rest_arg;  // the minimising ball of eq. 6.13 at rest, per vertex
   // Skeletal vertices whose rest centre lies within a small distance of another's with a larger
   // ball are left out of the fairing's kd-tree (a tube's ring collapses to one skeletal point: tens
   // of coincident centres make every k-nearest query scan them all). Their balls are covered.
   std::vector<int> reps;
-  Eigen::MatrixXd W; // n_control x B
+  Eigen::MatrixXd W;  // n_control x B
   std::vector<Mat4> rest;
   std::optional<Multires> multires;
   // Through the multiresolution layer: eq. 6.13 at rest for every dense vertex against the control
@@ -337,9 +340,9 @@ struct SkeletalRig::Impl {
   // Surface bone clearance (see clear_surface) of the control vertices and, through the
   // multiresolution layer, of the dense ones (see project_dense).
   BoneClearance surface_clearance, dense_clearance;
-  MatX3d cot;        // per face corner: cot of the rest angle at that corner
+  MatX3d cot;           // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
-  double mu = 0;     // frame regularisation weight (absolute)
+  double mu = 0;        // frame regularisation weight (absolute)
   double frame_regularization = 0.05;
   double r_max = 0;
   MatX3d rest_normals;  // vertex normals of the control mesh (basic method)
@@ -361,8 +364,7 @@ struct SkeletalRig::Impl {
     return X;
   }
   std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const;
-  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
-                        std::vector<int>* deep) const;
+  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt, std::vector<int>* deep) const;
   template <class Follows>
   BoneClearance union_clearance(const MatX3d& P, Follows follows) const;
   template <class Out>
@@ -388,7 +390,8 @@ void SkeletalRig::Impl::setup() {
     const Vec3 d = row3(X, i) - row3(S, i);
     radii[i] = d.norm();
     // A vertex on its own skeleton (radius 0) keeps a direction: its normal.
-    dirs.row(i) = radii[i] > 1e-12 ? Eigen::RowVector3d((d / radii[i]).transpose()) : Eigen::RowVector3d(rest_normals.row(i));
+    dirs.row(i) =
+        radii[i] > 1e-12 ? Eigen::RowVector3d((d / radii[i]).transpose()) : Eigen::RowVector3d(rest_normals.row(i));
   }
   r_max = radii.maxCoeff();
   setup_clearance();
@@ -449,8 +452,8 @@ void SkeletalRig::Impl::setup() {
     dense_rigid.assign(Xd.rows(), 0);
     for (Eigen::Index i = 0; i < Xd.rows(); ++i) {
       const int b = ring_solo[F(face[i], 0)];
-      dense_rigid[i] = b >= 0 && ring_solo[F(face[i], 1)] == b && ring_solo[F(face[i], 2)] == b &&
-                       ring_solo[dense_arg[i]] == b;
+      dense_rigid[i] =
+          b >= 0 && ring_solo[F(face[i], 1)] == b && ring_solo[F(face[i], 2)] == b && ring_solo[dense_arg[i]] == b;
     }
     // A dense vertex is driven by the control vertices of its base face (and their rings): it
     // follows the bones those three have weight on, and their parents (adding the rings' bones
@@ -576,8 +579,8 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
   const bool clear = opt.bone_clearance > 0 && dense_clearance.rest.size() == out.rows();
   std::vector<Vec3> h, v;
   if (clear) posed_segments(pose, h, v);
-  // Dynamic chunks: the vertices that are not skipped cluster where the pose bends the mesh, and a
-  // static split can hand most of them to one thread.
+    // Dynamic chunks: the vertices that are not skipped cluster where the pose bends the mesh, and a
+    // static split can hand most of them to one thread.
 #pragma omp parallel for schedule(dynamic, 4096) if (n >= kParallelMin)
   for (int i = 0; i < n; ++i) {
     // A vertex that one bone moves rigidly skips the thickness step but not the bone clearance: the
@@ -703,8 +706,8 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
           if (std::abs(f - f_rest[i]) > 0.01 * radii[i]) balls->template deepest<kDenseBalls>(x, d, val);
         }
       } else {
-        f = union_distance_local(tree, reps, Sd, radii, r_max, control.topo, x, rest_arg[i], p,
-                                 step > 0 ? prev[i] : -1, query, cand.data() + static_cast<size_t>(i) * kUnionNeighbours);
+        f = union_distance_local(tree, reps, Sd, radii, r_max, control.topo, x, rest_arg[i], p, step > 0 ? prev[i] : -1,
+                                 query, cand.data() + static_cast<size_t>(i) * kUnionNeighbours);
       }
       f -= f_rest[i];
       prev[i] = p;
@@ -735,7 +738,8 @@ MatX3d SkeletalRig::Impl::basic(const MatX3d& Sd, const SkeletalDeformOptions& o
     if (j > 1) {
       const MatX3d Nm = sign * vertex_normals(X, F, topo, NormalWeights::Area);
 #pragma omp parallel for schedule(static)
-      for (int i = 0; i < n; ++i) N.row(i) = (rotation_between(row3(rest_normals, i), row3(Nm, i)) * row3(dirs, i)).transpose();
+      for (int i = 0; i < n; ++i)
+        N.row(i) = (rotation_between(row3(rest_normals, i), row3(Nm, i)) * row3(dirs, i)).transpose();
     }
     const double t = double(j) / L;
     for (int i = 0; i < n; ++i) X.row(i) = (1 - t) * S.row(i) + t * Sd.row(i) + radii[i] * N.row(i);
@@ -829,7 +833,8 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
     if (weights.rows() != n || weights.cols() != B)
       throw MeshError("skeletal bind: weights must be " + std::to_string(n) + " x " + std::to_string(B) + ", got " +
                       std::to_string(weights.rows()) + " x " + std::to_string(weights.cols()));
-    if (!weights.allFinite() || weights.minCoeff() < 0) throw MeshError("skeletal bind: weights must be finite and >= 0");
+    if (!weights.allFinite() || weights.minCoeff() < 0)
+      throw MeshError("skeletal bind: weights must be finite and >= 0");
     int zero = 0, first = -1;
     for (int i = 0; i < n; ++i)
       if (!(weights.row(i).sum() > 1e-12)) {
@@ -856,8 +861,8 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
       prog(0.6 * f);
       return true;
     });
-    impl->control = make_mesh(impl->multires->control_vertices(), impl->multires->control_faces(),
-                              kSurface | kNoLooseVertices);
+    impl->control =
+        make_mesh(impl->multires->control_vertices(), impl->multires->control_faces(), kSurface | kNoLooseVertices);
   } else {
     impl->control = std::move(dense);
   }
@@ -970,7 +975,8 @@ void SkeletalRig::Impl::setup_clearance() {
   }
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < B; ++j)
-      if (W(i, j) > 1e-3) clearance(i, j) = std::sqrt(segment_sq_dist(row3(S, i), bone_head[j], bone_head[j] + bone_vec[j]));
+      if (W(i, j) > 1e-3)
+        clearance(i, j) = std::sqrt(segment_sq_dist(row3(S, i), bone_head[j], bone_head[j] + bone_vec[j]));
   // A surface vertex keeps its distance to the stick skeleton of its bones (the union of their
   // segments), not to each of them: in a bend's inner crease the flesh near one bone folds towards
   // the other, which is closer than at rest, and must (capsule, 90 degrees: 0.7 of its rest distance
@@ -1067,7 +1073,8 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
 }
 
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
-  MatX3d Sd = skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
+  MatX3d Sd =
+      skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
   impl_->clear_bones(Sd, pose);
   return Sd;
 }

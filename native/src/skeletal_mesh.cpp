@@ -50,7 +50,6 @@ double signed_volume(const MatX3d& V, const MatX3i& F) {
 
 using detail::signed_volume;
 
-
 SkeletalMesh skeletal_mesh(const Mesh& mesh, const SkeletonOptions& opt) {
   const int n = static_cast<int>(mesh.V.rows());
   const Topology& topo = mesh.topo;
@@ -155,6 +154,5 @@ SkeletalMesh skeletal_mesh(const Mesh& mesh, const SkeletonOptions& opt) {
   for (int i = 0; i < n; ++i) out.radii[i] = (row3(mesh.V, i) - row3(out.S, i)).norm();
   return out;
 }
-
 
 }  // namespace dgmesh

@@ -63,10 +63,10 @@ using detail::MatX9d;
 using detail::nearest_rotation;
 using detail::segment_sq_dist;
 
-
 Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, const MatX3d& tails, double sigma) {
   const int n = static_cast<int>(P.rows()), B = static_cast<int>(heads.rows());
-  if (B == 0 || tails.rows() != B) throw MeshError("Gaussian weights need as many bone heads as tails (and at least one)");
+  if (B == 0 || tails.rows() != B)
+    throw MeshError("Gaussian weights need as many bone heads as tails (and at least one)");
   if (!(sigma > 0)) throw MeshError("Gaussian weights need sigma > 0");
   Eigen::MatrixXd W(n, B);
 #pragma omp parallel for schedule(static)
@@ -173,6 +173,5 @@ MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const
   }
   return out;
 }
-
 
 }  // namespace dgmesh

@@ -17,7 +17,7 @@ struct SparseSolver::Impl {
   Eigen::UmfPackLU<SpMat> umf;
   SpMat umf_matrix;  // UMFPACK's solve reads the matrix again: it must outlive the factorisation
   std::unique_ptr<Eigen::CholmodSupernodalLLT<SpMat>> chol;  // made on first use (CHOLMOD's workspace)
-  bool chol_failed = false;  // Supernodal fell back to ldlt for this pattern
+  bool chol_failed = false;                                  // Supernodal fell back to ldlt for this pattern
 
   Eigen::CholmodSupernodalLLT<SpMat>& cholmod() {
     if (!chol) {
@@ -74,7 +74,8 @@ void SparseSolver::refactor(const SpMat& A) {
     impl_->umf_matrix = A;
     impl_->umf_matrix.makeCompressed();
     impl_->umf.factorize(impl_->umf_matrix);
-    if (impl_->umf.info() != Eigen::Success) throw SolverError("sparse solver: UMFPACK factorisation failed (singular matrix?)");
+    if (impl_->umf.info() != Eigen::Success)
+      throw SolverError("sparse solver: UMFPACK factorisation failed (singular matrix?)");
   } else {
     SpMat M = A;
     M.makeCompressed();
@@ -89,10 +90,18 @@ Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& B) const {
   if (!impl_->ok) throw SolverError("sparse solver: solve() before a successful factor()");
   Eigen::MatrixXd X;
   switch (impl_->kind) {
-    case Kind::Cholesky: X = impl_->ldlt.solve(B); break;
-    case Kind::Supernodal: X = impl_->chol_failed ? Eigen::MatrixXd(impl_->ldlt.solve(B)) : Eigen::MatrixXd(impl_->chol->solve(B)); break;
-    case Kind::LU: X = impl_->lu.solve(B); break;
-    case Kind::Umfpack: X = impl_->umf.solve(B); break;
+    case Kind::Cholesky:
+      X = impl_->ldlt.solve(B);
+      break;
+    case Kind::Supernodal:
+      X = impl_->chol_failed ? Eigen::MatrixXd(impl_->ldlt.solve(B)) : Eigen::MatrixXd(impl_->chol->solve(B));
+      break;
+    case Kind::LU:
+      X = impl_->lu.solve(B);
+      break;
+    case Kind::Umfpack:
+      X = impl_->umf.solve(B);
+      break;
   }
   if (!X.allFinite()) throw SolverError("sparse solver: solution is not finite (singular system)");
   return X;
@@ -101,10 +110,14 @@ Eigen::MatrixXd SparseSolver::solve(const Eigen::MatrixXd& B) const {
 bool SparseSolver::factored() const { return impl_->ok; }
 int SparseSolver::rows() const {
   switch (impl_->kind) {
-    case Kind::Cholesky: return static_cast<int>(impl_->ldlt.rows());
-    case Kind::Supernodal: return static_cast<int>(impl_->chol_failed ? impl_->ldlt.rows() : impl_->chol->rows());
-    case Kind::LU: return static_cast<int>(impl_->lu.rows());
-    case Kind::Umfpack: return static_cast<int>(impl_->umf.rows());
+    case Kind::Cholesky:
+      return static_cast<int>(impl_->ldlt.rows());
+    case Kind::Supernodal:
+      return static_cast<int>(impl_->chol_failed ? impl_->ldlt.rows() : impl_->chol->rows());
+    case Kind::LU:
+      return static_cast<int>(impl_->lu.rows());
+    case Kind::Umfpack:
+      return static_cast<int>(impl_->umf.rows());
   }
   return 0;
 }

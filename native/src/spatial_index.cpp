@@ -9,9 +9,13 @@ namespace {
 struct Cloud {
   const MatX3d* p;
   size_t kdtree_get_point_count() const { return static_cast<size_t>(p->rows()); }
-  double kdtree_get_pt(size_t i, size_t d) const { return (*p)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d)); }
+  double kdtree_get_pt(size_t i, size_t d) const {
+    return (*p)(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(d));
+  }
   template <class BBox>
-  bool kdtree_get_bbox(BBox&) const { return false; }
+  bool kdtree_get_bbox(BBox&) const {
+    return false;
+  }
 };
 using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, Cloud>, Cloud, 3, int>;
 

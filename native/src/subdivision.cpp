@@ -31,7 +31,8 @@ struct Point {
 
 TriMesh loop_subdivide(const MatX3d& V, const MatX3i& F, int levels) {
   // OpenSubdiv keeps a refinement level in 4 bits: 16 levels would silently wrap to 0.
-  if (levels < 0 || levels > 15) throw MeshError("loop_subdivide: levels must be in 0..15, got " + std::to_string(levels));
+  if (levels < 0 || levels > 15)
+    throw MeshError("loop_subdivide: levels must be in 0..15, got " + std::to_string(levels));
   validate(V, F, kSurface);
   if (levels == 0) return {V, F};
 

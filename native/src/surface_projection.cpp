@@ -63,7 +63,8 @@ Vec3 SurfaceProjector::project(const Vec3& p, std::vector<int>& idx, std::vector
 VecXd point_mesh_distance(const MatX3d& P, const MatX3d& V, const MatX3i& F, int candidates) {
   if (F.rows() == 0) throw MeshError("point_mesh_distance: the mesh has no faces");
   if (!V.allFinite()) throw MeshError("point_mesh_distance: the mesh has NaN or infinite coordinates");
-  if (candidates < 1) throw MeshError("point_mesh_distance: candidates must be >= 1, got " + std::to_string(candidates));
+  if (candidates < 1)
+    throw MeshError("point_mesh_distance: candidates must be >= 1, got " + std::to_string(candidates));
   for (int f = 0; f < F.rows(); ++f)
     for (int k = 0; k < 3; ++k)
       if (F(f, k) < 0 || F(f, k) >= V.rows()) throw MeshError("point_mesh_distance: face index out of range");

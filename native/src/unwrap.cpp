@@ -41,6 +41,7 @@ using detail::diameter_pair;
 using detail::face_data;
 using detail::FaceData;
 using detail::fit_unit_box;
+using detail::kInf;
 using detail::kParallelRows;
 using detail::kPi;
 using detail::lscm;
@@ -52,7 +53,6 @@ using detail::reflex_count;
 using detail::seconds_since;
 using detail::square_corners;
 using detail::stretch_metrics;
-using detail::kInf;
 using detail::Vec2;
 using detail::vertex_stretch_impl;
 
@@ -62,9 +62,7 @@ struct RingScratch {
   std::vector<Vec3> e;
   std::vector<double> len, theta, lambda;
   std::vector<Vec2> q;
-  void resize(size_t d) {
-    e.resize(d), len.resize(d), theta.resize(d), lambda.resize(d), q.resize(d);
-  }
+  void resize(size_t d) { e.resize(d), len.resize(d), theta.resize(d), lambda.resize(d), q.resize(d); }
 };
 
 // Mean-value weights [Flo03] of an interior vertex with closed ring: (tan(a_{j-1}/2) + tan(a_j/2)) / |e_j|.
@@ -102,8 +100,7 @@ bool floater_ring(RingScratch& s, int d, double* w) {
       if (l == k || l1 == k) continue;
       const double A = cross2(s.q[l] - s.q[k], s.q[l1] - s.q[k]);
       if (!(std::abs(A) > 0)) continue;
-      const double bk = cross2(s.q[l], s.q[l1]) / A, bl = cross2(s.q[l1], s.q[k]) / A,
-                   bl1 = cross2(s.q[k], s.q[l]) / A;
+      const double bk = cross2(s.q[l], s.q[l1]) / A, bl = cross2(s.q[l1], s.q[k]) / A, bl1 = cross2(s.q[k], s.q[l]) / A;
       const double tol = -1e-12;
       if (bk >= tol && bl >= tol && bl1 >= tol) {
         s.lambda[k] += std::max(bk, 0.0);
@@ -127,8 +124,8 @@ struct WeightStats {
 };
 
 // Base weights w_ij of every free vertex, stored at the ring positions of topo.vv_index.
-std::vector<double> base_weights(const MatX3d& V, const Topology& topo,
-                                 const std::vector<char>& fixed, UvWeights kind, WeightStats& stats) {
+std::vector<double> base_weights(const MatX3d& V, const Topology& topo, const std::vector<char>& fixed, UvWeights kind,
+                                 WeightStats& stats) {
   std::vector<double> w(topo.vv_index.size(), 0.0);
   int fallback = 0, negative = 0;
   int max_d = 0;
@@ -179,7 +176,7 @@ std::vector<double> base_weights(const MatX3d& V, const Topology& topo,
 
 // The two coordinates u and v share the matrix of eq. 5.3, so the multigrid solves them together
 // (multigrid.h).
-constexpr int kDirectRows = 1000;       // UvSolver::Auto solves charts up to this size by UMFPACK
+constexpr int kDirectRows = 1000;  // UvSolver::Auto solves charts up to this size by UMFPACK
 // Equalization steps between multigrid rebuilds: the steps change the weights gradually, so a
 // hierarchy (aggregates, prolongators, coarse operators) built for one step still preconditions
 // the next ones with the current finest level. Measured on lion-head (free boundary, eta 0.5,
@@ -208,15 +205,23 @@ class ChartSolver {
   // and the exact solve keeps Floater's linear precision exact (a planar chart maps to itself to
   // rounding, not to the iterative tolerance).
   ChartSolver(UvSolver kind, double tol, int n)
-      : kind_(kind != UvSolver::Auto ? kind : n > kDirectRows ? UvSolver::Multigrid : UvSolver::Umfpack), tol_(tol) {}
+      : kind_(kind != UvSolver::Auto ? kind
+              : n > kDirectRows      ? UvSolver::Multigrid
+                                     : UvSolver::Umfpack),
+        tol_(tol) {}
 
   const char* name() const {
     switch (kind_) {
-      case UvSolver::Umfpack: return "umfpack";
-      case UvSolver::SparseLU: return "sparselu";
-      case UvSolver::BiCGSTAB: return "bicgstab+ilut";
-      case UvSolver::Multigrid: return "bicgstab+amg";
-      default: return "?";
+      case UvSolver::Umfpack:
+        return "umfpack";
+      case UvSolver::SparseLU:
+        return "sparselu";
+      case UvSolver::BiCGSTAB:
+        return "bicgstab+ilut";
+      case UvSolver::Multigrid:
+        return "bicgstab+amg";
+      default:
+        return "?";
     }
   }
 
@@ -309,10 +314,10 @@ class ChartSolver {
 // The system of eq. 5.3 over the free vertices, row-normalised (A_ii = 1, A_ij = -w_ij / sum_k w_ik),
 // with the pattern built once and the values refilled in place for every step.
 struct System {
-  std::vector<int> row;       // free vertex -> row, -1 if fixed
-  std::vector<int> free_v;    // row -> vertex
-  std::vector<int> pos;       // per ring entry: index into A's values, -1 if the neighbour is fixed
-  std::vector<int> diag_pos;  // per row
+  std::vector<int> row;                // free vertex -> row, -1 if fixed
+  std::vector<int> free_v;             // row -> vertex
+  std::vector<int> pos;                // per ring entry: index into A's values, -1 if the neighbour is fixed
+  std::vector<int> diag_pos;           // per row
   std::vector<int> pos_r, diag_pos_r;  // the same for Ar
   SpMat A;
   SpMatR Ar;  // A in row-major storage, filled alongside (no conversion per step)
@@ -665,7 +670,8 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
   if (!system_ready) prepare_system();
   profile_mark("weights+system");
   if (ws.fallback)
-    res.warnings.push_back(std::to_string(ws.fallback) + " vertices with rings Floater's construction cannot flatten used mean-value weights");
+    res.warnings.push_back(std::to_string(ws.fallback) +
+                           " vertices with rings Floater's construction cannot flatten used mean-value weights");
   if (ws.negative)
     res.warnings.push_back(std::to_string(ws.negative) + " negative cotangent weights: the initial map may fold");
   // Face data of the filled mesh for the last map measured: the stretch metrics of a step and the
@@ -721,7 +727,9 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
   };
   const bool optimal = opt.iterations < 0;
   const int max_steps = optimal ? opt.max_iterations : opt.iterations;
-  auto frac = [&](int h) { return optimal ? std::min(0.95, 0.1 + 0.85 * h / (h + 3.0)) : 0.1 + 0.9 * h / (max_steps + 1.0); };
+  auto frac = [&](int h) {
+    return optimal ? std::min(0.95, 0.1 + 0.85 * h / (h + 3.0)) : 0.1 + 0.9 * h / (max_steps + 1.0);
+  };
 
   {
     UnwrapStep st;
@@ -833,7 +841,8 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
     const int fail_prev = prev.flipped + prev.zero_area;
     auto better = [&](const UvMetrics& cur) {
       const int fail_cur = cur.flipped + cur.zero_area;
-      return fail_cur < fail_prev || (fail_cur == fail_prev && cur.stretch_l2_finite < prev.stretch_l2_finite * (1 - 1e-12));
+      return fail_cur < fail_prev ||
+             (fail_cur == fail_prev && cur.stretch_l2_finite < prev.stretch_l2_finite * (1 - 1e-12));
     };
     bool ok = better(res.steps.back().metrics);
     if (!ok && solver.iterative() && step_tol > opt.tolerance) {
@@ -891,10 +900,10 @@ UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, 
   const bool holes = r.n_holes > 0;
   o.weights = holes ? UvWeights::MeanValue : UvWeights::Floater;
   UnwrapResult fl = unwrap_weights(V, F, o, progress, false, folded, lscm_map);
-  fl.warnings.insert(fl.warnings.begin(), "the cotangent weights' map folded (" + std::to_string(last.flipped) +
-                                              " flipped, " + std::to_string(last.zero_area) +
-                                              " zero-area triangles) or its solve did not converge; used " +
-                                              (holes ? "mean-value weights (the chart has holes)" : "Floater's weights"));
+  fl.warnings.insert(fl.warnings.begin(),
+                     "the cotangent weights' map folded (" + std::to_string(last.flipped) + " flipped, " +
+                         std::to_string(last.zero_area) + " zero-area triangles) or its solve did not converge; used " +
+                         (holes ? "mean-value weights (the chart has holes)" : "Floater's weights"));
   return fl;
 }
 

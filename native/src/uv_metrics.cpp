@@ -62,8 +62,7 @@ FaceData face_data(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_fac
 }
 
 UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n_faces,
-                       const std::vector<std::pair<int, int>>& edges, double eps,
-                       const std::vector<double>* angles3) {
+                       const std::vector<std::pair<int, int>>& edges, double eps, const std::vector<double>* angles3) {
   UvMetrics m;
   const FaceData d = face_data(V, F, UV, n_faces);
   if (d.sum_area3 <= 0 || d.sum_area_uv <= 0) {
@@ -185,9 +184,9 @@ namespace {
 
 using detail::face_data;
 using detail::FaceData;
-using detail::metrics_impl;
 using detail::is_zero_area;
 using detail::kInf;
+using detail::metrics_impl;
 using detail::unique_edges;
 
 void check_uv_input(const MatX3d& V, const MatX3i& F, const MatX2d& UV) {
@@ -227,8 +226,7 @@ void check_indexed_uv_input(const MatX3d& V, const MatX3i& F, const MatX2d& UV, 
   if (bad_uv) throw MeshError("UV has NaN or infinite coordinates");
 }
 
-VecXd face_stretch_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i* FUV,
-                        double zero_area_eps) {
+VecXd face_stretch_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i* FUV, double zero_area_eps) {
   const int nf = static_cast<int>(F.rows());
   const FaceData d = face_data(V, F, UV, nf, FUV);
   const double norm = d.sum_area3 > 0 ? d.sum_area_uv / d.sum_area3 : 0.0;
@@ -251,8 +249,7 @@ VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, double
   return face_stretch_impl(V, F, UV, nullptr, zero_area_eps);
 }
 
-VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i& FUV,
-                      double zero_area_eps) {
+VecXd uv_face_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, const MatX3i& FUV, double zero_area_eps) {
   check_indexed_uv_input(V, F, UV, FUV);
   return face_stretch_impl(V, F, UV, &FUV, zero_area_eps);
 }

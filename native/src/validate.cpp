@@ -37,8 +37,7 @@ void validate_points(const MatX3d& V) {
 
 Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
-  if ((checks & kNonEmpty) && (n == 0 || m == 0))
-    fail("mesh is empty (", n, " vertices, ", m, " faces)");
+  if ((checks & kNonEmpty) && (n == 0 || m == 0)) fail("mesh is empty (", n, " vertices, ", m, " faces)");
   // Indices are always checked: nothing below is safe without them.
   for (int f = 0; f < m; ++f)
     for (int k = 0; k < 3; ++k)
@@ -67,8 +66,7 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
     if ((checks & kNoRepeatedIndex) && repeated)
       fail(repeated, " degenerate face(s) use the same vertex twice (first: face ", first_r, ")");
     if ((checks & kNoZeroArea) && zero)
-      fail(zero, " degenerate face(s) have zero area (first: face ", first_z,
-           "); merge or dissolve them first");
+      fail(zero, " degenerate face(s) have zero area (first: face ", first_z, "); merge or dissolve them first");
   }
 
   // Vertex corners serve the duplicate check and the topology: one pass over F for both.
@@ -100,8 +98,9 @@ Topology validate(const MatX3d& V, const MatX3i& F, unsigned checks) {
     for (int f = 0; f < m; ++f)
       for (int k = 0; k < 3; ++k) used[F(f, k)] = 1;
     const auto loose = std::count(used.begin(), used.end(), 0);
-    if (loose) fail(loose, " loose vertex(es) belong to no face (first: vertex ",
-                    std::find(used.begin(), used.end(), 0) - used.begin(), ")");
+    if (loose)
+      fail(loose, " loose vertex(es) belong to no face (first: vertex ",
+           std::find(used.begin(), used.end(), 0) - used.begin(), ")");
   }
 
   // Building the topology is the manifold check; without kManifold the caller gets no topology.

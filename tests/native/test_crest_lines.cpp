@@ -105,7 +105,8 @@ TriMesh waving_disc(double R, double h) {
       for (const auto& t : {t1, t2}) {
         bool ok = true;
         for (const auto& [a, b] : t) ok = ok && inside(a, b);
-        if (ok) tris.push_back({vid(t[0].first, t[0].second), vid(t[1].first, t[1].second), vid(t[2].first, t[2].second)});
+        if (ok)
+          tris.push_back({vid(t[0].first, t[0].second), vid(t[1].first, t[1].second), vid(t[2].first, t[2].second)});
       }
     }
   TriMesh m;

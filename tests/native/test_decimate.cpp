@@ -186,8 +186,7 @@ TEST(Decimate, FeatureWeightsKeepDensityNearCrestLines) {
   const double mid = 0.7 + 0.3 / std::sqrt(2.0);
   auto near_lines = [&](const DecimateResult& r) {
     int n = 0;
-    for (int v = 0; v < r.V.rows(); ++v)
-      n += ((r.V.row(v).cwiseAbs().array() - mid).abs() < 0.08).count() >= 2;
+    for (int v = 0; v < r.V.rows(); ++v) n += ((r.V.row(v).cwiseAbs().array() - mid).abs() < 0.08).count() >= 2;
     return n;
   };
   DecimateOptions plain;

@@ -98,8 +98,10 @@ TEST(Delaunay, Grid2dTriangulation) {
     area += cr / 2;
     // empty circumcircle
     const double d = 2 * cr;
-    const double ux = ((a.squaredNorm()) * (b(1) - c(1)) + b.squaredNorm() * (c(1) - a(1)) + c.squaredNorm() * (a(1) - b(1))) / d;
-    const double uy = ((a.squaredNorm()) * (c(0) - b(0)) + b.squaredNorm() * (a(0) - c(0)) + c.squaredNorm() * (b(0) - a(0))) / d;
+    const double ux =
+        ((a.squaredNorm()) * (b(1) - c(1)) + b.squaredNorm() * (c(1) - a(1)) + c.squaredNorm() * (a(1) - b(1))) / d;
+    const double uy =
+        ((a.squaredNorm()) * (c(0) - b(0)) + b.squaredNorm() * (a(0) - c(0)) + c.squaredNorm() * (b(0) - a(0))) / d;
     const Eigen::RowVector2d cc(ux, uy);
     const double r = (a - cc).norm();
     for (int i = 0; i < P.rows(); ++i) EXPECT_GE((P.row(i) - cc).norm(), r * (1 - 1e-9));

@@ -38,8 +38,7 @@ MatX3d add_normal_noise(const MatX3d& V, const MatX3i& F, double sigma, unsigned
 VecXd face_normal_error(const MatX3d& A, const MatX3d& B, const MatX3i& F) {
   const MatX3d na = face_normals(A, F), nb = face_normals(B, F);
   VecXd e(F.rows());
-  for (int f = 0; f < F.rows(); ++f)
-    e(f) = std::acos(std::clamp(na.row(f).dot(nb.row(f)), -1.0, 1.0)) * 180.0 / M_PI;
+  for (int f = 0; f < F.rows(); ++f) e(f) = std::acos(std::clamp(na.row(f).dot(nb.row(f)), -1.0, 1.0)) * 180.0 / M_PI;
   return e;
 }
 
@@ -367,6 +366,6 @@ TEST(Similarity, SelfIsOneAndSimilarShapesScoreHigh) {
   o.shape_only = false;
   const VecXd wf = similarity(c.V, c.F, centre, o);
   EXPECT_NEAR(wf(centre), 1.0, 1e-6);
-  EXPECT_GT(wf(face_point), 0.99);  // still in the same plane
+  EXPECT_GT(wf(face_point), 0.99);            // still in the same plane
   EXPECT_LT(wf(find(Vec3(0, 0, -1))), 1e-6);  // the opposite face
 }

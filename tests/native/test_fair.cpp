@@ -169,7 +169,7 @@ TEST(Fair, RestoresSphericalCapBetterThanBilaplacian) {
     }
     dev[i++] = d;
   }
-  EXPECT_LT(dev[0], 2e-3);         // the cap comes back on the sphere
+  EXPECT_LT(dev[0], 2e-3);          // the cap comes back on the sphere
   EXPECT_LT(dev[0], 0.2 * dev[1]);  // and much closer than the bilaplacian flow
 }
 
@@ -348,8 +348,8 @@ TEST(Fair, RefineRegionSizesAFanFillLikeTheRim) {
 
   const RegionSubdivision r = refine_region(s.V, F2, region);
   EXPECT_GT(r.V.rows(), s.V.rows() + 100);
-  EXPECT_TRUE(r.V.topRows(s.V.rows()) == s.V);                 // old vertices untouched
-  EXPECT_TRUE(r.F.topRows(mk) == Fk);                           // faces outside keep their rows
+  EXPECT_TRUE(r.V.topRows(s.V.rows()) == s.V);  // old vertices untouched
+  EXPECT_TRUE(r.F.topRows(mk) == Fk);           // faces outside keep their rows
   for (int f = 0; f < r.F.rows(); ++f) EXPECT_EQ(r.face_mask[f] != 0, region[r.face_origin[f]] != 0);
   // Closed, manifold, consistently oriented (the fill closed the sphere again).
   const Topology tr = build_topology(r.F, static_cast<int>(r.V.rows()));
@@ -379,6 +379,7 @@ TEST(Fair, RefineRegionSizesAFanFillLikeTheRim) {
   EXPECT_GT(fr.V.rows(), s.V.rows() + 100);
   EXPECT_TRUE(fr.V.topRows(s.V.rows()) == s.V);
   double dev = 0;
-  for (int v = static_cast<int>(s.V.rows()); v < fr.V.rows(); ++v) dev = std::max(dev, std::abs(fr.V.row(v).norm() - 1));
+  for (int v = static_cast<int>(s.V.rows()); v < fr.V.rows(); ++v)
+    dev = std::max(dev, std::abs(fr.V.row(v).norm() - 1));
   EXPECT_LT(dev, 0.01);  // the flat fan is 0.27 off the sphere
 }

@@ -21,7 +21,7 @@ TEST(Curvature, IcosphereConvergesToExactValues) {
   for (int level = 2; level <= 5; ++level) {
     const Mesh m = make_mesh(icosphere(level, r).V, icosphere(level, r).F);
     const Curvature c = curvature(m.V, m.F, m.topo);
-    const double eh = max_abs_error(c.mean, 1.0 / r) * r;       // relative
+    const double eh = max_abs_error(c.mean, 1.0 / r) * r;  // relative
     const double ek = max_abs_error(c.gaussian, 1.0 / (r * r)) * r * r;
     // With Voronoi areas (icosphere triangles are acute), -N.Lap(x)/2 = 1/r exactly for any mesh
     // inscribed in a sphere: (x_j - x_i).x_i = -|x_j - x_i|^2 / 2 cancels the area's cotangent sum.
@@ -103,8 +103,7 @@ TEST(Laplacian, CotanMatrixMatchesCurvatureAndAnnihilatesConstants) {
   EXPECT_LT((SpMat(L.transpose()) - L).norm(), 1e-12);
   const Curvature c = curvature(m.V, m.F, m.topo);
   const Eigen::MatrixXd LV = L * Eigen::MatrixXd(m.V);
-  for (int v = 0; v < m.V.rows(); ++v)
-    EXPECT_LT((LV.row(v) / c.area[v] - c.laplace.row(v)).norm(), 1e-9);
+  for (int v = 0; v < m.V.rows(); ++v) EXPECT_LT((LV.row(v) / c.area[v] - c.laplace.row(v)).norm(), 1e-9);
 }
 
 TEST(Normals, AllWeightsAgreeOnSymmetricVertices) {

@@ -83,8 +83,7 @@ void read_or_io_error(const std::string& p) {
     if (m.N.rows()) {
       ASSERT_EQ(m.N.rows(), m.V.rows());
     }
-  } catch (const IoError&) {
-  }
+  } catch (const IoError&) {}
 }
 
 // A mesh with awkward doubles (non-terminating binary fractions, tiny/huge exponents, negative zero).
@@ -274,7 +273,7 @@ TEST_F(IoTest, ObjPolygonsAreFanTriangulated) {
   const MeshData m = read_mesh(p);
   ASSERT_EQ(m.V.rows(), 5);
   MatX3i expect(6, 3);
-  expect << 0, 1, 2, 0, 2, 3,  // quad
+  expect << 0, 1, 2, 0, 2, 3,     // quad
       0, 1, 2, 0, 2, 3, 0, 3, 4,  // pentagon
       2, 3, 4;
   expect_same(m.F, expect);
@@ -286,7 +285,7 @@ TEST_F(IoTest, ObjSlashesNegativeIndicesAndIgnoredStatements) {
                                    "mtllib scene.mtl\r\n"
                                    "o thing\r\n"
                                    "g group1\r\n"
-                                   "v 0 0 0 1.0\r\n"          // w
+                                   "v 0 0 0 1.0\r\n"             // w
                                    "v 1 0 0 0.5 0.25 0.125\r\n"  // vertex colors
                                    "v 0 1 0\r\n"
                                    "v 1 1 0   # trailing comment\r\n"
@@ -382,8 +381,8 @@ TEST_F(IoTest, OffVariants) {
   EXPECT_EQ(m.N.rows(), 0);
 
   // CNOFF: normals come before colors.
-  m = read_mesh(write_file("cn.off",
-                           "CNOFF\r\n3 1 3\r\n0 0 0 0 0 1 1 0 0\r\n1 0 0 0 0 1 0 1 0\r\n0 1 0 0 1 0 0 0 1\r\n3 0 1 2\r\n"));
+  m = read_mesh(write_file(
+      "cn.off", "CNOFF\r\n3 1 3\r\n0 0 0 0 0 1 1 0 0\r\n1 0 0 0 0 1 0 1 0\r\n0 1 0 0 1 0 0 0 1\r\n3 0 1 2\r\n"));
   ASSERT_EQ(m.N.rows(), 3);
   EXPECT_EQ(m.N(2, 1), 1.0);
   EXPECT_EQ(m.N(2, 2), 0.0);
@@ -552,40 +551,47 @@ TEST_F(IoTest, PlyBinaryTruncatedAtEveryByte) {
   const size_t hdr = s.find("end_header\n") + 11;
   for (size_t len = 0; len < s.size(); ++len) {
     const std::string p = write_file("t.ply", s.substr(0, len));
-    if (len < hdr) expect_io_error(p);
-    else expect_io_error(p, "truncated");
+    if (len < hdr)
+      expect_io_error(p);
+    else
+      expect_io_error(p, "truncated");
   }
   // Trailing garbage after the data is tolerated.
   check_binary_ply(read_mesh(write_file("t.ply", s + "xyz")));
 }
 
 TEST_F(IoTest, PlyErrors) {
-  const std::string hdr = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                          "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  const std::string hdr =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n";
   const std::string verts = "0 0 0\n1 0 0\n0 1 0\n";
   // Sanity: the base file is fine.
   EXPECT_EQ(read_mesh(write_file("ok.ply", hdr + verts + "3 0 1 2\n")).F.rows(), 1);
 
   expect_io_error(write_file("magic.ply", "plx\n" + hdr.substr(4) + verts + "3 0 1 2\n"), "magic");
   expect_io_error(write_file("noend.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"), "end_header");
-  expect_io_error(write_file("nofmt.ply", "ply\nelement vertex 0\nproperty float x\nproperty float y\n"
-                                          "property float z\nend_header\n"),
+  expect_io_error(write_file("nofmt.ply",
+                             "ply\nelement vertex 0\nproperty float x\nproperty float y\n"
+                             "property float z\nend_header\n"),
                   "format");
   expect_io_error(write_file("fmt.ply", "ply\nformat binary_middle_endian 1.0\nend_header\n"), ":2:");
   expect_io_error(write_file("kw.ply", "ply\nformat ascii 1.0\nelemnt vertex 3\nend_header\n"), ":3:");
   expect_io_error(write_file("prop.ply", "ply\nformat ascii 1.0\nproperty float x\nend_header\n"), ":3:");
   expect_io_error(write_file("type.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float128 x\nend_header\n"),
                   "float128");
-  expect_io_error(write_file("ltype.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                          "property float z\nelement face 1\nproperty list float int vertex_indices\n"
-                                          "end_header\n0 0 0\n"),
+  expect_io_error(write_file("ltype.ply",
+                             "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                             "property float z\nelement face 1\nproperty list float int vertex_indices\n"
+                             "end_header\n0 0 0\n"),
                   ":8:");
-  expect_io_error(write_file("ftype.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                          "property float z\nelement face 1\nproperty list uchar float vertex_indices\n"
-                                          "end_header\n0 0 0\n"),
+  expect_io_error(write_file("ftype.ply",
+                             "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                             "property float z\nelement face 1\nproperty list uchar float vertex_indices\n"
+                             "end_header\n0 0 0\n"),
                   "integer");
-  expect_io_error(write_file("noxyz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                                          "end_header\n0 0\n"),
+  expect_io_error(write_file("noxyz.ply",
+                             "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                             "end_header\n0 0\n"),
                   "x, y, z");
   expect_io_error(write_file("novert.ply", "ply\nformat ascii 1.0\nend_header\n"), "vertex");
   expect_io_error(write_file("cnt.ply", "ply\nformat ascii 1.0\nelement vertex -1\nend_header\n"), ":3:");
@@ -620,16 +626,18 @@ TEST_F(IoTest, PlyHugeCountsAreRejectedBeforeAllocating) {
                     "junk");
   }
   // A huge list length in binary data.
-  std::string s = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                  "property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n";
+  std::string s =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uint int vertex_indices\nend_header\n";
   for (int i = 0; i < 9; ++i) put_bytes<float>(s, 0.f, false);
   put_bytes<uint32_t>(s, 0xFFFFFFFFu, false);
   put_bytes<int32_t>(s, 0, false);
   expect_io_error(write_file("hl.ply", s), "truncated");
   // Same in ASCII.
-  expect_io_error(write_file("hla.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                                        "property float z\nelement face 1\nproperty list uint int vertex_indices\n"
-                                        "end_header\n0 0 0\n0 0 0\n0 0 0\n4000000000 0 1 2\n"),
+  expect_io_error(write_file("hla.ply",
+                             "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                             "property float z\nelement face 1\nproperty list uint int vertex_indices\n"
+                             "end_header\n0 0 0\n0 0 0\n0 0 0\n4000000000 0 1 2\n"),
                   "unexpected end");
 }
 
@@ -637,8 +645,10 @@ TEST_F(IoTest, PlyHugeCountsAreRejectedBeforeAllocating) {
 // Generic errors
 
 TEST_F(IoTest, EmptyFiles) {
-  for (const char* ext : {".obj", ".off", ".ply", ".OBJ"}) expect_io_error(write_file(std::string("e") + ext, ""), "empty");
-  for (const char* ext : {".obj", ".off", ".ply"}) expect_io_error(write_file(std::string("w") + ext, " \n\r\n\t"), "empty");
+  for (const char* ext : {".obj", ".off", ".ply", ".OBJ"})
+    expect_io_error(write_file(std::string("e") + ext, ""), "empty");
+  for (const char* ext : {".obj", ".off", ".ply"})
+    expect_io_error(write_file(std::string("w") + ext, " \n\r\n\t"), "empty");
 }
 
 // A text file named .obj has no OBJ statement at all: an error, not an empty mesh. Unknown

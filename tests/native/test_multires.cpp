@@ -105,7 +105,9 @@ TEST(Multires, ParameterisationAgreesAcrossEdges) {
         ASSERT_GE(h, 0);
         double s = 0, t = 0;
         for (int k = 0; k < 3; ++k) {
-          const double w = c.F(h, k) == topo.edges(e, 0) ? 1 - lambdas[q] : c.F(h, k) == topo.edges(e, 1) ? lambdas[q] : 0;
+          const double w = c.F(h, k) == topo.edges(e, 0)   ? 1 - lambdas[q]
+                           : c.F(h, k) == topo.edges(e, 1) ? lambdas[q]
+                                                           : 0;
           s += w * corner[k][0], t += w * corner[k][1];
         }
         face[row] = h;
@@ -208,8 +210,8 @@ TEST(Multires, LimitMatrixMatchesLimitPoints) {
 TEST(Multires, ScansRestExactRigidAndTopologyPreserved) {
   // camel (closed), elephant-with-holes (boundary), blobby_3cc (three components); control meshes
   // from 500 to 10K faces.
-  const Scan scans[] = {{"camel.off", 500}, {"camel.off", 10000}, {"elephant-with-holes.off", 800},
-                        {"blobby_3cc.off", 600}};
+  const Scan scans[] = {
+      {"camel.off", 500}, {"camel.off", 10000}, {"elephant-with-holes.off", 800}, {"blobby_3cc.off", 600}};
   int tested = 0;
   for (const Scan& s : scans) {
     const MeshData md = load(s.file);

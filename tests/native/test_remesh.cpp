@@ -135,8 +135,8 @@ TEST(Remesh, LloydRelaxationEvensOutThePlanarDisk) {
     ASSERT_EQ(t.boundary_loops.size(), 1u);
     EXPECT_NEAR(r.V.rows(), 1200, 0.02 * 1200);
     const double amin = min_angle_deg(r.V, r.F), cv = edge_cv(r.V, t), sep = min_edge_over_spacing(r.V, t, area);
-    RecordProperty("lloyd_" + std::to_string(it), std::to_string(amin) + " deg, cv " + std::to_string(cv) +
-                                                       ", min edge / h " + std::to_string(sep));
+    RecordProperty("lloyd_" + std::to_string(it),
+                   std::to_string(amin) + " deg, cv " + std::to_string(cv) + ", min edge / h " + std::to_string(sep));
     if (it == 0) {
       plain_min = amin;
       plain_cv = cv;
@@ -251,7 +251,8 @@ TEST(Remesh, SmoothingStaysOnTheSurfaceKeepsTheEmbeddingAndImprovesAngles) {
   for (int v = 0; v < r.V.rows(); ++v) EXPECT_NEAR(r.V.row(v).norm(), 1.0, 0.01);
   int pos = 0, neg = 0;
   for (int f = 0; f < r.F.rows(); ++f) {
-    const Vec2d a = r.uv.row(r.F(f, 0)).transpose(), b = r.uv.row(r.F(f, 1)).transpose(), c = r.uv.row(r.F(f, 2)).transpose();
+    const Vec2d a = r.uv.row(r.F(f, 0)).transpose(), b = r.uv.row(r.F(f, 1)).transpose(),
+                c = r.uv.row(r.F(f, 2)).transpose();
     const double s = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
     pos += s > 0;
     neg += s < 0;

@@ -70,8 +70,8 @@ Mat4 bone_along_x(const Vec3& head) {
 
 // Rotation by `angle` about `axis` through `pivot`, as a 4x4 matrix.
 Mat4 rotation_about(const Vec3& pivot, const Vec3& axis, double angle) {
-  Eigen::Affine3d a = Eigen::Translation3d(pivot) * Eigen::AngleAxisd(angle, axis.normalized()) *
-                      Eigen::Translation3d(-pivot);
+  Eigen::Affine3d a =
+      Eigen::Translation3d(pivot) * Eigen::AngleAxisd(angle, axis.normalized()) * Eigen::Translation3d(-pivot);
   return a.matrix();
 }
 
@@ -224,8 +224,8 @@ TEST_F(SkeletalCapsule, BendKeepsThickness) {
   ASSERT_TRUE(X.allFinite());
   const double ours = min_ratio(bone_distance(X, *chain_, pose), before);
   const VecXd f = union_of_balls_distance(X, Sd, rig_->radii());
-  const MatX3d L = skeletal_subspace_deform(mesh_->V, gaussian_bone_weights(mesh_->V, chain_->heads, chain_->tails, 0.25),
-                                            chain_->rest, pose);
+  const MatX3d L = skeletal_subspace_deform(
+      mesh_->V, gaussian_bone_weights(mesh_->V, chain_->heads, chain_->tails, 0.25), chain_->rest, pose);
   const VecXd fl = union_of_balls_distance(L, Sd, rig_->radii());
   const double lbs = min_ratio(bone_distance(L, *chain_, pose), before);
   EXPECT_GT(ours, lbs);
@@ -250,16 +250,15 @@ TEST_F(SkeletalCapsule, BasicMethodComparison) {
   const MatX3d X = rig_->deform_control(pose, o, &Sd);
   ASSERT_TRUE(X.allFinite());
   // The basic method folds (thesis fig. 6.29) but its thickness error stays well below LBS's.
-  const MatX3d L = skeletal_subspace_deform(mesh_->V, gaussian_bone_weights(mesh_->V, chain_->heads, chain_->tails, 0.1),
-                                            chain_->rest, pose);
+  const MatX3d L = skeletal_subspace_deform(
+      mesh_->V, gaussian_bone_weights(mesh_->V, chain_->heads, chain_->tails, 0.1), chain_->rest, pose);
   EXPECT_LT(union_of_balls_distance(X, Sd, rig_->radii()).squaredNorm(),
             0.5 * union_of_balls_distance(L, Sd, rig_->radii()).squaredNorm());
 }
 
 TEST_F(SkeletalCapsule, SaveLoadRoundTrip) {
   const SkeletalRig copy = SkeletalRig::from_data(rig_->data());
-  const std::vector<Mat4> pose = {chain_->rest[0],
-                                  rotation_about(Vec3::Zero(), Vec3(0, 1, 1), 1.0) * chain_->rest[1]};
+  const std::vector<Mat4> pose = {chain_->rest[0], rotation_about(Vec3::Zero(), Vec3(0, 1, 1), 1.0) * chain_->rest[1]};
   EXPECT_LT((copy.deform(pose) - rig_->deform(pose)).cwiseAbs().maxCoeff(), 1e-12);
 }
 
@@ -360,8 +359,7 @@ TEST(Skeletal, DualQuaternionSsdKeepsDistanceToTheAxis) {
   // Rigid bone motions: the dual quaternion blend of one motion is that motion.
   const Mat4 T = (Eigen::Translation3d(0.3, -1, 2) * Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized())).matrix();
   const MatX3d R = skeletal_subspace_deform(P, W, ch.rest, {T * ch.rest[0], T * ch.rest[1]}, nullptr, true);
-  for (int i = 0; i < 4; ++i)
-    EXPECT_LT((row3(R, i) - (T * row3(P, i).homogeneous()).head<3>()).norm(), 1e-12) << i;
+  for (int i = 0; i < 4; ++i) EXPECT_LT((row3(R, i) - (T * row3(P, i).homogeneous()).head<3>()).norm(), 1e-12) << i;
   // Through the rig: rest pose exact, twist keeps the capsule's thickness as well.
   const TriMesh c = capsule(0.5, 2.0, 16, 4, 8);
   const Chain c2 = two_bones(1.5);

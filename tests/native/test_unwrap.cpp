@@ -317,7 +317,9 @@ TEST(Unwrap, MultigridHierarchyMatchesDirectSolve) {
   EXPECT_EQ(def.chosen, ref.chosen);
   for (size_t k = 0; k < ref.steps.size(); ++k) {
     // Solver error feeds into the next step's weights; 0.1% is the resolution of Uopt's stop test.
-    EXPECT_NEAR(def.steps[k].metrics.stretch_l2, ref.steps[k].metrics.stretch_l2, 1e-3 * ref.steps[k].metrics.stretch_l2) << k;
+    EXPECT_NEAR(def.steps[k].metrics.stretch_l2, ref.steps[k].metrics.stretch_l2,
+                1e-3 * ref.steps[k].metrics.stretch_l2)
+        << k;
     EXPECT_EQ(def.steps[k].metrics.flipped, 0);
     EXPECT_EQ(def.steps[k].metrics.zero_area, ref.steps[k].metrics.zero_area);
     EXPECT_GT(def.steps[k].solver_iterations, 0);

@@ -12,9 +12,9 @@
 namespace dgmesh {
 
 struct DerivativeOptions {
-  int rings = 1;           // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
-  bool smooth = true;      // fit on M' (p' = mean of the centroids of the faces around p)
-  bool use_normals = true; // adjacent-normal equations in the fit (thesis table 4.1 "normal")
+  int rings = 1;            // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
+  bool smooth = true;       // fit on M' (p' = mean of the centroids of the faces around p)
+  bool use_normals = true;  // adjacent-normal equations in the fit (thesis table 4.1 "normal")
   // With use_normals: the tangent plane is fitted too. Eq. 4.7 gets the linear terms a0 x + a1 y and
   // the Max normal of p' enters as one more normal equation instead of being imposed exactly, so
   // its O(h^2) error does not bias the curvatures; the derivatives then come from the exact
@@ -44,7 +44,7 @@ enum CrestKind : int { kRidge = 0, kValley = 1 };  // convex / concave crest lin
 struct CrestOptions {
   bool ridges = true;
   bool valleys = true;
-  bool join_gaps = true;   // thesis fig. 4.10 gap jumping (alpha, beta <= pi/3, gamma <= pi/2)
+  bool join_gaps = true;  // thesis fig. 4.10 gap jumping (alpha, beta <= pi/3, gamma <= pi/2)
   // Ignore edges touching the mesh boundary, where the fit is one-sided and its third derivatives
   // are unreliable.
   bool skip_boundary = true;
@@ -68,8 +68,8 @@ struct CrestLines {
   // Lines as ordered point lists: points line_points[line_offset[l] .. line_offset[l+1]);
   // a closed line repeats its first point at the end.
   std::vector<int> line_offset{0}, line_points;
-  std::vector<int> line_kind;           // CrestKind
-  std::vector<double> line_strength;    // T of eq. 4.10 (dimensionless)
+  std::vector<int> line_kind;         // CrestKind
+  std::vector<double> line_strength;  // T of eq. 4.10 (dimensionless)
   std::vector<double> line_length;
 
   int n_lines() const { return static_cast<int>(line_kind.size()); }

@@ -12,8 +12,8 @@ using MatX4i = Eigen::Matrix<int, Eigen::Dynamic, 4, Eigen::RowMajor>;
 using MatX2d = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
 
 struct Delaunay3 {
-  MatX4i tets;          // positively oriented: det(b-a, c-a, d-a) > 0
-  MatX3d circumcenters; // one per tet: the Voronoi vertices
+  MatX4i tets;           // positively oriented: det(b-a, c-a, d-a) > 0
+  MatX3d circumcenters;  // one per tet: the Voronoi vertices
   VecXd circumradii;
   // Tets around each input point (CSR): the Voronoi vertices of its cell. Points that Qhull
   // dropped as duplicates (or coplanar with the hull) have none.

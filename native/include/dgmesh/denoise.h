@@ -51,13 +51,13 @@ DenoiseOptions bilateral_defaults();
 DenoiseOptions denoise_defaults(DenoiseMethod method);
 
 struct DenoiseResult {
-  MatX3d vertices;          // denoised positions, one row per input vertex
-  VecXd residual;           // |x_noisy - x_smoothed| per input vertex
+  MatX3d vertices;              // denoised positions, one row per input vertex
+  VecXd residual;               // |x_noisy - x_smoothed| per input vertex
   double residual_entropy = 0;  // see residual_entropy()
-  double edge_length = 0;   // e of the last iteration
+  double edge_length = 0;       // e of the last iteration
   int iterations = 0;
   long long rbf_fallbacks = 0;  // RBF patches solved by the lower-order (plane) fallback
-  int welded = 0;           // vertices merged into a coincident one for the computation
+  int welded = 0;               // vertices merged into a coincident one for the computation
 };
 
 // Meshes and soups: V (n,3), F (m,3) triangles with at least one non-degenerate face. Manifoldness

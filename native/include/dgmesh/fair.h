@@ -48,11 +48,11 @@ struct FairOptions {
   // Coarse-to-fine levels (thesis fig. 3.5). After each split the new midpoints start at the
   // minimiser of the linearised energy with the old vertices held, when that lowers the energy.
   int subdivisions = 0;
-  double tolerance = 1e-4;    // relative energy change per unit of flow time (see fair.cpp)
-  int max_iterations = 300;   // per level (the explicit scheme's small steps need more: fair_defaults)
-  double max_seconds = 0;     // wall-clock budget for the whole run; 0 = none
-  bool tangential = true;     // add the tangential drift eps T (eq. 3.8)
-  double step_scale = 1.0;    // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
+  double tolerance = 1e-4;   // relative energy change per unit of flow time (see fair.cpp)
+  int max_iterations = 300;  // per level (the explicit scheme's small steps need more: fair_defaults)
+  double max_seconds = 0;    // wall-clock budget for the whole run; 0 = none
+  bool tangential = true;    // add the tangential drift eps T (eq. 3.8)
+  double step_scale = 1.0;   // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
   // Willmore / Laplacian-of-H with fixed vertices: start from the minimiser of the linearised
   // energy (U0^2 P = 0, the bilaplacian flow's steady state, with the fixed rings as boundary
   // data) when that lowers the energy; see fair.cpp.
@@ -73,15 +73,15 @@ struct FairOptions {
 FairOptions fair_defaults(FairScheme scheme);
 
 struct FairResult {
-  MatX3d V;              // original vertices first (same indices), then new ones
-  MatX3i F;              // unchanged when not subdivided
-  VecXi face_origin;     // input face each output face comes from
-  std::vector<char> vertex_mask;  // vertices that were movable at the last level
-  std::vector<double> energy;     // Willmore energy (sum H^2 A) after each iteration; [0] = input
+  MatX3d V;                           // original vertices first (same indices), then new ones
+  MatX3i F;                           // unchanged when not subdivided
+  VecXi face_origin;                  // input face each output face comes from
+  std::vector<char> vertex_mask;      // vertices that were movable at the last level
+  std::vector<double> energy;         // Willmore energy (sum H^2 A) after each iteration; [0] = input
   std::vector<int> level_iterations;  // iterations spent on each level
   int iterations = 0;
-  bool converged = false;  // the last level met the tolerance
-  double lambda = 1.0;     // last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
+  bool converged = false;     // the last level met the tolerance
+  double lambda = 1.0;        // last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
   bool linear_start = false;  // the flow started from the linearised minimiser (iteration 1)
   // Some level's flow ended above the energy it started from (a mesh the flow cannot improve:
   // slivers, fan-triangulated caps); that level returned its lowest-energy state instead.
@@ -109,8 +109,7 @@ struct RegularizeOptions {
 
 // Tangential drift alone (eq. 3.8 with tau = 0, fig. 3.3-3.4): equalises triangle sizes and
 // shapes, moving vertices in their tangent planes. Returns the new positions.
-MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt,
-                  const ProgressFn& progress = {});
+MatX3d regularize(const MatX3d& V, const MatX3i& F, const RegularizeOptions& opt, const ProgressFn& progress = {});
 
 // Discrete Willmore energy sum_i H_i^2 A_i (mixed areas): 4 pi on a round sphere.
 double willmore_energy(const MatX3d& V, const MatX3i& F);
@@ -119,7 +118,7 @@ struct RegionSubdivision {
   MatX3d V;
   MatX3i F;
   VecXi face_origin;
-  std::vector<char> face_mask;  // faces of the refined region
+  std::vector<char> face_mask;      // faces of the refined region
   std::vector<int> edge_a, edge_b;  // parents of each new vertex n + i
 };
 

@@ -10,12 +10,11 @@ MatX3d face_normals(const MatX3d& V, const MatX3i& F);  // unit length
 VecXd face_areas(const MatX3d& V, const MatX3i& F);
 
 enum class NormalWeights {
-  Max,   // Nelson Max's weights: sum of e_i x e_{i+1} / (|e_i|^2 |e_{i+1}|^2); exact on spheres
-  Area,  // area-weighted face normals (thesis eq. 3.7)
-  Angle, // angle-weighted face normals
+  Max,    // Nelson Max's weights: sum of e_i x e_{i+1} / (|e_i|^2 |e_{i+1}|^2); exact on spheres
+  Area,   // area-weighted face normals (thesis eq. 3.7)
+  Angle,  // angle-weighted face normals
 };
-MatX3d vertex_normals(const MatX3d& V, const MatX3i& F, const Topology& topo,
-                      NormalWeights w = NormalWeights::Max);
+MatX3d vertex_normals(const MatX3d& V, const MatX3i& F, const Topology& topo, NormalWeights w = NormalWeights::Max);
 
 // Mixed Voronoi areas (Meyer et al. 2003): Voronoi area for non-obtuse triangles, half / quarter
 // of the triangle area at obtuse ones. They sum to the surface area.
@@ -27,11 +26,11 @@ VecXd mixed_areas(const MatX3d& V, const MatX3i& F, const Topology& topo);
 SpMat cotan_laplacian(const MatX3d& V, const MatX3i& F);
 
 struct Curvature {
-  VecXd mean;       // H, positive on a sphere with outward normals (1/r)
-  VecXd gaussian;   // K by angle deficit over the mixed area (1/r^2 on a sphere)
-  MatX3d normals;   // unit vertex normals (Max weights)
-  VecXd area;       // mixed Voronoi area per vertex
-  MatX3d laplace;   // Laplace-Beltrami of the position per vertex (the mean-curvature normal, -2HN)
+  VecXd mean;      // H, positive on a sphere with outward normals (1/r)
+  VecXd gaussian;  // K by angle deficit over the mixed area (1/r^2 on a sphere)
+  MatX3d normals;  // unit vertex normals (Max weights)
+  VecXd area;      // mixed Voronoi area per vertex
+  MatX3d laplace;  // Laplace-Beltrami of the position per vertex (the mean-curvature normal, -2HN)
 };
 
 // Curvatures at every vertex. Boundary vertices have no angle deficit of their own: they take the

@@ -27,7 +27,6 @@ MeshData read_mesh(const std::string& path);
 // per-vertex normals (OBJ: vn with f v//n corners; OFF: NOFF; PLY: nx ny nz).
 // Throws IoError if the file cannot be written, the extension is unknown, N has the wrong number of
 // rows or a face index is out of range.
-void write_mesh(const std::string& path, const MatX3d& V, const MatX3i& F,
-                const MatX3d* N = nullptr);
+void write_mesh(const std::string& path, const MatX3d& V, const MatX3i& F, const MatX3d* N = nullptr);
 
 }  // namespace dgmesh

@@ -19,11 +19,11 @@ struct Topology {
   std::vector<int> vv_offset, vv_index;
   std::vector<char> on_boundary;  // vertex lies on a boundary loop
 
-  MatX2i edges;        // unique undirected edges, edges(e,0) < edges(e,1)
-  MatX3i face_edges;   // face_edges(f,k): edge from F(f,k) to F(f,(k+1)%3)
-  MatX2i edge_faces;   // the (one or two) faces of an edge; -1 when on the boundary
+  MatX2i edges;                                  // unique undirected edges, edges(e,0) < edges(e,1)
+  MatX3i face_edges;                             // face_edges(f,k): edge from F(f,k) to F(f,(k+1)%3)
+  MatX2i edge_faces;                             // the (one or two) faces of an edge; -1 when on the boundary
   std::vector<std::vector<int>> boundary_loops;  // vertex cycles, orientation follows the faces
-  std::vector<int> component;  // connected component of each vertex (loose vertices get their own)
+  std::vector<int> component;                    // connected component of each vertex (loose vertices get their own)
   int n_components = 0;
 
   int valence(int v) const { return vv_offset[v + 1] - vv_offset[v]; }
@@ -37,7 +37,7 @@ struct Corner {
   int face, local, next, prev;
 };
 struct VertexCorners {
-  std::vector<int> offset;      // corners of v: corners[offset[v] .. offset[v+1])
+  std::vector<int> offset;  // corners of v: corners[offset[v] .. offset[v+1])
   std::vector<Corner> corners;
 };
 VertexCorners vertex_corners(const MatX3i& F, int n_vertices);

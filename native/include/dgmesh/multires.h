@@ -54,9 +54,9 @@ struct MultiresData {
   MatX3d control_V;  // rest pose of the control mesh
   MatX3i control_F;
   int level = 2;
-  VecXi face;    // per dense vertex: control face of its base point
-  MatX2d st;     // per dense vertex: (s, t) of its base point, s, t >= 0, s + t <= 1
-  MatX3d disp;   // per dense vertex: (a, b, c) in the frame (t1, t2, n)
+  VecXi face;   // per dense vertex: control face of its base point
+  MatX2d st;    // per dense vertex: (s, t) of its base point, s, t >= 0, s + t <= 1
+  MatX3d disp;  // per dense vertex: (a, b, c) in the frame (t1, t2, n)
 };
 
 // Where build time went (seconds), for reports and benchmarks.
@@ -69,8 +69,7 @@ class Multires {
   // Decimates the dense mesh to the control mesh, (optionally) fits it, and binds every vertex of
   // the dense mesh. The dense mesh must pass make_mesh(V, F, kSurface); loose vertices are bound too.
   static Multires build(const Mesh& dense, const MultiresOptions& opt, const ProgressFn& progress = {});
-  static Multires build(const MatX3d& V, const MatX3i& F, const MultiresOptions& opt,
-                        const ProgressFn& progress = {});
+  static Multires build(const MatX3d& V, const MatX3i& F, const MultiresOptions& opt, const ProgressFn& progress = {});
   // Binds the points V to the limit surface of a given control mesh (no decimation, no fit).
   static Multires bind(const MatX3d& control_V, const MatX3i& control_F, const MatX3d& V, int level = 2,
                        const ProgressFn& progress = {}, int projection_iterations = 12);

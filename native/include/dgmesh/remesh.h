@@ -48,16 +48,16 @@ enum class RemeshBoundary {
 };
 
 struct RemeshOptions {
-  int target_vertices = 2000;        // total output vertices, boundary included
-  double adaptivity = 0.0;           // 0: uniform density; 1: density proportional to curvature
-  int resolution = 256;              // raster size of the control map (resolution^2 pixels), 16..4096
+  int target_vertices = 2000;  // total output vertices, boundary included
+  double adaptivity = 0.0;     // 0: uniform density; 1: density proportional to curvature
+  int resolution = 256;        // raster size of the control map (resolution^2 pixels), 16..4096
   RemeshMode mode = RemeshMode::Double;
   RemeshBoundary boundary = RemeshBoundary::Keep;
   UvBoundary domain = UvBoundary::Circle;  // parameter domain of U0 and Uopt (convex: no flips)
   // Interior samples closer (in 3D) to the boundary polyline than this fraction of the local
   // target spacing are dropped, so the first row of triangles is not made of slivers.
   double boundary_clearance = 0.5;
-  double curvature_clip = 8.0;       // curvature density is clipped at this multiple of its mean
+  double curvature_clip = 8.0;  // curvature density is clipped at this multiple of its mean
   int max_uopt_iterations = 100;
   // The low-stretch map: eq. 5.6's exponent and the number of equalization steps (-1: Uopt, stop
   // when eq. 5.5 stops decreasing; 1: U1, which the thesis finds less anisotropic).
@@ -99,26 +99,26 @@ struct RemeshOptions {
 };
 
 struct RemeshResult {
-  MatX3d V;                  // output vertices: the n_boundary boundary vertices first, in loop order
-  MatX3i F;                  // triangles, oriented like the input
+  MatX3d V;  // output vertices: the n_boundary boundary vertices first, in loop order
+  MatX3i F;  // triangles, oriented like the input
   int n_boundary = 0;
-  VecXi boundary_source;     // Keep: input vertex of each boundary vertex; Resample: empty
-  MatX2d uv;                 // output vertices in the triangulation map
+  VecXi boundary_source;  // Keep: input vertex of each boundary vertex; Resample: empty
+  MatX2d uv;              // output vertices in the triangulation map
   // Where each output vertex lies on the input: an input face and barycentric weights of its three
   // corners (so callers can carry UVs, weights and other per-vertex or per-corner data over).
   VecXi source_face;
   MatX3d source_bary;
-  int n_interior_target = 0; // expected interior samples (target minus boundary)
-  int n_rejected = 0;        // interior samples dropped by the boundary clearance (last pass)
-  int passes = 0;            // error-diffusion passes, all rounds (the density is rescaled to hit the count)
-  int resolution = 0;        // raster size used: the one asked for, or coarser for small targets
-  int sampling_rounds = 0;   // diffusion + relaxation + separation rounds (more when separation drops samples)
-  int uopt_iterations = 0;   // equalization steps of Uopt (0 for SingleU0)
-  int n_flips = 0;           // 3D Delaunay edge flips (flip_3d)
-  int lloyd_iterations = 0;  // Lloyd steps made (fewer than asked when no sample moved)
-  int n_separated = 0;       // interior samples dropped by min_separation (last sampling round)
-  int smooth_moves = 0;      // vertex moves made by smooth_iterations (all sweeps)
-  int n_removed = 0;         // interior vertices of valence 3-4 removed by the smoothing (all sweeps)
+  int n_interior_target = 0;  // expected interior samples (target minus boundary)
+  int n_rejected = 0;         // interior samples dropped by the boundary clearance (last pass)
+  int passes = 0;             // error-diffusion passes, all rounds (the density is rescaled to hit the count)
+  int resolution = 0;         // raster size used: the one asked for, or coarser for small targets
+  int sampling_rounds = 0;    // diffusion + relaxation + separation rounds (more when separation drops samples)
+  int uopt_iterations = 0;    // equalization steps of Uopt (0 for SingleU0)
+  int n_flips = 0;            // 3D Delaunay edge flips (flip_3d)
+  int lloyd_iterations = 0;   // Lloyd steps made (fewer than asked when no sample moved)
+  int n_separated = 0;        // interior samples dropped by min_separation (last sampling round)
+  int smooth_moves = 0;       // vertex moves made by smooth_iterations (all sweeps)
+  int n_removed = 0;          // interior vertices of valence 3-4 removed by the smoothing (all sweeps)
   // Wall time of the stages; relax = Lloyd steps + minimum separation (all rounds); triangulate =
   // Delaunay + lift + flips + smoothing.
   double seconds_parameterize = 0, seconds_sample = 0, seconds_relax = 0, seconds_triangulate = 0;

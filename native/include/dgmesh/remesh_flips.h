@@ -20,7 +20,6 @@ namespace dgmesh::detail {
 /// the smoothing's closing pass, which must not be undone). Returns the number of flips.
 int delaunay_flips_3d(const MatX3d& X, const MatX2d& U, MatX3i& F, double orient_sign, bool closing = false);
 
-
 int delaunay_flips_map(const MatX2d& P, std::vector<std::array<int, 3>>& T,
                        const std::vector<std::pair<int, int>>& seeds);
 

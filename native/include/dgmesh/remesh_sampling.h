@@ -145,9 +145,9 @@ struct Ear {
 /// one piece (an ear's face to the ear).
 struct ChartPieces {
   std::vector<Ear> ears;
-  std::vector<int> ear_of_face;  // per input face: its ear, or -1 (the core)
-  std::vector<int> core;         // boundary samples of the core, in loop order
-  ConvexPolygon polygon;         // the core, counter-clockwise
+  std::vector<int> ear_of_face;    // per input face: its ear, or -1 (the core)
+  std::vector<int> core;           // boundary samples of the core, in loop order
+  ConvexPolygon polygon;           // the core, counter-clockwise
   const std::vector<Vec2>* bnd_u;  // the boundary samples in the triangulation map
 
   /// Whether a point u of the triangulation map on input face f is strictly inside (by margin) its

@@ -12,17 +12,17 @@
 namespace dgmesh {
 
 struct SegmentOptions {
-  int segments = 25;     // the thesis's figures 4.25-4.27
-  int iterations = 30;   // Lloyd iterations once every seed is placed (stops early when stable)
-  VecXd face_feature;    // F(T) per face (feature_function of crest_lines.h); empty: all 1 (plain VSA)
+  int segments = 25;    // the thesis's figures 4.25-4.27
+  int iterations = 30;  // Lloyd iterations once every seed is placed (stops early when stable)
+  VecXd face_feature;   // F(T) per face (feature_function of crest_lines.h); empty: all 1 (plain VSA)
 };
 
 struct SegmentResult {
-  std::vector<int> labels;   // segment of each face, 0 .. n_segments-1; every segment is connected
-  MatX3d proxy_normals;      // one unit normal per segment
-  int n_segments = 0;        // > segments only when the mesh has more connected components
-  int iterations = 0;        // Lloyd iterations run
-  double error = 0.0;        // total L^{2,1} distortion: sum of area |n_f - N_k|^2
+  std::vector<int> labels;  // segment of each face, 0 .. n_segments-1; every segment is connected
+  MatX3d proxy_normals;     // one unit normal per segment
+  int n_segments = 0;       // > segments only when the mesh has more connected components
+  int iterations = 0;       // Lloyd iterations run
+  double error = 0.0;       // total L^{2,1} distortion: sum of area |n_f - N_k|^2
 };
 
 SegmentResult segment(const Mesh& mesh, const SegmentOptions& opt, const ProgressFn& progress = {});

@@ -40,10 +40,10 @@ struct SkeletonOptions {
 };
 
 struct SkeletalMesh {
-  MatX3d S;      // skeletal vertices, one per mesh vertex; faces are the mesh's
-  VecXd radii;   // d(i) = |x_i - s_i| (eq. 6.7)
-  int n_fallback = 0;       // vertices without an inner Voronoi pole (placed from their ring)
-  int n_postsmoothed = 0;   // vertices moved by the post-smoothing
+  MatX3d S;                // skeletal vertices, one per mesh vertex; faces are the mesh's
+  VecXd radii;             // d(i) = |x_i - s_i| (eq. 6.7)
+  int n_fallback = 0;      // vertices without an inner Voronoi pole (placed from their ring)
+  int n_postsmoothed = 0;  // vertices moved by the post-smoothing
 };
 
 // Skeletal mesh of a closed, consistently oriented manifold mesh (validated by the caller).
@@ -62,7 +62,8 @@ Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, cons
 // (and rigid bone motions; otherwise the linear blend is used) the points are moved by the blended
 // dual quaternion instead (thesis 6.2 leaves the space deformation of the skeletal mesh open).
 MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const std::vector<Mat4>& rest,
-                                const std::vector<Mat4>& pose, Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>* linear = nullptr,
+                                const std::vector<Mat4>& pose,
+                                Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>* linear = nullptr,
                                 bool dual_quaternion = false);
 
 // Signed distance to the union of balls (s_j, r_j) (eq. 6.13) for each point, through a kd-tree;
@@ -93,8 +94,8 @@ struct SkeletalRigOptions {
 
 struct SkeletalDeformOptions {
   SkeletalMethod method = SkeletalMethod::Variational;
-  int fairing_steps = 2;     // steps of eq. 6.15 (variational) or of eq. 6.6 (basic)
-  double fairing_step = 1.5; // epsilon of eq. 6.15 (over-relaxed: L0^-1 damps the update)
+  int fairing_steps = 2;      // steps of eq. 6.15 (variational) or of eq. 6.6 (basic)
+  double fairing_step = 1.5;  // epsilon of eq. 6.15 (over-relaxed: L0^-1 damps the update)
   // After the fairing steps (variational, fairing_steps > 0): one explicit step u <- u - w f grad f
   // of the flow eq. 6.14 without the L0^-1 smoothing, which moves each vertex by w times its offset
   // from its rest distance to the union of balls (w = 1: onto it). The semi-implicit steps spread a
@@ -131,7 +132,7 @@ struct SkeletalDeformOptions {
 struct SkeletalRigData {
   MatX3d control_V;  // rest control mesh (the mesh itself when no multires layer)
   MatX3i control_F;
-  MatX3d S;          // skeletal vertices
+  MatX3d S;                 // skeletal vertices
   Eigen::MatrixXd weights;  // n_control x B, rows sum to 1
   std::vector<Mat4> bones_rest;
   bool has_multires = false;
@@ -163,7 +164,7 @@ class SkeletalRig {
   MatX3d deform_control(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt,
                         MatX3d* skeleton_pose = nullptr) const;
 
-  int n_vertices() const;   // dense
+  int n_vertices() const;  // dense
   int n_control() const;
   int n_bones() const;
   bool has_multires() const;

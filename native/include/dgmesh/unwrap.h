@@ -41,11 +41,11 @@ enum class UvWeights {
 };
 
 enum class UvSolver {
-  Auto,      // UMFPACK up to 1000 unknowns (exact, milliseconds), else Multigrid (faster above)
-  Umfpack,   // SuiteSparse UMFPACK LU, symbolic analysis reused across steps
-  SparseLU,  // Eigen SparseLU, symbolic analysis reused across steps
-  BiCGSTAB,  // Eigen BiCGSTAB + ILUT, warm-started from the previous map
-  Multigrid, // BiCGSTAB preconditioned by smoothed-aggregation multigrid, warm-started
+  Auto,       // UMFPACK up to 1000 unknowns (exact, milliseconds), else Multigrid (faster above)
+  Umfpack,    // SuiteSparse UMFPACK LU, symbolic analysis reused across steps
+  SparseLU,   // Eigen SparseLU, symbolic analysis reused across steps
+  BiCGSTAB,   // Eigen BiCGSTAB + ILUT, warm-started from the previous map
+  Multigrid,  // BiCGSTAB preconditioned by smoothed-aggregation multigrid, warm-started
 };
 
 // Distortion of a parameterization (thesis 5.3). Stretch follows Sander et al. [SSGH01] with the
@@ -85,9 +85,9 @@ VecXd uv_vertex_stretch(const MatX3d& V, const MatX3i& F, const MatX2d& UV, doub
 struct UnwrapOptions {
   UvBoundary boundary = UvBoundary::Free;
   UvWeights weights = UvWeights::Auto;
-  double eta = 0.5;           // exponent of eq. 5.6, 0 < eta <= 1
-  int iterations = -1;        // -1: Uopt (stop when eq. 5.5 stops decreasing); k >= 0: exactly k steps
-  int max_iterations = 100;   // cap for Uopt
+  double eta = 0.5;               // exponent of eq. 5.6, 0 < eta <= 1
+  int iterations = -1;            // -1: Uopt (stop when eq. 5.5 stops decreasing); k >= 0: exactly k steps
+  int max_iterations = 100;       // cap for Uopt
   double min_improvement = 1e-3;  // Uopt also stops after a step improving eq. 5.5 by less than this (relative)
   UvSolver solver = UvSolver::Auto;
   // Relative residual of the iterative solve of U0, as the thesis (5.3). A step whose inexact map
@@ -121,21 +121,21 @@ struct UnwrapStep {
   // U0 and the returned map carry all metrics of thesis 5.3; the other steps carry the stretch
   // metrics the stopping rule needs (edge and angle are NaN: they cost more than the rest).
   UvMetrics metrics;
-  double seconds = 0;        // wall time of this step (solve + metrics)
-  int solver_iterations = 0; // BiCGSTAB iterations (u and v together for the multigrid; 0 for direct solvers)
+  double seconds = 0;         // wall time of this step (solve + metrics)
+  int solver_iterations = 0;  // BiCGSTAB iterations (u and v together for the multigrid; 0 for direct solvers)
 };
 
 struct UnwrapResult {
-  MatX2d uv;                        // the chosen map, in [0,1]^2
-  MatX2d uv_initial;                // U0 (eq. 5.2-5.3), the start of the equalization
-  std::vector<UnwrapStep> steps;    // steps[h] is U^h (U0 first); Uopt's last entry may be the rejected step
-  int chosen = 0;                   // index into steps of the returned map
+  MatX2d uv;                      // the chosen map, in [0,1]^2
+  MatX2d uv_initial;              // U0 (eq. 5.2-5.3), the start of the equalization
+  std::vector<UnwrapStep> steps;  // steps[h] is U^h (U0 first); Uopt's last entry may be the rejected step
+  int chosen = 0;                 // index into steps of the returned map
   UvBoundary boundary_used = UvBoundary::Square;
-  bool boundary_convex = true;      // the fixed polygon is convex (Tutte: no flips)
-  int n_holes = 0;                  // inner boundary loops kept open
-  std::vector<int> corners;         // square corners (vertex ids), counter-clockwise from (0,0)
+  bool boundary_convex = true;  // the fixed polygon is convex (Tutte: no flips)
+  int n_holes = 0;              // inner boundary loops kept open
+  std::vector<int> corners;     // square corners (vertex ids), counter-clockwise from (0,0)
   std::vector<std::string> warnings;
-  std::string solver;               // solver used
+  std::string solver;  // solver used
 };
 
 // Throws MeshError when the input is not a single chart of disk topology (closed, several
@@ -150,8 +150,8 @@ UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& optio
 // unwrap() gives for that chart alone. Charts may share vertices (e.g. segments of one mesh): the
 // UVs are per triangle corner.
 struct UnwrapChartsResult {
-  MatX2d uv;                          // row 3f + k: UV of corner k of triangle f in its chart's map
-  std::vector<UnwrapResult> charts;   // charts[c]: unwrap() of chart c (uv per chart vertex)
+  MatX2d uv;                         // row 3f + k: UV of corner k of triangle f in its chart's map
+  std::vector<UnwrapResult> charts;  // charts[c]: unwrap() of chart c (uv per chart vertex)
 };
 
 // unwrap_charts() could not unwrap one chart: unwrap()'s MeshError for it (`reason`), the message

@@ -60,7 +60,8 @@ struct BoundaryCurve {
       const double a = 2 * kPi * x / period;
       return Vec2(0.5 + 0.5 * std::cos(a), 0.5 + 0.5 * std::sin(a));
     }
-    const size_t i = std::min(static_cast<size_t>(std::upper_bound(S.begin(), S.end(), x) - S.begin()), S.size() - 1) - 1;
+    const size_t i =
+        std::min(static_cast<size_t>(std::upper_bound(S.begin(), S.end(), x) - S.begin()), S.size() - 1) - 1;
     const double len = S[i + 1] - S[i];
     const double f = len > 0 ? (x - S[i]) / len : 0.0;
     return P[i] + f * (P[(i + 1) % P.size()] - P[i]);
@@ -102,7 +103,8 @@ struct BoundaryCurve {
       for (int k = 0; k < nb; ++k) mean += s[k] - su[k];
       mean /= nb;
       for (int k = 0; k < nb; ++k) s[k] -= mean;
-      while (s[0] < 0) for (int k = 0; k < nb; ++k) s[k] += period;
+      while (s[0] < 0)
+        for (int k = 0; k < nb; ++k) s[k] += period;
     }
     // Keep s increasing from s[0] (wrap-around runs may have produced values below s[0]).
     for (int k = 1; k < nb; ++k)

@@ -24,8 +24,8 @@ struct TriStretch {
   double gamma2;    // Gamma^2
 };
 
-inline TriStretch tri_stretch(const Vec3& q1, const Vec3& q2, const Vec3& q3, const Vec2& p1,
-                              const Vec2& p2, const Vec2& p3) {
+inline TriStretch tri_stretch(const Vec3& q1, const Vec3& q2, const Vec3& q3, const Vec2& p1, const Vec2& p2,
+                              const Vec2& p3) {
   const double s1 = p1.x(), t1 = p1.y(), s2 = p2.x(), t2 = p2.y(), s3 = p3.x(), t3 = p3.y();
   const double A2 = (s2 - s1) * (t3 - t1) - (s3 - s1) * (t2 - t1);
   if (A2 == 0 || !std::isfinite(A2)) return {0.0, kInf, kInf};

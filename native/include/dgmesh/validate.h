@@ -7,14 +7,14 @@
 namespace dgmesh {
 
 enum Check : unsigned {
-  kNonEmpty = 1u << 0,        // at least one vertex and one face
-  kIndices = 1u << 1,         // face indices within [0, n)
-  kFinite = 1u << 2,          // no NaN / inf coordinates
-  kNoRepeatedIndex = 1u << 3, // no face like (a, a, b)
-  kNoZeroArea = 1u << 4,      // no face with area below 1e-12 of the squared bbox diagonal
+  kNonEmpty = 1u << 0,         // at least one vertex and one face
+  kIndices = 1u << 1,          // face indices within [0, n)
+  kFinite = 1u << 2,           // no NaN / inf coordinates
+  kNoRepeatedIndex = 1u << 3,  // no face like (a, a, b)
+  kNoZeroArea = 1u << 4,       // no face with area below 1e-12 of the squared bbox diagonal
   kNoDuplicateFaces = 1u << 5,
-  kNoLooseVertices = 1u << 6, // every vertex in some face
-  kManifold = 1u << 7,        // edges with <= 2 faces, consistently oriented, single fan per vertex
+  kNoLooseVertices = 1u << 6,  // every vertex in some face
+  kManifold = 1u << 7,         // edges with <= 2 faces, consistently oriented, single fan per vertex
   // What nearly every surface algorithm needs. Loose vertices are tolerated (they are skipped).
   kSurface = kNonEmpty | kIndices | kFinite | kNoRepeatedIndex | kNoZeroArea | kNoDuplicateFaces | kManifold,
 };

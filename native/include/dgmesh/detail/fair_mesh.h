@@ -25,11 +25,11 @@ struct Work {
   MatX3d P;
   MatX3i F;
   Topology topo;
-  std::vector<char> movable;   // per vertex
-  std::vector<char> sliding;   // movable boundary vertices (sliding mode)
+  std::vector<char> movable;     // per vertex
+  std::vector<char> sliding;     // movable boundary vertices (sliding mode)
   std::vector<char> energy_set;  // movable vertices and their neighbours
-  std::vector<char> region;    // per face: refined by subdivision
-  std::vector<char> near;      // per face: touches a movable vertex (for A_min)
+  std::vector<char> region;      // per face: refined by subdivision
+  std::vector<char> near;        // per face: touches a movable vertex (for A_min)
 };
 
 /// Sets the vertex roles of a level from w.movable: fixed boundary vertices stop moving (or slide),

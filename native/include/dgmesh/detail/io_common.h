@@ -23,9 +23,7 @@ namespace dgmesh::detail {
 
 constexpr int64_t kMaxIndexCount = std::numeric_limits<int>::max();
 
-[[noreturn]] inline void fail(const std::string& path, const std::string& msg) {
-  throw IoError(path + ": " + msg);
-}
+[[noreturn]] inline void fail(const std::string& path, const std::string& msg) { throw IoError(path + ": " + msg); }
 
 [[noreturn]] inline void fail_line(const std::string& path, size_t line, const std::string& msg) {
   throw IoError(path + ":" + std::to_string(line) + ": " + msg);

@@ -40,7 +40,8 @@ RemeshResult remesh_with_retry(const RemeshOptions& options, Attempt&& attempt) 
   std::snprintf(clearance, sizeof clearance, "%g", options.boundary_clearance);
   r.warnings.push_back(
       "the first triangulation missed the kept boundary: remeshed again with more room between the boundary and "
-      "the inner vertices (boundary_clearance " + std::string(clearance) + " -> 1)");
+      "the inner vertices (boundary_clearance " +
+      std::string(clearance) + " -> 1)");
   return r;
 }
 
