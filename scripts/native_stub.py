@@ -174,6 +174,8 @@ def _methods(cls, skip=()):
     for attr, value in sorted(vars(cls).items()):
         if attr in skip or attr in ("__repr__", "__eq__", "__hash__", "__fields__", "__doc__", "__module__"):
             continue
+        if attr.startswith("_pybind11"):  # pybind11's own (2.13+: _pybind11_conduit_v1_), not ours
+            continue
         if not callable(value) or isinstance(value, (type, property)):
             continue
         target = value.__func__ if isinstance(value, staticmethod) else value
