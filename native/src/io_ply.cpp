@@ -92,22 +92,8 @@ inline double load_double(PT t, const unsigned char* p, bool swap) {
 }
 
 inline int64_t load_int(PT t, const unsigned char* p, bool swap) {  // t must be an integer type
-  switch (t) {
-    case PT::I8:
-      return load<int8_t>(p, swap);
-    case PT::U8:
-      return load<uint8_t>(p, swap);
-    case PT::I16:
-      return load<int16_t>(p, swap);
-    case PT::U16:
-      return load<uint16_t>(p, swap);
-    case PT::I32:
-      return load<int32_t>(p, swap);
-    case PT::U32:
-      return load<uint32_t>(p, swap);
-    default:
-      return 0;
-  }
+  // Integers up to 32 bits are exact in a double.
+  return t == PT::F32 || t == PT::F64 ? 0 : static_cast<int64_t>(load_double(t, p, swap));
 }
 
 // Role of a property in the mesh being built.
