@@ -221,17 +221,55 @@ void jet_row(double x, double y, int degree, int deriv, double* r) {
     }
 }
 
+using Vec20 = Eigen::Matrix<double, 20, 1>;
+
 struct JetScratch {
   std::vector<int> ring, mark;
-  Eigen::MatrixXd A;
-  Eigen::VectorXd b, c, r;
+  Vec20 c;  // coefficients of the last fit (the first jet_size(degree))
 };
+
+// Normal equations of the jet fit of degree D over the neighbours listed in s.ring (skipping the
+// vertex itself and those with mark false), fixed size so that the outer products vectorise.
+template <int D>
+bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, const Vec3& u, const Vec3& w,
+               double scale, bool slopes, JetScratch& s) {
+  constexpr int M = (D + 1) * (D + 2) / 2 - 1;
+  using MatM = Eigen::Matrix<double, M, M>;
+  using VecM = Eigen::Matrix<double, M, 1>;
+  MatM A = MatM::Zero();
+  VecM b = VecM::Zero(), r;
+  for (size_t j = 1; j < s.ring.size(); ++j) {
+    const int v = s.ring[j];
+    const Vec3 nv = N.row(v);
+    if (nv.dot(n) <= 0.0) continue;
+    const Vec3 d = (Vec3(V.row(v)) - p) * scale;
+    const double x = d.dot(u), y = d.dot(w), z = d.dot(n);
+    jet_row(x, y, D, 0, r.data());
+    A.noalias() += r * r.transpose();
+    b.noalias() += r * z;
+    if (slopes) {
+      const double ma = nv.dot(u), mb = nv.dot(w), mc = nv.dot(n);
+      jet_row(x, y, D, 1, r.data());
+      A.noalias() += r * r.transpose();
+      b.noalias() += r * (-ma / mc);
+      jet_row(x, y, D, 2, r.data());
+      A.noalias() += r * r.transpose();
+      b.noalias() += r * (-mb / mc);
+    }
+  }
+  if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0;  // n itself: h_x = h_y = 0 at p
+  A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
+  const VecM c = A.ldlt().solve(b);
+  s.c.head<M>() = c;
+  return c.allFinite();
+}
 
 // Fits the jet at vertex i over its `rings`-ring (neighbours whose normal in N makes an obtuse angle
 // with n dropped): heights, and with `slopes` the slopes of the neighbours' normals N (h_x = -m_x /
 // m_z, h_y = -m_y / m_z) and of n at p (h_x = h_y = 0). Returns false when too few neighbours are
-// left for even a quadratic; `degree` is lowered to 3 (then 2) when the rows do not determine it with
-// a margin. On success c holds the coefficients (scaled units) and u, w, scale the frame.
+// left for even a quadratic; `degree` (3 or 5) is lowered to 3, then 2, when the rows do not
+// determine it with a margin. On success s.c holds the coefficients (scaled units) and u, w, scale
+// the frame.
 bool fit_jet(int i, const MatX3d& V, const MatX3d& N, const Vec3& n, const Topology& topo, int rings, int degree,
              bool slopes, JetScratch& s, Vec3& u, Vec3& w, double& scale, int& used_degree) {
   u = any_perpendicular(n), w = n.cross(u);
@@ -247,38 +285,15 @@ bool fit_jet(int i, const MatX3d& V, const MatX3d& N, const Vec3& n, const Topol
   }
   if (count < 2 || mean_dist <= 0.0) return false;
   scale = count / mean_dist;
-  const int rows_per = slopes ? 3 : 1, extra = slopes ? 2 : 0;
+  const int rows = (slopes ? 3 : 1) * count + (slopes ? 2 : 0);
   // Ask for 1.5 equations per unknown (a square fit interpolates and amplifies errors).
-  while (degree > 2 && 2 * (rows_per * count + extra) < 3 * jet_size(degree)) --degree;
-  if (rows_per * count + extra < jet_size(degree)) return false;
+  if (degree == 5 && 2 * rows < 3 * jet_size(5)) degree = 3;
+  if (degree == 3 && 2 * rows < 3 * jet_size(3)) degree = 2;
+  if (rows < jet_size(degree)) return false;
   used_degree = degree;
-  const int m = jet_size(degree);
-  s.A.setZero(m, m);
-  s.b.setZero(m);
-  s.r.resize(m);
-  for (size_t j = 1; j < s.ring.size(); ++j) {
-    const int v = s.ring[j];
-    const Vec3 nv = N.row(v);
-    if (nv.dot(n) <= 0.0) continue;
-    const Vec3 d = (Vec3(V.row(v)) - p) * scale;
-    const double x = d.dot(u), y = d.dot(w), z = d.dot(n);
-    jet_row(x, y, degree, 0, s.r.data());
-    s.A.selfadjointView<Eigen::Lower>().rankUpdate(s.r);
-    s.b.noalias() += s.r * z;
-    if (slopes) {
-      const double ma = nv.dot(u), mb = nv.dot(w), mc = nv.dot(n);
-      jet_row(x, y, degree, 1, s.r.data());
-      s.A.selfadjointView<Eigen::Lower>().rankUpdate(s.r);
-      s.b.noalias() += s.r * (-ma / mc);
-      jet_row(x, y, degree, 2, s.r.data());
-      s.A.selfadjointView<Eigen::Lower>().rankUpdate(s.r);
-      s.b.noalias() += s.r * (-mb / mc);
-    }
-  }
-  if (slopes) s.A(0, 0) += 1.0, s.A(1, 1) += 1.0;  // n itself: h_x = h_y = 0 at p
-  s.A.diagonal().array() += 1e-9 * (s.A.trace() + 1.0);
-  s.c = s.A.selfadjointView<Eigen::Lower>().ldlt().solve(s.b);
-  return s.c.allFinite();
+  if (degree == 5) return solve_jet<5>(V, N, p, n, u, w, scale, slopes, s);
+  if (degree == 3) return solve_jet<3>(V, N, p, n, u, w, scale, slopes, s);
+  return solve_jet<2>(V, N, p, n, u, w, scale, slopes, s);
 }
 
 // Pass 1: the normal of a cubic jet fitted to the heights of the 2-ring (at least ten points on a
@@ -312,7 +327,7 @@ void fit_vertex_jet(int i, const MatX3d& V, const MatX3d& N, const Topology& top
   double scale;
   int degree;
   if (!fit_jet(i, V, N, n, topo, opt.rings, opt.rings == 1 ? 3 : 5, true, s, u, w, scale, degree)) return zero();
-  const Eigen::VectorXd& c = s.c;
+  const Vec20& c = s.c;
   double cc[4] = {0.0, 0.0, 0.0, 0.0};
   if (degree >= 3)
     for (int k = 0; k < 4; ++k) cc[k] = c[5 + k];
