@@ -132,13 +132,14 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
                           progress: Progress | None = None) -> CurvatureDerivatives:
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
-    Default (``jet=True``): a two-pass fit at each vertex p of the input. Pass 1 estimates the normal
-    of every vertex from a cubic jet fitted to the heights of its 2-ring; pass 2 fits a jet (free
-    tangent plane, degree 3 on the one-ring, 5 on larger rings) to the heights of the ``rings``-ring
-    and the slopes of their pass-1 normals. ``smooth``, ``use_normals``, ``fit_tangent_plane`` and
-    ``transport_to_vertex`` then do not apply.
+    ``jet=True``: a two-pass fit at each vertex p of the input, several times more accurate on
+    smooth meshes (bench ``crest_derivatives``) but more sensitive to noise. Pass 1 estimates the
+    normal of every vertex from a cubic jet fitted to the heights of its 2-ring; pass 2 fits a jet
+    (free tangent plane, degree 3 on the one-ring, 5 on larger rings) to the heights of the
+    ``rings``-ring and the slopes of their pass-1 normals. ``smooth``, ``use_normals``,
+    ``fit_tangent_plane`` and ``transport_to_vertex`` then do not apply.
 
-    ``jet=False``: the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
+    Default (``jet=False``): the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
     the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
     normals of its ``rings``-ring, without neighbours whose normal makes an obtuse angle with the
     vertex normal. Two refinements over eq. 4.7 as printed (both on by default; off reproduces the

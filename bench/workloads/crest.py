@@ -131,8 +131,8 @@ FITS = [  # (label, smooth, normals, refined); refined = fitted tangent plane + 
     ("without p->p', normals, tangent plane fitted", False, True, True),
     ("with p->p', no normals", True, False, False),
     ("with p->p', normals, eq. 4.7 as printed", True, True, False),
-    ("with p->p', normals, tangent plane fitted + transported to p (jet=False)", True, True, True),
-    ("two-pass jet fit (default, crest_derivatives)", False, True, True),
+    ("with p->p', normals, tangent plane fitted + transported to p (default)", True, True, True),
+    ("two-pass jet fit (jet=True, bench crest_derivatives)", False, True, True),
 ]
 JET_FIT = FITS[-1][0]
 
@@ -154,7 +154,7 @@ def crest_accuracy(quick):
         for label, smooth, normals, refined in FITS:
             d = dgmesh.curvature_derivatives(V, F, rings=1, smooth=smooth, use_normals=normals,
                                              fit_tangent_plane=refined, transport_to_vertex=refined,
-                                             jet=False) if label != JET_FIT else dgmesh.curvature_derivatives(V, F)
+                                             jet=False) if label != JET_FIT else dgmesh.curvature_derivatives(V, F, jet=True)
             e = e_errors(V, d, mask)
             errs.setdefault(label, []).append([e["max"][0], e["max"][1], e["min"][0], e["min"][1]])
             data["meshes"][name][label] = e
@@ -180,10 +180,10 @@ def crest_accuracy(quick):
           "exact). The default fits the tangent plane too (linear terms, the Max normal of p' as one more "
           "normal equation; only at vertices with at least five neighbours, the valence-4 vertices of the "
           "square grid keep eq. 4.7) and evaluates the fitted graph with its exact curvature formulas at the foot "
-          "of the original vertex p instead of at p' (eq. 4.9 with a non-zero gradient); it was the default "
-          "before the two-pass jet fit (last row, the default now; bench crest_derivatives).\n\n"
+          "of the original vertex p instead of at p' (eq. 4.9 with a non-zero gradient). The last row is the two-pass jet fit "
+          "(jet=True, not the default; bench crest_derivatives).\n\n"
           + table(["fit", "e_max L2", "e_max Linf", "e_min L2", "e_min Linf", "thesis e_max", "thesis e_min"], rows)
-          + "\n\nPer mesh: the default (jet) fit (e_max L2, Linf, e_min L2, Linf), then eq. 4.7 "
+          + "\n\nPer mesh: the jet fit (jet=True; e_max L2, Linf, e_min L2, Linf), then eq. 4.7 "
           "as printed with p->p' and normals.\n\n"
           + table(["mesh", "triangles", "e_max L2", "e_max Linf", "e_min L2", "e_min Linf",
                    "printed e_max L2", "Linf", "printed e_min L2", "Linf"], mesh_rows)
@@ -228,10 +228,10 @@ def crest_speed(quick):
         t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0), repeats=3 if quick else 5)
         rows.append([f"crest lines (fit + trace), k = {k}", len(Fs), t, c])
         data[f"crest_k{k}"] = t
-    for k in (1, 2):  # the thesis's fit (the default before the jet fit), for comparison
-        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0, jet=False), repeats=3)
-        rows.append([f"crest lines (fit + trace), k = {k}, thesis fit (jet=False)", len(Fs), t, c])
-        data[f"crest_k{k}_thesis_fit"] = t
+    for k in (1, 2):  # the two-pass jet fit (opt-in)
+        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0, jet=True), repeats=3)
+        rows.append([f"crest lines (fit + trace), k = {k}, jet fit (jet=True)", len(Fs), t, c])
+        data[f"crest_k{k}_jet"] = t
     exe = cgal_tool("cgal_ridges.cpp", "CGAL/Ridges.h")
     if exe is not None:
         with tempfile.TemporaryDirectory() as tmp:
@@ -680,10 +680,10 @@ def cgal_jet(V, rings, normals, d=3, m=3):
 
 
 DERIV_FITS = [  # (label, rings, options)
-    ("ours: jet fit (default), 1-ring", 1, {}),
-    ("ours: jet fit (default), 2-ring", 2, {}),
-    ("ours: previous default (p->p', normals, tangent plane, transport), 1-ring", 1, {"jet": False}),
-    ("ours: previous default, 2-ring", 2, {"jet": False}),
+    ("ours: jet fit (jet=True), 1-ring", 1, {"jet": True}),
+    ("ours: jet fit (jet=True), 2-ring", 2, {"jet": True}),
+    ("ours: default (p->p', normals, tangent plane, transport), 1-ring", 1, {"jet": False}),
+    ("ours: default, 2-ring", 2, {"jet": False}),
     ("thesis fit as printed (p->p', normals, eq. 4.7), 1-ring", 1,
      {"jet": False, "fit_tangent_plane": False, "transport_to_vertex": False}),
 ]
