@@ -248,6 +248,7 @@ class DerivativeOptions:
 
     __fields__: list[str]
     rings: int  # k of the k-ring used for the fit (thesis 1..4; 1..8 accepted)
+    jet: bool  # two-pass jet fit (heights + jet normals, degree 3 / 5); false (default): the thesis's cubic fit
     smooth: bool  # fit on M' (p' = mean of the centroids of the faces around p)
     use_normals: bool  # adjacent-normal equations in the fit (table 4.1)
     fit_tangent_plane: bool  # fit the tangent plane too (linear terms; the Max normal as one more equation)

@@ -125,13 +125,21 @@ def _check_rings(rings):
     return as_count(rings, "rings", 1, 8)
 
 
-def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, smooth: bool = _FIT.smooth,
-                          use_normals: bool = _FIT.use_normals, fit_tangent_plane: bool = _FIT.fit_tangent_plane,
+def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, jet: bool = _FIT.jet,
+                          smooth: bool = _FIT.smooth, use_normals: bool = _FIT.use_normals,
+                          fit_tangent_plane: bool = _FIT.fit_tangent_plane,
                           transport_to_vertex: bool = _FIT.transport_to_vertex,
                           progress: Progress | None = None) -> CurvatureDerivatives:
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
-    A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
+    ``jet=True``: a two-pass fit at each vertex p of the input, several times more accurate on
+    smooth meshes (bench ``crest_derivatives``) but more sensitive to noise. Pass 1 estimates the
+    normal of every vertex from a cubic jet fitted to the heights of its 2-ring; pass 2 fits a jet
+    (free tangent plane, degree 3 on the one-ring, 5 on larger rings) to the heights of the
+    ``rings``-ring and the slopes of their pass-1 normals. ``smooth``, ``use_normals``,
+    ``fit_tangent_plane`` and ``transport_to_vertex`` then do not apply.
+
+    Default (``jet=False``): the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
     the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
     normals of its ``rings``-ring, without neighbours whose normal makes an obtuse angle with the
     vertex normal. Two refinements over eq. 4.7 as printed (both on by default; off reproduces the
@@ -143,15 +151,15 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
     coefficients ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8-4.9; their sign follows the
     direction), ``normals`` of the fitted surface.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), smooth=bool(smooth),
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=bool(jet), smooth=bool(smooth),
                        use_normals=bool(use_normals), fit_tangent_plane=bool(fit_tangent_plane),
                        transport_to_vertex=bool(transport_to_vertex))
     return _native.curvature_derivatives(as_vertices(V), as_faces(F), fit, progress)
 
 
 def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold,
-                ridges: bool = _CREST.ridges, valleys: bool = _CREST.valleys, smooth: bool = _FIT.smooth,
-                join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
+                ridges: bool = _CREST.ridges, valleys: bool = _CREST.valleys, jet: bool = _FIT.jet,
+                smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
                 progress: Progress | None = None) -> CrestLines:
     """Crest lines of a triangle mesh (thesis 4.5-4.6).
 
@@ -161,10 +169,10 @@ def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, 
     strength T (eq. 4.10, scale independent) is at least ``threshold`` (default 10: the salient
     lines of typical scans; 0 keeps every line). Edges touching the mesh boundary are skipped when
     ``skip_boundary`` (the fit is one-sided there). Defaults: ``DerivativeOptions()`` and
-    ``CrestOptions()``.
+    ``CrestOptions()``. ``jet`` and ``smooth`` are those of :func:`curvature_derivatives`.
     Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), smooth=bool(smooth))
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=bool(jet), smooth=bool(smooth))
     # Every line is traced (threshold 0, both kinds) and kept, so that filter() can bring lines back.
     trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=bool(join_gaps),
                          skip_boundary=bool(skip_boundary))

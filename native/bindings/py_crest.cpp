@@ -66,6 +66,8 @@ ProgressFn tail_progress(const ProgressFn& progress, double start) {
 void bind_crest(pb::module_& m) {
   Struct<DerivativeOptions>(m, "DerivativeOptions", "Options of curvature_derivatives(): the cubic fit of thesis 4.5")
       .field("rings", &DerivativeOptions::rings, "k of the k-ring used for the fit (thesis 1..4; 1..8 accepted)")
+      .field("jet", &DerivativeOptions::jet,
+             "two-pass jet fit (heights + jet normals, degree 3 / 5); false (default): the thesis's cubic fit")
       .field("smooth", &DerivativeOptions::smooth, "fit on M' (p' = mean of the centroids of the faces around p)")
       .field("use_normals", &DerivativeOptions::use_normals, "adjacent-normal equations in the fit (table 4.1)")
       .field("fit_tangent_plane", &DerivativeOptions::fit_tangent_plane,

@@ -47,6 +47,46 @@ struct FitScratch {
   std::vector<int> ring, mark;
 };
 
+// Curvature attributes of the graph z = h(x, y) over the frame (u, w, n) at a point where h has
+// gradient (hx, hy), Hessian (hxx, hxy, hyy) and third derivatives cc (h_xxx, h_xxy, h_xyy, h_yyy),
+// all in units of 1 / scale; written to vertex i in mesh units.
+void write_fields(int i, double hx, double hy, double hxx, double hxy, double hyy, const double* cc, const Vec3& u,
+                  const Vec3& w, const Vec3& n, double scale, CurvatureDerivatives& out) {
+  // Graph frame (x, y, z along u, w, n): unit normal nn of z = h, tangent basis e1, e2.
+  const double G = std::sqrt(1.0 + hx * hx + hy * hy);
+  const Vec3 nn(-hx / G, -hy / G, 1.0 / G);
+  const Vec3 e1 = Vec3(1.0, 0.0, hx) / std::sqrt(1.0 + hx * hx);
+  const Vec3 e2 = nn.cross(e1);
+  // Shape operator of the implicit surface z - h = 0 on (e1, e2): P Hess(z - h) P / |grad|; at
+  // the origin it is minus the Hessian of h, so curvature is positive where the surface bends
+  // away from n (positive on a sphere with outward faces).
+  auto hess = [&](const Vec3& a, const Vec3& q) {  // a^T Hess(h) q over the (x, y) components
+    return a.x() * (hxx * q.x() + hxy * q.y()) + a.y() * (hxy * q.x() + hyy * q.y());
+  };
+  const double s00 = -hess(e1, e1) / G, s01 = -hess(e1, e2) / G, s11 = -hess(e2, e2) / G;
+  const double mean = 0.5 * (s00 + s11), dev = std::hypot(0.5 * (s00 - s11), s01);
+  const double theta = 0.5 * std::atan2(2 * s01, s00 - s11);  // eigenvector of the larger eigenvalue
+  const double c1 = std::cos(theta), s1 = std::sin(theta);
+  const Vec3 tmax = c1 * e1 + s1 * e2, tmin = -s1 * e1 + c1 * e2;
+  const double kmax = mean + dev, kmin = mean - dev;
+  // Extremality coefficient e = dk/dt of the implicit surface F = z - h (thesis eq. 4.9, with the
+  // sign of the curvature term for this curvature convention, checked against finite differences
+  // of k along t): e = (F_ijl t_i t_j t_l - 3 k F_ij t_i n_j) / |grad F|. At the origin it is eq.
+  // 4.8: e = -h_ttt.
+  auto extremality = [&](const Vec3& t, double k) {
+    return (-cubic_form(cc, t.x(), t.y()) + 3.0 * k * hess(t, nn)) / G;
+  };
+  auto to_mesh = [&](const Vec3& a) { return (a.x() * u + a.y() * w + a.z() * n).transpose(); };
+  // Back to mesh units: curvature scales by s, its derivative by s^2.
+  out.k_max[i] = kmax * scale;
+  out.k_min[i] = kmin * scale;
+  out.e_max[i] = extremality(tmax, kmax) * scale * scale;
+  out.e_min[i] = extremality(tmin, kmin) * scale * scale;
+  out.t_max.row(i) = to_mesh(tmax);
+  out.t_min.row(i) = to_mesh(tmin);
+  out.normals.row(i) = to_mesh(nn);
+}
+
 // Fits eq. 4.7 at vertex i of (P, N) (M' and its Max normals) and writes the curvature attributes
 // of the original vertex i (position V.row(i)).
 //
@@ -147,39 +187,151 @@ void fit_vertex(int i, const MatX3d& V, const MatX3d& P, const MatX3d& N, const 
   const double hy = c[1] + c[3] * dx + c[4] * dy + 0.5 * cc[1] * dx * dx + cc[2] * dx * dy + 0.5 * cc[3] * dy * dy;
   const double hxx = c[2] + cc[0] * dx + cc[1] * dy, hxy = c[3] + cc[1] * dx + cc[2] * dy;
   const double hyy = c[4] + cc[2] * dx + cc[3] * dy;
-  // Graph frame (x, y, z along u, w, n): unit normal nn of z = h, tangent basis e1, e2.
-  const double G = std::sqrt(1.0 + hx * hx + hy * hy);
-  const Vec3 nn(-hx / G, -hy / G, 1.0 / G);
-  const Vec3 e1 = Vec3(1.0, 0.0, hx) / std::sqrt(1.0 + hx * hx);
-  const Vec3 e2 = nn.cross(e1);
-  // Shape operator of the implicit surface z - h = 0 on (e1, e2): P Hess(z - h) P / |grad|; at
-  // the origin it is minus the Hessian of h, so curvature is positive where the surface bends
-  // away from n (positive on a sphere with outward faces).
-  auto hess = [&](const Vec3& a, const Vec3& q) {  // a^T Hess(h) q over the (x, y) components
-    return a.x() * (hxx * q.x() + hxy * q.y()) + a.y() * (hxy * q.x() + hyy * q.y());
+  write_fields(i, hx, hy, hxx, hxy, hyy, cc, u, w, n, scale, out);
+}
+
+// --- Two-pass jet fit (the default) -----------------------------------------------------------------
+//
+// Least squares of a polynomial height h(x, y) = sum_{1 <= a+b <= degree} c_ab x^a y^b / (a! b!)
+// over the tangent plane of a frame normal n at the vertex p itself (no p -> p' smoothing), in units
+// of the mean neighbour distance. The constant term is 0 (h passes through p), the linear terms are
+// free, so the frame only has to be near the tangent plane.
+
+// Number of coefficients of a jet of the given degree without constant term.
+inline int jet_size(int degree) { return (degree + 1) * (degree + 2) / 2 - 1; }
+
+// Monomials x^a y^b / (a! b!), 1 <= a + b <= degree, ordered by total degree then by falling a
+// (so c[0..1] is the gradient, c[2..4] the Hessian, c[5..8] the third derivatives). `dx` / `dy`
+// fill the partial derivatives instead (those of degree-0 monomials being 0).
+void jet_row(double x, double y, int degree, int deriv, double* r) {
+  // pw[a] = x^a / a!, qw[b] = y^b / b!
+  double pw[8], qw[8];
+  pw[0] = qw[0] = 1.0;
+  for (int a = 1; a <= degree; ++a) pw[a] = pw[a - 1] * x / a, qw[a] = qw[a - 1] * y / a;
+  int k = 0;
+  for (int t = 1; t <= degree; ++t)
+    for (int a = t; a >= 0; --a) {
+      const int b = t - a;
+      if (deriv == 0)
+        r[k++] = pw[a] * qw[b];
+      else if (deriv == 1)
+        r[k++] = a > 0 ? pw[a - 1] * qw[b] : 0.0;
+      else
+        r[k++] = b > 0 ? pw[a] * qw[b - 1] : 0.0;
+    }
+}
+
+using Vec20 = Eigen::Matrix<double, 20, 1>;
+
+struct JetScratch {
+  std::vector<int> ring, mark;
+  Vec20 c;  // coefficients of the last fit (the first jet_size(degree))
+};
+
+// Normal equations of the jet fit of degree D over the neighbours listed in s.ring (skipping the
+// vertex itself and those with mark false), fixed size so that the outer products vectorise.
+template <int D>
+bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, const Vec3& u, const Vec3& w,
+               double scale, bool slopes, JetScratch& s) {
+  constexpr int M = (D + 1) * (D + 2) / 2 - 1;
+  using MatM = Eigen::Matrix<double, M, M>;
+  using VecM = Eigen::Matrix<double, M, 1>;
+  MatM A = MatM::Zero();
+  VecM b = VecM::Zero(), r;
+  for (size_t j = 1; j < s.ring.size(); ++j) {
+    const int v = s.ring[j];
+    const Vec3 nv = N.row(v);
+    if (nv.dot(n) <= 0.0) continue;
+    const Vec3 d = (Vec3(V.row(v)) - p) * scale;
+    const double x = d.dot(u), y = d.dot(w), z = d.dot(n);
+    jet_row(x, y, D, 0, r.data());
+    A.noalias() += r * r.transpose();
+    b.noalias() += r * z;
+    if (slopes) {
+      const double ma = nv.dot(u), mb = nv.dot(w), mc = nv.dot(n);
+      jet_row(x, y, D, 1, r.data());
+      A.noalias() += r * r.transpose();
+      b.noalias() += r * (-ma / mc);
+      jet_row(x, y, D, 2, r.data());
+      A.noalias() += r * r.transpose();
+      b.noalias() += r * (-mb / mc);
+    }
+  }
+  if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0;  // n itself: h_x = h_y = 0 at p
+  A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
+  const VecM c = A.ldlt().solve(b);
+  s.c.head<M>() = c;
+  return c.allFinite();
+}
+
+// Fits the jet at vertex i over its `rings`-ring (neighbours whose normal in N makes an obtuse angle
+// with n dropped): heights, and with `slopes` the slopes of the neighbours' normals N (h_x = -m_x /
+// m_z, h_y = -m_y / m_z) and of n at p (h_x = h_y = 0). Returns false when too few neighbours are
+// left for even a quadratic; `degree` (3 or 5) is lowered to 3, then 2, when the rows do not
+// determine it with a margin. On success s.c holds the coefficients (scaled units) and u, w, scale
+// the frame.
+bool fit_jet(int i, const MatX3d& V, const MatX3d& N, const Vec3& n, const Topology& topo, int rings, int degree,
+             bool slopes, JetScratch& s, Vec3& u, Vec3& w, double& scale, int& used_degree) {
+  u = any_perpendicular(n), w = n.cross(u);
+  const Vec3 p = V.row(i);
+  k_ring(topo, i, rings, s.ring, s.mark);
+  double mean_dist = 0.0;
+  int count = 0;
+  for (size_t j = 1; j < s.ring.size(); ++j) {
+    const int v = s.ring[j];
+    if (N.row(v).dot(n) <= 0.0) continue;
+    mean_dist += (Vec3(V.row(v)) - p).norm();
+    ++count;
+  }
+  if (count < 2 || mean_dist <= 0.0) return false;
+  scale = count / mean_dist;
+  const int rows = (slopes ? 3 : 1) * count + (slopes ? 2 : 0);
+  // Ask for 1.5 equations per unknown (a square fit interpolates and amplifies errors).
+  if (degree == 5 && 2 * rows < 3 * jet_size(5)) degree = 3;
+  if (degree == 3 && 2 * rows < 3 * jet_size(3)) degree = 2;
+  if (rows < jet_size(degree)) return false;
+  used_degree = degree;
+  if (degree == 5) return solve_jet<5>(V, N, p, n, u, w, scale, slopes, s);
+  if (degree == 3) return solve_jet<3>(V, N, p, n, u, w, scale, slopes, s);
+  return solve_jet<2>(V, N, p, n, u, w, scale, slopes, s);
+}
+
+// Pass 1: the normal of a cubic jet fitted to the heights of the 2-ring (at least ten points on a
+// closed valence-6 mesh, as CGAL's Monge_via_jet_fitting with d = 3 needs), over the Max normal's
+// tangent plane. Falls back to the Max normal where the fit is not determined.
+Vec3 jet_normal(int i, const MatX3d& V, const MatX3d& Nmax, const Topology& topo, JetScratch& s) {
+  const Vec3 n = Nmax.row(i);
+  if (n.squaredNorm() == 0.0) return n;
+  Vec3 u, w;
+  double scale;
+  int degree;
+  if (!fit_jet(i, V, Nmax, n, topo, 2, 3, false, s, u, w, scale, degree)) return n;
+  const Vec3 g = -s.c[0] * u - s.c[1] * w + n;
+  return g.normalized();
+}
+
+// Pass 2 at vertex i: heights and the pass-1 normals N of the k-ring, degree 3 on the one-ring and
+// 5 on larger rings (a cubic over a wider neighbourhood is biased by the surface's fifth-order
+// terms, bench/notes/crest_derivatives.md).
+void fit_vertex_jet(int i, const MatX3d& V, const MatX3d& N, const Topology& topo, const DerivativeOptions& opt,
+                    JetScratch& s, CurvatureDerivatives& out) {
+  const Vec3 n = N.row(i);
+  auto zero = [&] {
+    out.k_max[i] = out.k_min[i] = out.e_max[i] = out.e_min[i] = 0.0;
+    out.t_max.row(i).setZero();
+    out.t_min.row(i).setZero();
+    out.normals.row(i) = n.transpose();
   };
-  const double s00 = -hess(e1, e1) / G, s01 = -hess(e1, e2) / G, s11 = -hess(e2, e2) / G;
-  const double mean = 0.5 * (s00 + s11), dev = std::hypot(0.5 * (s00 - s11), s01);
-  const double theta = 0.5 * std::atan2(2 * s01, s00 - s11);  // eigenvector of the larger eigenvalue
-  const double c1 = std::cos(theta), s1 = std::sin(theta);
-  const Vec3 tmax = c1 * e1 + s1 * e2, tmin = -s1 * e1 + c1 * e2;
-  const double kmax = mean + dev, kmin = mean - dev;
-  // Extremality coefficient e = dk/dt of the implicit surface F = z - h (thesis eq. 4.9, with the
-  // sign of the curvature term for this curvature convention, checked against finite differences
-  // of k along t): e = (F_ijl t_i t_j t_l - 3 k F_ij t_i n_j) / |grad F|. At the origin it is eq.
-  // 4.8: e = -h_ttt.
-  auto extremality = [&](const Vec3& t, double k) {
-    return (-cubic_form(cc, t.x(), t.y()) + 3.0 * k * hess(t, nn)) / G;
-  };
-  auto to_mesh = [&](const Vec3& a) { return (a.x() * u + a.y() * w + a.z() * n).transpose(); };
-  // Back to mesh units: curvature scales by s, its derivative by s^2.
-  out.k_max[i] = kmax * scale;
-  out.k_min[i] = kmin * scale;
-  out.e_max[i] = extremality(tmax, kmax) * scale * scale;
-  out.e_min[i] = extremality(tmin, kmin) * scale * scale;
-  out.t_max.row(i) = to_mesh(tmax);
-  out.t_min.row(i) = to_mesh(tmin);
-  out.normals.row(i) = to_mesh(nn);
+  if (n.squaredNorm() == 0.0) return zero();
+  Vec3 u, w;
+  double scale;
+  int degree;
+  if (!fit_jet(i, V, N, n, topo, opt.rings, opt.rings == 1 ? 3 : 5, true, s, u, w, scale, degree)) return zero();
+  const Vec20& c = s.c;
+  double cc[4] = {0.0, 0.0, 0.0, 0.0};
+  if (degree >= 3)
+    for (int k = 0; k < 4; ++k) cc[k] = c[5 + k];
+  write_fields(i, c[0], c[1], c[2], c[3], c[4], cc, u, w, n, scale, out);
 }
 
 // Builds ordered polylines from segments; fills line_offset, line_points and segment_line.
@@ -253,6 +405,41 @@ CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOpt
   Progress progress(progress_fn);
   progress(0.0);
 
+  CurvatureDerivatives out;
+  out.normals.resize(nv, 3);
+  out.k_max.resize(nv);
+  out.k_min.resize(nv);
+  out.e_max.resize(nv);
+  out.e_min.resize(nv);
+  out.t_max.resize(nv, 3);
+  out.t_min.resize(nv, 3);
+  // Chunks so that progress (one thread) and cancellation happen between parallel loops.
+  const int chunk = 32768;
+
+  if (opt.jet) {
+    const MatX3d Nmax = vertex_normals(mesh.V, mesh.F, topo, NormalWeights::Max);
+    MatX3d N(nv, 3);
+    std::vector<JetScratch> scratch(std::max(1, omp_get_max_threads()));
+    for (int pass = 0; pass < 2; ++pass)
+      for (int begin = 0; begin < nv; begin += chunk) {
+        const int end = std::min(nv, begin + chunk);
+#pragma omp parallel
+        {
+          JetScratch& s = scratch[omp_get_thread_num()];
+#pragma omp for schedule(dynamic, 256)
+          for (int v = begin; v < end; ++v) {
+            if (pass == 0)
+              N.row(v) = jet_normal(v, mesh.V, Nmax, topo, s).transpose();
+            else
+              fit_vertex_jet(v, mesh.V, N, topo, opt, s, out);
+          }
+        }
+        progress(0.5 * pass + 0.5 * end / nv);
+      }
+    progress(1.0);
+    return out;
+  }
+
   // M': p' = mean of the centroids of the faces around p (thesis 4.5).
   MatX3d P = mesh.V;
   if (opt.smooth) {
@@ -269,17 +456,6 @@ CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOpt
     }
   }
   const MatX3d N = vertex_normals(P, mesh.F, topo, NormalWeights::Max);  // Max's normals on M'
-  CurvatureDerivatives out;
-  out.normals.resize(nv, 3);
-  out.k_max.resize(nv);
-  out.k_min.resize(nv);
-  out.e_max.resize(nv);
-  out.e_min.resize(nv);
-  out.t_max.resize(nv, 3);
-  out.t_min.resize(nv, 3);
-
-  // Chunks so that progress (one thread) and cancellation happen between parallel loops.
-  const int chunk = 32768;
   std::vector<FitScratch> scratch(std::max(1, omp_get_max_threads()));
   for (int begin = 0; begin < nv; begin += chunk) {
     const int end = std::min(nv, begin + chunk);

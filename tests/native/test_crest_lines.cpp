@@ -430,3 +430,24 @@ TEST(CrestLines, WavingSurfaceDerivativesBeatTheThesisTable) {
     EXPECT_LT(ours[2], 0.95 * printed[2]);
   }
 }
+
+TEST(CrestLines, JetFitIsMoreAccurateAndImprovesWithTwoRings) {
+  // Issue #31: the two-pass jet fit against the default (thesis) fit on the waving surface, and its
+  // 2-ring fit not less accurate than its 1-ring fit there (the default fit's 2-ring is worse).
+  const double h = 0.30;
+  const TriMesh w = waving_disc(2.5 * M_PI, h);
+  const Mesh m = make_mesh(w.V, w.F);
+  DerivativeOptions jet1, jet2, old2;
+  jet1.jet = jet2.jet = true;
+  jet2.rings = old2.rings = 2;
+  const auto old = waving_errors(m, curvature_derivatives(m, DerivativeOptions{}));
+  const auto one = waving_errors(m, curvature_derivatives(m, jet1));
+  const auto two = waving_errors(m, curvature_derivatives(m, jet2));
+  const auto old_two = waving_errors(m, curvature_derivatives(m, old2));
+  std::printf("L2 e_max / e_min: default %.4f %.4f (2-ring %.4f %.4f), jet 1-ring %.4f %.4f, 2-ring %.4f %.4f\n",
+              old[0], old[2], old_two[0], old_two[2], one[0], one[2], two[0], two[2]);
+  EXPECT_LT(one[0], 0.5 * old[0]);
+  EXPECT_LT(one[2], 0.5 * old[2]);
+  EXPECT_LE(two[0], one[0]);
+  EXPECT_LE(two[2], one[2]);
+}

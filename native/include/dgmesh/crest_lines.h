@@ -12,7 +12,17 @@
 namespace dgmesh {
 
 struct DerivativeOptions {
-  int rings = 1;            // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
+  int rings = 1;  // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
+  // Two-pass jet fit (opt-in; bench crest_derivatives, issue #31). Pass 1: the normal at every vertex from a cubic jet
+  // fitted to the heights of its 2-ring over the Max normal's tangent plane (as Cazals-Pouget jet fitting, d = 3). Pass
+  // 2: a jet with free linear terms fitted at the vertex p itself to the heights of its k-ring and the slopes of their
+  // pass-1 normals (the adjacent-normal equations of [GI04] with better normals), degree 3 on the one-ring and 5 on
+  // larger rings, so that a wider ring does not bias the third derivatives with the surface's fifth-order terms; the
+  // fields are eq. 4.9 of the fitted graph at p. The four options below then do not apply. Not the default: without
+  // p->p' the crest lines of surfaces with curvature jumps change (the rounded cube's ridges leave the middle of its
+  // rounded edges). false (default): the thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by
+  // the four options below.
+  bool jet = false;
   bool smooth = true;       // fit on M' (p' = mean of the centroids of the faces around p)
   bool use_normals = true;  // adjacent-normal equations in the fit (thesis table 4.1 "normal")
   // With use_normals: the tangent plane is fitted too. Eq. 4.7 gets the linear terms a0 x + a1 y and
