@@ -203,7 +203,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             binding = _compute_binding(context, obj, arm, settings)
             _attach(context, obj, arm, binding, settings)
         except _BindFailure as exc:
-            self.report({'ERROR'}, str(exc))
+            self.report({'ERROR'}, f"Skeletal Bind failed on {obj.name!r}: {exc}")
             return {'CANCELLED'}
         rig = binding.rig
         others = [o.name for o in context.selected_objects if o.type == 'MESH' and o != obj]
@@ -312,7 +312,7 @@ def _attach(context, obj, arm, binding, settings):
                 bpy.data.objects.remove(o)
                 if me.users == 0:
                     bpy.data.meshes.remove(me)
-        raise _BindFailure(f"Skeletal Bind failed on {obj.name!r}: {type(exc).__name__}: {exc}") from None
+        raise _BindFailure(f"{type(exc).__name__}: {exc}") from None
     tag = arm.get(ARM_TAG)
     if not isinstance(tag, str):
         tag = arm[ARM_TAG] = uuid.uuid4().hex
