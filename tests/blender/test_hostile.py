@@ -180,10 +180,59 @@ def corrupted_custom_property():
     return obj
 
 
+def linked_from_library(tmp=[]):
+    """The mesh object linked from another .blend (library data: read-only here), alone."""
+    if not tmp:
+        _sphere()
+        path = bpy.app.tempdir + "dgmesh_hostile_library.blend"
+        bpy.data.libraries.write(path, {bpy.data.objects["Hostile"]})
+        tmp.append(path)
+    bpy.ops.wm.read_homefile(use_empty=True)
+    with bpy.data.libraries.load(tmp[0], link=True) as (_src, dst):
+        dst.objects = ["Hostile"]
+    obj = dst.objects[0]
+    bpy.context.scene.collection.objects.link(obj)
+    obj.select_set(True)
+    bpy.context.view_layer.objects.active = obj
+    return obj
+
+
+def _bind_closed():
+    was, _base["open"] = _base["open"], False
+    obj = _sphere()
+    _base["open"] = was
+    assert bpy.ops.dgmesh.skeletal_bind('EXEC_DEFAULT') == {'FINISHED'}
+    return obj
+
+
+def bound():
+    return _bind_closed()
+
+
+def bound_then_opened():
+    """Bound, then a face deleted: no longer bindable (Rebind must keep the binding)."""
+    obj = _bind_closed()
+    bm = bmesh.new()
+    bm.from_mesh(obj.data)
+    bmesh.ops.delete(bm, geom=[next(iter(bm.faces))], context='FACES_ONLY')
+    bm.to_mesh(obj.data)
+    bm.free()
+    obj.data.update()
+    return obj
+
+
+def armature_without_deform_bones():
+    obj = _sphere()
+    for b in bpy.data.armatures["Rig"].bones:
+        b.use_deform = False
+    return obj
+
+
 SCENES = {f.__name__: f for f in (
     no_active, active_not_mesh, empty_mesh, loose_vertices, loose_edges, non_manifold, ngons, zero_area_faces,
     duplicated_vertices, nan_coordinates, huge_coordinates, edit_mode_nothing_selected, multi_user_mesh,
-    modifiers, hidden_object, negative_scale, corrupted_custom_property)}
+    modifiers, hidden_object, negative_scale, corrupted_custom_property, linked_from_library, bound,
+    bound_then_opened, armature_without_deform_bones)}
 
 
 def _state(obj):
