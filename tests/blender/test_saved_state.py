@@ -176,3 +176,14 @@ def test_deleting_a_bound_mesh_removes_its_hidden_objects_at_once():
     assert bpy.ops.object.delete() == {'FINISHED'}
     bpy.context.view_layer.update()
     assert sorted(o.name for o in bpy.data.objects) == ["Rig"]
+
+
+@pytest.mark.parametrize("damage", DAMAGE, ids=list(DAMAGE))
+def test_sidebar_check_flags_damaged_fields(damage):
+    """The sidebar panel's cheap check (the fields, not the bind data) flags what it can see."""
+    from dgmesh.blender.skeletal_store import fields_problem
+
+    obj, arm = _bound()
+    assert not fields_problem(obj)
+    DAMAGE[damage](obj)
+    assert fields_problem(obj) == (not damage.startswith("data_"))

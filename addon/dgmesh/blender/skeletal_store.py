@@ -127,6 +127,25 @@ def bind_problem(obj):
     return None
 
 
+def fields_problem(obj):
+    """Whether the saved binding's fields (not its bind data, whose check decodes it) break the
+    schema: cheap enough for the sidebar panel, which then offers Skeletal Unbind."""
+    value = obj[PROP]
+    if not hasattr(value, "items"):
+        return True
+    def plain(v):
+        return v.to_dict() if hasattr(v, "to_dict") else v.to_list() if hasattr(v, "to_list") else v
+
+    fields = {k: plain(value[k]) for k in value.keys() if k != "data"}  # (reading the data copies it)
+    if "data" in value:
+        fields["data"] = ""
+    try:
+        check_info(fields, [m.upper() for m in METHODS])
+    except BindDataError:
+        return True
+    return False
+
+
 def salvaged(obj):
     """The fields of a binding as a dict for unbinding, each one the schema rejects (an edited or
     damaged property) replaced by an empty value: (fields, names of the fields replaced)."""
