@@ -11,7 +11,7 @@ import pytest
 from helpers import mesh_snapshot
 
 OPERATORS = sorted(name for name in dir(bpy.ops.dgmesh) if not name.startswith("_"))
-KWARGS = {"skeletal_bake": {"filepath": "/tmp/dgmesh_hostile_bake.pc2", "frame_start": 1, "frame_end": 2},
+KWARGS = {"skeletal_bake": {"filepath": bpy.app.tempdir + "hostile_bake.pc2", "frame_start": 1, "frame_end": 2},
           "remesh": {"target_vertices": 200}}
 
 
