@@ -337,6 +337,9 @@ class DGMESH_OT_similarity_map(NativeJobOperator, bpy.types.Operator):
         try:
             arrays = bridge.read_object(obj)
             F, N = arrays.F, None
+            bad = np.flatnonzero(~np.isfinite(arrays.V).all(axis=1))
+            if len(bad):  # (the native check, in the job, cannot name the object)
+                raise dg.MeshError(f"{len(bad)} vertex coordinate(s) are NaN or infinite (first: vertex {bad[0]})")
             if len(F) == 0:
                 F, N = None, read_point_normals(obj.data)
                 if N is None:

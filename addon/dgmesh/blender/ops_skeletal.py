@@ -40,6 +40,7 @@ into the mesh (the Armature modifiers come back disabled).
 """
 
 import uuid
+from typing import NamedTuple
 
 import bpy
 import numpy as np
@@ -47,13 +48,13 @@ from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..core import MeshError
 from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
-from ..skeletal_data import encode_arrays, write_pc2
+from ..skeletal_data import SCHEMA_VERSION, encode_arrays, write_pc2
 from . import bridge, compat
 from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 from .skeletal_live import HANDLERS, edited, helper_node_group, helper_object, move_first, unbind, update_object
 from .skeletal_space import pose_matrices, rig_space, transformed
-from .skeletal_store import (ARM_PTR, ARM_TAG, ATTR, CACHE, MOD, PROP, bound_armature, from_library, is_bound,
-                             live_modifier, purge_orphans, rest_hash, rigs, skeleton_object, skeleton_of)
+from .skeletal_store import (ARM_PTR, ARM_TAG, ATTR, CACHE, MOD, PROP, bind_problem, bound_armature, from_library,
+                             has_binding, live_modifier, purge_orphans, rest_hash, rigs, skeleton_object, skeleton_of)
 
 METHODS = enum_items(SkeletalMethod, {
     "variational": ("Variational", "Thesis 6.5: stitched per-triangle frames plus shape-preserving fairing"),
@@ -87,7 +88,7 @@ def _poll_bound(cls, context):
     """Object mode, with a bound active object."""
     if context.mode != 'OBJECT':
         return _poll_fail(cls, "Only available in Object mode")
-    if not is_bound(context.active_object):
+    if not has_binding(context.active_object):
         return _poll_fail(cls, "The active object is not bound (DG Mesh > Skeletal Bind)")
     return True
 
@@ -114,12 +115,21 @@ class DGMESH_OT_skeletal_show_skeleton(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        if skeleton_of(context.active_object) is None:
+        obj = context.active_object
+        if not has_binding(obj) or (skeleton_of(obj) is None and bind_problem(obj) is None):
             return _poll_fail(cls, "The active object is not bound, or its skeleton was deleted")
         return True
 
     def execute(self, context):
-        sk = skeleton_of(context.active_object)
+        obj = context.active_object
+        problem = bind_problem(obj) if has_binding(obj) else "The active object is not bound"
+        if problem:
+            self.report({'ERROR'}, problem)
+            return {'CANCELLED'}
+        sk = skeleton_of(obj)
+        if sk is None:
+            self.report({'ERROR'}, f"The skeleton object of {obj.name!r} was deleted (Skeletal Rebind makes it again)")
+            return {'CANCELLED'}
         sk.hide_viewport = not self.show
         try:
             sk.hide_set(not self.show)
@@ -170,8 +180,10 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
     def execute(self, context):
         obj = _bind_target(context)
-        if is_bound(obj):
-            self.report({'ERROR'}, f"{obj.name!r} is already bound; unbind it first (DG Mesh > Skeletal Unbind)")
+        if has_binding(obj):
+            problem = bind_problem(obj)
+            self.report({'ERROR'}, problem or f"{obj.name!r} is already bound; unbind it first (DG Mesh > "
+                        "Skeletal Unbind)")
             return {'CANCELLED'}
         reason = read_only_reason(obj)
         if reason:
@@ -182,124 +194,156 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             self.report({'ERROR'}, "No armature: select an armature together with the mesh (or give the mesh an "
                         "Armature modifier)")
             return {'CANCELLED'}
-        names = [b.name for b in arm.data.bones if b.use_deform]
-        if not names:
-            self.report({'ERROR'}, f"Armature {arm.name!r} has no deform bones")
-            return {'CANCELLED'}
         if ATTR in obj.data.attributes or MOD in obj.modifiers:
             self.report({'ERROR'}, f"{obj.name!r} already has an attribute {ATTR!r} or a modifier {MOD!r} "
                         "(left from an earlier binding?); remove them first")
             return {'CANCELLED'}
-        arrays = bridge.read_mesh(obj.data)
-        V, F = arrays.V, arrays.F
-        groups = {g.name: g.index for g in obj.vertex_groups}
-        W = None
-        if any(n in groups for n in names):
-            W = np.zeros((len(V), len(names)))
-            col = {groups[n]: j for j, n in enumerate(names) if n in groups}
-            for v in obj.data.vertices:
-                for g in v.groups:
-                    j = col.get(g.group)
-                    if j is not None:
-                        W[v.index, j] = g.weight
-        for o in (obj, arm):
-            if abs(o.matrix_world.determinant()) < 1e-12:
-                self.report({'ERROR'}, f"{o.name!r} has zero scale (its transform cannot be inverted); give it a "
-                            "non-zero scale first")
-                return {'CANCELLED'}
-        space = rig_space(obj, arm)
-        rest = pose_matrices(obj, arm, names, rest=True, space=space)
-        to_mesh = obj.matrix_world.inverted() @ arm.matrix_world
-        heads = np.array([tuple(to_mesh @ arm.data.bones[n].head_local) for n in names])
-        tails = np.array([tuple(to_mesh @ arm.data.bones[n].tail_local) for n in names])
-        if space is not None:
-            V, heads, tails = (transformed(P, space) for P in (V, heads, tails))
-            if np.linalg.det(space[:3, :3]) < 0:  # a mirror turns the surface inside out: re-orient
-                F = F[:, ::-1].copy()
-        wm = context.window_manager
-        has_window = context.window is not None
-        if has_window:
-            wm.progress_begin(0, 100)
+        settings = {k: getattr(self, k) for k in SETTINGS}
         try:
-            rig = SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails,
-                                   control_faces=self.control_faces,
-                                   progress=(lambda f: wm.progress_update(int(100 * f)) or True) if has_window else None)
-        except MeshError as exc:
-            msg = str(exc)
-            if "no weight" in msg:
-                msg += " (vertex groups must be named after deform bones: " + ", ".join(names[:8]) + ")"
-            if "open" in msg or "boundary" in msg:
-                if any(m.type == 'MIRROR' for m in obj.modifiers):
-                    msg += (" (the Mirror modifier closes it only in the evaluated mesh: apply the modifier "
-                            "before binding)")
-                else:
-                    msg += " (unmerged vertices along a seam? Mesh > Clean Up > Merge by Distance)"
-            self.report({'ERROR'}, msg)
+            binding = _compute_binding(context, obj, arm, settings)
+            _attach(context, obj, arm, binding, settings)
+        except _BindFailure as exc:
+            self.report({'ERROR'}, f"Skeletal Bind failed on {obj.name!r}: {exc}")
             return {'CANCELLED'}
-        finally:
-            if has_window:
-                wm.progress_end()
-        bid = uuid.uuid4().hex
-        # What the binding adds comes first and goes again if anything fails, before the user's
-        # Armature modifiers are touched: a failure leaves the object as it was.
-        helper = ng = mod = sk = None
-        try:
-            helper = helper_object(obj, len(V))
-            ng = helper_node_group(helper)
-            mod = obj.modifiers.new(MOD, 'NODES')
-            mod.node_group = ng
-            move_first(obj, mod)
-            sk = skeleton_object(context, obj, rig, space)
-        except Exception as exc:
-            if mod is not None:
-                obj.modifiers.remove(mod)
-            if ng is not None and ng.users == 0:
-                bpy.data.node_groups.remove(ng)
-            for o in (sk, helper):
-                if o is not None:
-                    me = o.data
-                    bpy.data.objects.remove(o)
-                    if me.users == 0:
-                        bpy.data.meshes.remove(me)
-            self.report({'ERROR'}, f"Skeletal Bind failed on {obj.name!r}: {type(exc).__name__}: {exc}")
-            return {'CANCELLED'}
-        tag = arm.get(ARM_TAG)
-        if not isinstance(tag, str):
-            tag = arm[ARM_TAG] = uuid.uuid4().hex
-        disabled = []
-        for m in obj.modifiers:
-            if m.type == 'ARMATURE' and (m.show_viewport or m.show_render):
-                disabled.append([m.name, int(m.show_viewport), int(m.show_render),
-                                 m.object.name if m.object is not None else ""])
-                m.object = None
-                m.show_viewport = False
-                m.show_render = False
-        obj[PROP] = {
-            "id": bid, "armature": arm.name, "armature_tag": tag, "armature_data": arm.data.name,
-            "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
-            "bones": names, "data": encode_arrays(rig.to_arrays()),
-            "bones_local": [float(x) for n in names for x in np.array(arm.data.bones[n].matrix_local).ravel()],
-            "fairing_steps": self.fairing_steps, "method": self.method, "bone_clearance": self.bone_clearance,
-            "skeleton_blend": self.skeleton_blend,
-            "control_faces": self.control_faces, "target": "HELPER",
-            "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
-            "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
-            "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
-            "skeleton": sk.name, "rest_hash": rest_hash(obj.data),
-        }
-        if space is not None:
-            obj[PROP]["space"] = [float(x) for x in space.ravel()]
-        obj[ARM_PTR] = arm
-        rigs[bid] = rig
-        purge_orphans()
-        update_object(obj, force=True)
+        rig = binding.rig
         others = [o.name for o in context.selected_objects if o.type == 'MESH' and o != obj]
-        self.report({'INFO'}, f"Bound {obj.name!r} ({len(V)} vertices, control mesh {rig.n_control} vertices) to "
-                    f"{len(names)} deform bones of {arm.name!r}" + ("" if W is not None else
-                                                                  " with distance weights (no vertex groups)")
+        self.report({'INFO'}, f"Bound {obj.name!r} ({rig.n_vertices} vertices, control mesh {rig.n_control} vertices) "
+                    f"to {len(binding.names)} deform bones of {arm.name!r}" + (
+                        "" if binding.weighted else " with distance weights (no vertex groups)")
                     + (f"; only the active mesh is bound: bind {', '.join(map(repr, others[:3]))} one at a time"
                        if others else ""))
         return {'FINISHED'}
+
+
+SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "skeleton_blend")
+
+
+class _BindFailure(Exception):
+    """Why a mesh cannot be bound (the operator's error report); nothing was changed."""
+
+
+class _Binding(NamedTuple):
+    rig: SkeletalRig
+    names: list        # the deform bones, in the rig's order
+    space: object      # rig_space (None: the mesh's object space)
+    weighted: bool     # weights from vertex groups (else distance weights)
+
+
+def _compute_binding(context, obj, arm, settings):
+    """The rig of ``obj`` bound to ``arm``'s deform bones, computed without changing anything;
+    raises _BindFailure with the message to report."""
+    names = [b.name for b in arm.data.bones if b.use_deform]
+    if not names:
+        raise _BindFailure(f"Armature {arm.name!r} has no deform bones")
+    arrays = bridge.read_mesh(obj.data)
+    V, F = arrays.V, arrays.F
+    groups = {g.name: g.index for g in obj.vertex_groups}
+    W = None
+    if any(n in groups for n in names):
+        W = np.zeros((len(V), len(names)))
+        col = {groups[n]: j for j, n in enumerate(names) if n in groups}
+        for v in obj.data.vertices:
+            for g in v.groups:
+                j = col.get(g.group)
+                if j is not None:
+                    W[v.index, j] = g.weight
+    for o in (obj, arm):
+        if abs(o.matrix_world.determinant()) < 1e-12:
+            raise _BindFailure(f"{o.name!r} has zero scale (its transform cannot be inverted); give it a "
+                               "non-zero scale first")
+    space = rig_space(obj, arm)
+    rest = pose_matrices(obj, arm, names, rest=True, space=space)
+    to_mesh = obj.matrix_world.inverted() @ arm.matrix_world
+    heads = np.array([tuple(to_mesh @ arm.data.bones[n].head_local) for n in names])
+    tails = np.array([tuple(to_mesh @ arm.data.bones[n].tail_local) for n in names])
+    if space is not None:
+        V, heads, tails = (transformed(P, space) for P in (V, heads, tails))
+        if np.linalg.det(space[:3, :3]) < 0:  # a mirror turns the surface inside out: re-orient
+            F = F[:, ::-1].copy()
+    wm = context.window_manager
+    has_window = context.window is not None
+    if has_window:
+        wm.progress_begin(0, 100)
+    try:
+        rig = SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails,
+                               control_faces=settings["control_faces"],
+                               progress=(lambda f: wm.progress_update(int(100 * f)) or True) if has_window else None)
+    except (MeshError, ValueError) as exc:
+        msg = str(exc)
+        if "no weight" in msg:
+            msg += " (vertex groups must be named after deform bones: " + ", ".join(names[:8]) + ")"
+        if "open" in msg or "boundary" in msg:
+            if any(m.type == 'MIRROR' for m in obj.modifiers):
+                msg += (" (the Mirror modifier closes it only in the evaluated mesh: apply the modifier "
+                        "before binding)")
+            else:
+                msg += " (unmerged vertices along a seam? Mesh > Clean Up > Merge by Distance)"
+        raise _BindFailure(msg) from None
+    finally:
+        if has_window:
+            wm.progress_end()
+    return _Binding(rig, names, space, W is not None)
+
+
+def _attach(context, obj, arm, binding, settings):
+    """Stores a computed binding in ``obj`` (unbound): the live modifier, helper and skeleton objects,
+    the custom property; the Armature modifiers are turned off. Raises _BindFailure having removed
+    what it added."""
+    rig, names, space = binding.rig, binding.names, binding.space
+    bid = uuid.uuid4().hex
+    # What the binding adds comes first and goes again if anything fails, before the user's
+    # Armature modifiers are touched: a failure leaves the object as it was.
+    helper = ng = mod = sk = None
+    try:
+        helper = helper_object(obj, rig.n_vertices)
+        ng = helper_node_group(helper)
+        mod = obj.modifiers.new(MOD, 'NODES')
+        mod.node_group = ng
+        move_first(obj, mod)
+        sk = skeleton_object(context, obj, rig, space)
+    except Exception as exc:
+        if mod is not None:
+            obj.modifiers.remove(mod)
+        if ng is not None and ng.users == 0:
+            bpy.data.node_groups.remove(ng)
+        for o in (sk, helper):
+            if o is not None:
+                me = o.data
+                bpy.data.objects.remove(o)
+                if me.users == 0:
+                    bpy.data.meshes.remove(me)
+        raise _BindFailure(f"{type(exc).__name__}: {exc}") from None
+    tag = arm.get(ARM_TAG)
+    if not isinstance(tag, str):
+        tag = arm[ARM_TAG] = uuid.uuid4().hex
+    disabled = []
+    for m in obj.modifiers:
+        if m.type == 'ARMATURE' and (m.show_viewport or m.show_render):
+            disabled.append([m.name, int(m.show_viewport), int(m.show_render),
+                             m.object.name if m.object is not None else ""])
+            m.object = None
+            m.show_viewport = False
+            m.show_render = False
+    obj[PROP] = {
+        "schema": SCHEMA_VERSION,
+        "id": bid, "armature": arm.name, "armature_tag": tag, "armature_data": arm.data.name,
+        "bind_to_mesh": [float(x) for x in np.array(obj.matrix_world.inverted() @ arm.matrix_world).ravel()],
+        "bones": names, "data": encode_arrays(rig.to_arrays()),
+        "bones_local": [float(x) for n in names for x in np.array(arm.data.bones[n].matrix_local).ravel()],
+        "fairing_steps": settings["fairing_steps"], "method": settings["method"],
+        "bone_clearance": settings["bone_clearance"], "skeleton_blend": settings["skeleton_blend"],
+        "control_faces": settings["control_faces"], "target": "HELPER",
+        "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
+        "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
+        "modifiers_render": [m[2] for m in disabled], "modifiers_object": [m[3] for m in disabled],
+        "skeleton": sk.name, "rest_hash": rest_hash(obj.data),
+    }
+    if space is not None:
+        obj[PROP]["space"] = [float(x) for x in space.ravel()]
+    obj[ARM_PTR] = arm
+    rigs[bid] = rig
+    purge_orphans()
+    update_object(obj, force=True)
 
 
 class DGMESH_OT_skeletal_rebind(bpy.types.Operator):
@@ -317,20 +361,24 @@ painting its weights (the binding keeps what it read at bind)"""
     def poll(cls, context):
         if context.mode != 'OBJECT':
             return _poll_fail(cls, "Only available in Object mode")
-        if not any(is_bound(o) for o in context.scene.objects):  # the sidebar names a bound object
+        if not any(has_binding(o) for o in context.scene.objects):  # the sidebar names a bound object
             return _poll_fail(cls, "Nothing to rebind: the meshes in this scene are not bound "
                                    "(DG Mesh > Skeletal Bind)")
         return True
 
     def execute(self, context):
         obj = bpy.data.objects.get(self.object_name) if self.object_name else context.active_object
-        if obj is None or not is_bound(obj):
+        if obj is None or not has_binding(obj):
             who = repr(self.object_name) if self.object_name else "The active object"
             self.report({'ERROR'}, f"{who} is not bound (DG Mesh > Skeletal Bind)")
             return {'CANCELLED'}
         reason = from_library(obj)
         if reason:
             self.report({'ERROR'}, reason)
+            return {'CANCELLED'}
+        problem = bind_problem(obj)
+        if problem:
+            self.report({'ERROR'}, problem)
             return {'CANCELLED'}
         info = obj[PROP]
         arm = bound_armature(obj, info)
@@ -342,14 +390,18 @@ painting its weights (the binding keeps what it read at bind)"""
                         bone_clearance=float(info.get("bone_clearance", 0.95)),
                         skeleton_blend=str(info.get("skeleton_blend", "LINEAR")),
                         control_faces=int(info.get("control_faces", 5000)))
+        # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.
+        try:
+            binding = _compute_binding(context, obj, arm, settings)
+        except _BindFailure as exc:
+            self.report({'ERROR'}, f"Cannot rebind {obj.name!r} (it keeps its binding): {exc}")
+            return {'CANCELLED'}
         unbind(obj)
-        with context.temp_override(selected_objects=[obj, arm], active_object=obj, object=obj):
-            try:
-                bpy.ops.dgmesh.skeletal_bind('EXEC_DEFAULT', **settings)
-            except RuntimeError as exc:  # the bind's own report, e.g. the edit opened the mesh
-                self.report({'ERROR'}, f"{obj.name!r} is unbound now; binding it again failed: "
-                            + str(exc).replace("Error: ", "").strip())
-                return {'CANCELLED'}
+        try:
+            _attach(context, obj, arm, binding, settings)
+        except _BindFailure as exc:
+            self.report({'ERROR'}, f"{obj.name!r} is unbound now; binding it again failed: {exc}")
+            return {'CANCELLED'}
         self.report({'INFO'}, f"Rebound {obj.name!r} to {arm.name!r}")
         return {'FINISHED'}
 
@@ -368,16 +420,21 @@ object and the stored data; the Armature modifiers are restored"""
 
     def execute(self, context):
         obj = context.active_object
-        if not is_bound(obj):
+        if not has_binding(obj):
             self.report({'ERROR'}, "The active object is not bound (DG Mesh > Skeletal Bind)")
             return {'CANCELLED'}
         reason = from_library(obj)
         if reason:
             self.report({'ERROR'}, reason)
             return {'CANCELLED'}
-        unbind(obj)
+        lost = unbind(obj)
         purge_orphans()
-        self.report({'INFO'}, f"Unbound {obj.name!r}")
+        if lost:
+            self.report({'WARNING'}, f"Unbound {obj.name!r}, whose saved binding was damaged (unreadable: "
+                        f"{', '.join(lost)})" + (": check its Armature modifiers, which bind turned off"
+                                                 if any(k.startswith(("modifiers", "the whole")) for k in lost) else ""))
+        else:
+            self.report({'INFO'}, f"Unbound {obj.name!r}")
         return {'FINISHED'}
 
 
@@ -418,8 +475,12 @@ Cache modifier (renders and exports then need no add-on)"""
 
     def execute(self, context):
         obj = context.active_object
-        if not is_bound(obj):
+        if not has_binding(obj):
             self.report({'ERROR'}, "The active object is not bound (DG Mesh > Skeletal Bind)")
+            return {'CANCELLED'}
+        problem = bind_problem(obj)
+        if problem:
+            self.report({'ERROR'}, problem)
             return {'CANCELLED'}
         # Unset options follow the scene and the object (two bound objects must not share a cache).
         if not self.properties.is_property_set("frame_start"):

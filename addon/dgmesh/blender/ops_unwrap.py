@@ -141,8 +141,15 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         self._n_pinned = sum(it["n_pinned"] for it in items)
         items = [it for it in items if it["charts"]]
         if not items:
-            self.report({'WARNING'}, self._pinned_note() if self._n_pinned else
-                        "No faces to unwrap (select faces in Edit mode)")
+            faceless = [o.name for o in targets if not len(o.data.polygons)]
+            if self._n_pinned:
+                msg = self._pinned_note()
+            elif faceless and len(faceless) == len(targets):
+                msg = f"No faces to unwrap: {', '.join(map(repr, faceless[:3]))} " + (
+                    "has no faces" if len(faceless) == 1 else "have no faces")
+            else:
+                msg = "No faces to unwrap (select faces in Edit mode)" if edit else "No faces to unwrap"
+            self.report({'WARNING'}, msg)
             return None
         opts = dict(boundary=self.boundary.lower(), weights=self.weights.lower(), eta=self.eta,
                     slide_boundary=self.slide_boundary,

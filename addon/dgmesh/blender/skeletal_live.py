@@ -30,15 +30,17 @@ from . import compat
 from .common import editable_collections
 from .skeletal_space import inverse, pose_matrices, stored_space, transformed
 from .skeletal_store import (ARM_PTR, ARM_TAG, ATTR, HELPER_NODE, HELPER_SUFFIX, KEY, NODE_GROUP, OWNER, PROP,
-                             bound_armature, bound_rig, helper_of, helper_users, hide_everywhere, is_bound,
-                             live_modifier, purge_orphans, release_deleted_armature, rest_hash, rigs, state_key,
-                             target_of, uses_shape_key)
+                             SKELETON_OF, bound_armature, bound_rig, helper_of, helper_users, hide_everywhere,
+                             is_bound, live_modifier, purge_orphans, release_deleted_armature, rest_hash, rigs,
+                             salvaged, state_key, target_of, uses_shape_key)
 
 _last_pose = {}     # (bind id, object name) -> bytes of the last pose matrices; per object, since a
                     # duplicated object shares the bind id but has its own attribute (and armature)
 _updating = False   # re-entrancy guard: writing the offsets tags the mesh (another depsgraph update)
 _rest_ok = {}  # (bind id, object name) -> the mesh's vertices are the ones bound (checked once per load)
 _buffers = {}  # (bind id, object name) -> (positions (n, 3), float32 (n*3,) output, float32 (n*3,) rest)
+_failed = set()  # the console notes of failed updates printed (each once)
+_n_objects = 0  # len(bpy.data.objects) at the last update
 
 
 def writes_helper(obj, helper):
@@ -318,25 +320,33 @@ def update_object(obj, force=False, depsgraph=None):
 @bpy.app.handlers.persistent
 def on_update(scene, depsgraph=None):
     """depsgraph_update_post / frame_change_post handler: updates the bound objects of ``scene``."""
-    global _updating
+    global _updating, _n_objects
     if _updating:
         return
     _updating = True
     try:
         wrote = False
+        # A bound mesh deleted: its hidden helper and skeleton objects go too (the user cannot find
+        # them). Checked when the file has fewer objects than at the last update (cheap otherwise).
+        if len(bpy.data.objects) < _n_objects and (depsgraph is None or depsgraph.mode != 'RENDER'):
+            purge_orphans(deleted_only=True)
+        _n_objects = len(bpy.data.objects)
         # The bound objects first: an update may unbind one (its live modifier removed), removing its
         # helper and skeleton objects, and removing objects while iterating scene.objects crashes 4.x.
         for obj in [o for o in scene.objects if is_bound(o)]:
             # In Edit mode the edit-mesh owns the data (attribute arrays are empty): wait for Object
             # mode. Edit and Sculpt mode may move or reorder the vertices (Sort Elements): check the
             # rest positions again when the object is back.
-            if obj.mode in ('EDIT', 'SCULPT'):
-                _rest_ok.pop(state_key(obj, obj[PROP]), None)
-            else:
-                try:
+            try:
+                if obj.mode in ('EDIT', 'SCULPT'):
+                    _rest_ok.pop(state_key(obj, obj[PROP]), None)
+                else:
                     wrote |= update_object(obj, depsgraph=depsgraph)
-                except Exception as exc:  # a handler must never take Blender down
-                    print(f"dgmesh skeletal: update of {obj.name!r} failed: {exc}")
+            except Exception as exc:  # a handler must never take Blender down (a damaged binding:
+                note = f"dgmesh skeletal: update of {obj.name!r} failed: {exc}"  # once, not every frame)
+                if note not in _failed:
+                    _failed.add(note)
+                    print(note)
         # A render's depsgraph has evaluated this frame before the handler wrote the offsets, and
         # nothing evaluates it again before the frame is drawn (the view layer's does, after
         # frame_set): re-evaluate what the write changed.
@@ -365,6 +375,7 @@ def on_load(*_args):
     rigs.clear()
     _last_pose.clear()
     _buffers.clear()
+    _failed.clear()
 
 
 @bpy.app.handlers.persistent
@@ -495,8 +506,10 @@ def move_first(obj, mod):
 
 def unbind(obj, enable_armature=True):
     """Removes the binding and restores the Armature modifiers bind disabled (left disabled with
-    ``enable_armature`` False: the mesh already holds a pose)."""
-    info = obj[PROP].to_dict()  # a copy: the ID property is deleted below
+    ``enable_armature`` False: the mesh already holds a pose). Works on a damaged binding too (the
+    property edited by hand): what its fields no longer say is found as for renamed parts, or left;
+    returns the names of the fields that were unreadable."""
+    info, lost = salvaged(obj)  # a copy: the ID property is deleted below
     _last_pose.pop(state_key(obj, info), None)
     _buffers.pop(state_key(obj, info), None)
     if uses_shape_key(info):  # bound by an earlier version
@@ -517,7 +530,7 @@ def unbind(obj, enable_armature=True):
             if att is not None:
                 obj.data.attributes.remove(att)
         if ng is None:
-            ng = bpy.data.node_groups.get(str(info["node_group"]))
+            ng = bpy.data.node_groups.get(str(info.get("node_group", "")))
         if ng is not None and ng.users == 0:
             bpy.data.node_groups.remove(ng)
         # The helper goes with the last object reading it (a duplicate may still read it).
@@ -527,7 +540,7 @@ def unbind(obj, enable_armature=True):
             if me.users == 0:
                 bpy.data.meshes.remove(me)
     objects = info.get("modifiers_object", [None] * len(info["modifiers"]))
-    arm = bound_armature(obj, info)  # renamed since bind: found by its tag
+    arm = bound_armature(obj, info) if info["armature"] else None  # renamed since bind: found by its tag
     for name, vp, rd, ob in zip(info["modifiers"], info["modifiers_viewport"], info["modifiers_render"], objects):
         m = obj.modifiers.get(name)
         if m is None:  # renamed while bound: an Armature modifier still as bind left it (off, no object)
@@ -538,6 +551,8 @@ def unbind(obj, enable_armature=True):
             if ob and m.object is None:
                 m.object = arm if ob == info["armature"] else bpy.data.objects.get(ob)
     sk = bpy.data.objects.get(info["skeleton"])
+    if sk is None or sk.parent != obj:  # renamed (or the name is lost): the one parented to the mesh
+        sk = next((c for c in obj.children if c.get(SKELETON_OF) is not None), None)
     if sk is not None and sk.parent == obj:  # not the original's when unbinding a duplicate
         me = sk.data
         bpy.data.objects.remove(sk)
@@ -551,5 +566,6 @@ def unbind(obj, enable_armature=True):
         for a in bpy.data.objects:  # the last binding to this armature (and its copies, Shift+D)
             if a.type == 'ARMATURE' and a.get(ARM_TAG) == tag:
                 del a[ARM_TAG]
-    if not any(is_bound(o) and o[PROP]["id"] == info["id"] for o in bpy.data.objects):
+    if not any(is_bound(o) and o[PROP].get("id") == info["id"] for o in bpy.data.objects):
         rigs.pop(info["id"], None)  # no duplicate left using this bind data
+    return lost

@@ -1,7 +1,11 @@
 """Where a skeletal binding lives in the .blend and how its parts are found again: the custom
 property holding the bind data (and the rig rebuilt from it), the names and pointers of what bind
 adds (live modifier, helper and skeleton objects, the armature's tag), the bound armature (followed
-through renames and duplication) and the removal of internal objects whose mesh is gone."""
+through renames and duplication) and the removal of internal objects whose mesh is gone.
+
+The property shows in the Custom Properties panel, so a user may edit it: operators check it first
+(``bind_problem``: its fields against skeletal_data's versioned schema, then its bind data) and
+report what is wrong; Skeletal Unbind always removes it (``salvaged``)."""
 
 import hashlib
 
@@ -9,8 +13,9 @@ import bpy
 import numpy as np
 
 from .. import colors
-from ..skeletal import SkeletalRig
-from ..skeletal_data import decode_arrays
+from ..core import MeshError
+from ..skeletal import METHODS, SkeletalRig
+from ..skeletal_data import INFO_FIELDS, BindDataError, check_arrays, check_info, decode_arrays
 from . import bridge
 from .common import editable_collections
 from .skeletal_space import inverse, transformed
@@ -30,6 +35,7 @@ CACHE = "dg_skeletal_cache"     # the Mesh Cache modifier skeletal_bake adds
 NODE_GROUP = "dg_skeletal"      # its node group
 
 rigs = {}          # bind id -> SkeletalRig (rebuilt from the stored data after a reload)
+rig_sources = {}   # bind id -> digest of the stored data text its rig was checked against
 
 
 def bound_armature(obj, info):
@@ -72,25 +78,104 @@ def release_deleted_armature(obj):
         bpy.data.objects.remove(ptr)
 
 
-def is_bound(obj):
-    """Whether ``obj`` is a mesh object holding a binding (Skeletal Bind's custom property)."""
+def has_binding(obj):
+    """Whether ``obj`` is a mesh object with Skeletal Bind's custom property, valid or not."""
     return obj is not None and obj.type == 'MESH' and PROP in obj.keys()
 
 
-def bound_rig(obj):
-    """The SkeletalRig of a bound object, rebuilt from its stored data once per bind id (``rigs``)."""
+def is_bound(obj):
+    """Whether ``obj`` is a mesh object holding a binding: Skeletal Bind's custom property, a group
+    of fields (``bind_problem`` checks them)."""
+    return has_binding(obj) and hasattr(obj[PROP], "to_dict")
+
+
+def bound_rig(obj, verify=False):
+    """The SkeletalRig of a bound object, rebuilt from its stored data once per bind id (``rigs``).
+    Raises BindDataError when the data cannot be read. ``verify``: also when the stored data is no
+    longer the data the rig was rebuilt from (edited in the Custom Properties panel since)."""
     info = obj[PROP]
     bid = info["id"]
     rig = rigs.get(bid)
+    digest = None
+    if verify:
+        digest = hashlib.blake2b(str(info["data"]).encode(), digest_size=16).digest()
+        if rig_sources.get(bid) != digest:
+            rig = None
     if rig is None:
-        rig = SkeletalRig.from_arrays(decode_arrays(info["data"]))
+        arrays = decode_arrays(info["data"])
+        check_arrays(arrays, len(info["bones"]))
+        try:
+            rig = SkeletalRig.from_arrays(arrays)
+        except (MeshError, ValueError, TypeError) as exc:
+            raise BindDataError(f"its bind data is damaged ({exc})") from None
         rigs[bid] = rig
+        if digest is not None:
+            rig_sources[bid] = digest
     return rig
+
+
+def bind_problem(obj):
+    """Why the saved binding of ``obj`` (which has Skeletal Bind's property) cannot be used, as a
+    sentence naming the object and the way out, or None when it is sound."""
+    value = obj[PROP]
+    try:
+        check_info(value.to_dict() if hasattr(value, "to_dict") else value, [m.upper() for m in METHODS])
+        bound_rig(obj, verify=True)
+    except BindDataError as exc:
+        return (f"The skeletal binding saved in {obj.name!r} (custom property {PROP!r}) is damaged: {exc}. "
+                "Skeletal Unbind removes it; then bind again")
+    return None
+
+
+def fields_problem(obj):
+    """Whether the saved binding's fields (not its bind data, whose check decodes it) break the
+    schema: cheap enough for the sidebar panel, which then offers Skeletal Unbind."""
+    value = obj[PROP]
+    if not hasattr(value, "items"):
+        return True
+    def plain(v):
+        return v.to_dict() if hasattr(v, "to_dict") else v.to_list() if hasattr(v, "to_list") else v
+
+    fields = {k: plain(value[k]) for k in value.keys() if k != "data"}  # (reading the data copies it)
+    if "data" in value:
+        fields["data"] = ""
+    try:
+        check_info(fields, [m.upper() for m in METHODS])
+    except BindDataError:
+        return True
+    return False
+
+
+def salvaged(obj):
+    """The fields of a binding as a dict for unbinding, each one the schema rejects (an edited or
+    damaged property) replaced by an empty value: (fields, names of the fields replaced)."""
+    value = obj[PROP]
+    if not hasattr(value, "to_dict"):
+        info, lost = {}, [f"the whole property ({type(value).__name__})"]
+    else:
+        info, lost = value.to_dict(), []
+    for key, (check, _what, required) in INFO_FIELDS.items():
+        if key in info and not check(info[key]):
+            del info[key]
+            lost.append(key)
+        if key not in info and required:
+            if hasattr(value, "to_dict"):
+                lost.append(key)
+            info[key] = [] if key in ("modifiers", "modifiers_viewport", "modifiers_render", "bones") else ""
+    if "target" not in info and any(m.type == 'NODES' and m.node_group is not None
+                                    and m.node_group.nodes.get(HELPER_NODE) is not None for m in obj.modifiers):
+        info["target"] = "HELPER"  # (absent: a shape key, in bindings of the first versions)
+    n = len(info["modifiers"])
+    if any(len(info.get(k, [None] * n)) != n for k in ("modifiers_viewport", "modifiers_render", "modifiers_object")):
+        lost.append("modifiers")
+        for k in ("modifiers", "modifiers_viewport", "modifiers_render", "modifiers_object"):
+            info[k] = []
+    return info, lost
 
 
 def state_key(obj, info):
     """Key of per-object live state: (bind id, object name); a duplicate shares the bind id."""
-    return (info["id"], obj.name)
+    return (info.get("id"), obj.name)
 
 
 def target_of(info):
@@ -159,14 +244,19 @@ def remove_object(o):
         bpy.data.meshes.remove(me)
 
 
-def purge_orphans():
+def purge_orphans(deleted_only=False):
     """The hidden helper and skeleton objects of a bound mesh that was deleted (hidden and
-    unselectable, the user cannot find them to delete them); run at load, bind and unbind."""
+    unselectable, the user cannot find them to delete them); run at load, bind and unbind.
+    ``deleted_only`` (the live handler, which may run in the middle of an operator binding a mesh):
+    only those whose mesh is no longer in the file."""
+    def gone(name):
+        return not deleted_only or not isinstance(name, str) or name not in bpy.data.objects
+
     for h in [o for o in bpy.data.objects if OWNER in o.keys()]:
-        if not helper_users(h):
+        if gone(h[OWNER]) and not helper_users(h):
             remove_object(h)
     for sk in [o for o in bpy.data.objects if SKELETON_OF in o.keys()]:
-        if sk.parent is None or not is_bound(sk.parent):
+        if (sk.parent is None or not is_bound(sk.parent)) and (not deleted_only or sk.parent is None):
             remove_object(sk)
 
 
@@ -214,7 +304,7 @@ def skeleton_of(obj):
     """The skeleton object of a bound mesh (None when it was deleted)."""
     if not is_bound(obj):
         return None
-    sk = bpy.data.objects.get(obj[PROP].get("skeleton", ""))
+    sk = bpy.data.objects.get(str(obj[PROP].get("skeleton", "")))
     if sk is not None and sk.get(SKELETON_OF) is not None:
         return sk
     # Renamed: it is parented to its mesh.

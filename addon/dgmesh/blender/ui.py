@@ -67,6 +67,11 @@ class DGMESH_PT_main(bpy.types.Panel):
             col.operator("dgmesh.skeletal_show_skeleton", text="Hide Skeleton" if shown else "Show Skeleton",
                          icon='HIDE_OFF' if shown else 'HIDE_ON').show = not shown
         for obj in context.scene.objects:
+            if skeletal_store.has_binding(obj) and skeletal_store.fields_problem(obj):
+                _warning(layout, (f"{obj.name}:", "its saved binding", "is damaged: unbind it"))
+                if obj == context.active_object:
+                    layout.operator("dgmesh.skeletal_unbind", icon='UNLINKED')
+                continue
             if skeletal_live.armature_modifier_on(obj):
                 _warning(layout, (f"{obj.name}:", "its Armature modifier is on:", "it deforms twice;",
                                   "turn the modifier off"))
