@@ -35,9 +35,9 @@ sys.path.insert(0, HERE)
 from fuzz_worker import BASES, CALLS, MUTATIONS, VALID  # noqa: E402
 
 LONG = os.environ.get("DGMESH_FUZZ") == "long"
-settings.register_profile("dgmesh-fuzz", max_examples=150, deadline=None, database=None, derandomize=True,
+settings.register_profile("dgmesh-fuzz", max_examples=1000, deadline=None, database=None, derandomize=True,
                           suppress_health_check=list(HealthCheck), print_blob=False)
-settings.register_profile("dgmesh-fuzz-long", max_examples=400, deadline=None, database=None,
+settings.register_profile("dgmesh-fuzz-long", max_examples=10000, deadline=None, database=None,
                           suppress_health_check=list(HealthCheck))
 PROFILE = settings.get_profile("dgmesh-fuzz-long" if LONG else "dgmesh-fuzz")
 CASE_TIMEOUT = 60.0  # seconds; a longer case is reported as a hang

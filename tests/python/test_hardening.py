@@ -146,3 +146,11 @@ def test_every_error_is_a_dgmesh_error():
         assert issubclass(cls, ValueError), cls  # as before: except ValueError still catches them
     with pytest.raises(dgmesh.Error):
         dgmesh.curvature(np.zeros((0, 3)), np.zeros((0, 3), int))
+
+
+def test_gaussian_weights_with_a_tiny_sigma():
+    # Found by test_fuzz: sigma^2 underflowed and every weight was 0 / 0.
+    from dgmesh.skeletal import gaussian_bone_weights
+    P = np.array([[0.0, 0, 0], [0, 0, 1], [0, 0, 0.25]])
+    W = gaussian_bone_weights(P, [[0.0, 0, -1], [0, 0, 1]], [[0.0, 0, -0.5], [0, 0, 2]], 1e-300)
+    assert np.isfinite(W).all() and W == pytest.approx(np.array([[1, 0], [0, 1], [0.5, 0.5]]))
