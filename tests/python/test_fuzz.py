@@ -24,11 +24,10 @@ import typing
 import numpy as np
 import pytest
 
-hypothesis = pytest.importorskip("hypothesis")  # python3-hypothesis (scripts/deps.sh)
-from hypothesis import HealthCheck, given, settings  # noqa: E402
-from hypothesis import strategies as st  # noqa: E402
+from hypothesis import HealthCheck, given, settings  # python3-hypothesis (scripts/deps.sh installs it)
+from hypothesis import strategies as st
 
-import dgmesh  # noqa: E402
+import dgmesh
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
