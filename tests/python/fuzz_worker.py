@@ -171,6 +171,10 @@ CALLS = {
     "off": lambda V, F, **kw: _roundtrip(V, F, ".off"),
     "ply": lambda V, F, **kw: _roundtrip(V, F, ".ply"),
     "loop_subdivide": lambda V, F, **kw: dgmesh.shapes.loop_subdivide(V, F, **kw),
+    # the shapes take no mesh
+    "icosphere": lambda V, F, **kw: dgmesh.shapes.icosphere(**kw),
+    "grid": lambda V, F, **kw: dgmesh.shapes.grid(**kw),
+    "torus": lambda V, F, **kw: dgmesh.shapes.torus(**kw),
 }
 
 

@@ -51,16 +51,20 @@ FUNCS = {
     "uv_metrics": dgmesh.uv_metrics, "uv_stretch": dgmesh.uv_stretch, "skeletal_mesh": dgmesh.skeletal_mesh,
     "point_mesh_distance": dgmesh.point_mesh_distance, "remesh": dgmesh.remesh, "remesh_full": dgmesh.remesh_full,
     "multires": dgmesh.Multires.build, "skeletal_rig": dgmesh.SkeletalRig.bind,
-    "loop_subdivide": dgmesh.shapes.loop_subdivide,
+    "loop_subdivide": dgmesh.shapes.loop_subdivide, "icosphere": dgmesh.shapes.icosphere, "grid": dgmesh.shapes.grid,
+    "torus": dgmesh.shapes.torus,
 }
 REQUIRED = {"similarity": ("vertex",), "decimate": ("target_faces",), "remesh": ("target_vertices",),
-            "remesh_full": ("target_vertices",)}
+            "remesh_full": ("target_vertices",), "icosphere": ("level",), "grid": ("nx", "ny"),
+            "torus": ("R", "r", "nu", "nv")}
+SHAPES = {"icosphere", "grid", "torus"}  # their parameters are positional
 NOT_OPTIONS = {"progress", "mask", "faces", "crest_lines", "locked", "planes", "uv_faces", "normals", "out",
                "bone_heads", "bone_tails", "weights"}
 # Good values of integer options where small integers would all be out of range or slow.
 GOOD_INTS = {"resolution": [16, 24, 40], "target_vertices": [4, 12, 40], "target_faces": [0, 4, 12, 40],
              "control_faces": [4, 8, 30], "segments": [1, 2, 5], "vertex": [0, 1, 5, 41],
-             "multires_level": [0, 1, 2], "level": [1, 2], "levels": [0, 1, 2]}
+             "multires_level": [0, 1, 2], "level": [1, 2], "levels": [0, 1, 2], "nx": [1, 2, 7],
+             "ny": [1, 3], "nu": [3, 5], "nv": [3, 4]}
 
 
 def _kind(p: inspect.Parameter):
@@ -81,6 +85,8 @@ def _kind(p: inspect.Parameter):
     if isinstance(d, str):  # a choice of plain strings (similarity's mode, uv_stretch's per)
         return "str", [d]
     text = str(ann)
+    if (d is None or d is inspect.Parameter.empty) and text == "<class 'float'>":
+        return "float", None
     if d is None and "float" in text:
         return "float", None
     if (d is None or d is inspect.Parameter.empty) and "int" in text and "ArrayLike" not in text and "Union" not in text:
@@ -94,8 +100,8 @@ def options_of(call):
         return {}
     out = {}
     for p in inspect.signature(f).parameters.values():
-        if p.name in NOT_OPTIONS or (p.kind is not p.KEYWORD_ONLY and p.name not in ("vertex", "levels",
-                                                                                     "allow_loose_vertices")):
+        if p.name in NOT_OPTIONS or (p.kind is not p.KEYWORD_ONLY and call not in SHAPES
+                                     and p.name not in ("vertex", "levels", "allow_loose_vertices")):
             continue
         k = _kind(p)
         if k is not None:
