@@ -7,7 +7,7 @@ set -euo pipefail
 PKGS=(
   cmake g++ make pkg-config
   libeigen3-dev libnanoflann-dev libosd-dev libqhull-dev libsuitesparse-dev
-  pybind11-dev python3-dev python3-numpy python3-pytest libgtest-dev
+  pybind11-dev python3-dev python3-numpy python3-pytest python3-hypothesis libgtest-dev
   blender          # runs the add-on tests and the demo (3.4 here, 4.3 in trixie, 5.x in sid)
   libcgal-demo     # ships data.tar.gz with the scanned test meshes (unpacked at run time)
   libopenblas0-pthread  # optimised BLAS for UMFPACK's dense fronts (the default is the reference BLAS)

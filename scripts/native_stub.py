@@ -133,8 +133,8 @@ def stub(native):
         else:
             out.append(f"{name}: {type(v).__name__}\n")
     for name, cls in exceptions:
-        base = cls.__bases__[0].__name__
-        out.append(f"\nclass {name}({base}): ...\n")
+        bases = ", ".join(b.__name__ for b in cls.__bases__)
+        out.append(f"\nclass {name}({bases}): ...\n")
     for name, cls in enums:
         out.append(f"\nclass {name}:\n    \"\"\"{_doc_line(cls.__doc__)}\"\"\"\n")
         for member in cls.__members__:

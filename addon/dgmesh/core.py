@@ -39,13 +39,28 @@ Cancelled = _native.Cancelled
 Progress = Callable[[float], bool | None]
 
 
+# The largest coordinate magnitude accepted: the algorithms multiply up to four coordinates
+# (squared areas, cross products), which stays within double's range below 1e75.
+COORD_MAX = 1e50
+
+
 def as_vertices(V: npt.ArrayLike, name: str = "V") -> np.ndarray:
-    """(n, 3) float64 C-contiguous view or copy of V; a clear error for the wrong shape."""
+    """(n, 3) float64 C-contiguous view or copy of V; a clear error for the wrong shape or finite
+    coordinates beyond COORD_MAX (NaN and inf are the native checks', which say where they matter:
+    uv_stretch ignores loose vertices, NaN ones included)."""
     if np.iscomplexobj(V):
         raise MeshError(f"{name} must hold real coordinates, got complex numbers")
-    V = np.ascontiguousarray(V, dtype=np.float64)
+    try:
+        V = np.ascontiguousarray(V, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise MeshError(f"{name} must be an (n, 3) array of numbers: {exc}") from None
     if V.ndim != 2 or V.shape[1] != 3:
         raise MeshError(f"{name} must have shape (n, 3), got {V.shape}")
+    with np.errstate(invalid="ignore"):
+        bad = (np.abs(V) > COORD_MAX) & np.isfinite(V)
+    if bad.any():
+        i = int(np.flatnonzero(bad.any(1))[0])
+        raise MeshError(f"{name}: vertex {i} has a coordinate beyond {COORD_MAX:g}: {V[i].tolist()}")
     return V
 
 
@@ -141,19 +156,41 @@ def as_choice(value: Any, enum: type, name: str) -> Any:
     raise MeshError(f"unknown {name} {value!r} (use {', '.join(repr(k) for k in members)})")
 
 
+def as_flag(value: Any, name: str) -> bool:
+    """A yes/no option as a bool: True, False, numpy bools, or the integers 0 and 1; else a
+    MeshError naming it (``bool('no')`` would be True)."""
+    value = _scalar(value)
+    if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
+        return bool(value)
+    raise MeshError(f"{name} must be True or False, got {value!r}")
+
+
+def as_option(value: Any, current: Any, name: str) -> Any:
+    """``value`` checked and converted for an option field whose current value is ``current``: by
+    the field's type, an enum (:func:`as_choice`), a bool (:func:`as_flag`), an int
+    (:func:`as_count`, any C int; ranges are the native side's) or a float (:func:`as_real`,
+    finite). Other fields (arrays, nested options) are returned as they are."""
+    if hasattr(type(current), "__members__"):
+        return as_choice(value, type(current), name)
+    if isinstance(current, bool):
+        return as_flag(value, name)
+    if isinstance(current, int):
+        return as_count(value, name, -INT_MAX - 1)
+    if isinstance(current, float):
+        return as_real(value, name)
+    return value
+
+
 def make_options(options: Any, **values: Any) -> Any:
     """Sets fields of a native options object (``_native.DenoiseOptions()``, ...), whose C++
-    initialisers are the defaults; None keeps a field's value. Enum fields take a member or its
-    name; a value of the wrong type is a MeshError naming the field. Returns ``options``."""
+    initialisers are the defaults; None keeps a field's value. Every value goes through
+    :func:`as_option` (the one type check of every option: a MeshError naming the field); the
+    native side checks the ranges. Returns ``options``."""
     for name, value in values.items():
         if value is None:
             continue
         current = getattr(options, name)
-        if hasattr(type(current), "__members__"):
-            value = as_choice(value, type(current), name)
-        value = _scalar(value)
-        if isinstance(current, float) and isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
+        value = as_option(value, current, name)
         try:
             setattr(options, name, value)
         except TypeError:
@@ -199,7 +236,7 @@ def validate(V: npt.ArrayLike, F: npt.ArrayLike, allow_loose_vertices: bool = Tr
     indices, NaN/inf coordinates, degenerate or duplicate faces, non-manifold edges or vertices,
     inconsistent orientation (and loose vertices unless allowed)."""
     checks = _native.CHECK_SURFACE
-    if not allow_loose_vertices:
+    if not as_flag(allow_loose_vertices, "allow_loose_vertices"):
         checks |= _native.CHECK_NO_LOOSE_VERTICES
     _native.validate(as_vertices(V), as_faces(F), checks)
 

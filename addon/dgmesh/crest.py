@@ -11,7 +11,7 @@
 import numpy as np
 import numpy.typing as npt
 
-from .core import MeshError, Progress, _native, as_count, as_faces, as_mask, as_real, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_count, as_faces, as_flag, as_mask, as_real, as_vertices, make_options
 
 # The contract is the C++ one (dgmesh/crest_lines.h, decimate.h, segment.h), bound as it is: the
 # options with their defaults, the results, the line kinds, and the feature-guidance presets of
@@ -107,8 +107,9 @@ class CrestLines:
     def filter(self, threshold: float | None = None, ridges: bool = True, valleys: bool = True) -> "CrestLines":
         """Lines with strength T >= threshold of the requested kinds, re-indexed. Filtering always
         starts from every traced line, so a lower threshold brings lines back."""
-        threshold = self.threshold if threshold is None else float(threshold)
-        lines = _native.filter_crest_lines(self.all_lines, threshold, bool(ridges), bool(valleys))
+        threshold = self.threshold if threshold is None else as_real(threshold, "threshold")
+        lines = _native.filter_crest_lines(self.all_lines, threshold, as_flag(ridges, "ridges"),
+                                             as_flag(valleys, "valleys"))
         return CrestLines(lines, self.derivatives, threshold, self.all_lines)
 
 
@@ -151,9 +152,9 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
     coefficients ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8-4.9; their sign follows the
     direction), ``normals`` of the fitted surface.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=bool(jet), smooth=bool(smooth),
-                       use_normals=bool(use_normals), fit_tangent_plane=bool(fit_tangent_plane),
-                       transport_to_vertex=bool(transport_to_vertex))
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, smooth=smooth,
+                       use_normals=use_normals, fit_tangent_plane=fit_tangent_plane,
+                       transport_to_vertex=transport_to_vertex)
     return _native.curvature_derivatives(as_vertices(V), as_faces(F), fit, progress)
 
 
@@ -172,11 +173,12 @@ def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, 
     ``CrestOptions()``. ``jet`` and ``smooth`` are those of :func:`curvature_derivatives`.
     Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=bool(jet), smooth=bool(smooth))
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, smooth=smooth)
     # Every line is traced (threshold 0, both kinds) and kept, so that filter() can bring lines back.
-    trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=bool(join_gaps),
-                         skip_boundary=bool(skip_boundary))
+    trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=join_gaps,
+                         skip_boundary=skip_boundary)
     threshold = as_real(threshold, "threshold")
+    ridges, valleys = as_flag(ridges, "ridges"), as_flag(valleys, "valleys")
     d, lines = _native.crest_lines(as_vertices(V), as_faces(F), fit, trace, progress)
     return CrestLines(lines, d).filter(threshold, ridges, valleys)
 
@@ -264,11 +266,12 @@ def decimate(V: npt.ArrayLike, F: npt.ArrayLike, *, target_faces: int,
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
+    options = make_options(DecimateOptions(), target_faces=as_count(target_faces, "target_faces"),
+                           preserve_boundary=preserve_boundary, min_quality=min_quality,
+                           max_normal_angle=max_normal_angle, batched=not as_flag(greedy, "greedy"))  # ranges: native
+    return_map, return_face_map = as_flag(return_map, "return_map"), as_flag(return_face_map, "return_face_map")
     features, lines = _features(V, F, feature_weight, crest_lines, rings, threshold,
                                 decimate_feature_defaults)
-    options = make_options(DecimateOptions(), target_faces=as_count(target_faces, "target_faces"),
-                           preserve_boundary=bool(preserve_boundary), min_quality=float(min_quality),
-                           max_normal_angle=float(max_normal_angle), batched=not bool(greedy))  # ranges: native
     if locked is not None:
         locked = as_mask(locked, len(V), "locked").astype(np.int32)
     if planes is not None:
@@ -299,10 +302,11 @@ def segment(V: npt.ArrayLike, F: npt.ArrayLike, *, segments: int = _SEGMENT.segm
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    features, lines = _features(V, F, feature_weight, crest_lines, rings, threshold,
-                                segment_feature_defaults)
     options = make_options(SegmentOptions(), segments=as_count(segments, "segments", 1),
                            iterations=as_count(iterations, "iterations"))
+    return_info = as_flag(return_info, "return_info")
+    features, lines = _features(V, F, feature_weight, crest_lines, rings, threshold,
+                                segment_feature_defaults)
     r = _native.segment(V, F, options, features, lines, progress)
     return (r.labels, r) if return_info else r.labels
 

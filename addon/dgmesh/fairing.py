@@ -10,7 +10,7 @@ tangent planes to even out triangle sizes and shapes.
 import numpy as np
 import numpy.typing as npt
 
-from .core import Progress, _native, as_choice, as_count, as_faces, as_mask, as_vertices, make_options
+from .core import Progress, _native, as_choice, as_count, as_faces, as_mask, as_real, as_vertices, make_options
 
 __all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "RegularizeOptions", "fair",
            "defaults", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
@@ -162,4 +162,4 @@ def refine_region(V: npt.ArrayLike, F: npt.ArrayLike, faces: npt.ArrayLike | Non
     fm = as_mask(faces, len(F), "faces")
     if fm is None:
         fm = np.ones(len(F), dtype=bool)
-    return _native.refine_region(V, F, fm, float(density))
+    return _native.refine_region(V, F, fm, as_real(density, "density", 0.0, lo_open=True))

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .core import MeshError, Progress, _native, as_count, as_faces, as_vertices, make_options
+from .core import INT_MAX, MeshError, Progress, _native, as_count, as_faces, as_vertices, make_options
 
 __all__ = ["Multires", "MultiresOptions", "MultiresTimings", "FORMAT_VERSION"]
 
@@ -42,6 +42,12 @@ _D = MultiresOptions()
 
 FORMAT_VERSION = 1
 _KEYS = ("control_vertices", "control_faces", "level", "base_face", "base_st", "displacement")
+
+
+def _single(value: Any) -> Any:
+    """A saved single value (a 0-d or 1-element array) as a 0-d array; other shapes unchanged."""
+    v = np.asarray(value)
+    return v.reshape(()) if v.size == 1 else v
 
 
 class Multires:
@@ -131,7 +137,8 @@ class Multires:
         missing = [k for k in _KEYS if k not in arrays]
         if missing:
             raise MeshError(f"multires data lacks {', '.join(missing)}")
-        version = int(np.asarray(arrays.get("format_version", FORMAT_VERSION)))
+        version = as_count(_single(arrays.get("format_version", FORMAT_VERSION)), "multires data format_version",
+                           -INT_MAX - 1)
         if version != FORMAT_VERSION:
             raise MeshError(f"multires data has format version {version}, this dgmesh reads {FORMAT_VERSION}")
         face = np.asarray(arrays["base_face"])
@@ -142,7 +149,8 @@ class Multires:
             raise MeshError(f"base_st must have shape (n, 2), got {st.shape}")
         return cls(_native.Multires.from_arrays(
             as_vertices(arrays["control_vertices"], "control_vertices"),
-            as_faces(arrays["control_faces"], "control_faces"), int(np.asarray(arrays["level"])),
+            as_faces(arrays["control_faces"], "control_faces"),
+            as_count(_single(arrays["level"]), "multires data level"),
             np.ascontiguousarray(face, dtype=np.int32), st,
             as_vertices(arrays["displacement"], "displacement")))
 

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from .core import MeshError, Progress, _native, as_choice, as_count, as_faces, as_real, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_choice, as_count, as_faces, as_flag, as_real, as_vertices, make_options
 
 __all__ = [
     "SkeletalRig",
@@ -225,10 +225,10 @@ class SkeletalRig:
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                         dual_quaternion, bone_clearance):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
-                            fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=float(fairing_step),
+                            fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
-                            fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=float(projection),
-                            dual_quaternion=bool(dual_quaternion), bone_clearance=float(bone_clearance))
+                            fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=projection,
+                            dual_quaternion=dual_quaternion, bone_clearance=bone_clearance)
 
     # --- bind data ---------------------------------------------------------------------------
     def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:
@@ -236,7 +236,7 @@ class SkeletalRig:
         return (type(self).from_arrays, (self.to_arrays(),))
 
     # Bind data entries that are single values (the rest are arrays).
-    _SCALARS = {"frame_regularization": float, "has_multires": bool, "mr_level": int}
+    _SCALARS = {"frame_regularization": as_real, "has_multires": as_flag, "mr_level": as_count}
 
     def to_arrays(self) -> dict[str, np.ndarray]:
         """The bind data as a dict of numpy arrays (np.savez-able); :meth:`from_arrays` restores it.
@@ -246,6 +246,8 @@ class SkeletalRig:
     @classmethod
     def from_arrays(cls, arrays: Mapping[str, npt.ArrayLike]) -> "SkeletalRig":
         """Restores a binding from :meth:`to_arrays` output (a dict or an ``np.load`` archive)."""
+        if not isinstance(arrays, Mapping) and not hasattr(arrays, "files"):
+            raise MeshError(f"bind data must be a dict of arrays, got {type(arrays).__name__}")
         d = dict(arrays)
         for k, kind in cls._SCALARS.items():
             # Data saved before 0-d arrays holds these as 1-element arrays (numpy 2.4 no longer
@@ -254,7 +256,7 @@ class SkeletalRig:
                 v = np.asarray(d[k])
                 if v.size != 1:
                     raise MeshError(f"bind data {k!r} must be a single value, got shape {v.shape}")
-                d[k] = kind(v.reshape(-1)[0])
+                d[k] = kind(v.reshape(-1)[0], f"bind data {k!r}")
         for k in ("control_F", "mr_control_F", "mr_face"):
             if k in d:
                 d[k] = np.ascontiguousarray(d[k], dtype=np.int32)
@@ -294,9 +296,9 @@ def skeletal_mesh(V: npt.ArrayLike, F: npt.ArrayLike, *, presmooth_iterations: i
     V = as_vertices(V)
     o = make_options(
         SkeletonOptions(), presmooth_iterations=as_count(presmooth_iterations, "presmooth_iterations"),
-        presmooth_step=as_real(presmooth_step, "presmooth_step", 0.0),
+        presmooth_step=as_real(presmooth_step, "presmooth_step", 0.0, 1.0),  # umbrella steps: stable to 1
         postsmooth_iterations=as_count(postsmooth_iterations, "postsmooth_iterations"),
-        postsmooth_step=as_real(postsmooth_step, "postsmooth_step", 0.0),
+        postsmooth_step=as_real(postsmooth_step, "postsmooth_step", 0.0, 1.0),
         spike_factor=as_real(spike_factor, "spike_factor", 0.0, lo_open=True),
         max_pole_angle=as_real(max_pole_angle, "max_pole_angle", 0.0, np.pi, lo_open=True))
     s = _native.skeletal_mesh(V, as_faces(F, n=len(V)), o)
@@ -312,7 +314,7 @@ def union_of_balls_distance(X: npt.ArrayLike, centers: npt.ArrayLike, radii: npt
 def gaussian_bone_weights(P: npt.ArrayLike, heads: npt.ArrayLike, tails: npt.ArrayLike, sigma: float) -> np.ndarray:
     """Normalised Gaussian weights (n, B) of the distances of points to bone segments."""
     return _native.gaussian_bone_weights(as_vertices(P), as_vertices(heads, "heads"), as_vertices(tails, "tails"),
-                                         float(sigma))
+                                         as_real(sigma, "sigma", 0.0, lo_open=True))
 
 
 def skeletal_subspace_deform(P: npt.ArrayLike, weights: npt.ArrayLike, bones_rest: npt.ArrayLike,
@@ -322,7 +324,8 @@ def skeletal_subspace_deform(P: npt.ArrayLike, weights: npt.ArrayLike, bones_res
     skeletal mesh by default, before its bone clearance)."""
     R = _mats(bones_rest, "bones_rest")
     return _native.skeletal_subspace_deform(as_vertices(P), np.asarray(weights, dtype=np.float64), R,
-                                            _mats(bones_pose, "bones_pose", len(R)), bool(dual_quaternion))
+                                            _mats(bones_pose, "bones_pose", len(R)),
+                                            as_flag(dual_quaternion, "dual_quaternion"))
 
 
 def delaunay_3d(points: npt.ArrayLike) -> dict[str, np.ndarray]:

@@ -100,8 +100,8 @@ def unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, boundary: str | UvBoundary = _
 
     Returns :class:`UnwrapResult`: ``uv`` (n, 2) the returned map in [0, 1]^2, ``uv_initial`` U0,
     ``steps`` (``steps[h]`` is U^h: ``metrics`` (:class:`UvMetrics`), ``seconds``,
-    ``solver_iterations``; U0 and the returned map carry every metric, the steps between have
-    ``edge`` and ``angle`` NaN; for Uopt the last may be the rejected step), ``chosen`` (index of
+    ``solver_iterations``; every step carries every metric; for Uopt the last may be the rejected
+    step), ``chosen`` (index of
     the returned map; ``final`` and ``initial`` are its and U0's metrics), ``boundary_used``,
     ``boundary_convex`` (then no triangle can flip), ``n_holes`` (inner loops, kept open),
     ``corners`` (vertices at the square's corners (0,0), (1,0), (1,1), (0,1)), ``warnings``

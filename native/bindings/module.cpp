@@ -10,7 +10,9 @@ PYBIND11_MODULE(_native, m) {
   // register_exception keeps each Python type for the process's life (pybind11 2.12+ never
   // destroys it, so nothing is released after the interpreter is gone).
   auto& error = pb::register_exception<dgmesh::Error>(m, "Error", PyExc_RuntimeError);
-  auto& mesh_error = pb::register_exception<dgmesh::MeshError>(m, "MeshError", PyExc_ValueError);
+  // MeshError is an Error and a ValueError (bases given as a tuple, as PyErr_NewException takes).
+  const pb::tuple mesh_bases = pb::make_tuple(error, pb::handle(PyExc_ValueError));
+  auto& mesh_error = pb::register_exception<dgmesh::MeshError>(m, "MeshError", mesh_bases);
   pb::register_exception<dgmesh::IoError>(m, "MeshIOError", mesh_error.ptr());
   pb::register_exception<dgmesh::SolverError>(m, "SolverError", error.ptr());
   pb::register_exception<dgmesh::CancelledError>(m, "Cancelled", error.ptr());

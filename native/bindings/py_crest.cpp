@@ -37,8 +37,9 @@ void check_lines(const Mesh& mesh, const CrestLines& c) {
 VecXd feature_values(const Mesh& mesh, const FeatureOptions& opt, const CrestLines* given, const ProgressFn& progress,
                      double share) {
   const double eta = opt.feature_weight;
-  if (!(eta >= 0.0) || !std::isfinite(eta))
-    throw MeshError("feature_weight (eta) must be a non-negative number, got " + std::to_string(eta));
+  // F(d) = (d / max d + 0.1)^eta spans 11^eta: beyond eta 100 its weights leave double's range.
+  if (!(eta >= 0.0 && eta <= 100.0))
+    throw MeshError("feature_weight (eta) must be in [0, 100], got " + std::to_string(eta));
   if (eta == 0.0) return {};
   CrestLines lines;
   if (given) {

@@ -34,7 +34,12 @@ pb::array_t<double> from_mats(const std::vector<Mat4>& m) {
 template <class T>
 T get(const pb::dict& d, const char* key) {
   if (!d.contains(key)) throw MeshError(std::string("skeletal data: missing '") + key + "'");
-  return d[key].cast<T>();
+  try {
+    return d[key].cast<T>();
+  } catch (const pb::cast_error&) {  // pybind11's own message names the C++ type, not the field
+    throw MeshError(std::string("skeletal data: '") + key +
+                    "' has the wrong type or shape: " + pb::repr(pb::type::handle_of(d[key])).cast<std::string>());
+  }
 }
 
 }  // namespace

@@ -49,9 +49,15 @@ void check_finite(const MatX3d& A, const char* what) {
         throw MeshError(std::string(what) + " has a non-finite coordinate (NaN or inf) at row " + std::to_string(i));
 }
 
+// The etas are in units of the average edge length: below kMinEta a kernel is narrower than any
+// sampling of the mesh, and 1 / (2 eta^2) leaves float's range (the weights became NaN).
+constexpr double kMinEta = 1e-3;
+
 void check_options(const DenoiseOptions& opt, Eigen::Index n) {
   auto positive = [](double v, const char* name) {
-    if (!(std::isfinite(v) && v > 0)) throw MeshError(std::string(name) + " must be a positive number");
+    if (!(std::isfinite(v) && v >= kMinEta))
+      throw MeshError(std::string(name) + " must be a number of at least 0.001 (edge lengths), got " +
+                      std::to_string(v));
   };
   positive(opt.eta1, "eta1");
   positive(opt.eta2, "eta2");
@@ -790,8 +796,10 @@ VecXd similarity_welded(State& st, const MatX3i* F, bool cloud, int x, const Sim
 }
 
 void check_similarity_options(const SimilarityOptions& so) {
-  if (!(std::isfinite(so.eta1) && so.eta1 > 0)) throw MeshError("eta1 must be a positive number");
-  if (!(std::isfinite(so.eta3) && so.eta3 > 0 && so.eta3 <= 20)) throw MeshError("eta3 must be in (0, 20]");
+  if (!(std::isfinite(so.eta1) && so.eta1 >= kMinEta))
+    throw MeshError("eta1 must be a number of at least 0.001 (edge lengths), got " + std::to_string(so.eta1));
+  if (!(so.eta3 >= kMinEta && so.eta3 <= 20))
+    throw MeshError("eta3 must be in [0.001, 20], got " + std::to_string(so.eta3));
   if (so.max_patch != 0 && (so.max_patch < 3 || so.max_patch > kMaxPatch))
     throw MeshError("max_patch must be 0 (automatic) or in [3, " + std::to_string(kMaxPatch) + "]");
 }

@@ -923,7 +923,9 @@ double willmore_energy(const MatX3d& V, const MatX3i& F) {
 namespace {
 FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
   if (opt.subdivisions < 0 || opt.subdivisions > 6) throw MeshError("subdivisions must be between 0 and 6");
-  if (!(opt.tolerance >= 0)) throw MeshError("tolerance must be >= 0");
+  if (!(opt.tolerance >= 0 && std::isfinite(opt.tolerance))) throw MeshError("tolerance must be finite and >= 0");
+  if (!(opt.max_seconds >= 0 && std::isfinite(opt.max_seconds)))
+    throw MeshError("max_seconds must be finite and >= 0 (0: no limit)");
   if (opt.max_iterations < 0) throw MeshError("max_iterations must be >= 0");
   if (!(opt.step_scale > 0)) throw MeshError("step_scale must be > 0");
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());

@@ -77,9 +77,11 @@ MeshData read_mesh(const std::string& path) {
     fail(path, "unsupported file extension '" + ext + "' (expected .obj, .off or .ply)");
   const std::string buf = read_whole_file(path);
   if (std::all_of(buf.begin(), buf.end(), [](char c) { return is_ws(c); })) fail(path, "empty file");
-  if (ext == ".obj") return read_obj(path, buf);
-  if (ext == ".off") return read_off(path, buf);
-  return read_ply(path, buf);
+  MeshData d = ext == ".obj" ? read_obj(path, buf) : ext == ".off" ? read_off(path, buf) : read_ply(path, buf);
+  // Every function rejects NaN or inf coordinates; say so where they come from.
+  for (Eigen::Index i = 0; i < d.V.rows(); ++i)
+    if (!d.V.row(i).allFinite()) fail(path, "vertex " + std::to_string(i) + " has a NaN or infinite coordinate");
+  return d;
 }
 
 void write_mesh(const std::string& path, const MatX3d& V, const MatX3i& F, const MatX3d* N) {

@@ -77,7 +77,10 @@ Eigen::MatrixXd gaussian_bone_weights(const MatX3d& P, const MatX3d& heads, cons
       dmin = std::min(dmin, W(i, j));
     }
     double sum = 0;
-    for (int j = 0; j < B; ++j) sum += (W(i, j) = std::exp(-(W(i, j) - dmin) / (2 * sigma * sigma)));
+    for (int j = 0; j < B; ++j) {  // the nearest bones get 1 even when sigma^2 underflows (0 / 0)
+      const double x = W(i, j) - dmin;
+      sum += (W(i, j) = x > 0 ? std::exp(-x / (2 * sigma * sigma)) : 1.0);
+    }
     W.row(i) /= sum;
   }
   return W;

@@ -11,8 +11,24 @@
 
 namespace dgmesh {
 
+namespace {
+Vec3 closest_point_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
+  const Vec3 ab = b - a;
+  const double l2 = ab.squaredNorm();
+  return l2 > 0 ? Vec3(a + std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) * ab) : a;
+}
+}  // namespace
+
 Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  // Degenerate (collinear or coincident corners): the nearest point of its edges; the divisions
+  // below would be 0 / 0.
+  if (!(ab.cross(ac).squaredNorm() > 0)) {
+    Vec3 best = closest_point_on_segment(p, a, b);
+    for (const Vec3& q : {closest_point_on_segment(p, b, c), closest_point_on_segment(p, c, a)})
+      if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
+    return best;
+  }
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
   if (d1 <= 0 && d2 <= 0) return a;
   const Vec3 bp = p - b;
@@ -63,6 +79,7 @@ Vec3 SurfaceProjector::project(const Vec3& p, std::vector<int>& idx, std::vector
 VecXd point_mesh_distance(const MatX3d& P, const MatX3d& V, const MatX3i& F, int candidates) {
   if (F.rows() == 0) throw MeshError("point_mesh_distance: the mesh has no faces");
   if (!V.allFinite()) throw MeshError("point_mesh_distance: the mesh has NaN or infinite coordinates");
+  if (!P.allFinite()) throw MeshError("point_mesh_distance: the points have NaN or infinite coordinates");
   if (candidates < 1)
     throw MeshError("point_mesh_distance: candidates must be >= 1, got " + std::to_string(candidates));
   for (int f = 0; f < F.rows(); ++f)

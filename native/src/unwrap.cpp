@@ -52,7 +52,6 @@ using detail::profile_mark;
 using detail::reflex_count;
 using detail::seconds_since;
 using detail::square_corners;
-using detail::stretch_metrics;
 using detail::Vec2;
 using detail::vertex_stretch_impl;
 
@@ -700,28 +699,28 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
     place_ears(Ucur);
     return it;
   };
-  auto metrics_of = [&](const MatX2d& Ucur, bool full = false) {
+  // Every step carries every metric of thesis 5.3 (no NaN placeholders in a result).
+  auto metrics_of = [&](const MatX2d& Ucur) {
     profile_mark("other");
     fd = face_data(Vf, Ff, Ucur, nff);
     fd_valid = true;
-    auto m = full ? metrics_impl(mesh.V, mesh.F, Ucur, nf, edges, opt.zero_area_eps, &angles3)
-                  : stretch_metrics(fd, nf, opt.zero_area_eps);
+    auto m = metrics_impl(mesh.V, mesh.F, Ucur, nf, edges, opt.zero_area_eps, &angles3);
     profile_mark("metrics");
     return m;
   };
   // An iterative solve stops at a relative residual; the exact solution of eq. 5.3 has no flips
   // when the polygon is convex and the weights positive [Flo97], so flips in an inexact map are
   // solver error: re-solve from it with a 100 times tighter tolerance, twice at most (not below 1e-10).
-  auto solve_checked = [&](MatX2d& Ucur, UnwrapStep& st, bool full = false) {
+  auto solve_checked = [&](MatX2d& Ucur, UnwrapStep& st) {
     st.solver_iterations = solve_step(Ucur);
-    st.metrics = metrics_of(Ucur, full);
+    st.metrics = metrics_of(Ucur);
     const double tol = solver.tolerance();
     double t = tol;
     for (int k = 0; k < 2 && st.metrics.flipped && solver.iterative() && !fold_stops; ++k) {
       t = std::max(t * 1e-2, 1e-10);
       solver.set_tolerance(t);
       st.solver_iterations += solve_step(Ucur);
-      st.metrics = metrics_of(Ucur, full);
+      st.metrics = metrics_of(Ucur);
     }
     solver.set_tolerance(tol);
   };
@@ -741,7 +740,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
       c /= static_cast<double>(loop.size());
       for (int v : sys.free_v) U.row(v) = c.transpose();
     }
-    solve_checked(U, st, true);
+    solve_checked(U, st);
     st.seconds = seconds_since(t_start);  // includes the boundary and the weights
     res.steps.push_back(st);
   }
@@ -763,7 +762,7 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
     const auto t0 = Clock::now();
     UnwrapStep st;
     solver.set_tolerance(opt.tolerance);
-    solve_checked(U, st, true);
+    solve_checked(U, st);
     st.seconds = seconds_since(t0);
     res.steps.assign(1, st);
     res.uv_initial = U.topRows(n);
@@ -866,8 +865,6 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
   solver.set_tolerance(opt.tolerance);
   if (solver.fell_back()) res.warnings.push_back("BiCGSTAB did not converge; switched to UMFPACK");
   res.solver = solver.name();
-  // Steps carry the stretch metrics; the returned map gets all of thesis 5.3.
-  if (res.chosen > 0) res.steps[res.chosen].metrics = metrics_of(best, true);
   res.uv = best.topRows(n);
   progress(1.0);
   return res;

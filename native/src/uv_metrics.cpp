@@ -123,44 +123,6 @@ UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n
   return m;
 }
 
-UvMetrics stretch_metrics(const FaceData& d, int nf, double eps) {
-  UvMetrics m;
-  m.edge = m.angle = std::numeric_limits<double>::quiet_NaN();
-  double s3 = 0, suv = 0, ssigned = 0;
-  for (int f = 0; f < nf; ++f) {
-    s3 += d.area3[f];
-    suv += 0.5 * std::abs(d.tri[f].uv_area2);
-    ssigned += 0.5 * d.tri[f].uv_area2;
-  }
-  if (s3 <= 0 || suv <= 0) {
-    m.stretch_l2 = m.stretch_linf = m.stretch_l2_finite = kInf;
-    m.zero_area = nf;
-    return m;
-  }
-  const double norm = suv / s3, orient = ssigned >= 0 ? 1.0 : -1.0;
-  double l2 = 0, l2_area = 0, g2max = 0, area = 0;
-  int flipped = 0, zero = 0;
-  for (int f = 0; f < nf; ++f) {
-    const TriStretch& t = d.tri[f];
-    if (is_zero_area(t, suv, eps)) {
-      ++zero;
-    } else {
-      l2 += d.area3[f] * t.l2sq;
-      l2_area += d.area3[f];
-      g2max = std::max(g2max, t.gamma2);
-      if (orient * t.uv_area2 < 0) ++flipped;
-    }
-    area += std::abs(d.area3[f] / s3 - 0.5 * std::abs(t.uv_area2) / suv);
-  }
-  m.flipped = flipped;
-  m.zero_area = zero;
-  m.stretch_l2_finite = l2_area > 0 ? std::sqrt(norm * l2 / l2_area) : kInf;
-  m.stretch_l2 = zero ? kInf : m.stretch_l2_finite;
-  m.stretch_linf = zero ? kInf : std::sqrt(norm * g2max);
-  m.area = area;
-  return m;
-}
-
 void vertex_stretch_impl(const FaceData& d, const Topology& topo, double eps, double cap, VecXd& sigma) {
   const double norm = d.sum_area_uv > 0 ? d.sum_area_uv / d.sum_area3 : 1.0;
   sigma.resize(topo.n_vertices);

@@ -348,6 +348,9 @@ TEST_F(IoTest, ObjErrors) {
   expect_io_error(write_file("nrange.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//2 3//1\n"), ":5:");
   expect_io_error(write_file("nan.obj", "v 0 0 0\nv 1 zero 0\n"), ":2:");
   expect_io_error(write_file("nan2.obj", "v 0 0 0\nv 1 0.5.5 0\n"), "0.5.5");
+  // NaN and inf parse, but no function takes them: read_mesh says so (issue #34).
+  expect_io_error(write_file("nanv.obj", "v 0 0 0\nv 1 0 0\nv nan 0 0\nf 1 2 3\n"), "vertex 2 has a NaN");
+  expect_io_error(write_file("infv.off", "OFF\n3 1 0\n0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n"), "vertex 1 has a NaN");
   expect_io_error(write_file("short.obj", "v 0 0\n"), ":1:");
   expect_io_error(write_file("badf.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n"), ":4:");
   expect_io_error(write_file("badf2.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n"), ":4:");

@@ -118,8 +118,7 @@ inline UnwrapOptions unwrap_thesis_defaults() {
 }
 
 struct UnwrapStep {
-  // U0 and the returned map carry all metrics of thesis 5.3; the other steps carry the stretch
-  // metrics the stopping rule needs (edge and angle are NaN: they cost more than the rest).
+  // Every step carries all metrics of thesis 5.3 (edge and angle included).
   UvMetrics metrics;
   double seconds = 0;         // wall time of this step (solve + metrics)
   int solver_iterations = 0;  // BiCGSTAB iterations (u and v together for the multigrid; 0 for direct solvers)

@@ -56,11 +56,6 @@ UvMetrics metrics_impl(const MatX3d& V, const MatX3i& F, const MatX2d& UV, int n
                        const std::vector<std::pair<int, int>>& edges, double eps,
                        const std::vector<double>* angles3 = nullptr);
 
-/// The stretch part of the metrics (L2, Linf, flips, zero area, area distortion) from the face data
-/// of the first nf faces of d: what the Uopt stopping rule needs, without the edge and angle
-/// distortions (NaN here), whose square roots and arc tangents cost more than the rest together.
-UvMetrics stretch_metrics(const FaceData& d, int nf, double eps);
-
 /// Per-vertex stretch of eq. 5.1 over the faces around each vertex (all faces of d), area-normalised.
 /// Zero-area UV triangles get stretch `cap` so that the weights stay finite.
 void vertex_stretch_impl(const FaceData& d, const Topology& topo, double eps, double cap, VecXd& sigma);
