@@ -10,6 +10,7 @@ import numpy
 
 CHECK_NO_LOOSE_VERTICES: int
 CHECK_SURFACE: int
+MAX_FEATURE_WEIGHT: float
 
 class Cancelled(Error): ...
 

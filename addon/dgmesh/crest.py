@@ -28,6 +28,7 @@ SegmentResult = _native.SegmentResult
 
 RIDGE = int(CrestKind.ridge)
 VALLEY = int(CrestKind.valley)
+MAX_FEATURE_WEIGHT: float = _native.MAX_FEATURE_WEIGHT  # the largest feature_weight (eta) accepted
 
 
 
@@ -336,7 +337,7 @@ def snap_to_vertices(lines: CrestLines, V: npt.ArrayLike, F: npt.ArrayLike) -> t
     return pairs[keep].astype(np.int32), lines.segment_line[keep]
 
 
-__all__ = ["RIDGE", "VALLEY", "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions",
+__all__ = ["MAX_FEATURE_WEIGHT", "RIDGE", "VALLEY", "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions",
            "DecimateResult", "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult",
            "curvature_derivatives", "crest_lines", "crest_face_distance", "decimate_feature_defaults",
            "feature_function", "decimate", "segment", "segment_feature_defaults", "snap_to_vertices"]

@@ -37,9 +37,9 @@ void check_lines(const Mesh& mesh, const CrestLines& c) {
 VecXd feature_values(const Mesh& mesh, const FeatureOptions& opt, const CrestLines* given, const ProgressFn& progress,
                      double share) {
   const double eta = opt.feature_weight;
-  // F(d) = (d / max d + 0.1)^eta spans 11^eta: beyond eta 100 its weights leave double's range.
-  if (!(eta >= 0.0 && eta <= 100.0))
-    throw MeshError("feature_weight (eta) must be in [0, 100], got " + std::to_string(eta));
+  if (!(eta >= 0.0 && eta <= kMaxFeatureWeight))
+    throw MeshError("feature_weight (eta) must be in [0, " + std::to_string(kMaxFeatureWeight) + "], got " +
+                    std::to_string(eta));
   if (eta == 0.0) return {};
   CrestLines lines;
   if (given) {
@@ -116,6 +116,7 @@ void bind_crest(pb::module_& m) {
       .field("feature_weight", &FeatureOptions::feature_weight, "eta of eq. 4.12; 0: not guided")
       .field("rings", &FeatureOptions::rings, "fitting rings of the detected crest lines")
       .field("threshold", &FeatureOptions::threshold, "strength threshold T of the detected crest lines");
+  m.attr("MAX_FEATURE_WEIGHT") = kMaxFeatureWeight;
   m.def("decimate_feature_defaults", &decimate_feature_defaults, "Decimation's guidance: eta 6 (thesis fig. 4.19)");
   m.def("segment_feature_defaults", &segment_feature_defaults, "Segmentation's guidance: eta 2 (fig. 4.26-4.27)");
 

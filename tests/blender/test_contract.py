@@ -94,3 +94,9 @@ def test_skeleton_blend_defaults_to_the_native_blend():
     prop = _properties("skeletal_bind")["skeleton_blend"]
     blend = 'DUAL_QUATERNION' if _native.SkeletalDeformOptions().dual_quaternion else 'LINEAR'
     assert prop.default == blend and {i.identifier for i in prop.enum_items} == {'DUAL_QUATERNION', 'LINEAR'}
+
+
+@pytest.mark.parametrize("idname", ["decimate_features", "segment"])
+def test_feature_weight_stops_at_the_native_limit(idname):
+    # Beyond the limit the native call refuses the value; the property must not offer it.
+    assert _properties(idname)["feature_weight"].hard_max == pytest.approx(_native.MAX_FEATURE_WEIGHT)

@@ -49,7 +49,8 @@ import numpy as np
 from bpy.props import BoolProperty, FloatProperty, IntProperty
 
 from .. import colors, polymesh
-from ..crest import CrestOptions, DerivativeOptions, SegmentOptions, decimate_feature_defaults, segment_feature_defaults
+from ..crest import (MAX_FEATURE_WEIGHT, CrestOptions, DerivativeOptions, SegmentOptions, decimate_feature_defaults,
+                     segment_feature_defaults)
 from . import bridge, compat
 from .common import (editable_collection, plural as _plural, poll_mesh_targets, read_only_reason,
                      report_shown_shape, target_objects)
@@ -535,7 +536,7 @@ class DGMESH_OT_decimate_features(_PerObjectJob, bpy.types.Operator):
                          max=1.0, subtype='FACTOR')
     feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
                                   "quadric decimation, larger keeps more triangles near crest lines",
-                                  default=DECIMATE_FEATURES.feature_weight, min=0.0, soft_max=10.0)
+                                  default=DECIMATE_FEATURES.feature_weight, min=0.0, max=MAX_FEATURE_WEIGHT, soft_max=10.0)
     rings: IntProperty(name="Rings", description="Fitting neighbourhood of the crest lines (k-ring)",
                        default=DECIMATE_FEATURES.rings, min=1, max=4)
     threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=DECIMATE_FEATURES.threshold,
@@ -605,7 +606,7 @@ class DGMESH_OT_segment(_PerObjectJob, bpy.types.Operator):
     segments: IntProperty(name="Segments", default=SEGMENT_DEFAULTS.segments, min=1, soft_max=200)
     feature_weight: FloatProperty(name="Feature Weight", description="eta of thesis eq. 4.12: 0 is plain "
                                   "VSA, larger makes borders follow crest lines",
-                                  default=SEGMENT_FEATURES.feature_weight, min=0.0, soft_max=10.0)
+                                  default=SEGMENT_FEATURES.feature_weight, min=0.0, max=MAX_FEATURE_WEIGHT, soft_max=10.0)
     rings: IntProperty(name="Rings", description="Fitting neighbourhood of the crest lines (k-ring)",
                        default=SEGMENT_FEATURES.rings, min=1, max=4)
     threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=SEGMENT_FEATURES.threshold,

@@ -108,8 +108,11 @@ VecXd feature_function(const VecXd& distance, double eta, double eps = 0.1);
 // Crest-line guidance of decimation (thesis 4.8: face quadrics weighted by 1 / F(d)) and
 // segmentation (4.9: region growing weighted by 2 / (F(T_i) + F(T_j))), F of eq. 4.12 with d the
 // distance to the crest lines given by the caller, or else detected with `rings` and `threshold`.
+// F(d) spans (1 + 1 / eps)^eta = 11^eta: beyond this eta its weights leave double's range.
+constexpr double kMaxFeatureWeight = 100.0;
+
 struct FeatureOptions {
-  double feature_weight = 0.0;  // eta of eq. 4.12; 0: not guided
+  double feature_weight = 0.0;  // eta of eq. 4.12 in [0, kMaxFeatureWeight]; 0: not guided
   int rings = 1;                // DerivativeOptions::rings of the detected lines
   double threshold = 10.0;      // CrestOptions::threshold of the detected lines
 };
