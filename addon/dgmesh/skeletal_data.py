@@ -10,10 +10,12 @@ import zipfile
 
 import numpy as np
 
+from .core import MeshError
+
 SCHEMA_VERSION = 1  # the "schema" field of a binding; bindings saved before it have none (read as 0)
 
 
-class BindDataError(ValueError):
+class BindDataError(MeshError):
     """Saved skeletal state (the binding's custom property or its bind data) that cannot be read."""
 
 

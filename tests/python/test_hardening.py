@@ -148,6 +148,21 @@ def test_every_error_is_a_dgmesh_error():
         dgmesh.curvature(np.zeros((0, 3)), np.zeros((0, 3), int))
 
 
+def test_every_exception_class_of_the_package_derives_from_dgmesh_error():
+    import importlib
+    import inspect
+    import pkgutil
+    found = []
+    for info in pkgutil.walk_packages(dgmesh.__path__, "dgmesh."):
+        if info.name.startswith("dgmesh.blender"):  # needs bpy; its exceptions are the operators' own
+            continue
+        module = importlib.import_module(info.name)
+        found += [c for _, c in inspect.getmembers(module, inspect.isclass)
+                  if issubclass(c, BaseException) and c.__module__.startswith("dgmesh")]
+    assert dgmesh.skeletal_data.BindDataError in found
+    assert [c for c in found if not issubclass(c, dgmesh.Error)] == []
+
+
 def test_gaussian_weights_with_a_tiny_sigma():
     # Found by test_fuzz: sigma^2 underflowed and every weight was 0 / 0.
     from dgmesh.skeletal import gaussian_bone_weights
