@@ -8,7 +8,8 @@ caused it instead of the test run. Acceptable: a result whose numbers are finite
 / ValueError / TypeError with a message of its own; an option of the wrong type must be named.
 
 The default run is bounded (about two minutes on two cores); ``DGMESH_FUZZ=long`` runs many more
-examples (see DEVELOPERS.md). ``DGMESH_FUZZ_SEED=n`` sets hypothesis's seed.
+examples (see DEVELOPERS.md); ``DGMESH_FUZZ_SEED=n`` sets the long run's seed (the default run is
+derandomized: the same examples every time).
 """
 
 import inspect
@@ -24,7 +25,7 @@ import typing
 import numpy as np
 import pytest
 
-from hypothesis import HealthCheck, given, settings  # python3-hypothesis (scripts/deps.sh installs it)
+from hypothesis import HealthCheck, given, seed, settings  # python3-hypothesis (scripts/deps.sh installs it)
 from hypothesis import strategies as st
 
 import dgmesh
@@ -34,6 +35,7 @@ sys.path.insert(0, HERE)
 from fuzz_worker import BASES, CALLS, MUTATIONS, VALID  # noqa: E402
 
 LONG = os.environ.get("DGMESH_FUZZ") == "long"
+SEED = os.environ.get("DGMESH_FUZZ_SEED")
 settings.register_profile("dgmesh-fuzz", max_examples=1000, deadline=None, database=None, derandomize=True,
                           suppress_health_check=list(HealthCheck), print_blob=False)
 settings.register_profile("dgmesh-fuzz-long", max_examples=10000, deadline=None, database=None,
@@ -219,7 +221,7 @@ def test_fuzz(call, worker):
         problem = worker.run((call, mesh, kw, named if valid else None))
         assert problem is None, f"{call}({mesh}, **{kw!r}): {problem}"
 
-    check()
+    (seed(int(SEED))(check) if SEED else check)()
 
 
 def test_worker_reports_a_crash(worker):
