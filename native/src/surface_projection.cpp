@@ -17,18 +17,11 @@ Vec3 closest_point_on_segment(const Vec3& p, const Vec3& a, const Vec3& b) {
   const double l2 = ab.squaredNorm();
   return l2 > 0 ? Vec3(a + std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) * ab) : a;
 }
-}  // namespace
 
-Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+// Ericson's Voronoi-region walk (Real-Time Collision Detection, 5.1.5). On a degenerate triangle
+// (collinear or coincident corners) one of its divisions is by zero and the result not finite.
+Vec3 closest_point_by_regions(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
   const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  // Degenerate (collinear or coincident corners): the nearest point of its edges; the divisions
-  // below would be 0 / 0.
-  if (!(ab.cross(ac).squaredNorm() > 0)) {
-    Vec3 best = closest_point_on_segment(p, a, b);
-    for (const Vec3& q : {closest_point_on_segment(p, b, c), closest_point_on_segment(p, c, a)})
-      if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
-    return best;
-  }
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
   if (d1 <= 0 && d2 <= 0) return a;
   const Vec3 bp = p - b;
@@ -45,6 +38,17 @@ Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, cons
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
   const double denom = 1.0 / (va + vb + vc);
   return a + ab * (vb * denom) + ac * (vc * denom);
+}
+}  // namespace
+
+Vec3 closest_point_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const Vec3 q = closest_point_by_regions(p, a, b, c);
+  if (q.allFinite() || !p.allFinite()) return q;
+  // Degenerate triangle: the nearest point of its edges (checked only then: this is a hot path).
+  Vec3 best = closest_point_on_segment(p, a, b);
+  for (const Vec3& e : {closest_point_on_segment(p, b, c), closest_point_on_segment(p, c, a)})
+    if ((e - p).squaredNorm() < (best - p).squaredNorm()) best = e;
+  return best;
 }
 
 double point_triangle_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
