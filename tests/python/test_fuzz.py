@@ -229,3 +229,15 @@ def test_worker_reports_a_crash(worker):
     # runs in a new child.
     assert "died (SIGABRT)" in worker.run(("crash", None, {}, None))
     assert worker.run(("curvature", ("icosphere", "none", 0, 0, 0, 0), {}, None)) is None
+
+
+# Public functions without a call of their own: presets and the thread count take no mesh; files
+# are fuzzed as the write/read round trips "obj", "off" and "ply".
+NOT_FUZZED = {"decimate_feature_defaults", "segment_feature_defaults", "num_threads", "set_num_threads",
+              "read_mesh", "write_mesh"}
+
+
+def test_every_public_function_is_fuzzed():
+    public = {n for n in dgmesh.__all__ if callable(getattr(dgmesh, n)) and not inspect.isclass(getattr(dgmesh, n))}
+    assert public - set(CALLS) - NOT_FUZZED == set(), "add the new function to fuzz_worker.CALLS and FUNCS"
+    assert {"obj", "off", "ply"} <= set(CALLS)
