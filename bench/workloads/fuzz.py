@@ -36,7 +36,7 @@ def fuzz_long(quick):
             rows.append([case.get("name"), f"{float(case.get('time', 0)):.1f}", verdict])
     failed = [r for r in rows if r[2] != "passed"]
     md = (f"### Fuzz: long run\n\n`DGMESH_FUZZ=long DGMESH_FUZZ_SEED={seed} /usr/bin/python3 -m pytest -q "
-          f"tests/python/test_fuzz.py` (10000 random examples per function; replay a finding with the same seed): "
+          f"tests/python/test_fuzz.py` (hypothesis profile dgmesh-fuzz-long: max_examples 10000 per function; replay a finding with the same seed): "
           f"{len(rows)} tests, {len(failed)} failed, {wall:.0f} s wall, pytest exit status {proc.returncode}.\n\n"
           + table(["test", "seconds", "verdict"], rows) + "\n")
     return {"markdown": md, "data": {"seed": seed, "wall": wall, "returncode": proc.returncode, "rows": rows}}
