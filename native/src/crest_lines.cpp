@@ -47,6 +47,15 @@ struct FitScratch {
   std::vector<int> ring, mark;
 };
 
+// The fields of a vertex without a fit (no normal, too few neighbours): zero curvature and
+// derivatives, no directions, its normal n.
+void write_no_fit(int i, const Vec3& n, CurvatureDerivatives& out) {
+  out.k_max[i] = out.k_min[i] = out.e_max[i] = out.e_min[i] = 0.0;
+  out.t_max.row(i).setZero();
+  out.t_min.row(i).setZero();
+  out.normals.row(i) = n.transpose();
+}
+
 // Curvature attributes of the graph z = h(x, y) over the frame (u, w, n) at a point where h has
 // gradient (hx, hy), Hessian (hxx, hxy, hyy) and third derivatives cc (h_xxx, h_xxy, h_xyy, h_yyy),
 // all in units of 1 / scale; written to vertex i in mesh units.
@@ -99,13 +108,7 @@ void write_fields(int i, double hx, double hy, double hxx, double hxy, double hy
 void fit_vertex(int i, const MatX3d& V, const MatX3d& P, const MatX3d& N, const Topology& topo,
                 const DerivativeOptions& opt, FitScratch& s, CurvatureDerivatives& out) {
   const Vec3 n = N.row(i);
-  auto zero = [&] {
-    out.k_max[i] = out.k_min[i] = out.e_max[i] = out.e_min[i] = 0.0;
-    out.t_max.row(i).setZero();
-    out.t_min.row(i).setZero();
-    out.normals.row(i) = n.transpose();
-  };
-  if (n.squaredNorm() == 0.0) return zero();
+  if (n.squaredNorm() == 0.0) return write_no_fit(i, n, out);
   const Vec3 u = any_perpendicular(n), w = n.cross(u);
   const Vec3 p = P.row(i);
 
@@ -119,7 +122,7 @@ void fit_vertex(int i, const MatX3d& V, const MatX3d& P, const MatX3d& N, const 
     mean_dist += (Vec3(P.row(v)) - p).norm();
     ++count;
   }
-  if (count < 2 || mean_dist <= 0.0) return zero();
+  if (count < 2 || mean_dist <= 0.0) return write_no_fit(i, n, out);
   const double scale = count / mean_dist;  // fit in units of the mean neighbour distance
   // The tangent plane adds two unknowns: fit it only with at least five neighbours (17 equations for
   // 9 unknowns). On valence-4 vertices (square grids with alternating diagonals) the free gradient
@@ -174,7 +177,7 @@ void fit_vertex(int i, const MatX3d& V, const MatX3d& P, const MatX3d& N, const 
   // A tiny ridge keeps under-determined fits (boundary corners, valence-3 vertices) finite.
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
   const Vec9 c = A.ldlt().solve(b);
-  if (!c.allFinite()) return zero();
+  if (!c.allFinite()) return write_no_fit(i, n, out);
   const double cc[4] = {c[5], c[6], c[7], c[8]};
 
   // Evaluation point: p' (the origin) or the foot of the original vertex on the tangent plane.
@@ -316,17 +319,12 @@ Vec3 jet_normal(int i, const MatX3d& V, const MatX3d& Nmax, const Topology& topo
 void fit_vertex_jet(int i, const MatX3d& V, const MatX3d& N, const Topology& topo, const DerivativeOptions& opt,
                     JetScratch& s, CurvatureDerivatives& out) {
   const Vec3 n = N.row(i);
-  auto zero = [&] {
-    out.k_max[i] = out.k_min[i] = out.e_max[i] = out.e_min[i] = 0.0;
-    out.t_max.row(i).setZero();
-    out.t_min.row(i).setZero();
-    out.normals.row(i) = n.transpose();
-  };
-  if (n.squaredNorm() == 0.0) return zero();
+  if (n.squaredNorm() == 0.0) return write_no_fit(i, n, out);
   Vec3 u, w;
   double scale;
   int degree;
-  if (!fit_jet(i, V, N, n, topo, opt.rings, opt.rings == 1 ? 3 : 5, true, s, u, w, scale, degree)) return zero();
+  if (!fit_jet(i, V, N, n, topo, opt.rings, opt.rings == 1 ? 3 : 5, true, s, u, w, scale, degree))
+    return write_no_fit(i, n, out);
   const Vec20& c = s.c;
   double cc[4] = {0.0, 0.0, 0.0, 0.0};
   if (degree >= 3)
