@@ -214,3 +214,31 @@ def run_windowed(tmp_path, script_text, timeout=240):
     line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("MODAL_RESULT")), None)
     assert line is not None, proc.stdout[-2000:] + proc.stderr[-2000:]
     return eval(line[len("MODAL_RESULT"):])
+
+
+def add_mesh_object(name, V, F):
+    """A mesh object `name` from vertices V and triangles F, linked to the scene."""
+    me = bpy.data.meshes.new(name)
+    me.from_pydata([tuple(v) for v in V], [], [tuple(int(i) for i in f) for f in F])
+    me.update()
+    obj = bpy.data.objects.new(name, me)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def add_armature(bones, name="Rig"):
+    """An armature object `name` linked to the scene (and left active, in Object mode) with
+    `bones`: (name, head, tail, parent name or None, connected to it), parents first."""
+    ad = bpy.data.armatures.new(name)
+    arm = bpy.data.objects.new(name, ad)
+    bpy.context.scene.collection.objects.link(arm)
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    for bone, head, tail, parent, connect in bones:
+        b = ad.edit_bones.new(bone)
+        b.head, b.tail = head, tail
+        if parent:
+            b.parent = ad.edit_bones[parent]
+            b.use_connect = connect
+    bpy.ops.object.mode_set(mode='OBJECT')
+    return arm

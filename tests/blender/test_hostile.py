@@ -8,7 +8,7 @@ import bmesh
 import bpy
 import pytest
 
-from helpers import mesh_snapshot
+from helpers import add_armature, mesh_snapshot
 
 OPERATORS = sorted(name for name in dir(bpy.ops.dgmesh) if not name.startswith("_"))
 KWARGS = {"skeletal_bake": {"filepath": bpy.app.tempdir + "hostile_bake.pc2", "frame_start": 1, "frame_end": 2},
@@ -34,14 +34,7 @@ def _sphere(name="Hostile", subdivisions=2):
     me.uv_layers.new(name="UVMap")
     obj = bpy.data.objects.new(name, me)
     bpy.context.scene.collection.objects.link(obj)
-    ad = bpy.data.armatures.new("Rig")
-    arm = bpy.data.objects.new("Rig", ad)
-    bpy.context.scene.collection.objects.link(arm)
-    bpy.context.view_layer.objects.active = arm
-    bpy.ops.object.mode_set(mode='EDIT')
-    b = ad.edit_bones.new("Bone")
-    b.head, b.tail = (0, 0, -1), (0, 0, 1)
-    bpy.ops.object.mode_set(mode='OBJECT')
+    arm = add_armature([("Bone", (0, 0, -1), (0, 0, 1), None, False)])
     obj.select_set(True)
     arm.select_set(True)
     bpy.context.view_layer.objects.active = obj

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dgmesh.skeletal import capsule
+from helpers import add_armature, add_mesh_object
 from dgmesh.skeletal_data import SCHEMA_VERSION, BindDataError, check_info, decode_arrays, encode_arrays
 
 
@@ -16,22 +17,9 @@ def _scene():
     selected, the capsule active."""
     bpy.ops.wm.read_homefile(use_empty=True)
     V, F = capsule(0.5, 6.0, 16, 4, 16)
-    me = bpy.data.meshes.new("Capsule")
-    me.from_pydata([tuple(v) for v in V], [], [tuple(int(i) for i in f) for f in F])
-    me.update()
-    obj = bpy.data.objects.new("Capsule", me)
-    bpy.context.scene.collection.objects.link(obj)
-    ad = bpy.data.armatures.new("Rig")
-    arm = bpy.data.objects.new("Rig", ad)
-    bpy.context.scene.collection.objects.link(arm)
-    bpy.context.view_layer.objects.active = arm
-    bpy.ops.object.mode_set(mode='EDIT')
-    b1 = ad.edit_bones.new("Upper")
-    b1.head, b1.tail = (-3.5, 0, 0), (0, 0, 0)
-    b2 = ad.edit_bones.new("Lower")
-    b2.head, b2.tail = (0, 0, 0), (3.5, 0, 0)
-    b2.parent = b1
-    bpy.ops.object.mode_set(mode='OBJECT')
+    obj = add_mesh_object("Capsule", V, F)
+    arm = add_armature([("Upper", (-3.5, 0, 0), (0, 0, 0), None, False),
+                        ("Lower", (0, 0, 0), (3.5, 0, 0), "Upper", False)])
     g1, g2 = obj.vertex_groups.new(name="Upper"), obj.vertex_groups.new(name="Lower")
     for i, x in enumerate(V[:, 0]):
         t = float(np.clip(x + 0.5, 0, 1))

@@ -57,23 +57,9 @@ def _evaluated_co(obj):
 def _scene(groups=True, with_modifier=True):
     bpy.ops.wm.read_homefile(use_empty=True)
     V, F = capsule(0.5, 6.0, 24, 5, 32)
-    me = bpy.data.meshes.new("Capsule")
-    me.from_pydata([tuple(v) for v in V], [], [tuple(int(i) for i in f) for f in F])
-    me.update()
-    obj = bpy.data.objects.new("Capsule", me)
-    bpy.context.scene.collection.objects.link(obj)
-    ad = bpy.data.armatures.new("Rig")
-    arm = bpy.data.objects.new("Rig", ad)
-    bpy.context.scene.collection.objects.link(arm)
-    bpy.context.view_layer.objects.active = arm
-    bpy.ops.object.mode_set(mode='EDIT')
-    b1 = ad.edit_bones.new("Upper")
-    b1.head, b1.tail = (-3.5, 0, 0), (0, 0, 0)
-    b2 = ad.edit_bones.new("Lower")
-    b2.head, b2.tail = (0, 0, 0), (3.5, 0, 0)
-    b2.parent = b1
-    b2.use_connect = True
-    bpy.ops.object.mode_set(mode='OBJECT')
+    obj = helpers.add_mesh_object("Capsule", V, F)
+    arm = helpers.add_armature([("Upper", (-3.5, 0, 0), (0, 0, 0), None, False),
+                                ("Lower", (0, 0, 0), (3.5, 0, 0), "Upper", True)])
     if groups:
         g1, g2 = obj.vertex_groups.new(name="Upper"), obj.vertex_groups.new(name="Lower")
         t = np.clip((V[:, 0] + 0.5) / 1.0, 0, 1)  # linear blend over [-0.5, 0.5]
