@@ -747,22 +747,24 @@ MatX3d SkeletalRig::Impl::basic(const MatX3d& Sd, const SkeletalDeformOptions& o
   const SpMatR Wu = umbrella_matrix(X, topo, Umbrella::Uniform);
   const double dt = 0.5;
   // Folds and protrusions (eq. 6.5): bi-umbrella relaxation where the umbrella field is regular,
-  // a pull to the envelope of each skeletal triangle's balls, tangential bi-umbrella drift.
+  // the pull E_T grad E_T of each mesh triangle's centroid to the convex hull of its skeletal
+  // triangle's balls, averaged over a vertex's triangles, and the tangential bi-umbrella drift V.
+  std::vector<Vec3> g(m);
   for (int it = 0; it < opt.fold_iterations; ++it) {
     const MatX3d U = Wu * X;
     const MatX3d U2 = Wu * U;
-    MatX3d Fe = MatX3d::Zero(n, 3);
-    std::vector<int> cnt(n, 0);
+#pragma omp parallel for schedule(static) if (m >= kParallelMin)
     for (int f = 0; f < m; ++f) {
       const Vec3 C = (row3(X, F(f, 0)) + row3(X, F(f, 1)) + row3(X, F(f, 2))) / 3;
-      const Vec3 c = (row3(Sd, F(f, 0)) + row3(Sd, F(f, 1)) + row3(Sd, F(f, 2))) / 3;
-      const double r = (radii[F(f, 0)] + radii[F(f, 1)] + radii[F(f, 2)]) / 3;
-      const Vec3 d = C - c;
-      const double len = d.norm();
-      if (len < 1e-300) continue;
-      const Vec3 g = (len - r) / len * d;  // E grad E
-      for (int k = 0; k < 3; ++k) Fe.row(F(f, k)) += g.transpose(), ++cnt[F(f, k)];
+      Vec3 grad;
+      const double E = ball_hull_distance(C, {row3(Sd, F(f, 0)), row3(Sd, F(f, 1)), row3(Sd, F(f, 2))},
+                                          Vec3(radii[F(f, 0)], radii[F(f, 1)], radii[F(f, 2)]), &grad);
+      g[f] = E * grad;
     }
+    MatX3d Fe = MatX3d::Zero(n, 3);
+    std::vector<int> cnt(n, 0);
+    for (int f = 0; f < m; ++f)
+      for (int k = 0; k < 3; ++k) Fe.row(F(f, k)) += g[f].transpose(), ++cnt[F(f, k)];
 #pragma omp parallel for schedule(static)
     for (int i = 0; i < n; ++i) {
       if (cnt[i] == 0) continue;

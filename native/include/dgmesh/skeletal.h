@@ -10,6 +10,7 @@
 // (eq. 6.3-6.6) for comparison. A dense mesh goes through the multiresolution layer (multires.h):
 // the skeletal machinery runs on its decimated control mesh.
 #pragma once
+#include <array>
 #include <memory>
 #include <vector>
 
@@ -70,6 +71,16 @@ MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const
 // exact (every ball that can matter is visited). `nearest` (optional) receives the minimising ball.
 VecXd union_of_balls_distance(const MatX3d& X, const MatX3d& centers, const VecXd& radii,
                               std::vector<int>* nearest = nullptr);
+
+// Signed distance E_T(x) from x to the convex hull of the three balls (c[k], r[k]) (thesis 6.3.1,
+// the E_T of the force of eq. 6.5): the hull is the union of the balls centred in the triangle
+// c0 c1 c2 with barycentrically interpolated radii, so E_T(x) = min over barycentric l of
+// |x - c(l)| - r(l), a convex problem solved exactly (the interior stationary point, else the
+// closest of the three edges' cone-spheres). Outside the hull it is the Euclidean distance to it;
+// inside, minus the depth in the deepest interpolated ball. Radii must be >= 0. `gradient`
+// (optional) receives grad E_T(x): the unit vector from the minimising centre c(l) to x (the
+// triangle's normal on x's side when x is that centre).
+double ball_hull_distance(const Vec3& x, const std::array<Vec3, 3>& c, const Vec3& r, Vec3* gradient = nullptr);
 
 enum class SkeletalMethod {
   Variational,  // 6.5: eq. 6.8-6.12 and the fairing eq. 6.15
