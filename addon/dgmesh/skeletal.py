@@ -164,7 +164,7 @@ class SkeletalRig:
                homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
-               bone_clearance: float = _DEFORM.bone_clearance) -> np.ndarray:
+               bone_clearance: float = _DEFORM.bone_clearance, skeleton: npt.ArrayLike | None = None) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
@@ -195,6 +195,7 @@ class SkeletalRig:
         double, rounded on output; through the multiresolution layer the dense thickness step
         reads the rounded values back, within 1e-6 of the float64 result) goes straight to Blender, e.g.
         ``mesh.shape_keys.key_blocks["dg_skeletal"].data.foreach_set("co", out.ravel())``.
+        ``skeleton``: an edited skeletal mesh, see :meth:`deform_skeleton`.
         Defaults: ``SkeletalDeformOptions()``.
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
@@ -205,17 +206,44 @@ class SkeletalRig:
                     or out.shape != (self.n_vertices, 3) or not out.flags.c_contiguous or not out.flags.writeable):
                 raise MeshError("deform: out must be a writeable C-contiguous float64 or float32 array of shape "
                                 "(%d, 3)" % self.n_vertices)
-        return self._rig.deform(P, o, out)
+        return self._rig.deform(P, o, out, self._skeleton(skeleton))
+
+    def deform_skeleton(self, skeleton: npt.ArrayLike, bones_pose: npt.ArrayLike | None = None,
+                        **options: Any) -> np.ndarray:
+        """Free-form skeleton editing (thesis 6.2: any space deformation of the skeletal mesh):
+        deformed vertex positions (n, 3) rebuilt around ``skeleton``, the skeletal vertices
+        (n_control, 3) moved by any deformation (a lattice, hooks, sculpting; start from
+        :attr:`skeleton_vertices`), with the thickness (medial radii) kept.
+
+        ``bones_pose`` (B, 4, 4), optional: the edit is made in the rest space and the bones then pose
+        the edited skeleton (each skeletal vertex's offset turns with its blended bone frame); without
+        it the rest pose, i.e. ``skeleton`` is the posed skeletal mesh itself. The bone clearance
+        leaves the vertices on moved skeletal vertices alone (an edit may bring flesh to a bone).
+        ``options``: as :meth:`deform` (``out`` included).
+        """
+        pose = self.bones_rest if bones_pose is None else bones_pose
+        return self.deform(pose, skeleton=skeleton, **options)
+
+    def _skeleton(self, skeleton):
+        if skeleton is None:
+            return None
+        S = as_vertices(skeleton, "skeleton")
+        if len(S) != self.n_control:
+            raise MeshError(f"skeleton must have one row per skeletal vertex ({self.n_control}), got {len(S)}")
+        if not np.isfinite(S).all():
+            raise MeshError("skeleton has non-finite coordinates")
+        return S
 
     def deform_control(self, bones_pose: npt.ArrayLike, *, fairing_steps: int = _DEFORM.fairing_steps,
                        method: str | SkeletalMethod = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
                        homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
-                       bone_clearance: float = _DEFORM.bone_clearance) -> tuple[np.ndarray, np.ndarray]:
+                       bone_clearance: float = _DEFORM.bone_clearance,
+                       skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                                  dual_quaternion, bone_clearance)
-        return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o)
+        return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
         """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""
@@ -284,6 +312,7 @@ class SkeletalRig:
     skeleton_faces = property(lambda self: self._rig.control_faces, doc="faces of the skeletal mesh")
     radii = property(lambda self: self._rig.radii, doc="medial-ball radius per skeletal vertex (eq. 6.7)")
     weights = property(lambda self: np.ascontiguousarray(self._rig.weights), doc="(n_control, B) bone weights of the skeletal vertices")
+    bones_rest = property(lambda self: self._rig.bones_rest, doc="(B, 4, 4) rest frames the mesh was bound with")
 
 
 def skeletal_mesh(V: npt.ArrayLike, F: npt.ArrayLike, *, presmooth_iterations: int = _SKELETON.presmooth_iterations,

@@ -160,13 +160,15 @@ void bind_skeletal(pb::module_& m) {
           pb::arg("options"), pb::arg("progress") = pb::none())
       .def(
           "deform",
-          [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o, pb::object out) -> pb::object {
+          [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o, pb::object out,
+             std::optional<MatX3d> skeleton) -> pb::object {
             const auto p = to_mats(pose, "bones_pose");
+            const MatX3d* sk = skeleton ? &*skeleton : nullptr;
             if (out.is_none()) {
               MatX3d X;
               {
                 NativeScope nogil;
-                X = rig.deform(p, o);
+                X = rig.deform(p, o, sk);
               }
               return pb::cast(std::move(X));
             }
@@ -175,27 +177,27 @@ void bind_skeletal(pb::module_& m) {
             if (pb::isinstance<pb::array>(out) && out.cast<pb::array>().dtype().is(pb::dtype::of<float>())) {
               auto ref = out.cast<Eigen::Ref<MatX3f>>();
               NativeScope nogil;
-              rig.deform(p, o, ref);
+              rig.deform(p, o, ref, sk);
             } else {
               auto ref = out.cast<Eigen::Ref<MatX3d>>();
               NativeScope nogil;
-              rig.deform(p, o, ref);
+              rig.deform(p, o, ref, sk);
             }
             return out;
           },
-          pb::arg("pose"), pb::arg("options"), pb::arg("out") = pb::none())
+          pb::arg("pose"), pb::arg("options"), pb::arg("out") = pb::none(), pb::arg("skeleton") = pb::none())
       .def(
           "deform_control",
-          [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o) {
+          [](const SkeletalRig& rig, const Mats& pose, const SkeletalDeformOptions& o, std::optional<MatX3d> skeleton) {
             const auto p = to_mats(pose, "bones_pose");
             MatX3d X, Sd;
             {
               NativeScope nogil;
-              X = rig.deform_control(p, o, &Sd);
+              X = rig.deform_control(p, o, &Sd, skeleton ? &*skeleton : nullptr);
             }
             return pb::make_tuple(std::move(X), std::move(Sd));
           },
-          pb::arg("pose"), pb::arg("options"))
+          pb::arg("pose"), pb::arg("options"), pb::arg("skeleton") = pb::none())
       .def("skeleton_pose",
            [](const SkeletalRig& rig, const Mats& pose) {
              const auto p = to_mats(pose, "bones_pose");
@@ -211,6 +213,7 @@ void bind_skeletal(pb::module_& m) {
       .def_property_readonly("skeleton_vertices", [](const SkeletalRig& r) { return MatX3d(r.skeleton_vertices()); })
       .def_property_readonly("radii", [](const SkeletalRig& r) { return VecXd(r.radii()); })
       .def_property_readonly("weights", [](const SkeletalRig& r) { return Eigen::MatrixXd(r.weights()); })
+      .def_property_readonly("bones_rest", [](const SkeletalRig& r) { return from_mats(r.bones_rest()); })
       .def("data",
            [](const SkeletalRig& r) {
              const SkeletalRigData d = r.data();

@@ -356,7 +356,7 @@ struct SkeletalRig::Impl {
   void setup_clearance();
   void posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h, std::vector<Vec3>& v) const;
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) const;
-  void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction) const;
+  void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   MatX3d solve(const MatX3d& b) const {
     Eigen::MatrixXd B = b;
@@ -369,9 +369,11 @@ struct SkeletalRig::Impl {
   BoneClearance union_clearance(const MatX3d& P, Follows follows) const;
   template <class Out>
   void project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
-                     const SkeletalDeformOptions& opt, Out& out) const;
+                     const SkeletalDeformOptions& opt, const std::vector<char>& edited, Out& out) const;
+  // `edited` (when `skeleton` is given) receives, per control vertex, whether the edit moved it.
   MatX3d control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX3d* Sd_out,
-                      std::vector<int>* deep = nullptr) const;
+                      std::vector<int>* deep = nullptr, const MatX3d* skeleton = nullptr,
+                      std::vector<char>* edited = nullptr) const;
   MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
                      std::vector<int>* deep) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
@@ -565,7 +567,8 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 // and under rigid motions f equals f_rest: a fixed point.
 template <class Out>
 void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
-                                      const SkeletalDeformOptions& opt, Out& out) const {
+                                      const SkeletalDeformOptions& opt, const std::vector<char>& edited,
+                                      Out& out) const {
   const int n = static_cast<int>(out.rows());
   const Topology& topo = control.topo;
   const VecXi& face = multires->base_face();
@@ -586,10 +589,13 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
     // A vertex that one bone moves rigidly skips the thickness step but not the bone clearance: the
     // global solve's small spread moves it slightly, which matters next to its bone (camel shin,
     // 1.7 mm from the bone: bones min ratio 0.84 in bench skeletal_limb's twist without it).
-    if (dense_rigid[i] && !clear) continue;
+    // A skeleton edit on the vertex's base face makes it move non-rigidly: no skip, no clearance.
+    const bool on_edit = !edited.empty() && (edited[F(face[i], 0)] || edited[F(face[i], 1)] || edited[F(face[i], 2)]);
+    const bool rigid = dense_rigid[i] && !on_edit;
+    if (rigid && !clear) continue;
     Vec3 x = out.row(i).transpose().template cast<double>();
     int prev = -1;
-    for (int pass = 0; pass < (dense_rigid[i] ? 0 : passes); ++pass) {
+    for (int pass = 0; pass < (rigid ? 0 : passes); ++pass) {
       int arg = dense_arg[i];
       double best = (x - row3(Sd, arg)).norm() - radii[arg];
       double second = std::numeric_limits<double>::infinity();
@@ -624,7 +630,7 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
       if (w == 1 && (arg == prev || arg == dense_arg[i]) && second - dense_f_rest[i] >= std::abs(f)) break;
       prev = arg;
     }
-    if (clear) x = dense_clearance.push(i, x, opt.bone_clearance, h, v);
+    if (clear && !on_edit) x = dense_clearance.push(i, x, opt.bone_clearance, h, v);
     out.row(i) = x.transpose().template cast<typename Out::Scalar>();
   }
 }
@@ -1052,13 +1058,15 @@ void SkeletalRig::Impl::posed_segments(const std::vector<Mat4>& pose, std::vecto
 // is pushed back out radially from the segments it is too close to, until its distance to their
 // union is `fraction` of its rest distance to it. Rest pose and rigid motions keep every distance:
 // no push.
-void SkeletalRig::Impl::clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction) const {
+void SkeletalRig::Impl::clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction,
+                                      const std::vector<char>& edited) const {
   const int B = static_cast<int>(rest.size()), n = static_cast<int>(X.rows());
   if (B < 2 || surface_clearance.rest.size() != n || !(fraction > 0)) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
-  for (int i = 0; i < n; ++i) X.row(i) = surface_clearance.push(i, row3(X, i), fraction, h, v).transpose();
+  for (int i = 0; i < n; ++i)
+    if (edited.empty() || !edited[i]) X.row(i) = surface_clearance.push(i, row3(X, i), fraction, h, v).transpose();
 }
 
 // SSD (eq. 6.2) blends the bone motions, and where a limb's medial surface is a sheet rather than a
@@ -1082,7 +1090,8 @@ MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
 }
 
 MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                       MatX3d* skeleton_out, std::vector<int>* deep) const {
+                                       MatX3d* skeleton_out, std::vector<int>* deep, const MatX3d* skeleton,
+                                       std::vector<char>* edited_out) const {
   if (pose.size() != rest.size())
     throw MeshError("skeletal deform: expected " + std::to_string(rest.size()) + " pose matrices, got " +
                     std::to_string(pose.size()));
@@ -1092,20 +1101,39 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     throw MeshError("skeletal deform: fairing_steps and fold_iterations must be >= 0, homotopy_steps >= 1");
   if (!std::isfinite(opt.fairing_step) || !std::isfinite(opt.projection) || !std::isfinite(opt.bone_clearance))
     throw MeshError("skeletal deform: fairing_step, projection and bone_clearance must be finite");
+  const int n = static_cast<int>(S.rows());
+  if (skeleton && (skeleton->rows() != n || !skeleton->allFinite()))
+    throw MeshError("skeletal deform: the edited skeleton needs " + std::to_string(n) +
+                    " finite rows (one per skeletal vertex), got " + std::to_string(skeleton->rows()));
   MatX9d lin;
   MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   clear_bones(Sd, pose);
+  std::vector<char> edited;
+  if (skeleton) {
+    // The edit's offsets turn with each skeletal vertex's blended bone frame: for rigid blends
+    // (dual quaternions) this is the posed edited skeleton itself.
+    edited.assign(n, 0);
+    const double tol = 1e-9 * r_max;
+    for (int i = 0; i < n; ++i) {
+      const Vec3 d = row3(*skeleton, i) - row3(S, i);
+      if (!(d.norm() > tol)) continue;
+      edited[i] = 1;
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(lin.row(i).data());
+      Sd.row(i) += (R * d).transpose();
+    }
+  }
   if (skeleton_out) *skeleton_out = Sd;
+  if (edited_out) *edited_out = edited;
   if (opt.method != SkeletalMethod::Variational) return basic(Sd, opt);
   MatX3d X = variational(Sd, lin, opt, deep);
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
-  if (opt.fairing_steps > 0) clear_surface(X, pose, opt.bone_clearance);
+  if (opt.fairing_steps > 0) clear_surface(X, pose, opt.bone_clearance, edited);
   return X;
 }
 
 MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                   MatX3d* skeleton_out) const {
-  return impl_->control_pose(pose, opt, skeleton_out);
+                                   MatX3d* skeleton_out, const MatX3d* skeleton) const {
+  return impl_->control_pose(pose, opt, skeleton_out, nullptr, skeleton);
 }
 
 namespace {
@@ -1121,36 +1149,39 @@ namespace {
 // Control pose, then the dense mesh through the multiresolution layer (and its thickness step), into
 // `out` (float64 or float32 rows).
 template <class Impl, class Out>
-void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, Out& out) {
+void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                 const MatX3d* skeleton, Out& out) {
   if (out.rows() != n)
     throw MeshError("skeletal deform: the output needs " + std::to_string(n) + " rows, got " +
                     std::to_string(out.rows()));
   MatX3d Sd;
   std::vector<int> deep;
-  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr);
+  std::vector<char> edited;
+  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited);
   if (impl.multires) {
     impl.multires->reconstruct(Xc, out);
-    if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, out);
+    if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, edited, out);
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }
 }
 }  // namespace
 
-MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt) const {
+MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                           const MatX3d* skeleton) const {
   MatX3d X(n_vertices(), 3);
-  deform(pose, opt, Eigen::Ref<MatX3d>(X));
+  deform(pose, opt, Eigen::Ref<MatX3d>(X), skeleton);
   return X;
 }
 
-void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                         Eigen::Ref<MatX3d> out) const {
-  deform_into(*impl_, n_vertices(), pose, opt, out);
+void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3d> out,
+                         const MatX3d* skeleton) const {
+  deform_into(*impl_, n_vertices(), pose, opt, skeleton, out);
 }
 
-void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                         Eigen::Ref<MatX3f> out) const {
-  deform_into(*impl_, n_vertices(), pose, opt, out);
+void SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3f> out,
+                         const MatX3d* skeleton) const {
+  deform_into(*impl_, n_vertices(), pose, opt, skeleton, out);
 }
 
 int SkeletalRig::n_vertices() const {
@@ -1164,5 +1195,6 @@ const MatX3i& SkeletalRig::control_faces() const { return impl_->control.F; }
 const MatX3d& SkeletalRig::skeleton_vertices() const { return impl_->S; }
 const VecXd& SkeletalRig::radii() const { return impl_->radii; }
 const Eigen::MatrixXd& SkeletalRig::weights() const { return impl_->W; }
+const std::vector<Mat4>& SkeletalRig::bones_rest() const { return impl_->rest; }
 
 }  // namespace dgmesh

@@ -124,7 +124,8 @@ def _multires(V, F, **kw):
 
 def _rig(V, F, **kw):
     rig = dgmesh.SkeletalRig.bind(V, F, _bones(), **kw)
-    return rig.deform(_bones()), rig.to_arrays()
+    # A wild free-form edit: the skeletal vertices in reverse order.
+    return rig.deform(_bones()), rig.deform_skeleton(rig.skeleton_vertices[::-1], _bones()), rig.to_arrays()
 
 
 def _roundtrip(V, F, ext):

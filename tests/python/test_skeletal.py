@@ -159,6 +159,48 @@ def test_basic_method_restores_thickness(rig, mesh):
     assert full < 0.05 * bare
 
 
+@pytest.fixture(scope="module")
+def flat_mesh():
+    V, F = capsule(0.5, 6.0, 32, 6, 48)
+    return V * np.array([1.0, 2.0, 1.0]), F  # cross-section 2 x 1: the medial surface is a sheet
+
+
+@pytest.mark.parametrize("control_faces", [None, 1500])
+def test_deform_skeleton_squash_thins_only_there(flat_mesh, control_faces):
+    # Free-form skeleton editing (issue #33): squash the skeletal sheet across (y) over a stretch of
+    # the limb, as a lattice would; the surface narrows there, keeps its thickness (z) and does not
+    # move elsewhere. Whole mesh and through the multiresolution layer.
+    V, F = flat_mesh
+    kw = {} if control_faces is None else {"control_faces": control_faces}
+    rig = dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS, **kw)
+    assert rig.has_multires == (control_faces is not None)
+    S = rig.skeleton_vertices
+    assert np.abs(rig.deform_skeleton(S) - V).max() < 1e-6  # the unedited skeleton is the rest mesh
+    E = S.copy()
+    E[(S[:, 0] > 0.5) & (S[:, 0] < 2.5), 1] *= 0.4
+    X = rig.deform_skeleton(E)
+    sq, far = (V[:, 0] > 1.0) & (V[:, 0] < 2.0), V[:, 0] < -1.5
+    assert np.ptp(X[sq, 1]) < 0.7 * np.ptp(V[sq, 1])
+    assert abs(np.ptp(X[sq, 2]) - np.ptp(V[sq, 2])) < 0.05 * np.ptp(V[sq, 2])
+    assert np.abs(X[far] - V[far]).max() < 1e-3 * np.ptp(V[:, 0])
+    # Editing then posing: a rigid motion of every bone moves the edited result rigidly.
+    T = rot((0.3, 1, 0.2), 0.8, pivot=(0.5, -1, 2))
+    T[:3, 3] += (1, 2, 3)
+    XT = rig.deform_skeleton(E, np.array([T @ REST[0], T @ REST[1]]))
+    assert np.abs(XT - (X @ T[:3, :3].T + T[:3, 3])).max() < 1e-6
+    # Nothing is remembered: back to the unedited skeleton, back to the rest mesh.
+    assert np.abs(rig.deform_skeleton(S) - V).max() < 1e-6
+
+
+def test_deform_skeleton_rejects_bad_skeletons(rig):
+    S = rig.skeleton_vertices
+    for bad in (S[:-1], np.c_[S, S[:, :1]], np.where(np.arange(len(S))[:, None] == 3, np.nan, S), "x"):
+        with pytest.raises(dgmesh.MeshError, match="skeleton"):
+            rig.deform_skeleton(bad)
+    with pytest.raises(dgmesh.MeshError):
+        rig.deform_control(REST, skeleton=S[:5])
+
+
 def test_save_load(rig, tmp_path):
     pose = np.array([REST[0], rot((0, 1, 1), 1.0) @ REST[1]])
     path = tmp_path / "rig.npz"

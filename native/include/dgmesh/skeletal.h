@@ -165,15 +165,27 @@ class SkeletalRig {
   SkeletalRigData data() const;
 
   // Deformed dense positions for the given pose matrices (B of them, same space as the rest ones).
-  MatX3d deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt = {}) const;
+  //
+  // `skeleton` (optional; free-form skeleton editing, thesis 6.2: any space deformation of the
+  // skeletal mesh): the skeletal vertices (n_control x 3, rest space) moved by any deformation
+  // (a lattice, hooks, sculpting the skeletal mesh). The edit comes first and the bones pose the
+  // edited skeleton (each skeletal vertex's offset from its rest position turns with its blended
+  // bone frame), so the rest pose gives the edit alone. The surface is rebuilt around it with
+  // its thickness (medial radii) kept. The bone clearance steps leave the vertices whose skeletal
+  // vertex the edit moved (and dense vertices on their faces) alone: an edit may bring flesh
+  // closer to a bone. Throws MeshError for a wrong shape or a non-finite value.
+  MatX3d deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt = {},
+                const MatX3d* skeleton = nullptr) const;
   // The same into a caller-owned (n_vertices x 3) array (the live update reuses one buffer), in
   // double or single precision (computed in double; single precision suits Blender's foreach_set;
   // through the multiresolution layer the dense thickness step reads the float32 values back).
-  void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3d> out) const;
-  void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3f> out) const;
+  void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3d> out,
+              const MatX3d* skeleton = nullptr) const;
+  void deform(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt, Eigen::Ref<MatX3f> out,
+              const MatX3d* skeleton = nullptr) const;
   // The same on the control mesh only, also returning the deformed skeletal vertices.
   MatX3d deform_control(const std::vector<Mat4>& bones_pose, const SkeletalDeformOptions& opt,
-                        MatX3d* skeleton_pose = nullptr) const;
+                        MatX3d* skeleton_pose = nullptr, const MatX3d* skeleton = nullptr) const;
 
   int n_vertices() const;  // dense
   int n_control() const;
@@ -184,6 +196,7 @@ class SkeletalRig {
   const MatX3d& skeleton_vertices() const;
   const VecXd& radii() const;
   const Eigen::MatrixXd& weights() const;  // per control vertex
+  const std::vector<Mat4>& bones_rest() const;
   // Skeletal vertices deformed by SSD (eq. 6.2) for a pose, as deform() does by default.
   MatX3d skeleton_pose(const std::vector<Mat4>& bones_pose) const;
 
