@@ -11,6 +11,12 @@ of a bound character do not draw them.
 Live update (skeletal_live.py): a hidden helper object holds each pose's offsets, which a
 geometry-nodes modifier placed first in the stack adds to the positions.
 
+Free-form skeleton editing (thesis 6.2): the skeleton object is a control object. Whatever Blender
+does to it (its mesh edited or sculpted, shape keys, Lattice, Hook, Curve or Simple Deform
+modifiers) reshapes the bound mesh around it with its thickness kept, live, alone or under the pose
+(the edit first, then the bones). It acts hidden too: the live modifier's node group refers to it,
+so every depsgraph evaluates it, renders and bakes included.
+
 The armature is found by a tag custom property bind puts on it (renames keep the binding). Bone
 motions are taken as the Armature modifier applies them in the mesh's current object space, so
 moving either object later behaves as with the modifier; a mesh whose transform relative to the
@@ -51,7 +57,8 @@ from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, Skele
 from ..skeletal_data import SCHEMA_VERSION, encode_arrays, write_pc2
 from . import bridge, compat
 from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
-from .skeletal_live import HANDLERS, edited, helper_node_group, helper_object, move_first, unbind, update_object
+from .skeletal_live import (HANDLERS, edited, helper_node_group, helper_object, link_skeleton, move_first, unbind,
+                            update_object)
 from .skeletal_space import pose_matrices, rig_space, transformed
 from .skeletal_store import (ARM_PTR, ARM_TAG, ATTR, CACHE, MOD, PROP, bind_problem, bound_armature, from_library,
                              has_binding, live_modifier, purge_orphans, rest_hash, rigs, skeleton_object, skeleton_of)
@@ -105,7 +112,8 @@ def _armature_of(context, mesh_obj):
 
 class DGMESH_OT_skeletal_show_skeleton(bpy.types.Operator):
     """Show or hide the skeletal mesh of the active bound object, coloured by medial-ball radius \
-(thesis fig. 6.8)"""
+(thesis fig. 6.8); edit it (Edit or Sculpt mode, shape keys, Lattice or Hook modifiers) to reshape \
+the mesh around it"""
 
     bl_idname = "dgmesh.skeletal_show_skeleton"
     bl_label = "Show Skeleton"
@@ -301,6 +309,7 @@ def _attach(context, obj, arm, binding, settings):
         mod.node_group = ng
         move_first(obj, mod)
         sk = skeleton_object(context, obj, rig, space)
+        link_skeleton(ng, sk)
     except Exception as exc:
         if mod is not None:
             obj.modifiers.remove(mod)

@@ -30,15 +30,16 @@ from . import compat
 from .common import editable_collections
 from .skeletal_space import inverse, pose_matrices, stored_space, transformed
 from .skeletal_store import (ARM_PTR, ARM_TAG, ATTR, HELPER_NODE, HELPER_SUFFIX, KEY, NODE_GROUP, OWNER, PROP,
-                             SKELETON_OF, bound_armature, bound_rig, helper_of, helper_users, hide_everywhere,
+                             SKELETON_NODE, SKELETON_OF, bound_armature, bound_rig, helper_of, helper_users, hide_everywhere,
                              is_bound, live_modifier, purge_orphans, release_deleted_armature, rest_hash, rigs,
-                             salvaged, state_key, target_of, uses_shape_key)
+                             salvaged, skeleton_of, state_key, target_of, uses_shape_key)
 
 _last_pose = {}     # (bind id, object name) -> bytes of the last pose matrices; per object, since a
                     # duplicated object shares the bind id but has its own attribute (and armature)
 _updating = False   # re-entrancy guard: writing the offsets tags the mesh (another depsgraph update)
 _rest_ok = {}  # (bind id, object name) -> the mesh's vertices are the ones bound (checked once per load)
 _buffers = {}  # (bind id, object name) -> (positions (n, 3), float32 (n*3,) output, float32 (n*3,) rest)
+_skeleton_rest = {}  # (bind id, object name) -> (the skeleton as its object holds it (float32), rig space)
 _failed = set()  # the console notes of failed updates printed (each once)
 _n_objects = 0  # len(bpy.data.objects) at the last update
 
@@ -181,9 +182,45 @@ def new_buffers(obj, rig):
     return np.empty((n, 3), dtype=np.float32), np.empty(3 * n, dtype=np.float32), rest
 
 
-def deformed(obj, pose):
+def skeleton_edit(obj, info, depsgraph=None):
+    """Free-form skeleton editing (thesis 6.2): the skeletal vertices in rig space as the skeleton
+    object shows them (its mesh as edited or sculpted, its shape keys and its modifiers: Lattice,
+    Hook, Curve, Simple Deform...), evaluated in ``depsgraph`` (the original mesh without one);
+    None when no vertex moved from the bound skeleton, or when the skeleton is gone or a modifier
+    changed its vertex count. The live modifier's node group refers to the skeleton object, so
+    every depsgraph evaluates it, hidden or not, renders included."""
+    sk = skeleton_of(obj)
+    if sk is None:
+        return None
+    rig = bound_rig(obj)
+    me = (sk.evaluated_get(depsgraph) if depsgraph is not None else sk).data
+    n = rig.n_control
+    if me is None or len(me.vertices) != n:
+        return None
+    key = state_key(obj, info)
+    rest = _skeleton_rest.get(key)
+    space = stored_space(info)
+    if rest is None or rest[0].shape[0] != n:
+        S = rig.skeleton_vertices
+        shown = transformed(S, inverse(space)) if space is not None else S  # as skeleton_object wrote it
+        rest = _skeleton_rest[key] = (shown.astype(np.float32), S)
+    co = np.empty(3 * n, dtype=np.float32)
+    me.vertices.foreach_get("co", co)
+    co = co.reshape(-1, 3)
+    moved = np.abs(co - rest[0]).max(axis=1) > 1e-6 * max(float(np.ptp(rest[0], axis=0).max()), 1e-30)
+    if not moved.any():
+        return None
+    edit = co.astype(np.float64)
+    if space is not None:
+        edit = transformed(edit, space)
+    edit[~moved] = rest[1][~moved]  # exactly the bound skeleton where nothing moved (float32 storage)
+    return edit
+
+
+def deformed(obj, pose, skeleton=None):
     """Deforms into the object's reused buffers: (positions (n, 3), float32 (n*3,) ready for
-    foreach_set: the positions for a legacy shape key, else the offsets from the rest positions)."""
+    foreach_set: the positions for a legacy shape key, else the offsets from the rest positions).
+    ``skeleton``: an edited skeleton (skeleton_edit)."""
     info = obj[PROP]
     rig = bound_rig(obj)
     key = state_key(obj, info)
@@ -196,14 +233,14 @@ def deformed(obj, pose):
               # files bound before the option: the linear blend
               dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')
     try:
-        rig.deform(pose, out=pos, **kw)
+        rig.deform(pose, out=pos, skeleton=skeleton, **kw)
     except (MeshError, TypeError):
         if pos.dtype != np.float32:
             raise
         # A native module without float32 output: deform in float64 from now on.
         pos = np.empty(pos.shape)
         buf = _buffers[key] = (pos, out, rest)
-        rig.deform(pose, out=pos, **kw)
+        rig.deform(pose, out=pos, skeleton=skeleton, **kw)
     space = stored_space(info)
     if space is not None:  # rig space -> the mesh's object space
         pos[:] = transformed(pos, inverse(space))
@@ -301,16 +338,17 @@ def update_object(obj, force=False, depsgraph=None):
                               bind=bind)
     else:
         pose = pose_matrices(obj, arm, names, space=space, bind=bind)
-    sig = pose.tobytes()
-    # Same pose: nothing to write, unless the helper was deleted by hand (live_target makes it
-    # again, with this pose's offsets).
+    skeleton = skeleton_edit(obj, info, depsgraph)
+    sig = pose.tobytes() + (b"" if skeleton is None else skeleton.tobytes())
+    # Same pose and skeleton: nothing to write, unless the helper was deleted by hand (live_target
+    # makes it again, with this pose's offsets).
     if not force and _last_pose.get(state_key(obj, info)) == sig and (
             target_of(info) != "HELPER" or helper_of(obj, info) is not None):
         return False
     data, prop, tagged = live_target(obj, info, adopt=depsgraph is None or depsgraph.mode != 'RENDER')
     if data is None:
         return False
-    _, co, _ = deformed(obj, pose)
+    _, co, _ = deformed(obj, pose, skeleton)
     data.foreach_set(prop, co)
     tagged.update()
     _last_pose[state_key(obj, info)] = sig
@@ -375,6 +413,7 @@ def on_load(*_args):
     rigs.clear()
     _last_pose.clear()
     _buffers.clear()
+    _skeleton_rest.clear()
     _failed.clear()
 
 
@@ -408,6 +447,18 @@ def set_position_group():
 def enabled_socket(sockets, name, kind='VECTOR'):
     """The socket of that name and type: 3.x nodes have one per data type, only the chosen enabled."""
     return next(s for s in sockets if s.name == name and s.type == kind and getattr(s, "enabled", True))
+
+
+def link_skeleton(ng, skeleton):
+    """Makes a live node group refer to the skeleton object by an unlinked Object Info node: the
+    mesh then depends on the skeleton, so every depsgraph evaluates it (modifiers included) even
+    while it is hidden, and the live update reads its edits (skeleton_edit)."""
+    node = ng.nodes.get(SKELETON_NODE)
+    if node is None:
+        node = ng.nodes.new('GeometryNodeObjectInfo')
+        node.name = node.label = SKELETON_NODE
+        node.location = (-650, -600)
+    node.inputs["Object"].default_value = skeleton
 
 
 def helper_node_group(helper):
@@ -510,8 +561,8 @@ def unbind(obj, enable_armature=True):
     property edited by hand): what its fields no longer say is found as for renamed parts, or left;
     returns the names of the fields that were unreadable."""
     info, lost = salvaged(obj)  # a copy: the ID property is deleted below
-    _last_pose.pop(state_key(obj, info), None)
-    _buffers.pop(state_key(obj, info), None)
+    for cache in (_last_pose, _buffers, _skeleton_rest):
+        cache.pop(state_key(obj, info), None)
     if uses_shape_key(info):  # bound by an earlier version
         keys = obj.data.shape_keys
         if keys and KEY in keys.key_blocks:

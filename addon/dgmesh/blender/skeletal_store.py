@@ -30,6 +30,7 @@ ARM_TAG = "dg_skeletal_rig"     # custom property of a bound armature: finds it 
 ARM_PTR = "dg_skeletal_armature"  # custom property of the mesh object: the armature (an ID pointer,
                                   # which Blender remaps when mesh and rig are duplicated together)
 HELPER_NODE = "dg_helper"       # the Object Info node of the node group (finds the helper after renames)
+SKELETON_NODE = "dg_skeleton"   # an unlinked Object Info node: makes the mesh depend on the skeleton object
 MOD = "dg_skeletal"             # geometry-nodes modifier adding the offsets to the positions
 CACHE = "dg_skeletal_cache"     # the Mesh Cache modifier skeletal_bake adds
 NODE_GROUP = "dg_skeletal"      # its node group
