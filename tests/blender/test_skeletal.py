@@ -3,6 +3,7 @@ change, basis untouched), save/reload, unbind, bake to a Mesh Cache, error cases
 
 import math
 
+import bmesh
 import bpy
 import numpy as np
 import pytest
@@ -290,6 +291,23 @@ def test_skeleton_object_drives_the_surface():
     assert np.abs(X - rig.deform_skeleton(E, **kw)).max() < 1e-4
     assert np.ptp(X[sq, 1]) < 0.7 * np.ptp(V[sq, 1])
     assert np.abs(X[far] - V[far]).max() < 1e-4
+    sk.data.vertices.foreach_set("co", S.astype(np.float32).ravel())
+    sk.data.update()
+    bpy.context.scene.frame_set(2)
+    assert np.abs(_evaluated_co(obj) - V).max() < 1e-5
+    # In Edit mode, live: the same squash through the edit-mesh.
+    assert bpy.ops.dgmesh.skeletal_show_skeleton(show=True) == {'FINISHED'}
+    for o in bpy.context.view_layer.objects:
+        o.select_set(o == sk)
+    bpy.context.view_layer.objects.active = sk
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(sk.data)
+    for v, e in zip(bm.verts, E):
+        v.co = e
+    bmesh.update_edit_mesh(sk.data)
+    bpy.context.view_layer.update()
+    assert np.abs(_evaluated_co(obj) - X).max() < 1e-4
+    bpy.ops.object.mode_set(mode='OBJECT')
     sk.data.vertices.foreach_set("co", S.astype(np.float32).ravel())
     sk.data.update()
     bpy.context.scene.frame_set(2)

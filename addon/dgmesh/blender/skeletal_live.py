@@ -193,9 +193,9 @@ def skeleton_edit(obj, info, depsgraph=None):
     if sk is None:
         return None
     rig = bound_rig(obj)
-    me = (sk.evaluated_get(depsgraph) if depsgraph is not None else sk).data
     n = rig.n_control
-    if me is None or len(me.vertices) != n:
+    co = _skeleton_co(sk.evaluated_get(depsgraph) if depsgraph is not None else sk, n)
+    if co is None:
         return None
     key = state_key(obj, info)
     rest = _skeleton_rest.get(key)
@@ -204,9 +204,6 @@ def skeleton_edit(obj, info, depsgraph=None):
         S = rig.skeleton_vertices
         shown = transformed(S, inverse(space)) if space is not None else S  # as skeleton_object wrote it
         rest = _skeleton_rest[key] = (shown.astype(np.float32), S)
-    co = np.empty(3 * n, dtype=np.float32)
-    me.vertices.foreach_get("co", co)
-    co = co.reshape(-1, 3)
     moved = np.abs(co - rest[0]).max(axis=1) > 1e-6 * max(float(np.ptp(rest[0], axis=0).max()), 1e-30)
     if not moved.any():
         return None
@@ -215,6 +212,28 @@ def skeleton_edit(obj, info, depsgraph=None):
         edit = transformed(edit, space)
     edit[~moved] = rest[1][~moved]  # exactly the bound skeleton where nothing moved (float32 storage)
     return edit
+
+
+def _skeleton_co(src, n):
+    """(n, 3) float32 vertex positions of the (evaluated) skeleton object, or None when it has not n
+    vertices. In Edit mode an evaluated mesh wraps the edit-mesh and shows no vertices until
+    converted: to_mesh() reads the edit as it is."""
+    me = src.data
+    if me is not None and len(me.vertices) == 0 and src.mode == 'EDIT' and src.is_evaluated:
+        me = src.to_mesh()
+        try:
+            return _skeleton_co_of(me, n)
+        finally:
+            src.to_mesh_clear()
+    return _skeleton_co_of(me, n)
+
+
+def _skeleton_co_of(me, n):
+    if me is None or len(me.vertices) != n:
+        return None
+    co = np.empty(3 * n, dtype=np.float32)
+    me.vertices.foreach_get("co", co)
+    return co.reshape(-1, 3)
 
 
 def deformed(obj, pose, skeleton=None):
