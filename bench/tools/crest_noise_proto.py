@@ -158,6 +158,8 @@ def run_variant(name, V, F, R, mask, N1, res1, k):
         elif name.startswith("nw"):  # normal rows down-weighted as noise grows
             f = float(name[2:])
             c, u, w, s, _, _ = jet(V, i, R[k][i], n, 3 if k == 1 else 5, normals=N1, nweight=1 / (1 + f * sig ** 2 * 1e4))
+        elif name == "wideall":  # the "wide" fit whatever the noise
+            c, u, w, s, _, _ = jet(V, i, R[min(k + 1, 3)][i], n, 3, normals=N1, sigma_w=k + 0.5)
         elif name.startswith("wide"):  # under noise: degree 3, Gaussian weights over k+1 rings, heights + normals
             kk = min(k + 1, 3) if sig > 0.01 else k
             c, u, w, s, _, _ = jet(V, i, R[kk][i], n, 3 if (k == 1 or sig > 0.01) else 5, normals=N1,
