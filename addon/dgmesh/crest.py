@@ -167,7 +167,7 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
 
 def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold,
                 ridges: bool = _CREST.ridges, valleys: bool = _CREST.valleys, jet: bool = _FIT.jet,
-                smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
+                noise_adaptive: bool = _FIT.noise_adaptive, smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
                 progress: Progress | None = None) -> CrestLines:
     """Crest lines of a triangle mesh (thesis 4.5-4.6).
 
@@ -177,10 +177,12 @@ def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, 
     strength T (eq. 4.10, scale independent) is at least ``threshold`` (default 10: the salient
     lines of typical scans; 0 keeps every line). Edges touching the mesh boundary are skipped when
     ``skip_boundary`` (the fit is one-sided there). Defaults: ``DerivativeOptions()`` and
-    ``CrestOptions()``. ``jet`` and ``smooth`` are those of :func:`curvature_derivatives`.
+    ``CrestOptions()``. ``jet``, ``noise_adaptive`` and ``smooth`` are those of
+    :func:`curvature_derivatives`.
     Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, smooth=smooth)
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, noise_adaptive=noise_adaptive,
+                       smooth=smooth)
     # Every line is traced (threshold 0, both kinds) and kept, so that filter() can bring lines back.
     trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=join_gaps,
                          skip_boundary=skip_boundary)
