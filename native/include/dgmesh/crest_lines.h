@@ -12,8 +12,8 @@
 namespace dgmesh {
 
 // DerivativeOptions::noise_adaptive: the jet fit gives way to the thesis fit when the median residual ratio
-// sqrt(v4 / v3) of the 2-ring cubic and quartic height fits exceeds this (bench/notes/crest_derivatives.md: the
-// jet's e error overtakes the thesis fit's between 0.001 and 0.005 mean-edge noise, where the ratio is 0.4-0.9).
+// sqrt(v4 / v3) of the 2-ring cubic and quartic height fits exceeds this (calibration:
+// bench/notes/crest_derivatives.md).
 constexpr double kJetNoiseRatio = 0.5;
 
 struct DerivativeOptions {
@@ -24,18 +24,18 @@ struct DerivativeOptions {
   // pass-1 normals (the adjacent-normal equations of [GI04] with better normals), degree 3 on the one-ring and 5 on
   // larger rings, so that a wider ring does not bias the third derivatives with the surface's fifth-order terms; the
   // fields are eq. 4.9 of the fitted graph at p. The four options below then do not apply (unless noise_adaptive falls
-  // back to the thesis fit). Not the default: without
-  // p->p' the crest lines of surfaces with curvature jumps change (the rounded cube's ridges leave the middle of its
-  // rounded edges). false (default): the thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by
-  // the four options below.
+  // back to the thesis fit). Not the default: on a G1 blend k_max is constant, the jet resolves that plateau (e = 0)
+  // and traces no line along the blend's middle, where the thesis fit does (the rounded cube's rounded edges).
+  // false (default): the thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by the four options
+  // below.
   bool jet = false;
   // With jet: the jet fit is used only on a mesh that does not look noisy; otherwise the thesis's fit below (the four
-  // options) is used, which is several times less sensitive to noise (its p->p' step averages the one-ring). The test
-  // (jet_noise_ratio): on an even sample of vertices, a cubic and a quartic jet are fitted to the heights of the 2-ring
-  // and their residual variances (per degree of freedom) compared; the median ratio sqrt(v4 / v3) is small when the
-  // cubic's residual is truncation error (a quartic removes most of it: 0.05-0.24 on the bench's ten exact meshes) and
-  // near 1 when it is noise (0.39-0.93 under 0.002-0.1 mean-edge Gaussian noise). Above kJetNoiseRatio the thesis fit
-  // is used. false: the jet fit whatever the noise.
+  // options) is used, which is less sensitive to noise (its p->p' step averages the one-ring). The test: on at most
+  // 2048 vertices spread evenly by index, a cubic and a quartic jet are fitted to the heights of the 2-ring and their
+  // residual variances per degree of freedom compared; the median ratio sqrt(v4 / v3) is small when the cubic's
+  // residual is truncation error (which a quartic removes) and near 1 when it is noise (which it does not). Above
+  // kJetNoiseRatio the thesis fit is used (CurvatureDerivatives::noise_ratio, jet_used). false: the jet fit whatever
+  // the noise.
   bool noise_adaptive = true;
   bool smooth = true;       // fit on M' (p' = mean of the centroids of the faces around p)
   bool use_normals = true;  // adjacent-normal equations in the fit (thesis table 4.1 "normal")
