@@ -10,6 +10,7 @@ import numpy
 
 CHECK_NO_LOOSE_VERTICES: int
 CHECK_SURFACE: int
+JET_NOISE_RATIO: float
 MAX_FEATURE_WEIGHT: float
 
 class Cancelled(Error): ...
@@ -183,6 +184,8 @@ class CurvatureDerivatives:
     t_max: numpy.ndarray  # (n, 3) unit principal direction of k_max
     t_min: numpy.ndarray  # (n, 3) unit principal direction of k_min
     normals: numpy.ndarray  # (n, 3) normals of the fitted surface
+    noise_ratio: float  # with jet: median 2-ring quartic / cubic residual ratio of the noise test (0: no evidence of noise)
+    jet_used: bool  # the jet fit was used (not the thesis fit)
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> CurvatureDerivatives: ...
 
@@ -250,6 +253,7 @@ class DerivativeOptions:
     __fields__: list[str]
     rings: int  # k of the k-ring used for the fit (thesis 1..4; 1..8 accepted)
     jet: bool  # two-pass jet fit (heights + jet normals, degree 3 / 5); false (default): the thesis's cubic fit
+    noise_adaptive: bool  # with jet: fall back to the thesis fit when the mesh looks noisy (2-ring cubic / quartic residual ratio above kJetNoiseRatio)
     smooth: bool  # fit on M' (p' = mean of the centroids of the faces around p)
     use_normals: bool  # adjacent-normal equations in the fit (table 4.1)
     fit_tangent_plane: bool  # fit the tangent plane too (linear terms; the Max normal as one more equation)

@@ -29,6 +29,8 @@ SegmentResult = _native.SegmentResult
 RIDGE = int(CrestKind.ridge)
 VALLEY = int(CrestKind.valley)
 MAX_FEATURE_WEIGHT: float = _native.MAX_FEATURE_WEIGHT  # the largest feature_weight (eta) accepted
+# noise_adaptive: above this median quartic / cubic residual ratio the jet fit gives way to the thesis fit
+JET_NOISE_RATIO: float = _native.JET_NOISE_RATIO
 
 
 
@@ -128,7 +130,7 @@ def _check_rings(rings):
 
 
 def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, jet: bool = _FIT.jet,
-                          smooth: bool = _FIT.smooth, use_normals: bool = _FIT.use_normals,
+                          noise_adaptive: bool = _FIT.noise_adaptive, smooth: bool = _FIT.smooth, use_normals: bool = _FIT.use_normals,
                           fit_tangent_plane: bool = _FIT.fit_tangent_plane,
                           transport_to_vertex: bool = _FIT.transport_to_vertex,
                           progress: Progress | None = None) -> CurvatureDerivatives:
@@ -139,7 +141,11 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
     normal of every vertex from a cubic jet fitted to the heights of its 2-ring; pass 2 fits a jet
     (free tangent plane, degree 3 on the one-ring, 5 on larger rings) to the heights of the
     ``rings``-ring and the slopes of their pass-1 normals. ``smooth``, ``use_normals``,
-    ``fit_tangent_plane`` and ``transport_to_vertex`` then do not apply.
+    ``fit_tangent_plane`` and ``transport_to_vertex`` then do not apply, unless ``noise_adaptive``
+    (default on) finds the mesh noisy: the median ratio of the residuals of quartic and cubic fits
+    to 2-ring heights exceeds ``JET_NOISE_RATIO`` (truncation error falls with the degree, noise
+    does not), and the thesis fit below is used instead. The result's ``noise_ratio`` and
+    ``jet_used`` say what happened.
 
     Default (``jet=False``): the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
     the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
@@ -153,15 +159,15 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
     coefficients ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8-4.9; their sign follows the
     direction), ``normals`` of the fitted surface.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, smooth=smooth,
-                       use_normals=use_normals, fit_tangent_plane=fit_tangent_plane,
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, noise_adaptive=noise_adaptive,
+                       smooth=smooth, use_normals=use_normals, fit_tangent_plane=fit_tangent_plane,
                        transport_to_vertex=transport_to_vertex)
     return _native.curvature_derivatives(as_vertices(V), as_faces(F), fit, progress)
 
 
 def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold,
                 ridges: bool = _CREST.ridges, valleys: bool = _CREST.valleys, jet: bool = _FIT.jet,
-                smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
+                noise_adaptive: bool = _FIT.noise_adaptive, smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
                 progress: Progress | None = None) -> CrestLines:
     """Crest lines of a triangle mesh (thesis 4.5-4.6).
 
@@ -171,10 +177,12 @@ def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, 
     strength T (eq. 4.10, scale independent) is at least ``threshold`` (default 10: the salient
     lines of typical scans; 0 keeps every line). Edges touching the mesh boundary are skipped when
     ``skip_boundary`` (the fit is one-sided there). Defaults: ``DerivativeOptions()`` and
-    ``CrestOptions()``. ``jet`` and ``smooth`` are those of :func:`curvature_derivatives`.
+    ``CrestOptions()``. ``jet``, ``noise_adaptive`` and ``smooth`` are those of
+    :func:`curvature_derivatives`.
     Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
     """
-    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, smooth=smooth)
+    fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, noise_adaptive=noise_adaptive,
+                       smooth=smooth)
     # Every line is traced (threshold 0, both kinds) and kept, so that filter() can bring lines back.
     trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=join_gaps,
                          skip_boundary=skip_boundary)
@@ -337,7 +345,7 @@ def snap_to_vertices(lines: CrestLines, V: npt.ArrayLike, F: npt.ArrayLike) -> t
     return pairs[keep].astype(np.int32), lines.segment_line[keep]
 
 
-__all__ = ["MAX_FEATURE_WEIGHT", "RIDGE", "VALLEY", "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions",
+__all__ = ["JET_NOISE_RATIO", "MAX_FEATURE_WEIGHT", "RIDGE", "VALLEY", "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions",
            "DecimateResult", "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult",
            "curvature_derivatives", "crest_lines", "crest_face_distance", "decimate_feature_defaults",
            "feature_function", "decimate", "segment", "segment_feature_defaults", "snap_to_vertices"]

@@ -69,6 +69,9 @@ void bind_crest(pb::module_& m) {
       .field("rings", &DerivativeOptions::rings, "k of the k-ring used for the fit (thesis 1..4; 1..8 accepted)")
       .field("jet", &DerivativeOptions::jet,
              "two-pass jet fit (heights + jet normals, degree 3 / 5); false (default): the thesis's cubic fit")
+      .field("noise_adaptive", &DerivativeOptions::noise_adaptive,
+             "with jet: fall back to the thesis fit when the mesh looks noisy (2-ring cubic / quartic residual ratio "
+             "above kJetNoiseRatio)")
       .field("smooth", &DerivativeOptions::smooth, "fit on M' (p' = mean of the centroids of the faces around p)")
       .field("use_normals", &DerivativeOptions::use_normals, "adjacent-normal equations in the fit (table 4.1)")
       .field("fit_tangent_plane", &DerivativeOptions::fit_tangent_plane,
@@ -83,7 +86,12 @@ void bind_crest(pb::module_& m) {
       .result("e_min", &CurvatureDerivatives::e_min, "(n,) extremality coefficient dk_min/dt_min")
       .result("t_max", &CurvatureDerivatives::t_max, "(n, 3) unit principal direction of k_max")
       .result("t_min", &CurvatureDerivatives::t_min, "(n, 3) unit principal direction of k_min")
-      .result("normals", &CurvatureDerivatives::normals, "(n, 3) normals of the fitted surface");
+      .result("normals", &CurvatureDerivatives::normals, "(n, 3) normals of the fitted surface")
+      .result("noise_ratio", &CurvatureDerivatives::noise_ratio,
+              "with jet: median 2-ring quartic / cubic residual ratio of the noise test (0: no evidence of noise)")
+      .result("jet_used", &CurvatureDerivatives::jet_used, "the jet fit was used (not the thesis fit)");
+
+  m.attr("JET_NOISE_RATIO") = kJetNoiseRatio;
 
   pb::enum_<CrestKind>(m, "CrestKind", "Kind of a crest line (CrestLines.line_kind)")
       .value("ridge", kRidge, "convex crest line")

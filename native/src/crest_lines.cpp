@@ -332,6 +332,67 @@ void fit_vertex_jet(int i, const MatX3d& V, const MatX3d& N, const Topology& top
   write_fields(i, c[0], c[1], c[2], c[3], c[4], cc, u, w, n, scale, out);
 }
 
+// Noise test of the jet fit (DerivativeOptions::noise_adaptive): on at most kSamples vertices spread evenly by
+// index, a cubic and a quartic jet fitted to the heights of the 2-ring over the Max normal's tangent plane (units of
+// the mean neighbour distance, as pass 1); returns sqrt(median v4 / median v3) of their residual variances per degree
+// of freedom over the samples where the cubic does not fit to round-off; 0 when fewer than 16 such samples have the
+// 16 neighbours a quartic needs (dof >= 2). Truncation error falls with the degree, noise does not.
+double jet_noise_ratio(const Mesh& mesh, const MatX3d& Nmax) {
+  constexpr int kSamples = 2048;
+  constexpr double kExactFit = 1e-20;  // residual variance in units of the mean neighbour distance squared
+  const int nv = mesh.topo.n_vertices;
+  const int stride = std::max(1, nv / kSamples);
+  std::vector<double> v3, v4;
+  std::vector<int> ring, mark;
+  Eigen::MatrixXd A;
+  Eigen::VectorXd z;
+  for (int i = 0; i < nv; i += stride) {
+    const Vec3 n = Nmax.row(i);
+    if (n.squaredNorm() == 0.0) continue;
+    const Vec3 u = any_perpendicular(n), w = n.cross(u), p = mesh.V.row(i);
+    k_ring(mesh.topo, i, 2, ring, mark);
+    int count = 0;
+    double mean_dist = 0.0;
+    for (size_t j = 1; j < ring.size(); ++j)
+      if (Nmax.row(ring[j]).dot(n) > 0.0) mean_dist += (Vec3(mesh.V.row(ring[j])) - p).norm(), ++count;
+    if (count < jet_size(4) + 2 || mean_dist <= 0.0) continue;
+    const double scale = count / mean_dist;
+    A.resize(count, jet_size(4));
+    z.resize(count);
+    for (size_t j = 1, r = 0; j < ring.size(); ++j) {
+      const int v = ring[j];
+      if (Nmax.row(v).dot(n) <= 0.0) continue;
+      const Vec3 d = (Vec3(mesh.V.row(v)) - p) * scale;
+      double row[20];
+      jet_row(d.dot(u), d.dot(w), 4, 0, row);
+      for (int k = 0; k < jet_size(4); ++k) A(r, k) = row[k];
+      z[r++] = d.dot(n);
+    }
+    // The quartic's monomials extend the cubic's (same order), so the cubic is the first jet_size(3) columns.
+    double var[2];
+    for (int degree : {3, 4}) {
+      const int m = jet_size(degree);
+      const auto Ad = A.leftCols(m);
+      Eigen::MatrixXd M = Ad.transpose() * Ad;
+      M.diagonal().array() += 1e-9 * (M.trace() + 1.0);
+      const Eigen::VectorXd c = M.ldlt().solve(Ad.transpose() * z);
+      var[degree - 3] = (Ad * c - z).squaredNorm() / (count - m);
+    }
+    // A cubic that fits to round-off (planar or quadric patches of exact meshes) says nothing about noise.
+    if (!(var[0] > kExactFit)) continue;
+    v3.push_back(var[0]);
+    v4.push_back(var[1]);
+  }
+  if (v3.size() < 16) return 0.0;
+  auto median = [](std::vector<double>& x) {
+    std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+    return x[x.size() / 2];
+  };
+  const double m3 = median(v3), m4 = median(v4);
+  if (!(m3 > 0.0) || !std::isfinite(m3) || !std::isfinite(m4)) return 0.0;
+  return std::sqrt(m4 / m3);
+}
+
 // Builds ordered polylines from segments; fills line_offset, line_points and segment_line.
 void build_lines(CrestLines& cl) {
   const int np = static_cast<int>(cl.points.rows());
@@ -414,8 +475,13 @@ CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOpt
   // Chunks so that progress (one thread) and cancellation happen between parallel loops.
   const int chunk = 32768;
 
+  MatX3d Nmax;
   if (opt.jet) {
-    const MatX3d Nmax = vertex_normals(mesh.V, mesh.F, topo, NormalWeights::Max);
+    Nmax = vertex_normals(mesh.V, mesh.F, topo, NormalWeights::Max);
+    out.noise_ratio = jet_noise_ratio(mesh, Nmax);
+    out.jet_used = !opt.noise_adaptive || out.noise_ratio <= kJetNoiseRatio;
+  }
+  if (out.jet_used) {
     MatX3d N(nv, 3);
     std::vector<JetScratch> scratch(std::max(1, omp_get_max_threads()));
     for (int pass = 0; pass < 2; ++pass)

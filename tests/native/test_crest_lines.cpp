@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <map>
+#include <random>
 #include <vector>
 
 #include "dgmesh/crest_lines.h"
@@ -450,4 +451,39 @@ TEST(CrestLines, JetFitIsMoreAccurateAndImprovesWithTwoRings) {
   EXPECT_LT(one[2], 0.5 * old[2]);
   EXPECT_LE(two[0], one[0]);
   EXPECT_LE(two[2], one[2]);
+}
+
+TEST(CrestLines, JetNoiseTestFallsBackToTheThesisFitUnderNoise) {
+  // DerivativeOptions::noise_adaptive: the jet fit on an exact mesh, the thesis fit (same fields as jet = false) under
+  // Gaussian noise of 0.05 mean edge length, where it is the more accurate of the two.
+  const double h = 0.30;
+  const TriMesh w = waving_disc(2.5 * M_PI, h);
+  const Mesh exact = make_mesh(w.V, w.F);
+  DerivativeOptions jet, plain, thesis;
+  jet.jet = plain.jet = true;
+  plain.noise_adaptive = false;
+  const CurvatureDerivatives clean = curvature_derivatives(exact, jet);
+  EXPECT_TRUE(clean.jet_used);
+  EXPECT_GT(clean.noise_ratio, 0.0);
+  EXPECT_LT(clean.noise_ratio, kJetNoiseRatio);
+
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0.0, 0.05 * h);
+  MatX3d V = w.V;
+  for (int i = 0; i < V.rows(); ++i)
+    for (int c = 0; c < 3; ++c) V(i, c) += noise(rng);
+  const Mesh noisy = make_mesh(V, w.F);
+  const CurvatureDerivatives adaptive = curvature_derivatives(noisy, jet);
+  EXPECT_FALSE(adaptive.jet_used);
+  EXPECT_GT(adaptive.noise_ratio, kJetNoiseRatio);
+  const CurvatureDerivatives reference = curvature_derivatives(noisy, thesis);
+  EXPECT_TRUE(adaptive.e_max == reference.e_max);
+  EXPECT_TRUE(adaptive.e_min == reference.e_min);
+  const CurvatureDerivatives alone = curvature_derivatives(noisy, plain);
+  EXPECT_TRUE(alone.jet_used);
+  // Errors against the exact fields of the unperturbed surface (noise 0.05 h moves vertices by far less than the
+  // scale of the fields).
+  const auto a = waving_errors(exact, adaptive), b = waving_errors(exact, alone);
+  EXPECT_LT(a[0], 0.6 * b[0]);
+  EXPECT_LT(a[2], 0.6 * b[2]);
 }

@@ -99,3 +99,28 @@ def test_torus_e_vanishes():
     d = dgmesh.curvature_derivatives(V, F, rings=2, jet=True)
     k = np.abs(d.k_max[mask]).max()
     assert np.abs(d.e_max[mask]).max() < 0.05 * k * k and np.abs(d.e_min[mask]).max() < 0.05 * k * k
+
+
+@pytest.mark.parametrize("name", sorted(SURFACES))
+def test_noise_test_keeps_the_jet_fit_on_exact_meshes(name):
+    (V, F), _ = SURFACES[name]
+    d = dgmesh.curvature_derivatives(V, F, rings=1, jet=True)
+    assert d.jet_used and 0 < d.noise_ratio < dgmesh.crest.JET_NOISE_RATIO, d.noise_ratio
+    plain = dgmesh.curvature_derivatives(V, F, rings=1, jet=True, noise_adaptive=False)
+    assert np.array_equal(d.e_max, plain.e_max) and np.array_equal(d.e_min, plain.e_min)
+
+
+@pytest.mark.parametrize("sigma", [0.01, 0.05])
+def test_noise_test_falls_back_to_the_thesis_fit_under_noise(sigma):
+    """Under Gaussian noise the jet fit gives way to the thesis fit, which is more accurate there."""
+    (V0, F), fields = SURFACES["waving"]
+    mask = _measured(V0, F, fields)
+    V = V0 + np.random.default_rng(7).normal(0.0, sigma * 0.29, V0.shape)
+    d = dgmesh.curvature_derivatives(V, F, rings=1, jet=True)
+    assert not d.jet_used and d.noise_ratio > dgmesh.crest.JET_NOISE_RATIO, d.noise_ratio
+    thesis = dgmesh.curvature_derivatives(V, F, rings=1)
+    assert not thesis.jet_used and thesis.noise_ratio == 0.0
+    assert np.array_equal(d.e_max, thesis.e_max) and np.array_equal(d.e_min, thesis.e_min)
+    plain = dgmesh.curvature_derivatives(V, F, rings=1, jet=True, noise_adaptive=False)
+    assert plain.jet_used
+    assert max(_errors(d, fields, mask)) < 0.6 * min(_errors(plain, fields, mask))

@@ -11,6 +11,11 @@
 
 namespace dgmesh {
 
+// DerivativeOptions::noise_adaptive: the jet fit gives way to the thesis fit when the median residual ratio
+// sqrt(v4 / v3) of the 2-ring cubic and quartic height fits exceeds this (calibration:
+// bench/notes/crest_derivatives.md).
+constexpr double kJetNoiseRatio = 0.5;
+
 struct DerivativeOptions {
   int rings = 1;  // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
   // Two-pass jet fit (opt-in; bench crest_derivatives, issue #31). Pass 1: the normal at every vertex from a cubic jet
@@ -18,11 +23,20 @@ struct DerivativeOptions {
   // 2: a jet with free linear terms fitted at the vertex p itself to the heights of its k-ring and the slopes of their
   // pass-1 normals (the adjacent-normal equations of [GI04] with better normals), degree 3 on the one-ring and 5 on
   // larger rings, so that a wider ring does not bias the third derivatives with the surface's fifth-order terms; the
-  // fields are eq. 4.9 of the fitted graph at p. The four options below then do not apply. Not the default: without
-  // p->p' the crest lines of surfaces with curvature jumps change (the rounded cube's ridges leave the middle of its
-  // rounded edges). false (default): the thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by
-  // the four options below.
+  // fields are eq. 4.9 of the fitted graph at p. The four options below then do not apply (unless noise_adaptive falls
+  // back to the thesis fit). Not the default: on a G1 blend k_max is constant, the jet resolves that plateau (e = 0)
+  // and traces no line along the blend's middle, where the thesis fit does (the rounded cube's rounded edges).
+  // false (default): the thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by the four options
+  // below.
   bool jet = false;
+  // With jet: the jet fit is used only on a mesh that does not look noisy; otherwise the thesis's fit below (the four
+  // options) is used, which is less sensitive to noise (its p->p' step averages the one-ring). The test: on at most
+  // 2048 vertices spread evenly by index, a cubic and a quartic jet are fitted to the heights of the 2-ring and their
+  // residual variances per degree of freedom compared; the median ratio sqrt(v4 / v3) is small when the cubic's
+  // residual is truncation error (which a quartic removes) and near 1 when it is noise (which it does not). Above
+  // kJetNoiseRatio the thesis fit is used (CurvatureDerivatives::noise_ratio, jet_used). false: the jet fit whatever
+  // the noise.
+  bool noise_adaptive = true;
   bool smooth = true;       // fit on M' (p' = mean of the centroids of the faces around p)
   bool use_normals = true;  // adjacent-normal equations in the fit (thesis table 4.1 "normal")
   // With use_normals: the tangent plane is fitted too. Eq. 4.7 gets the linear terms a0 x + a1 y and
@@ -43,6 +57,11 @@ struct DerivativeOptions {
 struct CurvatureDerivatives {
   VecXd k_max, k_min, e_max, e_min;
   MatX3d t_max, t_min, normals;  // normals: of the fitted surface (orthogonal to t_max, t_min)
+  // With jet: the median residual ratio of the noise test (DerivativeOptions::noise_adaptive); 0 (no evidence of
+  // noise) when fewer than 16 sampled vertices have the 16 neighbours a quartic needs and a cubic residual above
+  // round-off (planar and quadric patches of exact meshes); 0 without jet.
+  double noise_ratio = 0.0;
+  bool jet_used = false;  // the jet fit was used (jet and, with noise_adaptive, noise_ratio <= kJetNoiseRatio)
 };
 
 // Throws MeshError on invalid options. The mesh must come from make_mesh (validated).
