@@ -357,22 +357,11 @@ class Driver {
     // the hand's tip moved 2 edges of the linear start's 9.6).
     const double lin_away = declined_.rows() == w.P.rows() ? max_move(P_in, declined_) : 0.0;
     if (try_lin && !lin && lin_away > 1.0 && r.max_move < 0.25 * lin_away && !out_of_budget(r.iterations)) {
-      const MatX3d P_flow = w.P;
       w.P = declined_;
       compute_geometry(w.P, w.F, w.topo, g_);
       energy_.push_back(energy_of(w, g_));
       LevelReport r2 = finish_level(run_curvature_flow(w, r.iterations + 1, false), w, P_in, e_in);
       r2.linear_start = r2.restarted = true;
-      // A restart that ends above twice the energy the input's flow reached restored nothing: camel's
-      // tip had a linear start of energy 4278 (the flat: 33) that the flow left after 10 iterations,
-      // farther from the original than the flat. The input's flow is kept (and its stall reported).
-      if (!(r2.e_end <= 2 * std::max(r.e_end, 0.0))) {
-        w.P = P_flow;
-        compute_geometry(w.P, w.F, w.topo, g_);
-        energy_.push_back(r.e_end);
-        r.iterations = r2.iterations;
-        return r;
-      }
       return r2;
     }
     return r;

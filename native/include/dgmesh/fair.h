@@ -99,9 +99,7 @@ struct FairResult {
   // one mean edge length away: the flow stalled at a discrete minimum near the input (a flattened or dented region
   // whose crease along the fixed rim costs little of sum H^2 A at the mesh's resolution). The level was then run again
   // from the linearised minimiser (energy[] jumps up there), and its result kept even when its
-  // energy ends above the input's, unless above twice the energy the flow from the input reached
-  // (then that flow's result is returned, energy[] ending on it, and restarted stays false). Only with linear_start
-  // (Willmore, Laplacian of H, fixed vertices).
+  // energy ends above the input's. Only with linear_start (Willmore, Laplacian of H, fixed vertices).
   bool restarted = false;
   FairStall stall = FairStall::None;  // see FairStall; over independent parts: the worst part's
 };
