@@ -66,6 +66,15 @@ class FairScheme:
     value: int
     def __init__(self, value: int) -> None: ...
 
+class FairStall:
+    """Whether fair()'s flow changed the region (FairResult.stall)"""
+    none: FairStall
+    no_descent: FairStall
+    no_change: FairStall
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
 class RemeshBoundary:
     """The chart's boundary in remesh()"""
     keep: RemeshBoundary
@@ -295,6 +304,8 @@ class FairResult:
     lam: float  # last H rescaling factor (thesis 3.1), 1 when H^2 >= K everywhere
     linear_start: bool  # the flow started from the linearised minimiser
     energy_rose: bool  # some level ended above its start energy and returned its lowest-energy state
+    restarted: bool  # the flow from the input stalled at a discrete minimum and was restarted from the linearised minimiser
+    stall: FairStall  # none, or why the flow did not change the region (FairStall)
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> FairResult: ...
 

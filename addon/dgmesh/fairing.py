@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from .core import Progress, _native, as_choice, as_count, as_faces, as_mask, as_real, as_vertices, make_options
 
-__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "RegularizeOptions", "fair",
+__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "FairStall", "RegularizeOptions", "fair",
            "defaults", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
 # The contract is the C++ one (dgmesh/fair.h), bound as it is: the options with their defaults,
@@ -22,6 +22,7 @@ FairResult = _native.FairResult
 FairMethod = _native.FairMethod
 FairScheme = _native.FairScheme
 FairBoundary = _native.FairBoundary
+FairStall = _native.FairStall
 RegularizeOptions = _native.RegularizeOptions
 _D = FairOptions()
 _R = RegularizeOptions()
@@ -96,7 +97,13 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     ``level_iterations``, ``converged``, ``lam`` (the last H rescaling factor), ``linear_start``
     (the flow started from the linearised minimiser, counted as iteration 1), ``energy_rose``
     (some level ended above its start energy, a mesh the flow cannot improve: slivers,
-    fan-triangulated caps; that level's lowest-energy state was returned) and ``subdivided``.
+    fan-triangulated caps; that level's lowest-energy state was returned), ``restarted`` (the flow
+    from the input moved no vertex by a quarter of the way to the linearised minimiser, which lies
+    over an edge away: a flattened or dented region, a discrete minimum whose crease along the fixed rim costs
+    little energy; the level was run again from the linearised minimiser and kept, even above the
+    input's energy), ``stall`` (a :class:`FairStall`: "none", or "no_descent" when no vertex moved,
+    "no_change" when no level lowered its energy by 10 x tolerance: the flow did not change the
+    region; a larger region, ``refine``/``subdivisions`` or another method may) and ``subdivided``.
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))

@@ -29,6 +29,11 @@ void bind_fair(pb::module_& m) {
       .value("explicit", FairScheme::Explicit, "the thesis's forward Euler step (3.8), tau = A_min^2/150")
       .value("semi_implicit", FairScheme::SemiImplicit,
              "preconditioned by a linearised implicit bi-Laplacian step: same fixed points, far larger steps");
+  pb::enum_<FairStall>(m, "FairStall", "Whether fair()'s flow changed the region (FairResult.stall)")
+      .value("none", FairStall::None, "some level lowered the energy (bilaplacian: moved a vertex), or was restarted")
+      .value("no_descent", FairStall::NoDescent, "no vertex moved: no step lowered the energy from the start")
+      .value("no_change", FairStall::NoChange,
+             "vertices moved, but no level lowered its energy by more than 10 x tolerance");
   pb::enum_<FairBoundary>(m, "FairBoundary", "Mesh-boundary vertices in fair() and regularize()")
       .value("fixed", FairBoundary::Fixed, "do not move")
       .value("sliding", FairBoundary::Sliding, "slide along the (original) boundary polyline");
@@ -64,6 +69,9 @@ void bind_fair(pb::module_& m) {
       .result("linear_start", &FairResult::linear_start, "the flow started from the linearised minimiser")
       .result("energy_rose", &FairResult::energy_rose,
               "some level ended above its start energy and returned its lowest-energy state")
+      .result("restarted", &FairResult::restarted,
+              "the flow from the input stalled at a discrete minimum and was restarted from the linearised minimiser")
+      .result("stall", &FairResult::stall, "none, or why the flow did not change the region (FairStall)")
       .cls()
       .def_property_readonly(
           "subdivided",

@@ -311,6 +311,9 @@ struct LevelReport {
   double lambda = 1.0;
   bool linear_start = false;
   bool energy_rose = false;
+  bool restarted = false;
+  double e_start = 0, e_end = 0;  // the level's energy before anything moved and at its end
+  double max_move = 0;            // largest move of a vertex over the level (mean edge lengths)
 };
 
 class Driver {
@@ -335,19 +338,49 @@ class Driver {
     any_free_ = std::find(free_comp_.begin(), free_comp_.end(), 1) != free_comp_.end();
     keep_size_ = opt_.keep_size && opt_.method != FairMethod::Bilaplacian && any_free_;
     if (keep_size_) place_and_size(w.P, w.F, w.topo, comp_center_, comp_area_);
-    if (opt_.method == FairMethod::Bilaplacian) return run_bilaplacian(w);
+    const MatX3d P_in = w.P;
+    compute_geometry(w.P, w.F, w.topo, g_);
+    const double e_in = energy_of(w, g_);
+    declined_.resize(0, 3);
+    if (opt_.method == FairMethod::Bilaplacian) return finish_level(run_bilaplacian(w), w, P_in, e_in);
     // The linear start is tried on the first level with movable vertices (a fill without inner
     // vertices only gets them by subdivision) and counts as that level's first iteration.
     const bool try_lin = opt_.linear_start && !tried_linear_ && nm_ > 0 && opt_.max_iterations > 0;
     tried_linear_ = tried_linear_ || try_lin;
     const bool lin = try_lin && linear_start(w);
     const bool sub = !lin && first_new > 0 && !out_of_budget(0) && subdivision_start(w, first_new);
-    LevelReport r = run_curvature_flow(w, lin || sub ? 1 : 0, sub);
+    LevelReport r = finish_level(run_curvature_flow(w, lin || sub ? 1 : 0, sub), w, P_in, e_in);
     r.linear_start = lin;
+    // Restart from the declined linear start when the flow from the input stalled at a discrete
+    // minimum near it (FairResult::restarted): a flattened region of a scan whose crease along the
+    // fixed rim is cheap at the mesh's resolution (issue 30: elephant, bull, camel tips stayed put;
+    // the hand's tip moved 2 edges of the linear start's 9.6).
+    const double lin_away = declined_.rows() == w.P.rows() ? max_move(P_in, declined_) : 0.0;
+    if (try_lin && !lin && lin_away > 1.0 && r.max_move < 0.25 * lin_away && !out_of_budget(r.iterations)) {
+      w.P = declined_;
+      compute_geometry(w.P, w.F, w.topo, g_);
+      energy_.push_back(energy_of(w, g_));
+      LevelReport r2 = finish_level(run_curvature_flow(w, r.iterations + 1, false), w, P_in, e_in);
+      r2.linear_start = r2.restarted = true;
+      return r2;
+    }
     return r;
   }
 
  private:
+  double max_move(const MatX3d& A, const MatX3d& B) const {
+    double m = 0;
+    for (int v = 0; v < w_rows(A, B); ++v) m = std::max(m, (A.row(v) - B.row(v)).squaredNorm());
+    return std::sqrt(m);
+  }
+  static int w_rows(const MatX3d& A, const MatX3d& B) { return static_cast<int>(std::min(A.rows(), B.rows())); }
+  LevelReport finish_level(LevelReport r, Work& w, const MatX3d& P_in, double e_in) {
+    compute_geometry(w.P, w.F, w.topo, g_);
+    r.e_start = e_in;
+    r.e_end = energy_of(w, g_);
+    r.max_move = max_move(P_in, w.P);
+    return r;
+  }
   bool out_of_budget(int it) const {
     return it >= opt_.max_iterations || (opt_.max_seconds > 0 && clock_.seconds() > opt_.max_seconds);
   }
@@ -569,6 +602,7 @@ class Driver {
     compute_geometry(w.P, w.F, w.topo, g_);
     const double e1 = energy_of(w, g_);
     if (!(e1 < e0) || g_.farea.minCoeff() <= 1e-12) {
+      if (g_.farea.minCoeff() > 1e-12 && std::isfinite(e1)) declined_ = w.P;  // a regular mesh: see run()
       w.P = P0;
       compute_geometry(w.P, w.F, w.topo, g_);
       return false;
@@ -890,6 +924,7 @@ class Driver {
   int level_ = 0, levels_ = 0, nm_ = 0;
   std::vector<double> accepted_;
   bool tried_linear_ = false;
+  MatX3d declined_;  // a minimiser take_if_lower declined (higher energy, regular mesh), else empty
   double h_ = 1, t_acc_ = 0, e_mark_ = 0;
   std::vector<int> movable_idx_;
   std::vector<char> free_comp_;  // components whose every vertex moves (see remove_translation)
@@ -961,6 +996,7 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
   VecXi origin = VecXi::LinSpaced(ms0, 0, ms0 - 1);  // working face -> level-0 working face
   Driver driver(opt, progress, clock, res.energy);
   bool first_energy = true;
+  bool any_flow = false, any_moved = false, any_lowered = false;  // over the levels (FairStall)
   if (opt.refine && !whole) {
     // Liepa refinement of the region before the flow; its new vertices move.
     RegionSubdivision rs = refine_region(w.P, w.F, w.region);
@@ -1010,6 +1046,13 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
     res.lambda = rep.lambda;
     res.linear_start = res.linear_start || rep.linear_start;
     res.energy_rose = res.energy_rose || rep.energy_rose;
+    res.restarted = res.restarted || rep.restarted;
+    any_flow = true;
+    any_moved = any_moved || rep.max_move > 1e-6;
+    const bool lowered = opt.method == FairMethod::Bilaplacian
+                             ? rep.max_move > 1e-6
+                             : rep.e_end < rep.e_start - 10 * opt.tolerance * std::abs(rep.e_start);
+    any_lowered = any_lowered || lowered || rep.restarted;
     if (opt.max_seconds > 0 && clock.seconds() > opt.max_seconds && level < levels) {
       // Out of time: still refine (so the output has the requested resolution), without flow.
       continue;
@@ -1019,6 +1062,7 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
     throw MeshError(
         "nothing to fair: every selected vertex is on the border of the selection or the mesh boundary; "
         "select the region's interior or add subdivisions");
+  if (any_flow && !any_lowered) res.stall = any_moved ? FairStall::NoChange : FairStall::NoDescent;
   if (res.energy.empty()) {  // a whole mesh with nothing to move (every vertex on a fixed boundary)
     Geo g;
     compute_geometry(w.P, w.F, w.topo, g);
@@ -1187,6 +1231,9 @@ FairResult fair_parts(const MatX3d& V, const MatX3i& F, const FairOptions& opt,
     out.lambda = std::min(out.lambda, r.lambda);
     out.linear_start = out.linear_start || r.linear_start;
     out.energy_rose = out.energy_rose || r.energy_rose;
+    out.restarted = out.restarted || r.restarted;
+    if (r.stall == FairStall::NoDescent || (r.stall == FairStall::NoChange && out.stall == FairStall::None))
+      out.stall = r.stall;
   }
   return out;
 }

@@ -1,6 +1,8 @@
 """dgmesh.fair and dgmesh.regularize in Blender: the hole workflow a user follows, UVs of the
 untouched faces, Object mode, errors and undo."""
 
+import sys
+
 import bmesh
 import bpy
 import mathutils
@@ -719,3 +721,77 @@ def test_new_vertices_and_corners_take_2d_vector_boolean_and_byte_attributes():
     cxy = _attribute(mesh, "cxy", "vector", 2, np.float32)
     assert np.abs(cxy[corners] - V2[lv2[corners], :2]).max() < 0.05
     assert _attribute(mesh, "cup", "value", 1, bool)[corners].all()
+
+
+def _select_faces_in_edit_mode(obj, faces):
+    bpy.ops.object.mode_set(mode='EDIT')
+    bm = bmesh.from_edit_mesh(obj.data)
+    bm.faces.ensure_lookup_table()
+    for f in bm.faces:
+        f.select = bool(faces[f.index])
+    bm.select_flush(True)
+    bmesh.update_edit_mesh(obj.data)
+
+
+def test_fair_says_so_when_it_cannot_change_the_selection(capsys):
+    """Never a silent no-op (issue 30): a flat grid's faces are already a minimum of the bending
+    energy; Fair leaves them and its report says that nothing moved and what would help (it said
+    '0 vertices moved' and nothing else)."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=10, y_subdivisions=10, size=2)
+    obj = bpy.context.active_object
+    before = _positions(obj.data)
+    _select_faces_in_edit_mode(obj, np.ones(len(obj.data.polygons), dtype=bool))
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    out = capsys.readouterr().out
+    assert "nothing moved" in out and "select a larger region" in out and "Refine or Subdivisions" in out, out
+    assert np.abs(_positions(obj.data) - before).max() < 1e-6
+
+
+def _flattened_elephant_tip():
+    """elephant.off (CGAL data) with issue 30's damage (bench fair_stall's): the 6% of the vertices
+    geodesically nearest to its tip projected onto their rim's least-squares plane, the faces touching
+    them selected in Edit mode. Returns (obj, original V, F, patch mask)."""
+    from helpers import make_fixtures
+    bpy.ops.wm.read_homefile(use_empty=True)
+    try:
+        obj = make_fixtures.load_cgal_object("elephant")
+    except FileNotFoundError as exc:
+        pytest.skip(str(exc))
+    V = _positions(obj.data)
+    F = np.array([p.vertices[:] for p in obj.data.polygons])
+    from helpers import REPO
+    sys.path.insert(0, str(REPO))
+    from bench.workloads.fair import damage, region_centre, vertex_ball  # the fair_stall workload's damage
+    patch = vertex_ball(V, F, region_centre(V, F, "tip"), int(0.06 * len(V)))
+    W = damage(V, F, patch, "flat")
+    obj.data.vertices.foreach_set("co", W.astype(np.float32).ravel())
+    obj.data.update()
+    select(obj.name)
+    _select_faces_in_edit_mode(obj, patch[F].any(axis=1))
+    return obj, V, F, patch
+
+
+def test_fair_in_edit_mode_moves_a_flattened_scan_tip(capsys):
+    """Issue 30: Fair with defaults on a flattened tip of a scan (faces touching it selected, the
+    border fixed) did not move it ('stalled', 0 vertices moved). Now the region moves towards the
+    original and the report says the flow was restarted; with Linear Start off (the thesis's flow
+    from the selection) nothing moves and the report says so."""
+    obj, V, F, patch = _flattened_elephant_tip()
+    flat = _positions(obj.data)
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, linear_start=False) == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    out = capsys.readouterr().out
+    assert "nothing moved" in out and "select a larger region" in out, out
+    assert np.abs(_positions(obj.data) - flat).max() < 1e-6
+    bpy.ops.object.mode_set(mode='EDIT')
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, linear_start=True) == {'FINISHED'}  # the default
+    bpy.ops.object.mode_set(mode='OBJECT')
+    out = capsys.readouterr().out
+    assert "restarted from the linear start" in out and "nothing moved" not in out, out
+    from bench.workloads.fair import patch_distances  # Metro-style mean distance, both ways
+    region = patch[F].any(axis=1)
+    d_flat = patch_distances(V, F, region, flat, F, region)[0]
+    d_got = patch_distances(V, F, region, _positions(obj.data), F, region)[0]
+    assert d_got < 0.7 * d_flat, (d_got, d_flat)

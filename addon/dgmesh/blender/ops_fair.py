@@ -317,7 +317,20 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             e0, e1 = float(r.energy[0]), float(r.energy[-1])
             n = len(t.arrays.V)
             moved = polymesh.moved_count(r.vertices[:n], t.arrays.V)
-            if r.energy_rose and self.method == 'BILAPLACIAN':
+            stall = r.stall.name
+            if stall != "none":
+                # Never a silent no-op (issue 30): say that the flow did not change the region, why,
+                # and what helps.
+                level = 'WARNING'
+                status = (" (nothing moved: " if stall == "no_descent" else
+                          " (the bending energy did not go down: ")
+                status += ("the selection is already at the bilaplacian flow's steady state; try Willmore)"
+                           if self.method == 'BILAPLACIAN' else
+                           "the flow cannot lower the bending energy from the start, a minimum of the discrete "
+                           "energy at this resolution (e.g. a flattened patch whose crease along the fixed border "
+                           "costs little); select a larger region, turn on Refine or Subdivisions, or use the "
+                           "Bilaplacian method)")
+            elif r.energy_rose and self.method == 'BILAPLACIAN':
                 level = 'WARNING'
                 status = (" (the bilaplacian flow shrinks a closed part towards a point: its lowest-energy state "
                           "was kept; use Willmore to fair closed parts)")
@@ -331,6 +344,9 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
                 status = " (iteration budget reached)"
             else:
                 status = " (stopped before the tolerance: the flow stalled)"
+            if r.restarted:
+                status += (" (restarted from the linear start: the flow from the selection stalled at a minimum of "
+                           "the discrete energy; the result may end above its energy)")
             mods = _modifier_note(t)
             energy = f"bending energy {e0:.4g} \u2192 {e1:.4g}"
             levels = r.level_iterations

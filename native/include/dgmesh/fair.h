@@ -68,6 +68,14 @@ struct FairOptions {
   bool keep_size = true;
 };
 
+// Whether the flow changed the region (FairResult::stall). A flow that cannot lower the discrete
+// energy from its start says so instead of returning the input as if it were done.
+enum class FairStall {
+  None,       // some level lowered the energy (bilaplacian: moved a vertex), or was restarted (see restarted)
+  NoDescent,  // no vertex moved (by 1e-6 mean edge lengths): no step lowered the energy from the start
+  NoChange,   // vertices moved, but no level lowered its energy by more than 10 x tolerance (relative)
+};
+
 // The defaults of a scheme: FairOptions{} (semi-implicit, 300 iterations per level) for SemiImplicit;
 // for Explicit the thesis's small steps (tau = A_min^2/150) with 5000 iterations per level.
 FairOptions fair_defaults(FairScheme scheme);
@@ -86,6 +94,14 @@ struct FairResult {
   // Some level's flow ended above the energy it started from (a mesh the flow cannot improve:
   // slivers, fan-triangulated caps); that level returned its lowest-energy state instead.
   bool energy_rose = false;
+  // The flow from the input (linear start declined: it raised the energy) moved no vertex by a
+  // quarter of the distance (largest vertex move) to the linearised minimiser, which lies more than
+  // one mean edge length away: the flow stalled at a discrete minimum near the input (a flattened or dented region
+  // whose crease along the fixed rim costs little of sum H^2 A at the mesh's resolution). The level was then run again
+  // from the linearised minimiser (energy[] jumps up there), and its result kept even when its
+  // energy ends above the input's. Only with linear_start (Willmore, Laplacian of H, fixed vertices).
+  bool restarted = false;
+  FairStall stall = FairStall::None;  // see FairStall; over independent parts: the worst part's
 };
 
 /// Fairs V, F by the flow of `opt.method` (thesis eq. 3.5-3.12), the whole mesh or a region.
