@@ -874,7 +874,8 @@ def _peer_lane(models):
         metrics = _peer_metrics(out, result, models)
         m = machine()
         PEER_RECORD.write_text(json.dumps(dict(blender=result["blender"], date=m["date"], commit=m["commit"],
-                                               command=" ".join(cmd[1:]), metrics=metrics), indent=1))
+                                               command=" ".join(["bash", "scripts/lanes.sh", *cmd[2:]]),
+                                               metrics=metrics), indent=1))
         return result["blender"], metrics, "measured in this run"
     rec = json.loads(PEER_RECORD.read_text())
     return rec["blender"], rec["metrics"], f"recorded {rec['date']} at commit {rec['commit']} (lane not run)"
