@@ -416,3 +416,16 @@ def test_stretch_minimisation_never_raises_stretch_nor_flips(cgal, name):
     assert m.stretch_l2 < off.final.stretch_l2
     assert m.flipped == 0 and m.zero_area == 0
     assert m.stretch_l2 == pytest.approx(r.final.stretch_l2, rel=1e-12)
+
+
+def test_stretch_minimisation_reports_progress_and_cancels():
+    # The equalization reports 0 .. 0.4, the minimisation 0.4 .. 1 (throttled: its start and end
+    # always); a cancel inside it stops the call.
+    V, F = hemisphere(level=3)
+    seen = []
+    r = dgmesh.unwrap(V, F, progress=lambda f: seen.append(f) or True)
+    assert r.stretch_step == len(r.steps) - 1
+    assert seen == sorted(seen) and seen[0] == 0.0 and seen[-1] == 1.0
+    assert 0.4 in seen
+    with pytest.raises(dgmesh.Cancelled):
+        dgmesh.unwrap(V, F, progress=lambda f: f <= 0.4)

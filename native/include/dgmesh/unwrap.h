@@ -6,7 +6,9 @@
 // every other vertex by a convex-combination solve (eq. 5.2-5.3); each equalization step divides
 // the weights by the vertex stretch (eq. 5.1, 5.4, 5.6) and solves again. Inner boundary loops
 // (holes) are filled by a virtual fan for the solves, so they stay open and Tutte's theorem still
-// applies (thesis 5.5, first option).
+// applies (thesis 5.5, first option). Beyond the thesis, a final direct minimisation of eq. 5.5
+// with an injectivity barrier (UnwrapOptions::stretch_iterations, uv_stretch_opt.h) starts from the
+// chosen map.
 #pragma once
 #include <string>
 #include <vector>
