@@ -534,6 +534,8 @@ class UnwrapOptions:
     zero_area_eps: float  # a UV triangle has zero area at |A(U)| <= this * sum |A(U)|
     stretch_cap: float  # triangle stretches above this are clipped in eq. 5.1
     slide_boundary: bool  # every step also slides the outer boundary vertices along the polygon (beyond the thesis)
+    stretch_iterations: int  # Newton steps of the final direct minimisation of eq. 5.5 with an injectivity barrier, 0 = off (beyond the thesis)
+    stretch_tolerance: float  # the minimisation stops after a step lowering eq. 5.5 by less than this fraction
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> UnwrapOptions: ...
 
@@ -543,8 +545,9 @@ class UnwrapResult:
     __fields__: list[str]
     uv: numpy.ndarray  # (n, 2) the returned map, in [0, 1]^2
     uv_initial: numpy.ndarray  # (n, 2) U0, the start of the equalization
-    steps: list  # steps[h] is U^h (U0 first); for Uopt the last may be the rejected step
+    steps: list  # steps[h] is U^h (U0 first); for Uopt the last may be the rejected step; the stretch minimisation's map, when kept, is the last (stretch_step)
     chosen: int  # index into steps of the returned map
+    stretch_step: int  # index into steps of the final stretch minimisation's map (the last); -1: off, not run or not kept
     boundary_used: UvBoundary  # the boundary used (see warnings for fallbacks)
     boundary_convex: bool  # the fixed polygon is convex (then no flips)
     n_holes: int  # inner boundary loops, kept open
@@ -560,7 +563,7 @@ class UnwrapStep:
     __fields__: list[str]
     metrics: UvMetrics  # U0 and the returned map: all of thesis 5.3; other steps: edge and angle NaN (not computed)
     seconds: float  # wall time of the step (solve and metrics)
-    solver_iterations: int  # BiCGSTAB iterations (0 for direct solvers)
+    solver_iterations: int  # BiCGSTAB iterations (0 for direct solvers; Newton steps for the stretch minimisation)
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> UnwrapStep: ...
 

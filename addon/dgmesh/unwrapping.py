@@ -47,13 +47,15 @@ _D = UnwrapOptions()
 
 
 def thesis_defaults() -> UnwrapOptions:
-    """The thesis's setting (chapter 5): unit square, Floater's weights, eta 1, the boundary fixed.
+    """The thesis's setting (chapter 5): unit square, Floater's weights, eta 1, the boundary fixed,
+    no final stretch minimisation.
     For :func:`unwrap`: ``t = thesis_defaults(); unwrap(V, F, boundary=t.boundary, weights=t.weights,
-    eta=t.eta, slide_boundary=t.slide_boundary)``."""
+    eta=t.eta, slide_boundary=t.slide_boundary, stretch_iterations=t.stretch_iterations)``."""
     return _native.unwrap_thesis_defaults()
 
 
-def _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver):
+def _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver,
+             stretch_iterations):
     """UnwrapOptions from the keywords of unwrap() ("optimal" is iterations -1)."""
     if isinstance(iterations, str) and iterations == "optimal":
         iterations = -1
@@ -65,14 +67,16 @@ def _options(boundary, weights, eta, iterations, slide_boundary, max_iterations,
     return make_options(UnwrapOptions(), boundary=boundary, weights=weights, eta=eta, iterations=iterations,
                         slide_boundary=slide_boundary,
                         max_iterations=None if max_iterations is None else as_count(max_iterations, "max_iterations"),
-                        min_improvement=min_improvement, solver=solver)
+                        min_improvement=min_improvement, solver=solver,
+                        stretch_iterations=None if stretch_iterations is None
+                        else as_count(stretch_iterations, "stretch_iterations"))
 
 
 def unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, boundary: str | UvBoundary = _D.boundary.name,
            weights: str | UvWeights = _D.weights.name, eta: float = _D.eta, iterations: int | str = _D.iterations,
            slide_boundary: bool = _D.slide_boundary, max_iterations: int = _D.max_iterations,
            min_improvement: float = _D.min_improvement, solver: str | UvSolver = _D.solver.name,
-           progress: Progress | None = None) -> UnwrapResult:
+           stretch_iterations: int = _D.stretch_iterations, progress: Progress | None = None) -> UnwrapResult:
     """Low-stretch parameterization of one disk-like chart (thesis chapter 5).
 
     V: (n, 3) vertex positions, F: (m, 3) triangles (one connected piece of genus 0 with at least
@@ -96,12 +100,16 @@ def unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, boundary: str | UvBoundary = _
     solver: "auto" (UMFPACK up to 1000 vertices, multigrid above), "umfpack", "sparselu",
         "bicgstab" (warm-started BiCGSTAB + ILUT) or "multigrid" (warm-started BiCGSTAB with a
         smoothed-aggregation multigrid preconditioner).
+    stretch_iterations: beyond the thesis: at most this many Newton steps of a final direct
+        minimisation of the L2 stretch (eq. 5.5) with an injectivity barrier, from the map above
+        (free boundary); kept only if it lowers the L2 stretch with no flipped or zero-area
+        triangle, as the last entry of ``steps`` (``stretch_step`` its index). 0 turns it off.
     progress: optional callable(fraction) -> bool; returning False raises :class:`Cancelled`.
 
     Returns :class:`UnwrapResult`: ``uv`` (n, 2) the returned map in [0, 1]^2, ``uv_initial`` U0,
     ``steps`` (``steps[h]`` is U^h: ``metrics`` (:class:`UvMetrics`), ``seconds``,
     ``solver_iterations``; every step carries every metric; for Uopt the last may be the rejected
-    step), ``chosen`` (index of
+    step; the stretch minimisation's map, when kept, is the last), ``chosen`` (index of
     the returned map; ``final`` and ``initial`` are its and U0's metrics), ``boundary_used``,
     ``boundary_convex`` (then no triangle can flip), ``n_holes`` (inner loops, kept open),
     ``corners`` (vertices at the square's corners (0,0), (1,0), (1,1), (0,1)), ``warnings``
@@ -112,7 +120,8 @@ def unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, boundary: str | UvBoundary = _
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
-    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver)
+    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver,
+                 stretch_iterations)
     return _native.unwrap(V, F, o, progress)
 
 
@@ -120,7 +129,8 @@ def unwrap_charts(V: npt.ArrayLike, F: npt.ArrayLike, charts: npt.ArrayLike, *,
                   boundary: str | UvBoundary = _D.boundary.name, weights: str | UvWeights = _D.weights.name,
                   eta: float = _D.eta, iterations: int | str = _D.iterations, slide_boundary: bool = _D.slide_boundary,
                   max_iterations: int = _D.max_iterations, min_improvement: float = _D.min_improvement,
-                  solver: str | UvSolver = _D.solver.name, progress: Progress | None = None) -> UnwrapChartsResult:
+                  solver: str | UvSolver = _D.solver.name, stretch_iterations: int = _D.stretch_iterations,
+                  progress: Progress | None = None) -> UnwrapChartsResult:
     """Every chart of a mesh in one call: ``charts`` (m,) labels the triangles 0 .. k-1 (every
     label used), and chart c (the triangles labelled c) is unwrapped as :func:`unwrap` unwraps it
     alone (its vertices in increasing order of their index in V, its triangles in the order of F).
@@ -139,7 +149,8 @@ def unwrap_charts(V: npt.ArrayLike, F: npt.ArrayLike, charts: npt.ArrayLike, *,
     labels = np.asarray(charts)
     if labels.shape != (len(F),) or (labels.size and not np.issubdtype(labels.dtype, np.integer)):
         raise MeshError(f"charts must be one integer label per triangle ({len(F)},), got {labels.shape} {labels.dtype}")
-    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver)
+    o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver,
+                 stretch_iterations)
     return _native.unwrap_charts(V, F, np.ascontiguousarray(labels, dtype=np.int32), o, progress)
 
 

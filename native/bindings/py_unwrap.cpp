@@ -49,7 +49,12 @@ void bind_unwrap(pb::module_& m) {
              "a UV triangle has zero area at |A(U)| <= this * sum |A(U)|")
       .field("stretch_cap", &UnwrapOptions::stretch_cap, "triangle stretches above this are clipped in eq. 5.1")
       .field("slide_boundary", &UnwrapOptions::slide_boundary,
-             "every step also slides the outer boundary vertices along the polygon (beyond the thesis)");
+             "every step also slides the outer boundary vertices along the polygon (beyond the thesis)")
+      .field("stretch_iterations", &UnwrapOptions::stretch_iterations,
+             "Newton steps of the final direct minimisation of eq. 5.5 with an injectivity barrier, 0 = off "
+             "(beyond the thesis)")
+      .field("stretch_tolerance", &UnwrapOptions::stretch_tolerance,
+             "the minimisation stops after a step lowering eq. 5.5 by less than this fraction");
   m.def("unwrap_thesis_defaults", &unwrap_thesis_defaults,
         "The thesis's setting: the unit square, Floater's weights, eta 1, the boundary fixed");
 
@@ -67,13 +72,18 @@ void bind_unwrap(pb::module_& m) {
       .result("metrics", &UnwrapStep::metrics,
               "U0 and the returned map: all of thesis 5.3; other steps: edge and angle NaN (not computed)")
       .result("seconds", &UnwrapStep::seconds, "wall time of the step (solve and metrics)")
-      .result("solver_iterations", &UnwrapStep::solver_iterations, "BiCGSTAB iterations (0 for direct solvers)");
+      .result("solver_iterations", &UnwrapStep::solver_iterations,
+              "BiCGSTAB iterations (0 for direct solvers; Newton steps for the stretch minimisation)");
 
   Struct<UnwrapResult>(m, "UnwrapResult", "Result of unwrap()")
       .result("uv", &UnwrapResult::uv, "(n, 2) the returned map, in [0, 1]^2")
       .result("uv_initial", &UnwrapResult::uv_initial, "(n, 2) U0, the start of the equalization")
-      .result("steps", &UnwrapResult::steps, "steps[h] is U^h (U0 first); for Uopt the last may be the rejected step")
+      .result("steps", &UnwrapResult::steps,
+              "steps[h] is U^h (U0 first); for Uopt the last may be the rejected step; the stretch "
+              "minimisation's map, when kept, is the last (stretch_step)")
       .result("chosen", &UnwrapResult::chosen, "index into steps of the returned map")
+      .result("stretch_step", &UnwrapResult::stretch_step,
+              "index into steps of the final stretch minimisation's map (the last); -1: off, not run or not kept")
       .result("boundary_used", &UnwrapResult::boundary_used, "the boundary used (see warnings for fallbacks)")
       .result("boundary_convex", &UnwrapResult::boundary_convex, "the fixed polygon is convex (then no flips)")
       .result("n_holes", &UnwrapResult::n_holes, "inner boundary loops, kept open")

@@ -22,6 +22,7 @@
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/uv_boundary.h"
 #include "dgmesh/uv_metrics.h"
+#include "dgmesh/uv_stretch_opt.h"
 #include "dgmesh/validate.h"
 
 #ifdef _OPENMP
@@ -872,10 +873,68 @@ UnwrapResult unwrap_weights(const MatX3d& Vin, const MatX3i& Fin, const UnwrapOp
 
 }  // namespace
 
+namespace {
+
+UnwrapResult unwrap_equalized(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, const ProgressFn& progress);
+
+// The final stage (UnwrapOptions::stretch_iterations): minimise eq. 5.5 from the chosen map and
+// keep the result only if it is better (lower L2, no flipped or zero-area triangle).
+void minimize_final_stretch(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, UnwrapResult& r,
+                            const ProgressFn& progress) {
+  const UvMetrics& m0 = r.steps[r.chosen].metrics;
+  if (m0.flipped || m0.zero_area) {
+    r.warnings.push_back("the stretch minimisation did not run: the map has " + std::to_string(m0.flipped) +
+                         " flipped and " + std::to_string(m0.zero_area) + " zero-area triangles");
+    return;
+  }
+  const auto t0 = Clock::now();
+  detail::StretchOptOptions so;
+  so.iterations = opt.stretch_iterations;
+  so.tolerance = opt.stretch_tolerance;
+  detail::StretchOptResult sr = detail::minimize_stretch(V, F, r.uv, so, progress);
+  std::vector<int> rows(sr.uv.rows());
+  std::iota(rows.begin(), rows.end(), 0);
+  fit_unit_box(sr.uv, rows);
+  UnwrapStep st;
+  st.metrics = uv_metrics(V, F, sr.uv, opt.zero_area_eps);
+  st.solver_iterations = sr.iterations;
+  st.seconds = seconds_since(t0);
+  if (st.metrics.flipped || st.metrics.zero_area || !(st.metrics.stretch_l2 < m0.stretch_l2)) {
+    if (sr.iterations > 0)
+      r.warnings.push_back("the stretch minimisation's map was not kept (L2 stretch " +
+                           std::to_string(st.metrics.stretch_l2) + ", " + std::to_string(st.metrics.flipped) +
+                           " flipped, " + std::to_string(st.metrics.zero_area) + " zero-area triangles)");
+    return;
+  }
+  r.steps.push_back(st);
+  r.chosen = r.stretch_step = static_cast<int>(r.steps.size()) - 1;
+  r.uv = sr.uv;
+}
+
+}  // namespace
+
 UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, const ProgressFn& progress) {
   if (!(opt.eta > 0 && opt.eta <= 1)) throw MeshError("unwrap: eta must be in (0, 1], got " + std::to_string(opt.eta));
   if (opt.iterations < -1) throw MeshError("unwrap: iterations must be -1 (optimal) or >= 0");
   if (opt.max_iterations < 0) throw MeshError("unwrap: max_iterations must be >= 0");
+  if (opt.stretch_iterations < 0)
+    throw MeshError("unwrap: stretch_iterations must be >= 0, got " + std::to_string(opt.stretch_iterations));
+  if (!(opt.stretch_tolerance >= 0))
+    throw MeshError("unwrap: stretch_tolerance must be >= 0, got " + std::to_string(opt.stretch_tolerance));
+  if (opt.stretch_iterations == 0) return unwrap_equalized(V, F, opt, progress);
+  // Progress: the equalization to 0.4, the minimisation (whose Newton steps cost more) after.
+  auto part = [&](double lo, double hi) -> ProgressFn {
+    if (!progress) return {};
+    return [&progress, lo, hi](double f) { return progress(lo + (hi - lo) * f); };
+  };
+  UnwrapResult r = unwrap_equalized(V, F, opt, part(0.0, 0.4));
+  minimize_final_stretch(V, F, opt, r, part(0.4, 1.0));
+  return r;
+}
+
+namespace {
+
+UnwrapResult unwrap_equalized(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, const ProgressFn& progress) {
   bool folded = false;
   MatX2d lscm_map;
   if (opt.weights != UvWeights::Auto) return unwrap_weights(V, F, opt, progress, false, folded, lscm_map);
@@ -903,5 +962,7 @@ UnwrapResult unwrap(const MatX3d& V, const MatX3i& F, const UnwrapOptions& opt, 
                          (holes ? "mean-value weights (the chart has holes)" : "Floater's weights"));
   return fl;
 }
+
+}  // namespace
 
 }  // namespace dgmesh

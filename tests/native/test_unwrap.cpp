@@ -13,6 +13,7 @@
 #include "dgmesh/mesh.h"
 #include "dgmesh/shapes.h"
 #include "dgmesh/unwrap.h"
+#include "dgmesh/uv_stretch_opt.h"
 #include "dgmesh/validate.h"
 #include "test_meshes.h"
 
@@ -491,4 +492,118 @@ TEST(Unwrap, ChartsInOneCallAreEachChartAlone) {
   two[0] = 3;
   EXPECT_THROW(unwrap_charts(V, F, two), MeshError);  // labels 2 unused
   EXPECT_THROW(unwrap_charts(V, F, two.head(3)), MeshError);
+}
+
+// ---- the final direct minimisation of eq. 5.5 (uv_stretch_opt.h) ----
+
+TEST(UvStretchOpt, CylinderPatchUnwrapsToStretchOne) {
+  // Known answer: a quarter cylinder is developable, so the minimum of eq. 5.5 is 1. Start from
+  // Floater's map on a circle (U0, stretch ~1.12) and free the boundary.
+  const int nu = 30, nv = 20;
+  TriMesh g = grid(nu, nv);
+  MatX3d V(g.V.rows(), 3);
+  for (int i = 0; i < g.V.rows(); ++i) {
+    const double a = g.V(i, 0) * kHalfPi;
+    V.row(i) << std::cos(a), std::sin(a), 1.5 * g.V(i, 1);
+  }
+  UnwrapOptions o = unwrap_thesis_defaults();
+  o.boundary = UvBoundary::Circle;
+  o.iterations = 0;
+  const UnwrapResult start = unwrap(V, g.F, o);
+  const UvMetrics m0 = uv_metrics(V, g.F, start.uv);
+  ASSERT_GT(m0.stretch_l2, 1.1);
+  detail::StretchOptOptions so;
+  so.iterations = 50;
+  so.tolerance = 1e-9;
+  const detail::StretchOptResult r = detail::minimize_stretch(V, g.F, start.uv, so);
+  const UvMetrics m = uv_metrics(V, g.F, r.uv);
+  EXPECT_LT(m.stretch_l2, 1.0 + 1e-4);
+  EXPECT_LT(m.stretch_linf, 1.0 + 1e-2);
+  EXPECT_LT(m.angle, 1e-2);
+  EXPECT_EQ(m.flipped, 0);
+  EXPECT_EQ(m.zero_area, 0);
+  EXPECT_NEAR(r.l2_after, m.stretch_l2, 1e-9);
+  EXPECT_NEAR(r.l2_before, m0.stretch_l2, 1e-9);
+  // The caller's frame: the map stays in the start's bounding box.
+  EXPECT_GE(r.uv.minCoeff(), start.uv.minCoeff() - 1e-12);
+  EXPECT_LE(r.uv.maxCoeff(), start.uv.maxCoeff() + 1e-12);
+}
+
+TEST(UvStretchOpt, KeepsAMirroredMapMirrored) {
+  // A clockwise start (v mirrored) is minimised as well and stays clockwise.
+  const TriMesh s = icosphere(3);
+  const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > 0.05; });
+  UnwrapOptions o = unwrap_thesis_defaults();
+  o.boundary = UvBoundary::Circle;
+  MatX2d uv = unwrap(h.V, h.F, o).uv;
+  uv.col(1) *= -1;
+  detail::StretchOptOptions so;
+  const detail::StretchOptResult r = detail::minimize_stretch(h.V, h.F, uv, so);
+  const UvMetrics m0 = uv_metrics(h.V, h.F, uv), m = uv_metrics(h.V, h.F, r.uv);
+  EXPECT_LT(m.stretch_l2, m0.stretch_l2 - 1e-3);
+  EXPECT_EQ(m.flipped, 0);
+  EXPECT_EQ(m.zero_area, 0);
+  double signed_area = 0;
+  for (int f = 0; f < h.F.rows(); ++f) {
+    const Eigen::Vector2d a = r.uv.row(h.F(f, 1)) - r.uv.row(h.F(f, 0)), b = r.uv.row(h.F(f, 2)) - r.uv.row(h.F(f, 0));
+    signed_area += a.x() * b.y() - a.y() * b.x();
+  }
+  EXPECT_LT(signed_area, 0);
+}
+
+TEST(UvStretchOpt, RejectsAFoldedStartAndBadOptions) {
+  const TriMesh d = planar_disk(8);
+  MatX2d uv = d.V.leftCols<2>();
+  detail::StretchOptOptions so;
+  EXPECT_NO_THROW(detail::minimize_stretch(d.V, d.F, uv, so));
+  // Collapse one interior vertex onto a neighbour's far side: its triangles fold.
+  uv.row(d.F(0, 0)) = uv.row(d.F(0, 1)) + 3.0 * (uv.row(d.F(0, 1)) - uv.row(d.F(0, 0)));
+  EXPECT_THROW(detail::minimize_stretch(d.V, d.F, uv, so), MeshError);
+  so.iterations = -1;
+  EXPECT_THROW(detail::minimize_stretch(d.V, d.F, d.V.leftCols<2>(), so), MeshError);
+  UnwrapOptions o;
+  o.stretch_iterations = -1;
+  EXPECT_THROW(unwrap(d.V, d.F, o), MeshError);
+  o.stretch_iterations = 5;
+  o.stretch_tolerance = -1;
+  EXPECT_THROW(unwrap(d.V, d.F, o), MeshError);
+}
+
+TEST(UvStretchOpt, DefaultUnwrapNeverRaisesStretchNorFlips) {
+  // The stage of unwrap()'s default: kept only when it lowers eq. 5.5, never a flipped or
+  // zero-area triangle; off in the thesis's preset.
+  EXPECT_GT(UnwrapOptions().stretch_iterations, 0);
+  EXPECT_EQ(unwrap_thesis_defaults().stretch_iterations, 0);
+  std::vector<std::pair<std::string, MeshData>> meshes;
+  {
+    const TriMesh s = icosphere(4);
+    const TriMesh h = select_faces(s, [](const Vec3& c) { return c.z() > -0.3; });
+    MeshData md;
+    md.V = h.V;
+    md.F = h.F;
+    meshes.emplace_back("cap", md);
+  }
+  for (const char* name : {"mushroom.off", "three_peaks.off", "lion-head.off", "mannequin-devil.off"}) {
+    const std::string path = cgal_mesh(name);
+    if (!path.empty()) meshes.emplace_back(name, read_mesh(path));
+  }
+  for (const auto& [name, md] : meshes) {
+    UnwrapOptions off;
+    off.stretch_iterations = 0;
+    const UnwrapResult r0 = unwrap(md.V, md.F, off);
+    const UnwrapResult r = unwrap(md.V, md.F);
+    ASSERT_EQ(r.stretch_step, static_cast<int>(r.steps.size()) - 1) << name;
+    ASSERT_EQ(r.chosen, r.stretch_step) << name;
+    EXPECT_EQ(r0.stretch_step, -1) << name;
+    // The equalization before it is the same as with the stage off.
+    EXPECT_EQ(r.steps.size(), r0.steps.size() + 1) << name;
+    const UvMetrics& before = r0.steps[r0.chosen].metrics;
+    const UvMetrics m = uv_metrics(md.V, md.F, r.uv);
+    EXPECT_LT(m.stretch_l2, before.stretch_l2) << name;
+    EXPECT_NEAR(m.stretch_l2, r.steps[r.chosen].metrics.stretch_l2, 1e-12) << name;
+    EXPECT_EQ(m.flipped, 0) << name;
+    EXPECT_EQ(m.zero_area, 0) << name;
+    EXPECT_GE(r.uv.minCoeff(), -1e-12) << name;
+    EXPECT_LE(r.uv.maxCoeff(), 1 + 1e-12) << name;
+  }
 }

@@ -94,6 +94,10 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                           description="Iterate until the L2 stretch stops decreasing")
     steps: IntProperty(name="Steps", default=1, min=0, max=200,
                        description="Equalization steps when not optimal (0: initial map, 1: one step)")
+    stretch_iterations: IntProperty(
+        name="Minimize Stretch", default=DEFAULTS.stretch_iterations, min=0, max=500,
+        description="Newton steps of a final direct minimisation of the L2 stretch with a barrier against "
+                    "flips (0: off; kept only when it lowers the stretch)")
     pack: BoolProperty(name="Pack", default=True,
                        description="Pack the charts with Blender's packer (charts keep their 3D size ratio)")
     margin: FloatProperty(name="Margin", default=0.02, min=0.0, max=0.5)
@@ -110,6 +114,7 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
         row = layout.row()
         row.active = not self.optimal  # steps count only when not iterating to the optimum
         row.prop(self, "steps")
+        layout.prop(self, "stretch_iterations")
         layout.prop(self, "pack")
         row = layout.row()
         row.active = self.pack
@@ -153,7 +158,8 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
             return None
         opts = dict(boundary=self.boundary.lower(), weights=self.weights.lower(), eta=self.eta,
                     slide_boundary=self.slide_boundary,
-                    iterations="optimal" if self.optimal else self.steps)
+                    iterations="optimal" if self.optimal else self.steps,
+                    stretch_iterations=self.stretch_iterations)
         total = float(sum(len(it["class_F"]) for it in items))
 
         def work(progress):

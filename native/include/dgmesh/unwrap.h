@@ -6,7 +6,9 @@
 // every other vertex by a convex-combination solve (eq. 5.2-5.3); each equalization step divides
 // the weights by the vertex stretch (eq. 5.1, 5.4, 5.6) and solves again. Inner boundary loops
 // (holes) are filled by a virtual fan for the solves, so they stay open and Tutte's theorem still
-// applies (thesis 5.5, first option).
+// applies (thesis 5.5, first option). Beyond the thesis, a final direct minimisation of eq. 5.5
+// with an injectivity barrier (UnwrapOptions::stretch_iterations, uv_stretch_opt.h) starts from the
+// chosen map.
 #pragma once
 #include <string>
 #include <vector>
@@ -105,6 +107,14 @@ struct UnwrapOptions {
   // vertices along the polygon by the same stretch equalization in one dimension (the square's
   // corners stay). The polygon keeps its shape, so Tutte's guarantee still holds.
   bool slide_boundary = true;
+  // Beyond the thesis: a final direct minimisation of eq. 5.5 (Sander's L2 stretch) with an
+  // injectivity barrier, warm-started from the chosen map (projected Newton with a flip-free line
+  // search, free boundary; uv_stretch_opt.h): at most this many Newton steps, 0 = off. Kept only
+  // when it lowers eq. 5.5 with no flipped or zero-area triangle; it runs only from a map that has
+  // none (a warning otherwise). Its map is the last entry of UnwrapResult::steps.
+  int stretch_iterations = 10;
+  // The minimisation stops when a Newton step lowers eq. 5.5 by less than this (relative), >= 0.
+  double stretch_tolerance = 1e-4;
 };
 
 // The thesis's setting (chapter 5): the unit square, Floater's weights, eta 1, the boundary fixed.
@@ -114,6 +124,7 @@ inline UnwrapOptions unwrap_thesis_defaults() {
   o.weights = UvWeights::Floater;
   o.eta = 1.0;
   o.slide_boundary = false;
+  o.stretch_iterations = 0;
   return o;
 }
 
@@ -125,10 +136,14 @@ struct UnwrapStep {
 };
 
 struct UnwrapResult {
-  MatX2d uv;                      // the chosen map, in [0,1]^2
-  MatX2d uv_initial;              // U0 (eq. 5.2-5.3), the start of the equalization
-  std::vector<UnwrapStep> steps;  // steps[h] is U^h (U0 first); Uopt's last entry may be the rejected step
-  int chosen = 0;                 // index into steps of the returned map
+  MatX2d uv;          // the chosen map, in [0,1]^2
+  MatX2d uv_initial;  // U0 (eq. 5.2-5.3), the start of the equalization
+  // steps[h] is U^h (U0 first); Uopt's last entry may be the rejected step; the map of the final
+  // stretch minimisation (options.stretch_iterations), when kept, is the last entry (its
+  // solver_iterations: the Newton steps) and stretch_step its index.
+  std::vector<UnwrapStep> steps;
+  int chosen = 0;         // index into steps of the returned map
+  int stretch_step = -1;  // index into steps of the stretch minimisation's map; -1: off, not kept or not run
   UvBoundary boundary_used = UvBoundary::Square;
   bool boundary_convex = true;  // the fixed polygon is convex (Tutte: no flips)
   int n_holes = 0;              // inner boundary loops kept open
