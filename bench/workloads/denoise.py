@@ -15,6 +15,7 @@ and peak memory in a fresh process), and the growth from 10K to 1.6M vertices.
 """
 
 import json
+import os
 import pathlib
 import struct
 import subprocess
@@ -25,7 +26,7 @@ import zlib
 import numpy as np
 
 import dgmesh
-from bench.common import IMAGES, ROOT, bbox_diagonal, cgal_mesh, loop_subdivide, median_time, run_blender, table
+from bench.common import IMAGES, ROOT, bbox_diagonal, cgal_mesh, loop_subdivide, median_time, run_blender, shapes, table
 from dgmesh import colors
 from dgmesh.denoising import residual_entropy
 
@@ -519,10 +520,17 @@ def add_noise_isotropic(V, F, level, seed):
     return V + rng.normal(0.0, level * edge_length(V, F), V.shape)
 
 
+def _env_list(name, default, cast=str):
+    """A comma-separated override of a workload's list from the environment (subset runs)."""
+    value = os.environ.get(name)
+    return tuple(cast(x) for x in value.split(",")) if value else default
+
+
 def denoise_auto(quick):
-    models = AUTO_QUICK_MODELS if quick else AUTO_MODELS
-    levels = (0.1, 0.3) if quick else AUTO_LEVELS
-    seeds = AUTO_SEEDS[:1] if quick else AUTO_SEEDS
+    """DGMESH_DENOISE_MODELS, _LEVELS and _SEEDS (comma-separated) restrict a run to a subset."""
+    models = _env_list("DGMESH_DENOISE_MODELS", AUTO_QUICK_MODELS if quick else AUTO_MODELS)
+    levels = _env_list("DGMESH_DENOISE_LEVELS", (0.1, 0.3) if quick else AUTO_LEVELS, float)
+    seeds = _env_list("DGMESH_DENOISE_SEEDS", AUTO_SEEDS[:1] if quick else AUTO_SEEDS, int)
     bil_grid = [g for g in AUTO_BIL_GRID if g[1] in (1, 3)] if quick else AUTO_BIL_GRID
     rows, data, tally = [], {}, {"won": 0, "tied": 0, "lost": 0}
     bversion = "?"
@@ -567,7 +575,11 @@ def denoise_auto(quick):
                 rows.append([name, kind, lv, mean["estimated sigma (e)"], mean["true sigma (e of noisy mesh)"],
                              mean["noisy"], d, mean["similarity thesis setting"], mean["bilateral (best)"],
                              mean["Laplacian Smooth (best)"], mean["Smooth (best)"], verdict])
+    subset = [f"{k}={os.environ[k]}" for k in ("DGMESH_DENOISE_MODELS", "DGMESH_DENOISE_LEVELS",
+                                                "DGMESH_DENOISE_SEEDS") if os.environ.get(k)]
     md = [
+        (f"**Subset run** ({', '.join(subset)}): not every model / level / seed of the workload.\n\n"
+         if subset else "") +
         f"Issue #32: `dgmesh.denoise(V, F)` with its defaults (automatic: noise estimated, eta1 and iterations "
         f"from the rule of `auto_options`, quadratic fit) against peers tuned per case with the clean mesh as "
         f"oracle: bilateral (best of eta1 in {{0.05..0.5}} x 1-5 iterations), Blender {bversion} Laplacian Smooth "
@@ -586,4 +598,64 @@ def denoise_auto(quick):
     return {"markdown": "\n".join(md), "data": data}
 
 
-WORKLOADS = {"denoise_quality": denoise_quality, "denoise_speed": denoise_speed, "denoise_auto": denoise_auto}
+# The rule's training set: analytic shapes and CGAL models that are not in AUTO_MODELS.
+TRAIN_MODELS = ("icosphere", "torus", "graph", "cow", "femur", "rotor_small")
+
+
+def _training_mesh(name):
+    if name == "icosphere":
+        return shapes.icosphere(4, 1.0)
+    if name == "torus":
+        return shapes.torus(1.0, 0.35, 96, 40)
+    if name == "graph":
+        V, F = shapes.grid(40, 40)
+        V = V.copy()
+        V[:, 2] = 0.3 * np.sin(2 * V[:, 0]) * np.cos(3 * V[:, 1])
+        return V, F
+    return cgal_mesh(name)
+
+
+def denoise_training(quick):
+    """The measurements behind auto_options: per training case the estimate, and the normal error of
+    the automatic setting against its variants (quadratic fit forced on / off, the thesis setting)."""
+    names = TRAIN_MODELS[:2] + TRAIN_MODELS[3:4] if quick else TRAIN_MODELS
+    rows, data = [], {}
+    for name in names:
+        V, F = _training_mesh(name)
+        V, F = np.asarray(V, dtype=np.float64), np.asarray(F)
+        clean = dgmesh.estimate_noise(V, F)
+        r0 = dgmesh.denoise(V, F)
+        rows.append([name, "clean", 0.0, clean.sigma, clean.curvature, 0.0, normal_error(r0.vertices, V, F),
+                     normal_error(dgmesh.denoise(V, F, automatic=False).vertices, V, F), "-", "-", "-"])
+        for kind in ("normal", "isotropic"):
+            for lv in ((0.1, 0.3) if quick else AUTO_LEVELS):
+                add = add_noise if kind == "normal" else add_noise_isotropic
+                Vn = add(V, F, lv, 500 + int(lv * 100))
+                r = dgmesh.denoise(Vn, F)
+                o = r.options
+                q = dgmesh.denoise(Vn, F, automatic=False, eta1=o.eta1, iterations=o.iterations,
+                                   quadratic_fit=not o.quadratic_fit)
+                bil = dgmesh.denoise(Vn, F, method="bilateral")
+                vals = [normal_error(Vn, V, F), normal_error(r.vertices, V, F),
+                        normal_error(dgmesh.denoise(Vn, F, automatic=False).vertices, V, F),
+                        normal_error(q.vertices, V, F), normal_error(bil.vertices, V, F)]
+                data[f"{name} {kind} {lv}"] = {"sigma_est": r.noise.sigma, "curvature": r.noise.curvature,
+                                               "quadratic_fit": o.quadratic_fit, "errors": vals}
+                rows.append([name, kind, lv, r.noise.sigma, r.noise.curvature, vals[0], vals[1], vals[2],
+                             f"{vals[3]:.4g} ({'off' if o.quadratic_fit else 'on'})", vals[4],
+                             "on" if o.quadratic_fit else "off"])
+    md = [
+        "Training set of the automatic rule (analytic shapes and CGAL models outside denoise_auto's set). "
+        "Noise sigma = level x clean mean edge length (seed 500 + 100 level); errors are mean face-normal "
+        "angles in degrees against the clean mesh. `auto` = dgmesh.denoise defaults; `flipped fit` = the "
+        "same eta1 and iterations with the quadratic fit switched the other way; `bilateral auto` = "
+        "method='bilateral' with its automatic eta1. The `clean` rows denoise the noise-free mesh.",
+        "",
+        table(["model", "noise", "level", "estimated sigma (e)", "curvature (e kappa)", "noisy", "auto",
+               "thesis setting", "flipped fit", "bilateral auto", "auto's quadratic fit"], rows),
+    ]
+    return {"markdown": "\n".join(md), "data": data}
+
+
+WORKLOADS = {"denoise_quality": denoise_quality, "denoise_speed": denoise_speed, "denoise_auto": denoise_auto,
+             "denoise_training": denoise_training}
