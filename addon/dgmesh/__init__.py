@@ -41,7 +41,8 @@ from .core import (  # noqa: E402  (bl_info must stay a literal at the top for B
     validate,
     write_mesh,
 )
-from .denoising import DenoiseMethod, DenoiseOptions, DenoiseResult, SimilarityOptions, denoise, similarity  # noqa: E402
+from .denoising import (DenoiseMethod, DenoiseOptions, DenoiseResult, NoiseEstimate, NoiseOptions,  # noqa: E402
+                        SimilarityOptions, denoise, estimate_noise, similarity)
 from .crest import (  # noqa: E402
     CrestKind,
     CrestLines,
@@ -85,7 +86,8 @@ __all__ = [
     "Cancelled", "Error", "MeshError", "MeshIOError", "SolverError",
     "Curvature", "Topology", "curvature", "num_threads", "read_mesh", "set_num_threads", "topology", "validate",
     "write_mesh",
-    "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "SimilarityOptions", "denoise", "similarity",
+    "DenoiseMethod", "DenoiseOptions", "DenoiseResult", "NoiseEstimate", "NoiseOptions", "SimilarityOptions", "denoise",
+    "estimate_noise", "similarity",
     "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions", "DecimateResult",
     "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult", "crest_lines", "curvature_derivatives",
     "decimate", "decimate_feature_defaults", "segment", "segment_feature_defaults",

@@ -2,6 +2,7 @@
 #include "common.h"
 #include "dgmesh/denoise.h"
 #include "dgmesh/errors.h"
+#include "dgmesh/noise_estimate.h"
 
 namespace dgmesh::py {
 
@@ -20,16 +21,36 @@ DenoiseOptions with_mask(DenoiseOptions o, const pb::object& mask) {
 }  // namespace
 
 void bind_denoise(pb::module_& m) {
+  Struct<NoiseOptions>(m, "NoiseOptions", "Options of estimate_noise()")
+      .field("neighbours", &NoiseOptions::neighbours,
+             "points of each local cubic fit, the centre included (19 = a regular mesh's 2-ring); 12..64")
+      .field("weld_tolerance", &NoiseOptions::weld_tolerance,
+             "points closer than this (relative to the bounding-box diagonal) count once");
+
+  Struct<NoiseEstimate>(m, "NoiseEstimate", "Result of estimate_noise()")
+      .result("sigma", &NoiseEstimate::sigma, "noise deviation in units of the mean edge length")
+      .result("sigma_abs", &NoiseEstimate::sigma_abs, "noise deviation in model units")
+      .result("edge_length", &NoiseEstimate::edge_length, "mean edge length (clouds: mean spacing to 6 nearest)")
+      .result("curvature", &NoiseEstimate::curvature,
+              "median of edge length times the largest absolute principal curvature of the local fits")
+      .result("outliers", &NoiseEstimate::outliers,
+              "fraction of points whose standardised residual exceeds 3 sigma (features, spikes)")
+      .result("samples", &NoiseEstimate::samples, "points that gave a residual");
+
   pb::enum_<DenoiseMethod>(m, "DenoiseMethod", "Denoising filter")
       .value("similarity", DenoiseMethod::Similarity, "non-local means with RBF patches (thesis eq. 2.3-2.9)")
       .value("bilateral", DenoiseMethod::Bilateral, "bilateral mesh denoising (Fleishman et al. 2003)");
 
   Struct<DenoiseOptions>(m, "DenoiseOptions", "Options of denoise(); sigma_i = eta_i * average edge length")
       .field("method", &DenoiseOptions::method, "the filter")
+      .field("automatic", &DenoiseOptions::automatic,
+             "estimate the noise and take eta1, iterations and quadratic_fit from auto_options()")
       .field("eta1", &DenoiseOptions::eta1, "similarity: kernel deviation (2.7); bilateral: height Gaussian")
       .field("eta2", &DenoiseOptions::eta2, "2*sigma2 = radius of the averaging domain (2.4)")
       .field("eta3", &DenoiseOptions::eta3, "similarity: 2*sigma3 = patch radius (2.8); bilateral: spatial Gaussian")
       .field("iterations", &DenoiseOptions::iterations, "filter passes")
+      .field("quadratic_fit", &DenoiseOptions::quadratic_fit,
+             "similarity: fit a weighted quadratic to the heights instead of averaging them (no shrinkage)")
       .field("reestimate_normals", &DenoiseOptions::reestimate_normals,
              "point clouds: re-estimate normals by PCA after the first iteration")
       .field("weld_tolerance", &DenoiseOptions::weld_tolerance,
@@ -47,7 +68,11 @@ void bind_denoise(pb::module_& m) {
       .result("edge_length", &DenoiseResult::edge_length, "average edge length e of the last iteration")
       .result("iterations", &DenoiseResult::iterations, "iterations run")
       .result("rbf_fallbacks", &DenoiseResult::rbf_fallbacks, "RBF patches solved by the plane fallback")
-      .result("welded", &DenoiseResult::welded, "vertices merged into a coincident one for the computation");
+      .result("welded", &DenoiseResult::welded, "vertices merged into a coincident one for the computation")
+      .result("noise", &DenoiseResult::noise, "automatic mode: the noise estimate of the input (zeros otherwise)")
+      .result("options", &DenoiseResult::options, "the options the filter ran with (automatic: after auto_options)");
+  m.def("auto_options", &auto_options, pb::arg("noise"), pb::arg("base"),
+        "The automatic rule: eta1, iterations and quadratic_fit from a noise estimate, the rest from base");
 
   m.def(
       "denoise_mesh",
@@ -93,6 +118,24 @@ void bind_denoise(pb::module_& m) {
         return similarity_points(V, N, vertex, o, cb);
       },
       pb::arg("V"), pb::arg("N"), pb::arg("vertex"), pb::arg("options"), pb::arg("progress") = pb::none());
+
+  m.def(
+      "estimate_noise_mesh",
+      [](InV V, InF F, const NoiseOptions& opt, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return estimate_noise(V, F, opt, cb);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("progress") = pb::none());
+
+  m.def(
+      "estimate_noise_points",
+      [](InV V, const NoiseOptions& opt, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return estimate_noise_points(V, opt, cb);
+      },
+      pb::arg("V"), pb::arg("options"), pb::arg("progress") = pb::none());
 
   m.def(
       "residual_entropy", [](const VecXd& r) { return residual_entropy(r); }, pb::arg("residual"));

@@ -33,6 +33,13 @@ constexpr int kMaxPatch = 64;  // hard limit of DenoiseOptions::max_patch (stack
 constexpr int kMaxSys = kMaxPatch + 3;
 constexpr int kMinPatch = 6;  // fewest points of an RBF patch when the neighbourhood has them
 constexpr int kDensityK = 6;  // neighbours for the point-cloud spacing and area element
+// The automatic rule (auto_options); the factors k are measured on the training set of
+// bench/notes/denoise.md.
+constexpr double kAutoKernelSimilarity = 1.0;
+constexpr double kAutoKernelBilateral = 1.414;
+constexpr int kAutoIterationsSimilarity = 3;
+constexpr int kAutoIterationsBilateral = 3;
+constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed (2 per coefficient)
 using detail::kPi;
 
 inline Vec3 prow(const MatX3d& P, int i) { return Vec3(P(i, 0), P(i, 1), P(i, 2)); }
@@ -497,14 +504,35 @@ double similarity_step(const State& st, int x, const DenoiseOptions& o, Scratch&
   s.seg.push_back(S);
   eval_patch(s, S);
   segment_weights(s, S, o.eta1, o.eta3, w);
-  double K = 0, C = 0;
+  double K = 0, C = 0, C2 = 0;
   for (int j = 0; j < st.nb.n2[x]; ++j) {
     const int y = L[j];
     const double wy = w[j] * st.A(y);
     K += wy * fr.n.dot(prow(st.P, y) - px) * inv_e;  // I(y), eq. 2.6
     C += wy;
+    C2 += wy * wy;
   }
-  return C > 0 ? K / C : 0.0;
+  if (!(C > 0)) return 0.0;
+  const double mean = K / C;
+  if (!o.quadratic_fit || C * C < kMinEffective * C2) return mean;
+  // Weighted least-squares quadratic over x's tangent plane; k(x) is its value at x.
+  Eigen::Matrix<double, 6, 6> M = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+  for (int j = 0; j < st.nb.n2[x]; ++j) {
+    const int y = L[j];
+    const double wy = w[j] * st.A(y) / C;
+    if (wy == 0) continue;
+    const Vec3 d = (prow(st.P, y) - px) * inv_e;
+    const double u = fr.t1.dot(d), v = fr.t2.dot(d);
+    Eigen::Matrix<double, 6, 1> q;
+    q << 1.0, u, v, u * u, u * v, v * v;
+    M.noalias() += wy * q * q.transpose();
+    b.noalias() += (wy * fr.n.dot(d)) * q;
+  }
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(M);
+  if (lu.rank() < 6) return mean;
+  const double c0 = lu.solve(b)(0);
+  return std::isfinite(c0) ? c0 : mean;
 }
 
 // Fleishman et al. 2003: heights over the tangent plane averaged with a spatial Gaussian (sigma3)
@@ -820,17 +848,67 @@ DenoiseOptions denoise_defaults(DenoiseMethod method) {
   return method == DenoiseMethod::Bilateral ? bilateral_defaults() : DenoiseOptions{};
 }
 
+DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& base) {
+  DenoiseOptions o = base;
+  const bool sim = base.method == DenoiseMethod::Similarity;
+  const double sigma = std::isfinite(noise.sigma) ? std::max(0.0, noise.sigma) : 0.0;
+  // Similarity: D (eq. 2.9) sums squared differences over about sum g = 4 pi eta3^2 / sqrt(3)
+  // samples (the unnormalised Gaussian's integral 2 pi eta3^2 over the area sqrt(3)/2 per vertex of
+  // a regular mesh), each of variance about 2 sigma^2 between two noisy copies of one shape, so
+  // sigma1 = k sqrt(sum g) sigma weighs equal shapes exp(-1 / k^2) whatever eta3. Bilateral: the
+  // height Gaussian sees single heights, sigma1 = k sigma.
+  const double samples = 4 * detail::kPi * base.eta3 * base.eta3 / std::sqrt(3.0);
+  o.eta1 = std::max(kMinEta, sim ? kAutoKernelSimilarity * std::sqrt(samples) * sigma : kAutoKernelBilateral * sigma);
+  o.iterations = sim ? kAutoIterationsSimilarity : kAutoIterationsBilateral;
+  // The weighted mean's curvature bias (about e kappa / 2 edge lengths per iteration) against the
+  // quadratic fit's extra variance (a few times sigma^2): the fit pays where the sampling is coarse
+  // for the bending, e kappa > sigma (measured: bench/notes/denoise.md).
+  o.quadratic_fit = sim && noise.curvature > sigma;
+  return o;
+}
+
+namespace {
+
+// Automatic mode: the estimate (its own progress share: 5%) and the options after the rule.
+DenoiseResult run_auto(const MatX3d& V, const MatX3i* F, const MatX3d* N, const DenoiseOptions& opt,
+                       const ProgressFn& progress) {
+  if (!opt.automatic) {
+    DenoiseResult r = run(V, F, N, opt, progress);
+    r.options = opt;
+    return r;
+  }
+  constexpr double kShare = 0.05;
+  const ProgressFn first = progress ? ProgressFn([&](double f) { return progress(kShare * f); }) : ProgressFn{};
+  const ProgressFn rest =
+      progress ? ProgressFn([&](double f) { return progress(kShare + (1 - kShare) * f); }) : ProgressFn{};
+  NoiseOptions no;
+  no.weld_tolerance = opt.weld_tolerance;
+  NoiseEstimate est;
+  try {
+    est = F ? estimate_noise(V, *F, no, first) : estimate_noise_points(V, no, first);
+  } catch (const MeshError& e) {
+    throw MeshError(std::string("automatic parameters: ") + e.what() + "; turn automatic off and set the etas");
+  }
+  const DenoiseOptions o = auto_options(est, opt);
+  DenoiseResult r = run(V, F, N, o, rest);
+  r.noise = est;
+  r.options = o;
+  return r;
+}
+
+}  // namespace
+
 DenoiseResult denoise(const MatX3d& V, const MatX3i& F, const DenoiseOptions& opt, const ProgressFn& progress) {
   check_surface(V, F);
   check_options(opt, V.rows());
-  return run(V, &F, nullptr, opt, progress);
+  return run_auto(V, &F, nullptr, opt, progress);
 }
 
 DenoiseResult denoise_points(const MatX3d& V, const MatX3d& N, const DenoiseOptions& opt, const ProgressFn& progress) {
   check_cloud(V, N);
   check_options(opt, V.rows());
   if (V.rows() < 4) throw MeshError("a point cloud needs at least 4 points");
-  return run(V, nullptr, &N, opt, progress);
+  return run_auto(V, nullptr, &N, opt, progress);
 }
 
 VecXd similarity(const MatX3d& V, const MatX3i& F, int vertex, const SimilarityOptions& opt,

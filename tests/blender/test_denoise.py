@@ -77,6 +77,23 @@ def test_object_mode_several_objects_quads_and_ngons(dg, capsys):
         assert np.abs(after - before[n]).max() > 1e-4
 
 
+def test_operator_reports_the_estimated_noise(dg, capsys):
+    open_fixture("shapes")
+    obj = bpy.data.objects["QuadSphere"]
+    noisy = add_noise(obj, level=0.2).astype(np.float64)
+    _, F = independent_arrays(obj.data)
+    select("QuadSphere")
+    assert denoise() == {'FINISHED'}
+    out = capsys.readouterr().out
+    est = dg.estimate_noise(noisy, F)
+    auto = dg.denoise(noisy, F).options
+    assert f"estimated noise {est.sigma:.3f} edge lengths" in out
+    assert f"\u03b71 {auto.eta1:.3f}" in out
+    # Manual etas: no estimate to report.
+    assert denoise(automatic=False) == {'FINISHED'}
+    assert "estimated noise" not in capsys.readouterr().out
+
+
 def test_edit_mode_moves_selected_vertices_only(dg):
     open_fixture("shapes")
     obj = bpy.data.objects["QuadSphere"]
@@ -157,7 +174,7 @@ def test_method_and_etas_reach_the_filter(dg):
     noisy = add_noise(obj).astype(np.float64)
     _, F = independent_arrays(obj.data)  # the triangles the operator reads
     select("QuadSphere")
-    assert denoise(method='BILATERAL', eta1=0.3, eta2=1.5, eta3=0.8, iterations=2) == {'FINISHED'}
+    assert denoise(method='BILATERAL', automatic=False, eta1=0.3, eta2=1.5, eta3=0.8, iterations=2) == {'FINISHED'}
     ref = dg.denoise(noisy, F, method="bilateral", eta1=0.3, eta2=1.5, eta3=0.8, iterations=2).vertices
     np.testing.assert_allclose(coords(obj.data), ref.astype(np.float32), atol=1e-5)
 
@@ -299,7 +316,7 @@ def step():
             state["phase"] = 2
     elif ph == 2:
         setup()
-        out["second"] = invoke_to_cancel('denoise', iterations=10)  # long enough to be cancelled midway
+        out["second"] = invoke_to_cancel('denoise', automatic=False, iterations=10)  # long enough to be cancelled midway
         state["phase"] = 3
         return 0.0
     elif ph == 3:

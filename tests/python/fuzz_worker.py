@@ -149,6 +149,8 @@ CALLS = {
     "denoise": lambda V, F, **kw: dgmesh.denoise(V, F, **kw),
     "denoise_points": lambda V, F, **kw: dgmesh.denoise(V, None, V, **kw),
     "similarity": lambda V, F, **kw: dgmesh.similarity(V, F, **kw),
+    "estimate_noise": lambda V, F, **kw: dgmesh.estimate_noise(V, F, **kw),
+    "estimate_noise_points": lambda V, F, **kw: dgmesh.estimate_noise(V, None, **kw),
     "crest_lines": lambda V, F, **kw: dgmesh.crest_lines(V, F, **kw),
     "curvature_derivatives": lambda V, F, **kw: dgmesh.curvature_derivatives(V, F, **kw),
     "decimate": lambda V, F, **kw: dgmesh.decimate(V, F, **kw),

@@ -17,6 +17,7 @@ from dgmesh import _native
 CONTRACT = {
     "denoise": (lambda: _native.DenoiseOptions(), {}),
     "similarity": (lambda: _native.SimilarityOptions(), {}),
+    "estimate_noise": (lambda: _native.NoiseOptions(), {}),
     "unwrap": (lambda: _native.UnwrapOptions(), {}),
     "unwrap_charts": (lambda: _native.UnwrapOptions(), {}),
     "uv_metrics": (lambda: _native.UnwrapOptions(), {}),  # zero_area_eps

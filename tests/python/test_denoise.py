@@ -41,7 +41,7 @@ def sphere():
 
 def test_result_fields_and_sphere_roundness(sphere):
     V, F, Vn = sphere
-    r = dgmesh.denoise(Vn, F)
+    r = dgmesh.denoise(Vn, F, automatic=False)  # the thesis's setting
     assert isinstance(r, dgmesh.DenoiseResult)
     assert r.vertices.shape == V.shape and r.vertices.dtype == np.float64
     assert r.residual.shape == (len(V),)
@@ -52,6 +52,9 @@ def test_result_fields_and_sphere_roundness(sphere):
     rad0, rad = np.linalg.norm(Vn, axis=1), np.linalg.norm(r.vertices, axis=1)
     assert rad.std() < rad0.std() / 3
     assert abs(rad.mean() - 1) < 0.05
+    # The automatic setting smooths less here (measured radius deviation 0.0114 against 0.0287 noisy).
+    auto = np.linalg.norm(dgmesh.denoise(Vn, F).vertices, axis=1)
+    assert auto.std() < rad0.std() / 2 and abs(auto.mean() - 1) < 0.05
 
 
 def test_inputs_are_not_modified_and_other_dtypes_work(sphere):
@@ -67,11 +70,11 @@ def test_inputs_are_not_modified_and_other_dtypes_work(sphere):
 
 def test_method_defaults_and_explicit_etas(sphere):
     V, F, Vn = sphere
-    bil = dgmesh.denoise(Vn, F, method="bilateral")
+    bil = dgmesh.denoise(Vn, F, method="bilateral", automatic=False)
     explicit = dgmesh.denoise(Vn, F, method="bilateral", eta1=0.25, eta2=1.0, eta3=1.0, iterations=3)
     assert np.array_equal(bil.vertices, explicit.vertices)
     sim = dgmesh.denoise(Vn, F, eta1=0.4, eta2=1.0, eta3=0.75, iterations=3)
-    assert np.array_equal(sim.vertices, dgmesh.denoise(Vn, F).vertices)
+    assert np.array_equal(sim.vertices, dgmesh.denoise(Vn, F, automatic=False).vertices)
     assert not np.allclose(sim.vertices, bil.vertices)
     one = dgmesh.denoise(Vn, F, iterations=1)
     assert np.linalg.norm(one.residual) < np.linalg.norm(sim.residual)
@@ -212,3 +215,73 @@ def test_fandisk_similarity_beats_bilateral():
     assert noisy_err > 15
     assert sim < 4.0
     assert sim < 0.7 * bil
+
+
+# ---- automatic parameters (issue #32) ------------------------------------------------------------
+
+def _graph():
+    V, F = shapes.grid(40, 40)
+    V = V.copy()
+    V[:, 2] = 0.3 * np.sin(2 * V[:, 0]) * np.cos(3 * V[:, 1])
+    return V, F
+
+
+AUTO_SHAPES = {
+    "icosphere": lambda: shapes.icosphere(4, 1.0),
+    "torus": lambda: shapes.torus(1.0, 0.35, 96, 40),
+    "graph": _graph,
+    "rounded_cube": lambda: shapes.rounded_cube(16, 0.3),
+}
+for _name in ("fandisk", "homer", "elephant"):
+    if (CGAL / f"{_name}.off").exists():
+        AUTO_SHAPES[_name] = lambda _name=_name: dgmesh.read_mesh(CGAL / f"{_name}.off")
+
+
+@pytest.fixture(scope="module", params=sorted(AUTO_SHAPES))
+def auto_shape(request):
+    V, F = AUTO_SHAPES[request.param]()
+    return request.param, np.asarray(V, dtype=np.float64), np.asarray(F)
+
+
+def test_default_lowers_the_normal_error(auto_shape):
+    name, V, F = auto_shape
+    for level, seed in ((0.1, 21), (0.3, 22)):
+        Vn = noisy(V, F, level, seed=seed)
+        before = normal_error_deg(Vn, V, F).mean()
+        r = dgmesh.denoise(Vn, F)
+        after = normal_error_deg(r.vertices, V, F).mean()
+        assert after < before, f"{name} at {level} e: {before:.2f} -> {after:.2f} degrees"
+
+
+def test_default_leaves_noise_free_input_nearly_unchanged(auto_shape, request):
+    name, V, F = auto_shape
+    if name == "elephant":
+        # Known failure: on this coarse model (2775 vertices, e * kappa = 0.66) the local cubic fits
+        # leave 0.09 e of residual on the clean mesh, read as noise; the default then moves it by 3.0
+        # degrees. Strict: reported as a failure once it passes.
+        request.applymarker(pytest.mark.xfail(strict=True, reason="coarse mesh: model error read as noise"))
+    r = dgmesh.denoise(V, F)
+    assert normal_error_deg(r.vertices, V, F).mean() < 0.5, name
+
+
+def test_automatic_reports_its_estimate_and_options(sphere):
+    V, F, Vn = sphere
+    r = dgmesh.denoise(Vn, F)
+    assert r.options.automatic
+    est = dgmesh.estimate_noise(Vn, F)
+    assert r.noise == est
+    assert r.options == dgmesh.denoising._native.auto_options(est, dgmesh.DenoiseOptions())
+    assert r.options.quadratic_fit and r.iterations == r.options.iterations
+    # An eta1 or iterations given means the manual setting; automatic=True overrides them.
+    manual = dgmesh.denoise(Vn, F, eta1=0.4)
+    assert not manual.options.automatic and manual.options.eta1 == 0.4 and manual.noise.sigma == 0
+    forced = dgmesh.denoise(Vn, F, eta1=0.4, automatic=True)
+    assert np.array_equal(forced.vertices, r.vertices)
+
+
+def test_automatic_needs_enough_points():
+    V = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]], float)
+    F = np.array([[0, 1, 2], [1, 3, 2]])
+    with pytest.raises(dgmesh.MeshError, match="distinct points"):
+        dgmesh.denoise(V, F)
+    assert dgmesh.denoise(V, F, automatic=False).vertices.shape == V.shape

@@ -47,7 +47,8 @@ CASE_TIMEOUT = 60.0  # seconds; a longer case is reported as a hang
 # arguments some calls require.
 FUNCS = {
     "validate": dgmesh.validate, "denoise": dgmesh.denoise, "denoise_points": dgmesh.denoise,
-    "similarity": dgmesh.similarity, "crest_lines": dgmesh.crest_lines,
+    "similarity": dgmesh.similarity, "estimate_noise": dgmesh.estimate_noise,
+    "estimate_noise_points": dgmesh.estimate_noise, "crest_lines": dgmesh.crest_lines,
     "curvature_derivatives": dgmesh.curvature_derivatives, "decimate": dgmesh.decimate, "segment": dgmesh.segment,
     "fair": dgmesh.fair, "regularize": dgmesh.regularize, "unwrap": dgmesh.unwrap, "unwrap_charts": dgmesh.unwrap_charts,
     "uv_metrics": dgmesh.uv_metrics, "uv_stretch": dgmesh.uv_stretch, "skeletal_mesh": dgmesh.skeletal_mesh,

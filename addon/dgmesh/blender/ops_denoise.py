@@ -126,6 +126,12 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     method: EnumProperty(name="Method", items=METHOD_ITEMS, default=enum_id(DEFAULTS.method), update=load_method_defaults)
+    automatic: BoolProperty(
+        name="Auto",
+        description=("Estimate the noise of each mesh and choose the similarity kernel, the iterations and "
+                     "the quadratic fit from it (the etas below then only set the neighbourhood sizes)"),
+        default=DEFAULTS.automatic,
+    )
     eta1: FloatProperty(
         name="Similarity \u03b71",
         description=("Similarity: deviation of the similarity kernel (about the noise level); bilateral: "
@@ -144,6 +150,12 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         default=DEFAULTS.eta3, min=0.1, soft_max=4.0, max=20.0, step=10, precision=2,
     )
     iterations: IntProperty(name="Iterations", default=DEFAULTS.iterations, min=0, soft_max=10, max=100)
+    quadratic_fit: BoolProperty(
+        name="Quadratic Fit",
+        description=("Similarity: move each vertex to a similarity-weighted quadratic fitted to its neighbours "
+                     "instead of their weighted mean height, so that curvature is not flattened"),
+        default=DEFAULTS.quadratic_fit,
+    )
     show_residual: BoolProperty(
         name="Show Residual",
         description=(f"Store |x_noisy - x_smoothed| per vertex as '{ATTR_RESIDUAL}' and show it as the "
@@ -158,8 +170,13 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        for name in ("method", "eta1", "eta2", "eta3", "iterations", "show_residual"):
-            layout.prop(self, name)
+        layout.prop(self, "method")
+        layout.prop(self, "automatic")
+        for name in ("eta1", "eta2", "eta3", "iterations", "quadratic_fit"):
+            row = layout.row()
+            row.active = not self.automatic or name in ("eta2", "eta3")  # auto chooses the others
+            row.prop(self, name)
+        layout.prop(self, "show_residual")
 
     # --- running (jobs.NativeJobOperator) -------------------------------------------------------
 
@@ -186,7 +203,8 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
             cancel_event.clear()
             return None
         method = self.method.lower()
-        etas = dict(eta1=self.eta1, eta2=self.eta2, eta3=self.eta3, iterations=self.iterations)
+        etas = dict(automatic=self.automatic, eta1=self.eta1, eta2=self.eta2, eta3=self.eta3,
+                    iterations=self.iterations, quadratic_fit=self.quadratic_fit)
         t0 = time.perf_counter()
 
         def work(progress):
@@ -258,9 +276,16 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         entropy = f"{H[0]:.3f} bits" if len(H) == 1 else f"{min(H):.3f}-{max(H):.3f} bits (per object)"
         clouds = sum(1 for j in written if j.F is None)
         welded = sum(1 for j in written if j.result.welded)
+        its = sorted({j.result.iterations for j in written})
         text = (f"Denoised {_plural(len(written), 'object')} ({nverts} vertices, {moved} moved) with "
-                f"{self.method.lower()}, {_plural(self.iterations, 'iteration')}, in {seconds:.2f} s; "
-                f"residual entropy {entropy}")
+                f"{self.method.lower()}, {_plural(its[0], 'iteration') if len(its) == 1 else f'{its[0]}-{its[-1]} iterations'}, "
+                f"in {seconds:.2f} s; residual entropy {entropy}")
+        if self.automatic:
+            sig = [j.result.noise.sigma for j in written]
+            noise = (f"{sig[0]:.3f}" if len(sig) == 1 else f"{min(sig):.3f}-{max(sig):.3f}")
+            eta1 = [j.result.options.eta1 for j in written]
+            text += (f"; estimated noise {noise} edge lengths (auto: \u03b71 "
+                     f"{eta1[0]:.3f}" + ("" if len(eta1) == 1 else f"-{max(eta1):.3f}") + ")")
         if clouds:
             text += f"; {_plural(clouds, 'point cloud')}"
         if welded:

@@ -7,6 +7,7 @@
 #pragma once
 #include <vector>
 
+#include "dgmesh/noise_estimate.h"
 #include "dgmesh/progress.h"
 #include "dgmesh/types.h"
 
@@ -24,10 +25,23 @@ enum class DenoiseMethod {
 // 2*sigma2 = neighbourhood radius, sigma3 = spatial Gaussian.
 struct DenoiseOptions {
   DenoiseMethod method = DenoiseMethod::Similarity;
+  // true: estimate the noise first (estimate_noise, default NoiseOptions) and run with
+  // auto_options(estimate, *this): eta1, iterations and quadratic_fit come from the rule there, the
+  // other fields stay as given. false: every field as given (the thesis's manual setting).
+  bool automatic = true;
   double eta1 = 0.4;
   double eta2 = 1.0;
   double eta3 = 0.75;
   int iterations = 3;
+  // Similarity only. false: k(x) is the similarity-weighted mean of the heights I(y) (eq. 2.4), a
+  // local-constant (Nadaraya-Watson) estimate: on a curved surface the heights of the neighbours
+  // are not centred on x's (a sphere sampled at edge length e shrinks by about kappa e^2 / 2 per
+  // iteration), which dominates on coarse meshes. true: k(x) is c0 of the quadratic
+  // h = c0 + c1 u + c2 v + c3 u^2 + c4 u v + c5 v^2 fitted to the same heights with the same weights
+  // (local quadratic regression, Fan & Gijbels 1996): exact on any quadratic, so curvature is not
+  // read as noise. Falls back to the mean where the weights hold fewer than 2 points per
+  // coefficient ((sum W)^2 / sum W^2 < 12) or the fit is singular.
+  bool quadratic_fit = false;
   // Vertices allowed to move (empty: all). Masked vertices still inform the filter. Welded copies
   // of one point move only if all of them may move.
   std::vector<char> movable;
@@ -42,6 +56,16 @@ struct DenoiseOptions {
   int max_patch = 0;
   int max_window = 0;
 };
+
+// The rule of automatic mode (issue #32; measured in bench/notes/denoise.md): from the noise
+// estimate (sigma in units of the mean edge length e, the unit of the etas)
+//   similarity: eta1 = k * sqrt(4 pi / sqrt(3)) * eta3 * sigma (k = 1),
+//               quadratic_fit = (noise.curvature > sigma): coarse sampling for the surface's bending;
+//   bilateral:  eta1 = k_b * sigma (k_b = sqrt(2));
+//   eta1 at least 0.001, iterations = 3,
+// and every other field of `base` unchanged. Noise-free input (sigma -> 0) gives a kernel
+// narrower than any difference between neighbourhoods, so the filter leaves it nearly unchanged.
+DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& base);
 
 // Defaults of the bilateral filter from the thesis's Fandisk setting (table 2.1, [FDCO03]).
 DenoiseOptions bilateral_defaults();
@@ -58,6 +82,8 @@ struct DenoiseResult {
   int iterations = 0;
   long long rbf_fallbacks = 0;  // RBF patches solved by the lower-order (plane) fallback
   int welded = 0;               // vertices merged into a coincident one for the computation
+  NoiseEstimate noise;          // automatic mode: the estimate of the input (all zero otherwise)
+  DenoiseOptions options;       // the options the filter ran with (automatic: after auto_options)
 };
 
 // Meshes and soups: V (n,3), F (m,3) triangles with at least one non-degenerate face. Manifoldness
