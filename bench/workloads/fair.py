@@ -16,6 +16,7 @@ import dgmesh
 from bench.common import bbox_diagonal, cgal_mesh, table
 from bench.common import cgal_tool as common_cgal_tool
 from dgmesh.fairing import refine_region
+from dgmesh.polymesh.measures import min_angle_deg
 
 
 
@@ -782,16 +783,6 @@ def fair_stall(quick):
     return {"markdown": md, "data": data}
 
 
-def _min_angle_deg(V, F):
-    P = V[F]
-    out = []
-    for k in range(3):
-        u, w = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
-        c = (u * w).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)
-        out.append(np.degrees(np.arccos(np.clip(c, -1, 1))).min())
-    return float(min(out))
-
-
 def fair_drift(quick):
     """Tangential drift (thesis eq. 3.8, 3.10) on and off: a 2:1:1 ellipsoid (icosphere level 3)
     whose vertices are jittered in their tangent planes (Gaussian, 0.15 and 0.25 mean edge lengths),
@@ -810,7 +801,7 @@ def fair_drift(quick):
             for tang in (True, False):
                 secs, r = _timed(lambda: dgmesh.fair(V, F, tangential=tang))
                 rows.append([amp, seed, "on" if tang else "off", float(r.energy[0]), float(r.energy[-1]),
-                             _min_angle_deg(V, F), _min_angle_deg(r.vertices, r.faces), r.iterations,
+                             min_angle_deg(V, F), min_angle_deg(r.vertices, r.faces), r.iterations,
                              str(r.converged), r.stall.name, secs])
                 data[f"{amp}/{seed}/{'on' if tang else 'off'}"] = {"E": float(r.energy[-1]),
                                                                    "min_angle": rows[-1][6]}

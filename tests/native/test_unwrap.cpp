@@ -164,15 +164,21 @@ TEST(Unwrap, HemisphereReachesLowStretchWithoutFlips) {
   }
 }
 
-TEST(Unwrap, CylinderPatchIsDevelopable) {
-  // A quarter cylinder is isometric to a rectangle: with the free boundary the stretch is ~1.
-  const int nu = 40, nv = 30;
+// A quarter of the unit cylinder, 1.5 high, on an nu x nv grid: developable (isometric to a
+// rectangle), so its least L2 stretch is 1.
+TriMesh quarter_cylinder(int nu, int nv) {
   TriMesh g = grid(nu, nv);
-  MatX3d V(g.V.rows(), 3);
   for (int i = 0; i < g.V.rows(); ++i) {
-    const double a = g.V(i, 0) * kHalfPi;
-    V.row(i) << std::cos(a), std::sin(a), 1.5 * g.V(i, 1);
+    const double a = g.V(i, 0) * kHalfPi, z = 1.5 * g.V(i, 1);
+    g.V.row(i) << std::cos(a), std::sin(a), z;
   }
+  return g;
+}
+
+TEST(Unwrap, CylinderPatchIsDevelopable) {
+  // With the free boundary the stretch is ~1.
+  const TriMesh g = quarter_cylinder(40, 30);
+  const MatX3d& V = g.V;
   UnwrapOptions o = unwrap_thesis_defaults();
   o.boundary = UvBoundary::Free;
   UnwrapResult r = unwrap(V, g.F, o);
@@ -499,13 +505,8 @@ TEST(Unwrap, ChartsInOneCallAreEachChartAlone) {
 TEST(UvStretchOpt, CylinderPatchUnwrapsToStretchOne) {
   // Known answer: a quarter cylinder is developable, so the minimum of eq. 5.5 is 1. Start from
   // Floater's map on a circle (U0, stretch ~1.12) and free the boundary.
-  const int nu = 30, nv = 20;
-  TriMesh g = grid(nu, nv);
-  MatX3d V(g.V.rows(), 3);
-  for (int i = 0; i < g.V.rows(); ++i) {
-    const double a = g.V(i, 0) * kHalfPi;
-    V.row(i) << std::cos(a), std::sin(a), 1.5 * g.V(i, 1);
-  }
+  const TriMesh g = quarter_cylinder(30, 20);
+  const MatX3d& V = g.V;
   UnwrapOptions o = unwrap_thesis_defaults();
   o.boundary = UvBoundary::Circle;
   o.iterations = 0;

@@ -9,6 +9,7 @@ import pytest
 
 import dgmesh
 from dgmesh import shapes
+from dgmesh.polymesh.measures import min_angle_deg
 
 
 def _cap_hole(level=4, z0=0.75):
@@ -628,16 +629,6 @@ def _jittered_ellipsoid(seed, amp=0.15):
     return V + J, F
 
 
-def _min_angle(V, F):
-    P = V[F]
-    out = []
-    for k in range(3):
-        u, w = P[:, (k + 1) % 3] - P[:, k], P[:, (k + 2) % 3] - P[:, k]
-        c = (u * w).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)
-        out.append(np.degrees(np.arccos(np.clip(c, -1, 1))).min())
-    return min(out)
-
-
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_tangential_drift_keeps_triangles_even_while_an_ellipsoid_rounds_up(seed):
     """Thesis eq. 3.8 / 3.10: with the tangential drift the jittered ellipsoid flows to the round
@@ -647,6 +638,6 @@ def test_tangential_drift_keeps_triangles_even_while_an_ellipsoid_rounds_up(seed
     V, F = _jittered_ellipsoid(seed)
     w = dgmesh.fair(V, F, tangential=True)
     wo = dgmesh.fair(V, F, tangential=False)
-    assert w.energy[-1] < 12.6 and _min_angle(w.vertices, w.faces) > 30
-    assert _min_angle(wo.vertices, wo.faces) < 15
+    assert w.energy[-1] < 12.6 and min_angle_deg(w.vertices, w.faces) > 30
+    assert min_angle_deg(wo.vertices, wo.faces) < 15
     assert w.energy[-1] <= wo.energy[-1] + 0.05
