@@ -12,16 +12,12 @@
 #include "dgmesh/shapes.h"
 #include "dgmesh/validate.h"
 
+#include "test_meshes.h"
+
 using namespace dgmesh;
+using dgmesh::test::mean_edge;
 
 namespace {
-
-double mean_edge(const MatX3d& V, const MatX3i& F) {
-  double s = 0;
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) s += (V.row(F(f, k)) - V.row(F(f, (k + 1) % 3))).norm();
-  return s / (3.0 * F.rows());
-}
 
 // Gaussian noise of deviation sigma along the (clean) vertex normals, fixed seed.
 MatX3d add_normal_noise(const MatX3d& V, const MatX3i& F, double sigma, unsigned seed) {

@@ -6,6 +6,14 @@
 
 namespace dgmesh::test {
 
+// Mean edge length over the triangles' corners (interior edges counted twice).
+inline double mean_edge(const MatX3d& V, const MatX3i& F) {
+  double s = 0;
+  for (int f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) s += (V.row(F(f, k)) - V.row(F(f, (k + 1) % 3))).norm();
+  return s / (3.0 * F.rows());
+}
+
 // Keeps the faces whose centroid satisfies keep(c), and compacts the vertices.
 template <class Keep>
 TriMesh select_faces(const TriMesh& m, Keep keep) {

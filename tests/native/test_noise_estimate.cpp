@@ -8,18 +8,10 @@
 #include "dgmesh/noise_estimate.h"
 #include "dgmesh/shapes.h"
 
+#include "test_meshes.h"
+
 using namespace dgmesh;
-
-namespace {
-
-double mean_edge(const MatX3d& V, const MatX3i& F) {
-  double s = 0;
-  for (int f = 0; f < F.rows(); ++f)
-    for (int k = 0; k < 3; ++k) s += (V.row(F(f, k)) - V.row(F(f, (k + 1) % 3))).norm();
-  return s / (3.0 * F.rows());
-}
-
-}  // namespace
+using dgmesh::test::mean_edge;
 
 TEST(NoiseEstimate, IsotropicNoiseOnATorus) {
   const TriMesh t = torus(1.0, 0.35, 96, 40);

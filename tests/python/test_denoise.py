@@ -8,6 +8,7 @@ import pytest
 import dgmesh
 from dgmesh import shapes
 from dgmesh.denoising import residual_entropy
+from test_noise_estimate import graph
 
 CGAL = Path(__file__).resolve().parents[2] / ".cache" / "cgal-data" / "data" / "meshes"
 
@@ -219,17 +220,10 @@ def test_fandisk_similarity_beats_bilateral():
 
 # ---- automatic parameters (issue #32) ------------------------------------------------------------
 
-def _graph():
-    V, F = shapes.grid(40, 40)
-    V = V.copy()
-    V[:, 2] = 0.3 * np.sin(2 * V[:, 0]) * np.cos(3 * V[:, 1])
-    return V, F
-
-
 AUTO_SHAPES = {
     "icosphere": lambda: shapes.icosphere(4, 1.0),
     "torus": lambda: shapes.torus(1.0, 0.35, 96, 40),
-    "graph": _graph,
+    "graph": graph,
     "rounded_cube": lambda: shapes.rounded_cube(16, 0.3),
 }
 for _name in ("fandisk", "homer", "elephant"):
