@@ -259,7 +259,7 @@ def test_free_boundary_default_is_order_independent_and_never_flips(cgal):
     and renumbering the vertices changes neither that choice nor the stretch (the LSCM pins start
     from the lexicographically smallest boundary position, not from the loop's first vertex;
     measured spread before this: L2 1.45-1.71 and up to 1 flipped triangle over renumberings).
-    The equalization alone (stretch_iterations=0): the final minimisation's 10 Newton steps stop
+    The equalization alone (stretch_iterations=0): the final minimisation's Newton steps stop
     before convergence here, and their path depends on the numbering (L2 1.2895-1.2939 over these
     three numberings, 0.34%)."""
     V, F = dgmesh.read_mesh(cgal / "mannequin-devil.off")

@@ -112,7 +112,7 @@ struct UnwrapOptions {
   // search, free boundary; uv_stretch_opt.h): at most this many Newton steps, 0 = off. Kept only
   // when it lowers eq. 5.5 with no flipped or zero-area triangle; it runs only from a map that has
   // none (a warning otherwise). Its map is the last entry of UnwrapResult::steps.
-  int stretch_iterations = 10;
+  int stretch_iterations = 4;
   // The minimisation stops when a Newton step lowers eq. 5.5 by less than this (relative), >= 0.
   double stretch_tolerance = 1e-4;
 };
