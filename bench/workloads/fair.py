@@ -361,14 +361,9 @@ def cgal_restore(V, F, hole, inner, V0, build=True):
             moving = np.zeros(len(Vr), dtype=bool)
             moving[int(keep.sum()):] = True  # CGAL's new vertices follow the input's
             out["refined_fill"] = (Vr, Fr, region, moving)
-        _write_off(d / "fill.off", V0, F)
-        np.savetxt(d / "mask.txt", np.flatnonzero(inner), fmt="%d")
-        t0 = time.perf_counter()
-        p = subprocess.run([str(exe), "fair", str(d / "fill.off"), str(d / "mask.txt"), str(d / "fair.off")],
-                           capture_output=True, text=True)
-        secs = time.perf_counter() - t0
-        if p.returncode == 0:
-            out["fair"] = (_read_off(d / "fair.off")[0], secs)
+    faired = cgal_fair(V0, F, inner, build)
+    if faired is not None:
+        out["fair"] = faired
     return out
 
 

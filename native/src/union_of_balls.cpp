@@ -108,7 +108,8 @@ double ball_hull_distance(const Vec3& x, const std::array<Vec3, 3>& c, const Vec
     // its normal part (on x's side); the centre c(l) = x - t u then lies in the plane.
     Eigen::Matrix2d G;
     G << e1.dot(e1), e1.dot(e2), e1.dot(e2), e2.dot(e2);
-    const Eigen::Vector2d ab = G.inverse() * Eigen::Vector2d(r[0] - r[1], r[0] - r[2]);
+    const Eigen::Matrix2d Gi = G.inverse();
+    const Eigen::Vector2d ab = Gi * Eigen::Vector2d(r[0] - r[1], r[0] - r[2]);
     const Vec3 p = ab[0] * e1 + ab[1] * e2;
     const double p2 = p.squaredNorm();
     if (p2 < 1) {
@@ -116,7 +117,7 @@ double ball_hull_distance(const Vec3& x, const std::array<Vec3, 3>& c, const Vec
       const Vec3 uu = p + un * side;
       const double t = std::abs(h) / un;
       const Vec3 cl = x - t * uu;
-      const Eigen::Vector2d l = G.inverse() * Eigen::Vector2d((cl - c[0]).dot(e1), (cl - c[0]).dot(e2));
+      const Eigen::Vector2d l = Gi * Eigen::Vector2d((cl - c[0]).dot(e1), (cl - c[0]).dot(e2));
       if (l[0] >= 0 && l[1] >= 0 && l[0] + l[1] <= 1) {
         best = t - (r[0] + l[0] * (r[1] - r[0]) + l[1] * (r[2] - r[0]));
         best_u = uu;
