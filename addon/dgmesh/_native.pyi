@@ -195,6 +195,9 @@ class CurvatureDerivatives:
     normals: numpy.ndarray  # (n, 3) normals of the fitted surface
     noise_ratio: float  # with jet: median 2-ring quartic / cubic residual ratio of the noise test (0: no evidence of noise)
     jet_used: bool  # the jet fit was used (not the thesis fit)
+    e_max_error: numpy.ndarray  # (n,) with the jet fit: standard error of e_max from the fit's residual (empty otherwise)
+    e_min_error: numpy.ndarray  # (n,) with the jet fit: standard error of e_min
+    plateau_vertices: int  # crest lines with the jet fit: vertices traced on the thesis fit (DerivativeOptions.plateaus)
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> CurvatureDerivatives: ...
 
@@ -267,6 +270,7 @@ class DerivativeOptions:
     rings: int  # k of the k-ring used for the fit (thesis 1..4; 1..8 accepted)
     jet: bool  # two-pass jet fit (heights + jet normals, degree 3 / 5); false (default): the thesis's cubic fit
     noise_adaptive: bool  # with jet: fall back to the thesis fit when the mesh looks noisy (2-ring cubic / quartic residual ratio above kJetNoiseRatio)
+    plateaus: bool  # crest lines with jet: traced on the thesis fit where the dominant curvature is constant to within the jet's error (flat regions, G1 blends), so a blend's crest line is its middle line
     smooth: bool  # fit on M' (p' = mean of the centroids of the faces around p)
     use_normals: bool  # adjacent-normal equations in the fit (table 4.1)
     fit_tangent_plane: bool  # fit the tangent plane too (linear terms; the Max normal as one more equation)

@@ -136,16 +136,19 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
                           progress: Progress | None = None) -> CurvatureDerivatives:
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
-    ``jet=True``: a two-pass fit at each vertex p of the input, several times more accurate on
-    smooth meshes (bench ``crest_derivatives``) but more sensitive to noise. Pass 1 estimates the
-    normal of every vertex from a cubic jet fitted to the heights of its 2-ring; pass 2 fits a jet
-    (free tangent plane, degree 3 on the one-ring, 5 on larger rings) to the heights of the
+    ``jet=True``: a two-pass fit at each vertex p of the input, several times more accurate than
+    the thesis's fit on smooth meshes and more accurate than CGAL's jet fitting (bench
+    ``crest_derivatives``), but more sensitive to noise. Pass 1 estimates the normal of every
+    vertex from a jet fitted to the heights of its 2-ring (quartic for one-ring fits, cubic
+    otherwise); pass 2 fits a jet (free tangent plane, degree 3 on the one-ring, 5 on larger rings;
+    a one-ring of fewer than six vertices is widened to the 2-ring) to the heights of the
     ``rings``-ring and the slopes of their pass-1 normals. ``smooth``, ``use_normals``,
     ``fit_tangent_plane`` and ``transport_to_vertex`` then do not apply, unless ``noise_adaptive``
     (default on) finds the mesh noisy: the median ratio of the residuals of quartic and cubic fits
     to 2-ring heights exceeds ``JET_NOISE_RATIO`` (truncation error falls with the degree, noise
     does not), and the thesis fit below is used instead. The result's ``noise_ratio`` and
-    ``jet_used`` say what happened.
+    ``jet_used`` say what happened; ``e_max_error`` / ``e_min_error`` are the jet's standard errors
+    of e.
 
     Default (``jet=False``): the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
     the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
@@ -167,7 +170,8 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
 
 def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, threshold: float = _CREST.threshold,
                 ridges: bool = _CREST.ridges, valleys: bool = _CREST.valleys, jet: bool = _FIT.jet,
-                noise_adaptive: bool = _FIT.noise_adaptive, smooth: bool = _FIT.smooth, join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
+                noise_adaptive: bool = _FIT.noise_adaptive, plateaus: bool = _FIT.plateaus, smooth: bool = _FIT.smooth,
+                join_gaps: bool = _CREST.join_gaps, skip_boundary: bool = _CREST.skip_boundary,
                 progress: Progress | None = None) -> CrestLines:
     """Crest lines of a triangle mesh (thesis 4.5-4.6).
 
@@ -178,11 +182,15 @@ def crest_lines(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _FIT.rings, 
     lines of typical scans; 0 keeps every line). Edges touching the mesh boundary are skipped when
     ``skip_boundary`` (the fit is one-sided there). Defaults: ``DerivativeOptions()`` and
     ``CrestOptions()``. ``jet``, ``noise_adaptive`` and ``smooth`` are those of
-    :func:`curvature_derivatives`.
+    :func:`curvature_derivatives`. With the jet fit and ``plateaus`` (default on) the lines are
+    traced on the thesis fit where the dominant curvature is constant along its line of curvature
+    to within the jet's own error, and within the jet's support of such places (flat regions, G1
+    blends of constant radius): there the jet's e is 0 up to round-off, while the thesis fit's
+    smoothing puts a blend's crest line on its middle.
     Returns :class:`CrestLines`; ``.filter(threshold)`` re-thresholds without refitting.
     """
     fit = make_options(DerivativeOptions(), rings=_check_rings(rings), jet=jet, noise_adaptive=noise_adaptive,
-                       smooth=smooth)
+                       plateaus=plateaus, smooth=smooth)
     # Every line is traced (threshold 0, both kinds) and kept, so that filter() can bring lines back.
     trace = make_options(CrestOptions(), ridges=True, valleys=True, threshold=0.0, join_gaps=join_gaps,
                          skip_boundary=skip_boundary)

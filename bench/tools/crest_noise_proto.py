@@ -122,7 +122,14 @@ class Est:
         self.t_max, self.t_min = np.zeros((nv, 3)), np.zeros((nv, 3))
 
 
-def pass1(V, F, rings2, sigma_w=None, rings_used=None):
+def asymmetry(V, i, ring, n):
+    """|mean of the neighbours' tangent offsets| / mean distance: 0 on a centrally symmetric ring."""
+    d = V[np.array(ring[1:])] - V[i]
+    d = d - np.outer(d @ n, n)
+    return float(np.linalg.norm(d.mean(0)) / np.linalg.norm(d, axis=1).mean())
+
+
+def pass1(V, F, rings2, sigma_w=None, rings_used=None, degree=3, asym=None):
     """Pass-1 normals (cubic on heights of the given rings) and per-vertex height residual
     (scaled units, corrected for the degrees of freedom)."""
     Nm = max_normals(V, F)
@@ -131,7 +138,10 @@ def pass1(V, F, rings2, sigma_w=None, rings_used=None):
     for i, ring in enumerate(rings2):
         if len(ring) < 14:
             continue
-        c, u, w, s, r, dof = jet(V, i, ring, Nm[i], 3, sigma_w=sigma_w)
+        deg = degree if len(ring) >= 17 else 3
+        if asym is not None and len(ring) >= 17:
+            deg = 4 if asymmetry(V, i, ring, Nm[i]) > asym else 3
+        c, u, w, s, r, dof = jet(V, i, ring, Nm[i], deg, sigma_w=sigma_w)
         g = -c[0] * u - c[1] * w + Nm[i]
         N[i] = g / np.linalg.norm(g)
         if dof > 0:
@@ -158,6 +168,18 @@ def run_variant(name, V, F, R, mask, N1, res1, k):
         elif name.startswith("nw"):  # normal rows down-weighted as noise grows
             f = float(name[2:])
             c, u, w, s, _, _ = jet(V, i, R[k][i], n, 3 if k == 1 else 5, normals=N1, nweight=1 / (1 + f * sig ** 2 * 1e4))
+        elif name == "q1":  # quartic on the k-ring (heights + pass-1 normals) when it has the equations
+            nb = len(R[k][i]) - 1
+            c, u, w, s, _, _ = jet(V, i, R[k][i], n, 4 if (k == 1 and 3 * nb + 2 >= 18) else (3 if k == 1 else 5), normals=N1)
+        elif name.startswith("lowval"):  # 1-ring fit widened to the 2-ring (degree 3 / 5) where the 1-ring has < 6 vertices
+            nb = len(R[k][i]) - 1
+            deg = int(name[6:] or 5)
+            if k == 1 and nb < 6:
+                c, u, w, s, _, _ = jet(V, i, R[2][i], n, deg, normals=N1)
+            else:
+                c, u, w, s, _, _ = jet(V, i, R[k][i], n, 3 if k == 1 else 5, normals=N1)
+        elif name == "g1":  # the 1-ring cubic with the 2-ring's heights, Gaussian-weighted (sigma_w = 1)
+            c, u, w, s, _, _ = jet(V, i, R[k + 1][i], n, 3 if k == 1 else 5, normals=N1, sigma_w=0.75 if k == 1 else 1.5)
         elif name == "wideall":  # the "wide" fit whatever the noise
             c, u, w, s, _, _ = jet(V, i, R[min(k + 1, 3)][i], n, 3, normals=N1, sigma_w=k + 0.5)
         elif name.startswith("wide"):  # under noise: degree 3, Gaussian weights over k+1 rings, heights + normals
@@ -189,6 +211,12 @@ def main():
             R = {k: C._rings(V, F, k) for k in (1, 2, 3)}
             if args.pass1 == "2":
                 N1, res1 = pass1(V, F, R[2])
+            elif args.pass1.startswith("2a"):
+                a = float(args.pass1[2:])
+                print("asym quantiles", np.quantile([asymmetry(V, i, R[2][i], max_normals(V, F)[i]) for i in range(0, len(V), 7)], [0.1, 0.5, 0.9]))
+                N1, res1 = pass1(V, F, R[2], asym=a)
+            elif args.pass1 == "2q":
+                N1, res1 = pass1(V, F, R[2], degree=4)
             else:
                 N1, res1 = pass1(V, F, R[3], sigma_w=1.5)
             line = [f"({si}) noise {sigma:g} sigma_hat {noise_level(res1):.4f}"]

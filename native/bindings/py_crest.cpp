@@ -72,6 +72,9 @@ void bind_crest(pb::module_& m) {
       .field("noise_adaptive", &DerivativeOptions::noise_adaptive,
              "with jet: fall back to the thesis fit when the mesh looks noisy (2-ring cubic / quartic residual ratio "
              "above kJetNoiseRatio)")
+      .field("plateaus", &DerivativeOptions::plateaus,
+             "crest lines with jet: traced on the thesis fit where the dominant curvature is constant to within the "
+             "jet's error (flat regions, G1 blends), so a blend's crest line is its middle line")
       .field("smooth", &DerivativeOptions::smooth, "fit on M' (p' = mean of the centroids of the faces around p)")
       .field("use_normals", &DerivativeOptions::use_normals, "adjacent-normal equations in the fit (table 4.1)")
       .field("fit_tangent_plane", &DerivativeOptions::fit_tangent_plane,
@@ -89,7 +92,12 @@ void bind_crest(pb::module_& m) {
       .result("normals", &CurvatureDerivatives::normals, "(n, 3) normals of the fitted surface")
       .result("noise_ratio", &CurvatureDerivatives::noise_ratio,
               "with jet: median 2-ring quartic / cubic residual ratio of the noise test (0: no evidence of noise)")
-      .result("jet_used", &CurvatureDerivatives::jet_used, "the jet fit was used (not the thesis fit)");
+      .result("jet_used", &CurvatureDerivatives::jet_used, "the jet fit was used (not the thesis fit)")
+      .result("e_max_error", &CurvatureDerivatives::e_max_error,
+              "(n,) with the jet fit: standard error of e_max from the fit's residual (empty otherwise)")
+      .result("e_min_error", &CurvatureDerivatives::e_min_error, "(n,) with the jet fit: standard error of e_min")
+      .result("plateau_vertices", &CurvatureDerivatives::plateau_vertices,
+              "crest lines with the jet fit: vertices traced on the thesis fit (DerivativeOptions.plateaus)");
 
   m.attr("JET_NOISE_RATIO") = kJetNoiseRatio;
 
@@ -177,7 +185,7 @@ void bind_crest(pb::module_& m) {
         const ProgressFn progress = progress_from(cb);
         NativeScope nogil;
         const Mesh mesh = make_mesh(Vin, Fin, kSurface);
-        CurvatureDerivatives d = curvature_derivatives(mesh, fit, progress);
+        CurvatureDerivatives d = crest_fields(mesh, fit, progress);
         CrestLines c = trace_crest_lines(mesh, d, opt);
         return std::make_pair(std::move(d), std::move(c));
       },

@@ -225,22 +225,28 @@ void jet_row(double x, double y, int degree, int deriv, double* r) {
 }
 
 using Vec20 = Eigen::Matrix<double, 20, 1>;
+using Mat4 = Eigen::Matrix<double, 4, 4>;
 
 struct JetScratch {
   std::vector<int> ring, mark;
-  Vec20 c;  // coefficients of the last fit (the first jet_size(degree))
+  Vec20 c;    // coefficients of the last fit (the first jet_size(degree))
+  Mat4 cov3;  // with `error`: covariance of the third derivatives c[5..8] (scaled units)
 };
 
 // Normal equations of the jet fit of degree D over the neighbours listed in s.ring (skipping the
-// vertex itself and those with mark false), fixed size so that the outer products vectorise.
+// vertex itself and those with mark false), fixed size so that the outer products vectorise. With
+// `error`, also the covariance of the third-derivative coefficients, sigma^2 (A^-1)[5..8] with sigma^2
+// the residual variance per degree of freedom (0 without spare equations).
 template <int D>
 bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, const Vec3& u, const Vec3& w,
-               double scale, bool slopes, JetScratch& s) {
+               double scale, bool slopes, bool error, JetScratch& s) {
   constexpr int M = (D + 1) * (D + 2) / 2 - 1;
   using MatM = Eigen::Matrix<double, M, M>;
   using VecM = Eigen::Matrix<double, M, 1>;
   MatM A = MatM::Zero();
   VecM b = VecM::Zero(), r;
+  double zz = 0.0;
+  int rows = 0;
   for (size_t j = 1; j < s.ring.size(); ++j) {
     const int v = s.ring[j];
     const Vec3 nv = N.row(v);
@@ -250,6 +256,8 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
     jet_row(x, y, D, 0, r.data());
     A.noalias() += r * r.transpose();
     b.noalias() += r * z;
+    zz += z * z;
+    ++rows;
     if (slopes) {
       const double ma = nv.dot(u), mb = nv.dot(w), mc = nv.dot(n);
       jet_row(x, y, D, 1, r.data());
@@ -258,23 +266,36 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
       jet_row(x, y, D, 2, r.data());
       A.noalias() += r * r.transpose();
       b.noalias() += r * (-mb / mc);
+      zz += (ma * ma + mb * mb) / (mc * mc);
+      rows += 2;
     }
   }
-  if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0;  // n itself: h_x = h_y = 0 at p
+  if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0, rows += 2;  // n itself: h_x = h_y = 0 at p
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
-  const VecM c = A.ldlt().solve(b);
+  const Eigen::LDLT<MatM> ldlt(A);
+  const VecM c = ldlt.solve(b);
   s.c.head<M>() = c;
+  if constexpr (D >= 3) {
+    if (!error) return c.allFinite();
+    // Residual sum of squares from the normal equations: |A c - z|^2 = zz - 2 c.b + c.A c.
+    const double rss = std::max(0.0, zz - 2.0 * c.dot(b) + c.dot(A * c));
+    const double sigma2 = rows > M ? rss / (rows - M) : 0.0;
+    Eigen::Matrix<double, M, 4> E = Eigen::Matrix<double, M, 4>::Zero();
+    E.template block<4, 4>(5, 0).setIdentity();
+    s.cov3 = sigma2 * ldlt.solve(E).template middleRows<4>(5);
+  }
   return c.allFinite();
 }
 
 // Fits the jet at vertex i over its `rings`-ring (neighbours whose normal in N makes an obtuse angle
 // with n dropped): heights, and with `slopes` the slopes of the neighbours' normals N (h_x = -m_x /
 // m_z, h_y = -m_y / m_z) and of n at p (h_x = h_y = 0). Returns false when too few neighbours are
-// left for even a quadratic; `degree` (3 or 5) is lowered to 3, then 2, when the rows do not
-// determine it with a margin. On success s.c holds the coefficients (scaled units) and u, w, scale
-// the frame.
+// left for even a quadratic. `degree` (3, 4 or 5) is lowered, to 3 then 2, when the rows do not
+// determine it: a quartic needs two spare equations, the others 1.5 equations per unknown (a square
+// fit interpolates and amplifies errors). On success s.c holds the coefficients
+// (scaled units, s.cov3 their error with `error`) and u, w, scale the frame.
 bool fit_jet(int i, const MatX3d& V, const MatX3d& N, const Vec3& n, const Topology& topo, int rings, int degree,
-             bool slopes, JetScratch& s, Vec3& u, Vec3& w, double& scale, int& used_degree) {
+             bool slopes, bool error, JetScratch& s, Vec3& u, Vec3& w, double& scale, int& used_degree) {
   u = any_perpendicular(n), w = n.cross(u);
   const Vec3 p = V.row(i);
   k_ring(topo, i, rings, s.ring, s.mark);
@@ -289,47 +310,67 @@ bool fit_jet(int i, const MatX3d& V, const MatX3d& N, const Vec3& n, const Topol
   if (count < 2 || mean_dist <= 0.0) return false;
   scale = count / mean_dist;
   const int rows = (slopes ? 3 : 1) * count + (slopes ? 2 : 0);
-  // Ask for 1.5 equations per unknown (a square fit interpolates and amplifies errors).
   if (degree == 5 && 2 * rows < 3 * jet_size(5)) degree = 3;
+  if (degree == 4 && rows < jet_size(4) + 2) degree = 3;
   if (degree == 3 && 2 * rows < 3 * jet_size(3)) degree = 2;
   if (rows < jet_size(degree)) return false;
   used_degree = degree;
-  if (degree == 5) return solve_jet<5>(V, N, p, n, u, w, scale, slopes, s);
-  if (degree == 3) return solve_jet<3>(V, N, p, n, u, w, scale, slopes, s);
-  return solve_jet<2>(V, N, p, n, u, w, scale, slopes, s);
+  if (degree == 5) return solve_jet<5>(V, N, p, n, u, w, scale, slopes, error, s);
+  if (degree == 4) return solve_jet<4>(V, N, p, n, u, w, scale, slopes, error, s);
+  if (degree == 3) return solve_jet<3>(V, N, p, n, u, w, scale, slopes, error, s);
+  return solve_jet<2>(V, N, p, n, u, w, scale, slopes, error, s);
 }
 
-// Pass 1: the normal of a cubic jet fitted to the heights of the 2-ring (at least ten points on a
-// closed valence-6 mesh, as CGAL's Monge_via_jet_fitting with d = 3 needs), over the Max normal's
-// tangent plane. Falls back to the Max normal where the fit is not determined.
-Vec3 jet_normal(int i, const MatX3d& V, const MatX3d& Nmax, const Topology& topo, JetScratch& s) {
+// Pass 1: the normal of a jet fitted to the heights of the 2-ring over the Max normal's tangent plane:
+// a cubic (as CGAL's Monge_via_jet_fitting with d = 3) or a quartic (18 points on a closed valence-6
+// mesh; a cubic where fewer than 16). The quartic removes the fourth-order terms that leak into the
+// gradient on an irregular neighbourhood, which the one-ring fit of pass 2 differentiates twice more
+// (jittered meshes: bench/notes/crest_derivatives.md); on regular lattices, where they cancel, the
+// cubic is more accurate, and wider pass-2 fits average the normals' errors out. Falls back to the
+// Max normal where the fit is not determined.
+Vec3 jet_normal(int i, const MatX3d& V, const MatX3d& Nmax, const Topology& topo, int pass1_degree, JetScratch& s) {
   const Vec3 n = Nmax.row(i);
   if (n.squaredNorm() == 0.0) return n;
   Vec3 u, w;
   double scale;
   int degree;
-  if (!fit_jet(i, V, Nmax, n, topo, 2, 3, false, s, u, w, scale, degree)) return n;
+  if (!fit_jet(i, V, Nmax, n, topo, 2, pass1_degree, false, false, s, u, w, scale, degree)) return n;
   const Vec3 g = -s.c[0] * u - s.c[1] * w + n;
   return g.normalized();
 }
 
 // Pass 2 at vertex i: heights and the pass-1 normals N of the k-ring, degree 3 on the one-ring and
 // 5 on larger rings (a cubic over a wider neighbourhood is biased by the surface's fifth-order
-// terms, bench/notes/crest_derivatives.md).
+// terms, bench/notes/crest_derivatives.md). A one-ring of fewer than six vertices (valence-4 vertices
+// of square grids) does not determine the cubic's mixed terms well: there the 2-ring's quintic is
+// fitted. Writes the fields of vertex i and the standard errors of its e_max, e_min (from the
+// covariance of the third derivatives; the curvature term of eq. 4.9 is taken as exact).
 void fit_vertex_jet(int i, const MatX3d& V, const MatX3d& N, const Topology& topo, const DerivativeOptions& opt,
                     JetScratch& s, CurvatureDerivatives& out) {
+  out.e_max_error[i] = out.e_min_error[i] = 0.0;
   const Vec3 n = N.row(i);
   if (n.squaredNorm() == 0.0) return write_no_fit(i, n, out);
+  int rings = opt.rings;
+  if (rings == 1 && topo.valence(i) < 6) rings = 2;
   Vec3 u, w;
   double scale;
   int degree;
-  if (!fit_jet(i, V, N, n, topo, opt.rings, opt.rings == 1 ? 3 : 5, true, s, u, w, scale, degree))
+  if (!fit_jet(i, V, N, n, topo, rings, rings == 1 ? 3 : 5, true, true, s, u, w, scale, degree))
     return write_no_fit(i, n, out);
   const Vec20& c = s.c;
   double cc[4] = {0.0, 0.0, 0.0, 0.0};
   if (degree >= 3)
     for (int k = 0; k < 4; ++k) cc[k] = c[5 + k];
   write_fields(i, c[0], c[1], c[2], c[3], c[4], cc, u, w, n, scale, out);
+  if (degree < 3) return;
+  // e = -cubic_form(c, t) / G + ...: its gradient in c[5..8] along the principal direction t (in the frame).
+  auto error = [&](const Vec3& t) {
+    const double t1 = t.dot(u), t2 = t.dot(w);
+    const Eigen::Vector4d g(t1 * t1 * t1, 3 * t1 * t1 * t2, 3 * t1 * t2 * t2, t2 * t2 * t2);
+    return std::sqrt(std::max(0.0, g.dot(s.cov3 * g))) * scale * scale;
+  };
+  out.e_max_error[i] = error(out.t_max.row(i));
+  out.e_min_error[i] = error(out.t_min.row(i));
 }
 
 // Noise test of the jet fit (DerivativeOptions::noise_adaptive): on at most kSamples vertices spread evenly by
@@ -453,6 +494,76 @@ void line_measures(CrestLines& cl, const std::vector<int>& point_kind) {
   }
 }
 
+// The thesis's fit (4.5, eq. 4.7) at the listed vertices: M' (p' = mean of the centroids of the faces around p) with
+// its Max normals, then fit_vertex. Progress over the list when given.
+void thesis_fit(const Mesh& mesh, const DerivativeOptions& opt, const std::vector<int>& vertices,
+                CurvatureDerivatives& out, Progress* progress = nullptr) {
+  const Topology& topo = mesh.topo;
+  const int nv = topo.n_vertices;
+  MatX3d P = mesh.V;
+  if (opt.smooth) {
+#pragma omp parallel for schedule(static)
+    for (int v = 0; v < nv; ++v) {
+      const int a = topo.vf_offset[v], b = topo.vf_offset[v + 1];
+      if (a == b) continue;
+      Vec3 sum = Vec3::Zero();
+      for (int j = a; j < b; ++j) {
+        const int f = topo.vf_index[j];
+        sum += Vec3(mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2)));
+      }
+      P.row(v) = (sum / (3.0 * (b - a))).transpose();
+    }
+  }
+  const MatX3d N = vertex_normals(P, mesh.F, topo, NormalWeights::Max);  // Max's normals on M'
+  std::vector<FitScratch> scratch(std::max(1, omp_get_max_threads()));
+  const int n = static_cast<int>(vertices.size()), chunk = 32768;
+  for (int begin = 0; begin < n; begin += chunk) {
+    const int end = std::min(n, begin + chunk);
+#pragma omp parallel
+    {
+      FitScratch& s = scratch[omp_get_thread_num()];
+#pragma omp for schedule(dynamic, 256)
+      for (int j = begin; j < end; ++j) fit_vertex(vertices[j], mesh.V, P, N, topo, opt, s, out);
+    }
+    if (progress) (*progress)(static_cast<double>(end) / n);
+  }
+}
+
+// DerivativeOptions::plateaus: the vertices whose closed one-ring has, for the curvature of larger magnitude at each
+// vertex, an extremality coefficient within kPlateauErrors standard errors of zero (or round-off): there k is constant
+// to within the jet's own error and its zero crossings are noise. Grown by `margin` rings; sorted.
+constexpr double kPlateauErrors = 3.0;
+std::vector<int> plateau_vertices(const Topology& topo, const CurvatureDerivatives& d, int margin) {
+  const int nv = topo.n_vertices;
+  std::vector<char> flat(nv);
+#pragma omp parallel for schedule(static)
+  for (int v = 0; v < nv; ++v) {
+    const bool use_max = std::abs(d.k_max[v]) >= std::abs(d.k_min[v]);
+    const double e = use_max ? d.e_max[v] : d.e_min[v], err = use_max ? d.e_max_error[v] : d.e_min_error[v];
+    const double k = use_max ? d.k_max[v] : d.k_min[v];
+    flat[v] = std::abs(e) <= kPlateauErrors * err + 1e-9 * (std::abs(k) + 1.0) * (std::abs(k) + 1.0);
+  }
+  // Plateau cores: the whole closed one-ring flat.
+  std::vector<char> in(nv, 0);
+  std::vector<int> out;
+  for (int v = 0; v < nv; ++v) {
+    bool all = flat[v] && topo.valence(v) > 0;
+    for (int j = topo.vv_offset[v]; all && j < topo.vv_offset[v + 1]; ++j) all = flat[topo.vv_index[j]];
+    if (all) in[v] = 1, out.push_back(v);
+  }
+  // Grown by `margin` rings.
+  size_t begin = 0;
+  for (int r = 0; r < margin; ++r) {
+    const size_t end = out.size();
+    for (size_t i = begin; i < end; ++i)
+      for (int j = topo.vv_offset[out[i]]; j < topo.vv_offset[out[i] + 1]; ++j)
+        if (const int u = topo.vv_index[j]; !in[u]) in[u] = 1, out.push_back(u);
+    begin = end;
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 }  // namespace
 
 CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOptions& opt,
@@ -483,6 +594,9 @@ CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOpt
   }
   if (out.jet_used) {
     MatX3d N(nv, 3);
+    const int pass1_degree = opt.rings == 1 ? 4 : 3;
+    out.e_max_error.resize(nv);
+    out.e_min_error.resize(nv);
     std::vector<JetScratch> scratch(std::max(1, omp_get_max_threads()));
     for (int pass = 0; pass < 2; ++pass)
       for (int begin = 0; begin < nv; begin += chunk) {
@@ -493,7 +607,7 @@ CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOpt
 #pragma omp for schedule(dynamic, 256)
           for (int v = begin; v < end; ++v) {
             if (pass == 0)
-              N.row(v) = jet_normal(v, mesh.V, Nmax, topo, s).transpose();
+              N.row(v) = jet_normal(v, mesh.V, Nmax, topo, pass1_degree, s).transpose();
             else
               fit_vertex_jet(v, mesh.V, N, topo, opt, s, out);
           }
@@ -504,33 +618,9 @@ CurvatureDerivatives curvature_derivatives(const Mesh& mesh, const DerivativeOpt
     return out;
   }
 
-  // M': p' = mean of the centroids of the faces around p (thesis 4.5).
-  MatX3d P = mesh.V;
-  if (opt.smooth) {
-#pragma omp parallel for schedule(static)
-    for (int v = 0; v < nv; ++v) {
-      const int a = topo.vf_offset[v], b = topo.vf_offset[v + 1];
-      if (a == b) continue;
-      Vec3 sum = Vec3::Zero();
-      for (int j = a; j < b; ++j) {
-        const int f = topo.vf_index[j];
-        sum += Vec3(mesh.V.row(mesh.F(f, 0)) + mesh.V.row(mesh.F(f, 1)) + mesh.V.row(mesh.F(f, 2)));
-      }
-      P.row(v) = (sum / (3.0 * (b - a))).transpose();
-    }
-  }
-  const MatX3d N = vertex_normals(P, mesh.F, topo, NormalWeights::Max);  // Max's normals on M'
-  std::vector<FitScratch> scratch(std::max(1, omp_get_max_threads()));
-  for (int begin = 0; begin < nv; begin += chunk) {
-    const int end = std::min(nv, begin + chunk);
-#pragma omp parallel
-    {
-      FitScratch& s = scratch[omp_get_thread_num()];
-#pragma omp for schedule(dynamic, 256)
-      for (int v = begin; v < end; ++v) fit_vertex(v, mesh.V, P, N, topo, opt, s, out);
-    }
-    progress(static_cast<double>(end) / nv);
-  }
+  std::vector<int> all(nv);
+  for (int v = 0; v < nv; ++v) all[v] = v;
+  thesis_fit(mesh, opt, all, out, &progress);
   progress(1.0);
   return out;
 }
@@ -696,10 +786,21 @@ CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, co
   return cl;
 }
 
+CurvatureDerivatives crest_fields(const Mesh& mesh, const DerivativeOptions& opt, const ProgressFn& progress) {
+  CurvatureDerivatives d = curvature_derivatives(mesh, opt, progress);
+  if (d.jet_used && opt.plateaus) {
+    // Grown by the jet's support (pass 1's 2-ring, pass 2's k-ring): next to a plateau's rim, where k jumps (a G1
+    // blend meeting a flat side), the polynomial overshoots and puts maxima of k beside the blend's middle.
+    const std::vector<int> plateau = plateau_vertices(mesh.topo, d, opt.rings + 2);
+    d.plateau_vertices = static_cast<int>(plateau.size());
+    if (!plateau.empty()) thesis_fit(mesh, opt, plateau, d);
+  }
+  return d;
+}
+
 CrestLines crest_lines(const Mesh& mesh, const DerivativeOptions& fit, const CrestOptions& opt,
                        const ProgressFn& progress) {
-  const CurvatureDerivatives d = curvature_derivatives(mesh, fit, progress);
-  return trace_crest_lines(mesh, d, opt);
+  return trace_crest_lines(mesh, crest_fields(mesh, fit, progress), opt);
 }
 
 CrestLines filter_crest_lines(const CrestLines& in, double threshold, bool ridges, bool valleys) {

@@ -75,12 +75,12 @@ TriMesh rounded_cube(int n, double r) {
 
 // Graph z = cos(|xy|) over a disc of radius R, triangulated by an equilateral lattice of spacing h:
 // the thesis's waving surface r(u, v) = (u cos v, u sin v, cos u).
-TriMesh waving_disc(double R, double h) {
+TriMesh waving_disc(double R, double h, bool square = false) {
   const int n = static_cast<int>(std::ceil(R / h)) + 2;
-  const double dy = h * std::sqrt(3.0) / 2;
+  const double dy = square ? h : h * std::sqrt(3.0) / 2;
   std::map<std::pair<int, int>, int> id;
   std::vector<Vec3> verts;
-  auto pos = [&](int i, int j) { return Vec3(i * h + ((j & 1) ? 0.5 * h : 0.0), j * dy, 0.0); };
+  auto pos = [&](int i, int j) { return Vec3(i * h + ((j & 1) && !square ? 0.5 * h : 0.0), j * dy, 0.0); };
   auto vid = [&](int i, int j) {
     auto it = id.find({i, j});
     if (it != id.end()) return it->second;
@@ -93,8 +93,8 @@ TriMesh waving_disc(double R, double h) {
   std::vector<std::array<int, 3>> tris;
   for (int j = -n; j < n; ++j)
     for (int i = -n; i < n; ++i) {
-      // Row j to row j+1; odd rows are shifted right by h/2.
-      const bool odd = j & 1;
+      // Row j to row j+1; odd rows are shifted right by h/2 (square: the diagonals alternate instead).
+      const bool odd = square ? (i + j) & 1 : j & 1;
       std::array<std::pair<int, int>, 3> t1, t2;
       if (!odd) {
         t1 = {{{i, j}, {i + 1, j}, {i, j + 1}}};
@@ -234,6 +234,27 @@ TEST(CrestLines, RoundedCubeHasRidgesAlongAllTwelveEdges) {
     int band = (p.array() > 0.75 - 0.05).count();
     EXPECT_GE(band, 2) << p.transpose();
   }
+  // On a blend's middle line (or in a corner region), with the thesis fit and with the jet fit. The jet resolves the
+  // blends' constant k_max, so there this rests on DerivativeOptions::plateaus: without it the jet traces strong ridges
+  // beside the middle, where its polynomial overshoots the jump of k at the blend's rims.
+  auto middle_share = [&](const CrestLines& lines) {
+    int on = 0;
+    for (int i = 0; i < lines.points.rows(); ++i) {
+      Vec3 p = lines.points.row(i).cwiseAbs();
+      std::sort(p.data(), p.data() + 3);
+      on += (std::abs(p[1] - mid) < 0.05 && std::abs(p[2] - mid) < 0.05) || p[0] > 0.7;
+    }
+    return static_cast<double>(on) / std::max<Eigen::Index>(1, lines.points.rows());
+  };
+  EXPECT_GT(middle_share(cl), 0.95);
+  DerivativeOptions jet, no_plateaus;
+  jet.jet = no_plateaus.jet = true;
+  const CrestLines jl = crest_lines(m, jet, opt);
+  EXPECT_GT(middle_share(jl), 0.95);
+  EXPECT_GT(jl.n_lines(), 0);
+  no_plateaus.plateaus = false;
+  const CrestLines raw = crest_lines(m, no_plateaus, opt);
+  EXPECT_LT(middle_share(raw), 0.8);
 }
 
 TEST(CrestLines, WavingSurfaceMatchesExactCircles) {
@@ -438,10 +459,10 @@ TEST(CrestLines, JetFitIsMoreAccurateAndImprovesWithTwoRings) {
   const double h = 0.30;
   const TriMesh w = waving_disc(2.5 * M_PI, h);
   const Mesh m = make_mesh(w.V, w.F);
-  DerivativeOptions jet1, jet2, old2;
+  DerivativeOptions jet1, jet2, old1, old2;
   jet1.jet = jet2.jet = true;
   jet2.rings = old2.rings = 2;
-  const auto old = waving_errors(m, curvature_derivatives(m, DerivativeOptions{}));
+  const auto old = waving_errors(m, curvature_derivatives(m, old1));
   const auto one = waving_errors(m, curvature_derivatives(m, jet1));
   const auto two = waving_errors(m, curvature_derivatives(m, jet2));
   const auto old_two = waving_errors(m, curvature_derivatives(m, old2));
@@ -486,4 +507,56 @@ TEST(CrestLines, JetNoiseTestFallsBackToTheThesisFitUnderNoise) {
   const auto a = waving_errors(exact, adaptive), b = waving_errors(exact, alone);
   EXPECT_LT(a[0], 0.6 * b[0]);
   EXPECT_LT(a[2], 0.6 * b[2]);
+}
+
+TEST(CrestLines, JetOneRingFitHoldsOnSquareAndJitteredLattices) {
+  // Issue #31: the one-ring jet fit on the lattices where it lost to CGAL's 2-ring jet fitting (bench
+  // crest_derivatives (5), (6)). Square grid with alternating diagonals: valence-4 vertices widen to the 2-ring (their
+  // four neighbours do not determine the cubic's mixed terms). Jittered lattice: a quartic pass 1 (fourth-order terms
+  // leak into the normals of a lopsided 2-ring). The fit without the two, in this measure: square 0.0556 / 0.0474,
+  // jittered 0.0607 / 0.0726 (with them 0.0463 / 0.0407, 0.0450 / 0.0574).
+  const TriMesh square = waving_disc(2.8 * M_PI, 0.34, true);
+  const TriMesh jitter = jittered(waving_disc(3.5 * M_PI, 0.42), 0.42, 0.2);
+  for (const TriMesh* w : {&square, &jitter}) {
+    const Mesh m = make_mesh(w->V, w->F);
+    DerivativeOptions jet, two;
+    jet.jet = two.jet = true;
+    two.rings = 2;
+    const auto one = waving_errors(m, curvature_derivatives(m, jet));
+    const auto wide = waving_errors(m, curvature_derivatives(m, two));
+    std::printf("%s: jet 1-ring %.4f %.4f, 2-ring %.4f %.4f\n", w == &square ? "square" : "jittered", one[0], one[2],
+                wide[0], wide[2]);
+    EXPECT_LT(one[0], w == &square ? 0.051 : 0.053);
+    EXPECT_LT(one[2], w == &square ? 0.044 : 0.065);
+    EXPECT_LE(wide[0], one[0]);
+    EXPECT_LE(wide[2], one[2]);
+  }
+}
+
+TEST(CrestLines, JetStandardErrorsAreSmallOnExactAndLargeOnNoisyMeshes) {
+  const double h = 0.30;
+  const TriMesh w = waving_disc(2.5 * M_PI, h);
+  const Mesh exact = make_mesh(w.V, w.F);
+  DerivativeOptions plain;
+  plain.jet = true;
+  plain.noise_adaptive = false;
+  const CurvatureDerivatives a = curvature_derivatives(exact, plain);
+  ASSERT_EQ(a.e_max_error.size(), exact.V.rows());
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.02 * h);
+  MatX3d V = w.V;
+  for (int i = 0; i < V.rows(); ++i)
+    for (int c = 0; c < 3; ++c) V(i, c) += noise(rng);
+  const CurvatureDerivatives b = curvature_derivatives(make_mesh(V, w.F), plain);
+  auto median = [](VecXd x) {
+    std::nth_element(x.data(), x.data() + x.size() / 2, x.data() + x.size());
+    return x[x.size() / 2];
+  };
+  const double ea = median(a.e_max_error), eb = median(b.e_max_error);
+  std::printf("median standard error of e_max: exact %.4g, noise 0.02 h %.4g\n", ea, eb);
+  EXPECT_GT(ea, 0.0);
+  EXPECT_LT(ea, 0.03);  // 0.018 measured; the jet's RMS error here is 0.007 (bench crest_derivatives (4))
+  EXPECT_GT(eb, 5.0 * ea);
+  EXPECT_EQ(a.plateau_vertices, 0);                                                    // only crest_fields() sets it
+  EXPECT_EQ(curvature_derivatives(exact, DerivativeOptions{}).e_max_error.size(), 0);  // the thesis fit has none
 }

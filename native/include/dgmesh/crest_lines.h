@@ -18,16 +18,17 @@ constexpr double kJetNoiseRatio = 0.5;
 
 struct DerivativeOptions {
   int rings = 1;  // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
-  // Two-pass jet fit (opt-in; bench crest_derivatives, issue #31). Pass 1: the normal at every vertex from a cubic jet
-  // fitted to the heights of its 2-ring over the Max normal's tangent plane (as Cazals-Pouget jet fitting, d = 3). Pass
-  // 2: a jet with free linear terms fitted at the vertex p itself to the heights of its k-ring and the slopes of their
-  // pass-1 normals (the adjacent-normal equations of [GI04] with better normals), degree 3 on the one-ring and 5 on
-  // larger rings, so that a wider ring does not bias the third derivatives with the surface's fifth-order terms; the
-  // fields are eq. 4.9 of the fitted graph at p. The four options below then do not apply (unless noise_adaptive falls
-  // back to the thesis fit). Not the default: on a G1 blend k_max is constant, the jet resolves that plateau (e = 0)
-  // and traces no line along the blend's middle, where the thesis fit does (the rounded cube's rounded edges).
-  // false (default): the thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by the four options
-  // below.
+  // Two-pass jet fit (opt-in; bench crest_derivatives, issue #31). Pass 1: the normal at every vertex from a jet
+  // fitted to the heights of its 2-ring over the Max normal's tangent plane (as Cazals-Pouget jet fitting; degree 4 for
+  // one-ring fits, 3 otherwise). Pass 2: a jet with free linear terms fitted at the vertex p itself to the heights of
+  // its k-ring and the slopes of their pass-1 normals (the adjacent-normal equations of [GI04] with better normals),
+  // degree 3 on the one-ring and 5 on larger rings, so that a wider ring does not bias the third derivatives with the
+  // surface's fifth-order terms; a one-ring of fewer than six vertices is widened to the 2-ring. The fields are
+  // eq. 4.9 of the fitted graph at p. The four options below then do not apply, unless noise_adaptive falls back to
+  // the thesis fit, or crest lines meet a plateau (plateaus). Not the default: on coarse G1 blends (a rounded edge a
+  // few vertices wide) the jet overshoots the jump of k at the blend's rims and traces ridges beside the blend's
+  // middle, where the thesis fit traces one line on it (bench/notes/crest_derivatives.md). false (default): the
+  // thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by the four options below.
   bool jet = false;
   // With jet: the jet fit is used only on a mesh that does not look noisy; otherwise the thesis's fit below (the four
   // options) is used, which is less sensitive to noise (its p->p' step averages the one-ring). The test: on at most
@@ -37,6 +38,14 @@ struct DerivativeOptions {
   // kJetNoiseRatio the thesis fit is used (CurvatureDerivatives::noise_ratio, jet_used). false: the jet fit whatever
   // the noise.
   bool noise_adaptive = true;
+  // crest_fields() (and so crest lines) with the jet fit: where the curvature of larger magnitude is constant along its
+  // line of curvature to within the jet's own error (its e within three standard errors, or round-off, on a vertex and
+  // its whole one-ring: flat regions, G1 blends of constant radius, spheres, surfaces of revolution's parallels), the
+  // zero crossings of e carry no information; there, and within the jet's support (rings + 2 rings) of it, where the
+  // jet overshoots a jump of k at a plateau's rim, the thesis's fit below is used, whose p->p' step rounds a plateau's
+  // ends into a maximum on its middle line (a blend's crest line, as the limit of any symmetric smoothing).
+  // curvature_derivatives() does not apply it (its jet e of 0 there is the right value).
+  bool plateaus = true;
   bool smooth = true;       // fit on M' (p' = mean of the centroids of the faces around p)
   bool use_normals = true;  // adjacent-normal equations in the fit (thesis table 4.1 "normal")
   // With use_normals: the tangent plane is fitted too. Eq. 4.7 gets the linear terms a0 x + a1 y and
@@ -62,6 +71,10 @@ struct CurvatureDerivatives {
   // round-off (planar and quadric patches of exact meshes); 0 without jet.
   double noise_ratio = 0.0;
   bool jet_used = false;  // the jet fit was used (jet and, with noise_adaptive, noise_ratio <= kJetNoiseRatio)
+  // With jet_used: standard errors of e_max, e_min (from the residual of the pass-2 fit; the curvature term of eq. 4.9
+  // taken as exact); empty otherwise.
+  VecXd e_max_error, e_min_error;
+  int plateau_vertices = 0;  // crest_fields(): vertices given the thesis's fit by DerivativeOptions::plateaus
 };
 
 // Throws MeshError on invalid options. The mesh must come from make_mesh (validated).
@@ -104,10 +117,14 @@ struct CrestLines {
   int n_lines() const { return static_cast<int>(line_kind.size()); }
 };
 
+// The fields crest lines are traced on: curvature_derivatives(), then with the jet fit and opt.plateaus the thesis's
+// fit at plateau vertices (DerivativeOptions::plateaus).
+CurvatureDerivatives crest_fields(const Mesh& mesh, const DerivativeOptions& opt, const ProgressFn& progress = {});
+
 // Traces the crest lines of the fitted fields (no thresholding when opt.threshold <= 0).
 CrestLines trace_crest_lines(const Mesh& mesh, const CurvatureDerivatives& d, const CrestOptions& opt);
 
-// Fit plus trace.
+// crest_fields() plus trace.
 CrestLines crest_lines(const Mesh& mesh, const DerivativeOptions& fit, const CrestOptions& opt,
                        const ProgressFn& progress = {});
 
