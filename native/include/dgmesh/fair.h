@@ -92,7 +92,7 @@ struct FairResult {
   MatX3i F;                           // unchanged when not subdivided
   VecXi face_origin;                  // input face each output face comes from
   std::vector<char> vertex_mask;      // vertices that were movable at the last level
-  std::vector<double> energy;         // Willmore energy (sum H^2 A) after each iteration; [0] = input
+  std::vector<double> energy;         // sum H^2 A (Hinge: hinge energy) per iteration; [0] = input
   std::vector<int> level_iterations;  // iterations spent on each level
   int iterations = 0;
   bool converged = false;     // the last level met the tolerance
