@@ -54,6 +54,7 @@ class FairMethod:
     willmore: FairMethod
     bilaplacian: FairMethod
     laplacian_of_h: FairMethod
+    hinge: FairMethod
     name: str
     value: int
     def __init__(self, value: int) -> None: ...

@@ -45,9 +45,17 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
 
     Every option's default is :class:`FairOptions`'s (dgmesh/fair.h).
 
-    method: "willmore" (thesis eq. 3.5: speed -Lap(H) - 2H(H^2-K) along the normal, plus the
-        tangential drift of eq. 3.10), "laplacian_of_h" (eq. 3.12) or "bilaplacian"
-        (P <- P - tau U0^2(P)), the thesis's comparison flows.
+    method: "willmore" (the default, below) or "hinge": the edge-based discrete Willmore energy
+        sum_e 3 theta_e^2 |e|^2 / A_e (theta_e the dihedral angle at edge e, A_e its two faces' area;
+        Grinspun et al. 2003), minimised by Levenberg-Marquardt over the movable vertices from the
+        bilaplacian steady state U0^2 P = 0; a crease along the fixed rim is charged at its cost
+        (issue 30: closer to the original than the Willmore flow on the damaged regions of bench
+        fair_repair, less close on hole fills, see bench/notes/fair.md). Needs fixed
+        vertices: a mesh faired whole gets the Willmore flow; scheme, tangential and step_scale do
+        not apply, ``energy`` holds the hinge energy. "willmore": the thesis's flow (eq. 3.5: speed
+        -Lap(H) - 2H(H^2-K) along the normal, plus the tangential drift of eq. 3.10),
+        "laplacian_of_h" (eq. 3.12) or "bilaplacian" (P <- P - tau U0^2(P)), the thesis's
+        comparison flows.
     mask: vertices allowed to move (bool per vertex, or indices). The fixed vertices next to them
         keep position and tangent plane, so a filled hole blends smoothly (G1) into the surface.
         None: the whole mesh moves (mesh-boundary vertices per ``boundary``).
@@ -74,6 +82,7 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
         the fixed rings as boundary data, the bilaplacian flow's steady state) when that lowers
         the Willmore energy, then flow from there. A flat hole fill has a crease along its rim
         that costs little discrete energy on a coarse mesh, and the flow alone stays near it.
+        "hinge" always starts there (off: from the input).
     refine: region mode only: before the flow, refine the region's faces like Liepa's hole
         filling (split triangles larger than the mesh around the hole at their centroid, Delaunay
         edge flips inside the region, until the patch's triangles match the border's edge

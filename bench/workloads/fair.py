@@ -830,21 +830,22 @@ def _verdict(ours, peer, tie=0.05):
 def fair_repair(quick):
     """Issue 30: damaged regions that keep their vertices (flattened, dented, noise-filled) on CGAL
     scans, at 2/6/12% of the vertices around a tip, a saddle and a flat-ish area; restored by
-    Willmore (default), the thesis's Willmore flow from the input (linear_start off), the
-    bilaplacian flow, CGAL fair and Blender-like smoothing; mean distance to the original region
-    (patch_distances) over the bbox diagonal; won/tied/lost of Willmore (default) per peer."""
+    method 'hinge' (the edge-based Willmore energy from the bilaplacian start), the Willmore flow
+    (the default: linear start and restart), the thesis's Willmore flow from the input (linear_start
+    off), the bilaplacian flow, CGAL fair and Blender-like smoothing; mean distance to the original
+    region (patch_distances) over the bbox diagonal; won/tied/lost of hinge per peer."""
     _PER_FACE[0] = 1
     meshes = ["elephant", "bull"] if quick else _REPAIR_MESHES
     wheres = ["tip"] if quick else ["tip", "saddle", "flat"]
     kinds = ["flat", "dent", "noise"]
     fracs = [0.06] if quick else [0.02, 0.06, 0.12]
-    methods = ["willmore", "willmore:thesis", "bilaplacian"]
+    methods = ["hinge", "willmore", "willmore:thesis", "bilaplacian"]
     kw = {"willmore:thesis": {"method": "willmore", "linear_start": False}}
-    peers = ["damaged", "willmore:thesis", "bilaplacian", "cgal_fair", "smooth"]
+    peers = ["damaged", "willmore", "willmore:thesis", "bilaplacian", "cgal_fair", "smooth"]
     use_cgal = cgal_tool(build=not quick) is not None
     rows, data, tally = [], {}, {p: {"won": 0, "tied": 0, "lost": 0} for p in peers}
     by_kind = {}
-    restarted = stalled = 0
+    restarted = stalled = h_stalled = 0
     skipped = []
     t_all = time.perf_counter()
     for name in meshes:
@@ -859,29 +860,34 @@ def fair_repair(quick):
                     except dgmesh.MeshError as exc:  # e.g. a ball pinched at a vertex: not a disk region
                         skipped.append(f"{name}/{where}/{frac}/{kind}: {exc}")
                         continue
-                    w = res["willmore"]
+                    w, h = res["willmore"], res["hinge"]
                     restarted += w[2]["restarted"]
                     stalled += w[2]["status"] != "none"
+                    h_stalled += h[2]["status"] != "none"
                     row = [name, where, frac, kind, int(patch.sum())] + [res[m][0] if m in res else ""
-                                                                          for m in ["willmore"] + peers]
-                    row += [w[2]["status"], "yes" if w[2]["restarted"] else "", w[1]]
+                                                                          for m in ["hinge"] + peers]
+                    row += [h[2]["status"], w[2]["status"], "yes" if w[2]["restarted"] else "", h[1], w[1]]
                     rows.append(row)
                     data[f"{name}/{where}/{frac}/{kind}"] = {m: res[m][0] for m in res}
                     for p in peers:
                         if p in res:
-                            v = _verdict(w[0], res[p][0])
+                            v = _verdict(h[0], res[p][0])
                             tally[p][v] += 1
                             by_kind.setdefault((kind, p), {"won": 0, "tied": 0, "lost": 0})[v] += 1
     secs = time.perf_counter() - t_all
-    names = {"damaged": "the damaged input", "willmore:thesis": "Willmore, thesis flow from the input",
+    names = {"hinge": "hinge", "willmore": "Willmore flow (default)", "damaged": "the damaged input",
+             "willmore:thesis": "Willmore, thesis flow from the input",
              "bilaplacian": "bilaplacian", "cgal_fair": "CGAL fair", "smooth": "Blender-like smoothing"}
     head = table(["peer", "won", "tied", "lost"],
                  [[names[p], tally[p]["won"], tally[p]["tied"], tally[p]["lost"]] for p in peers if sum(tally[p].values())])
     per_kind = table(["damage", "peer", "won", "tied", "lost"],
                      [[k, names[p], v["won"], v["tied"], v["lost"]] for (k, p), v in sorted(by_kind.items())])
-    mean = {m: float(np.mean([d[m] for d in data.values() if m in d])) for m in ["willmore"] + peers}
-    data["summary"] = {"tally": tally, "mean": mean, "cases": len(rows), "restarted": restarted,
-                       "stalled": stalled, "seconds": secs, "skipped": skipped}
+    mean = {m: float(np.mean([d[m] for d in data.values() if m in d])) for m in ["hinge"] + peers}
+    by_where = {w: {m: float(np.mean([d[m] for k, d in data.items() if k.split("/")[1] == w and m in d]))
+                    for m in ["hinge", "willmore", "bilaplacian", "cgal_fair"]} for w in wheres}
+    data["summary"] = {"tally": tally, "mean": mean, "by_where": by_where, "cases": len(rows),
+                       "restarted": restarted, "stalled": stalled, "hinge_stalled": h_stalled, "seconds": secs,
+                       "skipped": skipped}
     md = ("Damaged regions that keep their vertices (issue 30). On each CGAL scan, the vertices geodesically "
           "nearest to a tip (farthest from the centroid), a saddle (most negative Gaussian curvature, two-ring "
           "average) or a flat-ish area (smallest |k1|+|k2|), 2/6/12% of the vertices, are damaged: 'flat' "
@@ -889,18 +895,21 @@ def fair_repair(quick):
           "region's radius deep), 'noise' (flattened, then +-0.5 mean edge lengths of uniform noise along the "
           "plane's normal). The faces touching the region are faired, the rim fixed. Distance: mean distance "
           "restored region <-> original region (Metro-style, both ways, area-weighted, 1 sample per face) / "
-          "bbox diagonal. Methods: `dgmesh.fair` defaults ('Willmore'), the same with linear_start=False (the "
-          "thesis's flow from the input), method='bilaplacian'; CGAL 5.5 `Polygon_mesh_processing::fair` of "
+          "bbox diagonal. Methods: `dgmesh.fair` with method='hinge' (the edge-based Willmore energy, "
+          "Levenberg-Marquardt from the bilaplacian start), method='willmore' (the default flow, linear start "
+          "and restart), the same with linear_start=False (the thesis's flow from the input), method='bilaplacian'; CGAL 5.5 `Polygon_mesh_processing::fair` of "
           "the region's vertices (bench/tools/cgal_fair_hole.cpp); 'smooth': 500 x Smooth Vertices factor 0.5 "
-          "(uniform umbrella, numpy). Verdict of Willmore (default) against each peer: 'tied' within 5%.\n\n"
+          "(uniform umbrella, numpy). Verdict of hinge against each peer: 'tied' within 5%.\n\n"
           + head + "\n\nBy damage:\n\n" + per_kind
           + "\n\nMean distance over all cases: " + ", ".join(f"{names.get(m, m)} {v:.4g}" for m, v in mean.items())
+          + ". By place (hinge / Willmore / bilaplacian / CGAL fair): "
+          + "; ".join(f"{w} " + " / ".join(f"{v:.4g}" for v in by_where[w].values()) for w in wheres)
           + f". Willmore restarted from the linear start on {restarted} of {len(rows)} cases; reported a stall on "
-          f"{stalled}. Run time {secs:.0f} s (under load)."
+          f"{stalled} (hinge: {h_stalled}). Run time {secs:.0f} s (under load)."
           + (f" Skipped (dgmesh.fair refused the region): {'; '.join(skipped)}." if skipped else "") + "\n\n"
-          + table(["mesh", "where", "fraction", "damage", "region vertices", "Willmore", "damaged",
-                   "Willmore (thesis, from input)", "bilaplacian", "CGAL fair", "smooth", "W stall", "W restarted",
-                   "W s"], rows)
+          + table(["mesh", "where", "fraction", "damage", "region vertices", "hinge", "damaged",
+                   "Willmore", "Willmore (thesis, from input)", "bilaplacian", "CGAL fair", "smooth", "hinge stall",
+                   "W stall", "W restarted", "hinge s", "W s"], rows)
           + "\n\nReproduce: `/usr/bin/python3 bench/run.py fair_repair`" + (" (this run: --quick)" if quick else ""))
     return {"markdown": md, "data": data}
 

@@ -24,7 +24,9 @@ void bind_fair(pb::module_& m) {
   pb::enum_<FairMethod>(m, "FairMethod", "Curvature flow of fair()")
       .value("willmore", FairMethod::Willmore, "F = -Laplace_S(H) - 2H(H^2 - K) (eq. 3.5)")
       .value("bilaplacian", FairMethod::Bilaplacian, "P <- P - tau U0^2(P), uniform bi-umbrella (section 3.2)")
-      .value("laplacian_of_h", FairMethod::LaplacianOfH, "F = -Laplace_S(H) (eq. 3.12)");
+      .value("laplacian_of_h", FairMethod::LaplacianOfH, "F = -Laplace_S(H) (eq. 3.12)")
+      .value("hinge", FairMethod::Hinge,
+             "edge-based Willmore energy sum 3 theta^2 |e|^2 / A_e, Levenberg-Marquardt from U0^2 P = 0");
   pb::enum_<FairScheme>(m, "FairScheme", "Time stepping of fair()")
       .value("explicit", FairScheme::Explicit, "the thesis's forward Euler step (3.8), tau = A_min^2/150")
       .value("semi_implicit", FairScheme::SemiImplicit,

@@ -795,3 +795,19 @@ def test_fair_in_edit_mode_moves_a_flattened_scan_tip(capsys):
     d_flat = patch_distances(V, F, region, flat, F, region)[0]
     d_got = patch_distances(V, F, region, _positions(obj.data), F, region)[0]
     assert d_got < 0.7 * d_flat, (d_got, d_flat)
+
+
+def test_fair_in_edit_mode_restores_a_flattened_scan_tip_by_the_hinge_energy():
+    """Issue 30: Fair, method Hinge Willmore, on the flattened elephant tip: the region moves towards
+    the original (bench fair_stall's distance), the rest does not move."""
+    obj, V, F, patch = _flattened_elephant_tip()
+    flat = _positions(obj.data)
+    assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, method='HINGE') == {'FINISHED'}
+    bpy.ops.object.mode_set(mode='OBJECT')
+    got = _positions(obj.data)
+    from bench.workloads.fair import patch_distances  # Metro-style mean distance, both ways
+    region = patch[F].any(axis=1)
+    d_flat = patch_distances(V, F, region, flat, F, region)[0]
+    d_got = patch_distances(V, F, region, got, F, region)[0]
+    assert d_got < 0.7 * d_flat, (d_got, d_flat)
+    assert np.abs(got[~patch] - flat[~patch]).max() < 1e-6

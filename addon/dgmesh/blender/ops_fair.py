@@ -40,6 +40,9 @@ METHODS = enum_items(FairMethod, {
                  "spheres stay spheres, patches blend smoothly"),
     "bilaplacian": ("Bilaplacian", "Bi-umbrella flow (thesis comparison flow): simple, flattens more"),
     "laplacian_of_h": ("Laplacian of H", "Laplacian-of-mean-curvature flow (thesis eq. 3.12)"),
+    "hinge": ("Hinge Willmore", "Edge-based Willmore energy (dihedral angles) minimised from the bilaplacian "
+              "shape; charges a crease along the selection's border at its cost. Needs unselected vertices "
+              "(a whole object gets the Willmore flow)"),
 })
 SCHEMES = enum_items(FairScheme, {
     "semi_implicit": ("Semi-Implicit", "Large stable steps (linearised implicit bi-Laplacian): the same flow, far "

@@ -16,6 +16,11 @@ enum class FairMethod {
   Willmore,      // F = -Laplace_S(H) - 2H(H^2 - K)           (eq. 3.5)
   Bilaplacian,   // P <- P - tau U0^2(P), uniform bi-umbrella   (section 3.2)
   LaplacianOfH,  // F = -Laplace_S(H)                          (eq. 3.12)
+  // The edge-based (hinge) discrete Willmore energy sum_e 3 theta_e^2 |e|^2 / A_e (Grinspun et al.
+  // 2003), minimised by Levenberg-Marquardt over the movable vertices from the linearised
+  // minimiser U0^2 P = 0 (see fair.cpp, run_hinge). Region mode: it needs fixed vertices; a mesh
+  // faired whole gets the Willmore flow. scheme, tangential, step_scale do not apply.
+  Hinge,
 };
 
 enum class FairBoundary {
@@ -34,6 +39,8 @@ enum class FairScheme {
 };
 
 struct FairOptions {
+  // Willmore. Hinge is closer to the original on bench fair_repair's damaged regions but not on hole
+  // fills (refined or grid fills: Blender hole-workflow tests, bench/notes/fair.md).
   FairMethod method = FairMethod::Willmore;
   FairScheme scheme = FairScheme::SemiImplicit;
   FairBoundary boundary = FairBoundary::Fixed;
@@ -85,7 +92,7 @@ struct FairResult {
   MatX3i F;                           // unchanged when not subdivided
   VecXi face_origin;                  // input face each output face comes from
   std::vector<char> vertex_mask;      // vertices that were movable at the last level
-  std::vector<double> energy;         // Willmore energy (sum H^2 A) after each iteration; [0] = input
+  std::vector<double> energy;         // sum H^2 A (Hinge: hinge energy) per iteration; [0] = input
   std::vector<int> level_iterations;  // iterations spent on each level
   int iterations = 0;
   bool converged = false;     // the last level met the tolerance
