@@ -129,7 +129,9 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
     automatic: BoolProperty(
         name="Auto",
         description=("Estimate the noise of each mesh and choose the similarity kernel, the iterations and "
-                     "the quadratic fit from it (the etas below then only set the neighbourhood sizes)"),
+                     "the quadratic fit from it (the etas below then only set the neighbourhood sizes); "
+                     "similarity on meshes: Taubin smoothing instead where the filtered mesh shows no sharp "
+                     "features and the estimate asks for it"),
         default=DEFAULTS.automatic,
     )
     eta1: FloatProperty(
@@ -284,8 +286,12 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
             sig = [j.result.noise.sigma for j in written]
             noise = (f"{sig[0]:.3f}" if len(sig) == 1 else f"{min(sig):.3f}-{max(sig):.3f}")
             eta1 = [j.result.options.eta1 for j in written]
+            steps = sorted({j.result.options.smoothing_steps for j in written if j.F is not None})
+            chosen = ", ".join("similarity filter" if k == 0 else f"Taubin smoothing ({_plural(k, 'step')})"
+                               for k in steps)
             text += (f"; estimated noise {noise} edge lengths (auto: \u03b71 "
-                     f"{eta1[0]:.3f}" + ("" if len(eta1) == 1 else f"-{max(eta1):.3f}") + ")")
+                     f"{eta1[0]:.3f}" + ("" if len(eta1) == 1 else f"-{max(eta1):.3f}") +
+                     (f"; chose {chosen}" if chosen else "") + ")")
         if clouds:
             text += f"; {_plural(clouds, 'point cloud')}"
         if welded:
