@@ -278,20 +278,19 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         entropy = f"{H[0]:.3f} bits" if len(H) == 1 else f"{min(H):.3f}-{max(H):.3f} bits (per object)"
         clouds = sum(1 for j in written if j.F is None)
         welded = sum(1 for j in written if j.result.welded)
-        its = sorted({j.result.iterations for j in written})
+        # What ran per object: the filter, or (automatic mode on meshes) Taubin smoothing instead.
+        ran = sorted({f"Taubin smoothing, {_plural(j.result.options.smoothing_steps, 'step')}"
+                      if j.result.options.smoothing_steps and not j.result.iterations
+                      else f"{self.method.lower()}, {_plural(j.result.iterations, 'iteration')}" for j in written})
         text = (f"Denoised {_plural(len(written), 'object')} ({nverts} vertices, {moved} moved) with "
-                f"{self.method.lower()}, {_plural(its[0], 'iteration') if len(its) == 1 else f'{its[0]}-{its[-1]} iterations'}, "
+                f"{' / '.join(ran)}{' (per object)' if len(ran) > 1 else ''}, "
                 f"in {seconds:.2f} s; residual entropy {entropy}")
         if self.automatic:
             sig = [j.result.noise.sigma for j in written]
             noise = (f"{sig[0]:.3f}" if len(sig) == 1 else f"{min(sig):.3f}-{max(sig):.3f}")
             eta1 = [j.result.options.eta1 for j in written]
-            steps = sorted({j.result.options.smoothing_steps for j in written if j.F is not None})
-            chosen = ", ".join("similarity filter" if k == 0 else f"Taubin smoothing ({_plural(k, 'step')})"
-                               for k in steps)
             text += (f"; estimated noise {noise} edge lengths (auto: \u03b71 "
-                     f"{eta1[0]:.3f}" + ("" if len(eta1) == 1 else f"-{max(eta1):.3f}") +
-                     (f"; chose {chosen}" if chosen else "") + ")")
+                     f"{eta1[0]:.3f}" + ("" if len(eta1) == 1 else f"-{max(eta1):.3f}") + ")")
         if clouds:
             text += f"; {_plural(clouds, 'point cloud')}"
         if welded:
