@@ -586,8 +586,8 @@ def denoise_auto(quick):
          if subset else "") +
         f"Issue #32: `dgmesh.denoise(V, F)` with its defaults (automatic: noise estimated, eta1 and iterations "
         f"from the rule of `auto_options`, quadratic fit; Taubin smoothing instead of the filter where the rule "
-        f"asks for it and the filtered mesh shows no sharp features: the choice column) against peers tuned per case with the clean mesh as "
-        f"oracle: bilateral (best of eta1 in {{0.05..0.5}} x 1-5 iterations), Blender {bversion} Laplacian Smooth "
+        f"asks for it and the filtered mesh shows no sharp features: the choice column) against peers tuned "
+        f"per case with the clean mesh as oracle: bilateral (best of eta1 in {{0.05..0.5}} x 1-5 iterations), Blender {bversion} Laplacian Smooth "
         f"and Smooth (best of the grids of denoise_quality). Gaussian noise of sigma = level x mean edge length "
         f"along the clean normals or in each coordinate (isotropic), seeds {list(seeds)} (errors averaged over "
         f"them). Mean face-normal error in degrees against the clean mesh. Verdict against the best peer: won "
@@ -596,8 +596,8 @@ def denoise_auto(quick):
         f"Won {tally['won']}, tied {tally['tied']}, lost {tally['lost']} of {sum(tally.values())} rows.",
         "",
         table(["model", "noise", "level", "estimated sigma (e)", "true sigma (e)", "noisy", "default (auto)",
-               "auto's choice (per seed)", "similarity thesis setting", "bilateral (best)", "Laplacian Smooth (best)", "Smooth (best)",
-               "verdict"], rows),
+               "auto's choice (per seed)", "similarity thesis setting", "bilateral (best)", "Laplacian Smooth (best)",
+               "Smooth (best)", "verdict"], rows),
     ]
     data["tally"] = tally
     return {"markdown": "\n".join(md), "data": data}

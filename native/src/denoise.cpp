@@ -39,7 +39,7 @@ constexpr double kAutoKernelSimilarity = 1.0;
 constexpr double kAutoKernelBilateral = 1.414;
 constexpr int kAutoIterationsSimilarity = 3;
 constexpr int kAutoIterationsBilateral = 3;
-constexpr double kMinEffective = 12;
+constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed (2 per coefficient)
 // Taubin smoothing (DenoiseOptions::smoothing_steps) and its automatic rule: steps =
 // kAutoSmoothScale sigma^kAutoSmoothPower / curvature^2, a least-squares fit of the best step count
 // on denoise_auto's rows (bench/notes/denoise.md); the feature test of the automatic choice.
@@ -49,7 +49,7 @@ constexpr double kAutoSmoothScale = 28.6;
 constexpr double kAutoSmoothPower = 1.62;
 constexpr double kAutoSmoothMinCurvature = 0.05;
 constexpr int kAutoSmoothMaxSteps = 40;
-constexpr double kAutoFeatureRatio = 1.0;  // quadratic_fit: effective samples needed (2 per coefficient)
+constexpr double kAutoFeatureRatio = 1.0;
 using detail::kPi;
 
 inline Vec3 prow(const MatX3d& P, int i) { return Vec3(P(i, 0), P(i, 1), P(i, 2)); }

@@ -27,7 +27,8 @@ struct DenoiseOptions {
   DenoiseMethod method = DenoiseMethod::Similarity;
   // true: estimate the noise first (estimate_noise, default NoiseOptions) and run with
   // auto_options(estimate, *this): eta1, iterations and quadratic_fit come from the rule there, the
-  // other fields stay as given. false: every field as given (the thesis's manual setting).
+  // other fields stay as given; similarity on meshes may smooth instead of filtering (see denoise()).
+  // false: every field as given (the thesis's manual setting).
   bool automatic = true;
   double eta1 = 0.4;
   double eta2 = 1.0;
