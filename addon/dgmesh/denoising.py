@@ -52,8 +52,12 @@ def denoise(V: npt.ArrayLike, F: npt.ArrayLike | None = None, normals: npt.Array
     method : "similarity" (thesis ch. 2) or "bilateral" (Fleishman et al. 2003).
     automatic : True: estimate the noise (:func:`estimate_noise`) and take eta1, iterations and
         quadratic_fit from the rule of ``_native.auto_options`` (reported in the result's ``noise``
-        and ``options``); eta2 and eta3 are used as given. False: every parameter as given. None
-        (default): automatic unless eta1, iterations or quadratic_fit is given.
+        and ``options``); eta2 and eta3 are used as given. Similarity on meshes: where the
+        estimate asks for smoothing (``_native.auto_smoothing_steps``) and the filtered mesh shows
+        no sharp features (``_native.shows_features``), the input is Taubin-smoothed instead of
+        filtered (``options.smoothing_steps`` > 0, ``iterations`` 0 in the result). False: every
+        parameter as given (no smoothing). None (default): automatic unless eta1, iterations or
+        quadratic_fit is given.
     eta1, eta2, eta3, iterations : sigma_i = eta_i * e. None takes the method's default from
         :func:`defaults`. Similarity: sigma1 is the similarity kernel's deviation (about the noise
         level), 2 sigma2 the radius of the averaging domain, 2 sigma3 the radius of the compared

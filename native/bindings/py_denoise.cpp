@@ -51,6 +51,8 @@ void bind_denoise(pb::module_& m) {
       .field("iterations", &DenoiseOptions::iterations, "filter passes")
       .field("quadratic_fit", &DenoiseOptions::quadratic_fit,
              "similarity: fit a weighted quadratic to the heights instead of averaging them (no shrinkage)")
+      .field("smoothing_steps", &DenoiseOptions::smoothing_steps,
+             "meshes: Taubin lambda|mu smoothing steps before the filter (0: none, the thesis setting)")
       .field("reestimate_normals", &DenoiseOptions::reestimate_normals,
              "point clouds: re-estimate normals by PCA after the first iteration")
       .field("weld_tolerance", &DenoiseOptions::weld_tolerance,
@@ -73,6 +75,10 @@ void bind_denoise(pb::module_& m) {
       .result("options", &DenoiseResult::options, "the options the filter ran with (automatic: after auto_options)");
   m.def("auto_options", &auto_options, pb::arg("noise"), pb::arg("base"),
         "The automatic rule: eta1, iterations and quadratic_fit from a noise estimate, the rest from base");
+  m.def("auto_smoothing_steps", &auto_smoothing_steps, pb::arg("noise"),
+        "The automatic Taubin step count of a noise estimate");
+  m.def("shows_features", &shows_features, pb::arg("noise"),
+        "The automatic choice's feature test on the estimate of the filtered mesh");
 
   m.def(
       "denoise_mesh",

@@ -40,6 +40,16 @@ constexpr double kAutoKernelBilateral = 1.414;
 constexpr int kAutoIterationsSimilarity = 3;
 constexpr int kAutoIterationsBilateral = 3;
 constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed (2 per coefficient)
+// Taubin smoothing (DenoiseOptions::smoothing_steps) and its automatic rule: steps =
+// kAutoSmoothScale sigma^kAutoSmoothPower / curvature^2, a least-squares fit of the best step count
+// on denoise_auto's rows (bench/notes/denoise.md); the feature test of the automatic choice.
+constexpr double kTaubinLambda = 0.6;
+constexpr double kTaubinMu = -0.62;
+constexpr double kAutoSmoothScale = 28.6;
+constexpr double kAutoSmoothPower = 1.62;
+constexpr double kAutoSmoothMinCurvature = 0.05;
+constexpr int kAutoSmoothMaxSteps = 40;
+constexpr double kAutoFeatureRatio = 1.0;
 using detail::kPi;
 
 inline Vec3 prow(const MatX3d& P, int i) { return Vec3(P(i, 0), P(i, 1), P(i, 2)); }
@@ -72,6 +82,7 @@ void check_options(const DenoiseOptions& opt, Eigen::Index n) {
   if (opt.eta2 > 20 || opt.eta3 > 20)
     throw MeshError("eta2 and eta3 must be at most 20 (neighbourhoods of 40 edge lengths)");
   if (opt.iterations < 0 || opt.iterations > 1000) throw MeshError("iterations must be in [0, 1000]");
+  if (opt.smoothing_steps < 0 || opt.smoothing_steps > 1000) throw MeshError("smoothing_steps must be in [0, 1000]");
   if (opt.max_patch != 0 && (opt.max_patch < 3 || opt.max_patch > kMaxPatch))
     throw MeshError("max_patch must be 0 (automatic) or in [3, " + std::to_string(kMaxPatch) + "]");
   if (opt.max_window != 0 && (opt.max_window < 1 || opt.max_window > 4096))
@@ -654,6 +665,37 @@ void prepare(State& st, const MatX3i* F, const DenoiseOptions& o, bool cloud, bo
   if (cloud && !first && o.reestimate_normals) pca_normals(st);
 }
 
+// Taubin's lambda|mu smoothing with the uniform umbrella operator over the edges of F (each edge
+// once, however many faces share it); fixed points keep their place but inform their neighbours.
+void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable, int steps) {
+  const int n = static_cast<int>(P.rows());
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(static_cast<size_t>(F.rows()) * 3);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3);
+      if (a != b) edges.emplace_back(std::min(a, b), std::max(a, b));
+    }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  VecXd degree = VecXd::Zero(n);
+  for (const auto& [a, b] : edges) {
+    degree(a) += 1;
+    degree(b) += 1;
+  }
+  MatX3d L(n, 3);
+  for (int s = 0; s < 2 * steps; ++s) {
+    const double factor = s % 2 == 0 ? kTaubinLambda : kTaubinMu;
+    L.setZero();
+    for (const auto& [a, b] : edges) {
+      L.row(a) += P.row(b);
+      L.row(b) += P.row(a);
+    }
+    for (int i = 0; i < n; ++i)
+      if (movable[i] && degree(i) > 0) P.row(i) += factor * (L.row(i) / degree(i) - P.row(i));
+  }
+}
+
 DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const DenoiseOptions& o,
                   const ProgressFn& progress_fn) {
   const bool cloud = F == nullptr;
@@ -681,6 +723,7 @@ DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const Den
     normalize_rows(st.N);
   }
   const MatX3d P0 = st.P;
+  if (!cloud && o.smoothing_steps > 0) taubin_smooth(st.P, Fw, movable, o.smoothing_steps);
 
   Progress progress(progress_fn);
   progress(0.0);
@@ -712,7 +755,7 @@ DenoiseResult run(const MatX3d& V, const MatX3i* F, const MatX3d* Nin, const Den
                                                                : bilateral_step(st, x, o);
         if (std::isfinite(k)) Pn.row(x) += (k * st.e) * st.N.row(x);  // eq. 2.3
       }
-      progress((it + static_cast<double>(end) / na) / o.iterations);
+      progress((it + static_cast<double>(end) / na) / std::max(1, o.iterations));
     }
     st.P.swap(Pn);
   }
@@ -864,7 +907,19 @@ DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& ba
   // quadratic fit's extra variance (a few times sigma^2): the fit pays where the sampling is coarse
   // for the bending, e kappa > sigma (measured: bench/notes/denoise.md).
   o.quadratic_fit = sim && noise.curvature > sigma;
+  o.smoothing_steps = 0;
   return o;
+}
+
+int auto_smoothing_steps(const NoiseEstimate& noise) {
+  const double sigma = std::isfinite(noise.sigma) ? std::max(0.0, noise.sigma) : 0.0;
+  const double curv = std::isfinite(noise.curvature) ? std::max(kAutoSmoothMinCurvature, noise.curvature) : 1.0;
+  const double k = kAutoSmoothScale * std::pow(sigma, kAutoSmoothPower) / (curv * curv);
+  return static_cast<int>(std::lround(std::min<double>(k, kAutoSmoothMaxSteps)));
+}
+
+bool shows_features(const NoiseEstimate& noise) {
+  return noise.outliers > kAutoFeatureRatio * std::max(kAutoSmoothMinCurvature, noise.curvature);
 }
 
 namespace {
@@ -890,10 +945,28 @@ DenoiseResult run_auto(const MatX3d& V, const MatX3i* F, const MatX3d* N, const 
     throw MeshError(std::string("automatic parameters: ") + e.what() + "; turn automatic off and set the etas");
   }
   const DenoiseOptions o = auto_options(est, opt);
-  DenoiseResult r = run(V, F, N, o, rest);
+  const int steps = F && o.method == DenoiseMethod::Similarity ? auto_smoothing_steps(est) : 0;
+  const ProgressFn filter_part = progress && steps > 0 ? ProgressFn([&](double f) { return rest(0.9 * f); }) : rest;
+  DenoiseResult r = run(V, F, N, o, filter_part);
   r.noise = est;
   r.options = o;
-  return r;
+  if (steps == 0) return r;
+  // The rule asks for smoothing: keep the filter's result if it shows sharp features, else smooth.
+  NoiseEstimate after;
+  try {
+    after = estimate_noise(r.vertices, *F, no);
+  } catch (const MeshError&) {
+    return r;  // the filtered mesh is degenerate for a fit: keep it
+  }
+  if (shows_features(after)) return r;
+  DenoiseOptions so = o;
+  so.iterations = 0;
+  so.smoothing_steps = steps;
+  const ProgressFn last = progress ? ProgressFn([&](double f) { return rest(0.9 + 0.1 * f); }) : ProgressFn{};
+  DenoiseResult s = run(V, F, N, so, last);
+  s.noise = est;
+  s.options = so;
+  return s;
 }
 
 }  // namespace

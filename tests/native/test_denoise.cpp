@@ -307,6 +307,96 @@ TEST(Denoise, AutomaticReportsItsEstimateAndLeavesCleanInputAlone) {
   EXPECT_GT(r.residual.maxCoeff(), 0.0);
 }
 
+namespace {
+
+// Gaussian noise of deviation sigma in each coordinate, fixed seed.
+MatX3d add_isotropic_noise(const MatX3d& V, double sigma, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, sigma);
+  MatX3d out = V;
+  for (int i = 0; i < V.rows(); ++i)
+    for (int k = 0; k < 3; ++k) out(i, k) += g(rng);
+  return out;
+}
+
+double mean_error(const MatX3d& A, const MatX3d& B, const MatX3i& F) { return face_normal_error(A, B, F).mean(); }
+
+}  // namespace
+
+TEST(Denoise, TaubinSmoothingStepsLowerTheNoiseAndKeepFixedVertices) {
+  const TriMesh s = icosphere(3, 1.0);
+  const MatX3d Vn = add_isotropic_noise(s.V, 0.2 * mean_edge(s.V, s.F), 41);
+  DenoiseOptions o = sim();
+  o.iterations = 0;
+  o.smoothing_steps = 10;
+  const DenoiseResult r = denoise(Vn, s.F, o);
+  EXPECT_LT(mean_error(r.vertices, s.V, s.F), 0.5 * mean_error(Vn, s.V, s.F));
+  // Taubin's mu step undoes the lambda step's shrinkage: the radius stays within 1% of the sphere's.
+  EXPECT_NEAR(r.vertices.rowwise().norm().mean(), 1.0, 0.01);
+  o.movable.assign(s.V.rows(), 1);
+  o.movable[5] = 0;
+  const DenoiseResult m = denoise(Vn, s.F, o);
+  EXPECT_EQ((m.vertices.row(5) - Vn.row(5)).norm(), 0.0);
+  EXPECT_GT((m.vertices.row(6) - Vn.row(6)).norm(), 0.0);
+  o.smoothing_steps = -1;
+  EXPECT_THROW(denoise(Vn, s.F, o), MeshError);
+}
+
+TEST(Denoise, AutomaticSmoothingRule) {
+  NoiseEstimate e;
+  EXPECT_EQ(auto_smoothing_steps(e), 0);  // noise-free: no smoothing
+  e.curvature = 0.4;
+  e.sigma = 0.1;
+  const int low = auto_smoothing_steps(e);
+  e.sigma = 0.3;
+  const int high = auto_smoothing_steps(e);
+  EXPECT_GT(low, 0);
+  EXPECT_GT(high, low);  // more noise, more steps
+  e.curvature = 0.6;
+  EXPECT_LT(auto_smoothing_steps(e), high);  // coarser sampling for the bending, fewer steps
+  e.curvature = 0;
+  EXPECT_EQ(auto_smoothing_steps(e), 40);  // capped
+  e.outliers = 0.3;
+  e.curvature = 0.1;
+  EXPECT_TRUE(shows_features(e));
+  e.curvature = 0.5;
+  EXPECT_FALSE(shows_features(e));
+}
+
+TEST(Denoise, AutomaticSmoothsCoarseSmoothSurfaces) {
+  // A coarse sphere (e kappa about 0.3) with isotropic noise: no sharp feature, so the default
+  // smooths (Taubin) instead of filtering, and does better than the filter with the rule's eta1.
+  const TriMesh s = icosphere(2, 1.0);
+  const MatX3d Vn = add_isotropic_noise(s.V, 0.2 * mean_edge(s.V, s.F), 43);
+  const DenoiseResult r = denoise(Vn, s.F, DenoiseOptions{});
+  EXPECT_GT(r.options.smoothing_steps, 0);
+  EXPECT_EQ(r.options.smoothing_steps, auto_smoothing_steps(r.noise));
+  EXPECT_EQ(r.iterations, 0);
+  DenoiseOptions filter = auto_options(estimate_noise(Vn, s.F), DenoiseOptions{});
+  filter.automatic = false;
+  const DenoiseResult f = denoise(Vn, s.F, filter);
+  EXPECT_LT(mean_error(r.vertices, s.V, s.F), 0.8 * mean_error(f.vertices, s.V, s.F));
+}
+
+TEST(Denoise, AutomaticKeepsTheFilterOnSharpFeatures) {
+  // A noisy cube: the rule asks for smoothing, but the filtered mesh shows its creases, so the
+  // filter's result is kept; Taubin smoothing with the rule's step count would round them. (On a
+  // 10 x 10 cube the creases' fits read as curvature instead and the test fails: a known limit,
+  // bench/notes/denoise.md.)
+  const TriMesh c = cube(16);
+  const MatX3d Vn = add_normal_noise(c.V, c.F, 0.1 * mean_edge(c.V, c.F), 47);
+  const DenoiseResult r = denoise(Vn, c.F, DenoiseOptions{});
+  const int steps = auto_smoothing_steps(r.noise);
+  EXPECT_GT(steps, 0);
+  EXPECT_EQ(r.options.smoothing_steps, 0);
+  EXPECT_EQ(r.iterations, 3);
+  DenoiseOptions smooth = sim();
+  smooth.iterations = 0;
+  smooth.smoothing_steps = steps;
+  const DenoiseResult t = denoise(Vn, c.F, smooth);
+  EXPECT_LT(mean_error(r.vertices, c.V, c.F), 0.8 * mean_error(t.vertices, c.V, c.F));
+}
+
 TEST(Denoise, BadInputGivesClearErrors) {
   const TriMesh s = icosphere(1, 1.0);
   MatX3d bad = s.V;

@@ -239,12 +239,14 @@ def auto_shape(request):
 
 def test_default_lowers_the_normal_error(auto_shape):
     name, V, F = auto_shape
+    e = edge_length(V, F)
     for level, seed in ((0.1, 21), (0.3, 22)):
-        Vn = noisy(V, F, level, seed=seed)
-        before = normal_error_deg(Vn, V, F).mean()
-        r = dgmesh.denoise(Vn, F)
-        after = normal_error_deg(r.vertices, V, F).mean()
-        assert after < before, f"{name} at {level} e: {before:.2f} -> {after:.2f} degrees"
+        iso = V + np.random.default_rng(seed + 100).normal(0.0, level * e, V.shape)
+        for kind, Vn in (("normal", noisy(V, F, level, seed=seed)), ("isotropic", iso)):
+            before = normal_error_deg(Vn, V, F).mean()
+            r = dgmesh.denoise(Vn, F)
+            after = normal_error_deg(r.vertices, V, F).mean()
+            assert after < before, f"{name} at {level} e {kind}: {before:.2f} -> {after:.2f} degrees"
 
 
 def test_default_leaves_noise_free_input_nearly_unchanged(auto_shape, request):
@@ -264,7 +266,12 @@ def test_automatic_reports_its_estimate_and_options(sphere):
     assert r.options.automatic
     est = dgmesh.estimate_noise(Vn, F)
     assert r.noise == est
-    assert r.options == dgmesh.denoising._native.auto_options(est, dgmesh.DenoiseOptions())
+    rule = dgmesh.denoising._native.auto_options(est, dgmesh.DenoiseOptions())
+    steps = dgmesh.denoising._native.auto_smoothing_steps(est)
+    if r.options.smoothing_steps:  # the automatic choice smoothed instead of filtering
+        assert r.options.smoothing_steps == steps and r.iterations == 0
+        rule.smoothing_steps, rule.iterations = steps, 0
+    assert r.options == rule
     assert r.options.quadratic_fit and r.iterations == r.options.iterations
     # An eta1 or iterations given means the manual setting; automatic=True overrides them.
     manual = dgmesh.denoise(Vn, F, eta1=0.4)

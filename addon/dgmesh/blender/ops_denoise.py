@@ -129,7 +129,9 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
     automatic: BoolProperty(
         name="Auto",
         description=("Estimate the noise of each mesh and choose the similarity kernel, the iterations and "
-                     "the quadratic fit from it (the etas below then only set the neighbourhood sizes)"),
+                     "the quadratic fit from it (the etas below then only set the neighbourhood sizes); "
+                     "similarity on meshes: Taubin smoothing instead where the filtered mesh shows no sharp "
+                     "features and the estimate asks for it"),
         default=DEFAULTS.automatic,
     )
     eta1: FloatProperty(
@@ -276,9 +278,12 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         entropy = f"{H[0]:.3f} bits" if len(H) == 1 else f"{min(H):.3f}-{max(H):.3f} bits (per object)"
         clouds = sum(1 for j in written if j.F is None)
         welded = sum(1 for j in written if j.result.welded)
-        its = sorted({j.result.iterations for j in written})
+        # What ran per object: the filter, or (automatic mode on meshes) Taubin smoothing instead.
+        ran = sorted({f"Taubin smoothing, {_plural(j.result.options.smoothing_steps, 'step')}"
+                      if j.result.options.smoothing_steps and not j.result.iterations
+                      else f"{self.method.lower()}, {_plural(j.result.iterations, 'iteration')}" for j in written})
         text = (f"Denoised {_plural(len(written), 'object')} ({nverts} vertices, {moved} moved) with "
-                f"{self.method.lower()}, {_plural(its[0], 'iteration') if len(its) == 1 else f'{its[0]}-{its[-1]} iterations'}, "
+                f"{' / '.join(ran)}{' (per object)' if len(ran) > 1 else ''}, "
                 f"in {seconds:.2f} s; residual entropy {entropy}")
         if self.automatic:
             sig = [j.result.noise.sigma for j in written]

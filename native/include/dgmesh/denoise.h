@@ -27,7 +27,8 @@ struct DenoiseOptions {
   DenoiseMethod method = DenoiseMethod::Similarity;
   // true: estimate the noise first (estimate_noise, default NoiseOptions) and run with
   // auto_options(estimate, *this): eta1, iterations and quadratic_fit come from the rule there, the
-  // other fields stay as given. false: every field as given (the thesis's manual setting).
+  // other fields stay as given; similarity on meshes may smooth instead of filtering (see denoise()).
+  // false: every field as given (the thesis's manual setting).
   bool automatic = true;
   double eta1 = 0.4;
   double eta2 = 1.0;
@@ -42,6 +43,12 @@ struct DenoiseOptions {
   // read as noise. Falls back to the mean where the weights hold fewer than 2 points per
   // coefficient ((sum W)^2 / sum W^2 < 12) or the fit is singular.
   bool quadratic_fit = false;
+  // Meshes only: steps of Taubin's lambda|mu smoothing (Taubin 1995: x += lambda L x, then
+  // x += mu L x, L the uniform umbrella operator over the mesh edges, lambda = 0.6, mu = -0.62) run
+  // before the filter. 0 (the thesis setting): none. Low-pass in 3D, so it also removes the
+  // tangential part of isotropic noise, which a filter moving along the normals cannot; it rounds
+  // sharp features. Automatic mode sets it (see auto_options and denoise()).
+  int smoothing_steps = 0;
   // Vertices allowed to move (empty: all). Masked vertices still inform the filter. Welded copies
   // of one point move only if all of them may move.
   std::vector<char> movable;
@@ -63,9 +70,19 @@ struct DenoiseOptions {
 //               quadratic_fit = (noise.curvature > sigma): coarse sampling for the surface's bending;
 //   bilateral:  eta1 = k_b * sigma (k_b = sqrt(2));
 //   eta1 at least 0.001, iterations = 3,
-// and every other field of `base` unchanged. Noise-free input (sigma -> 0) gives a kernel
+//   smoothing_steps = round(28.6 sigma^1.62 / max(curvature, 0.05)^2), at most 40 (meshes; the
+//               optimal Taubin step count, fitted on denoise_auto, bench/notes/denoise.md),
+// and every other field of `base` unchanged (auto_options itself sets smoothing_steps to 0: the
+// choice between the two is made by denoise(), below). Noise-free input (sigma -> 0) gives a kernel
 // narrower than any difference between neighbourhoods, so the filter leaves it nearly unchanged.
 DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& base);
+
+// The automatic Taubin step count of a noise estimate (the smoothing_steps rule above).
+int auto_smoothing_steps(const NoiseEstimate& noise);
+
+// The automatic choice's feature test: outliers > max(curvature, 0.05) in the estimate of the
+// filtered mesh (creases read as outliers of the smooth local fits).
+bool shows_features(const NoiseEstimate& noise);
 
 // Defaults of the bilateral filter from the thesis's Fandisk setting (table 2.1, [FDCO03]).
 DenoiseOptions bilateral_defaults();
@@ -86,6 +103,13 @@ struct DenoiseResult {
   DenoiseOptions options;       // the options the filter ran with (automatic: after auto_options)
 };
 
+// Automatic mode on meshes with the similarity method chooses between two results: the filter
+// with the rule's eta1 (no smoothing) and Taubin smoothing alone with the rule's step count (no
+// filter). It runs the filter first and estimates the noise of its output: if that shows sharp
+// features (outliers / curvature of the estimate above 1: creases read as outliers against a
+// smooth fit, issue #32's fandisk) or the rule asks for no smoothing, the filter's result is kept;
+// else the input is smoothed instead (coarse organic meshes, where the tuned peers were Laplacian
+// smoothers). result.options tells which ran: smoothing_steps > 0 and iterations 0 for smoothing.
 // Meshes and soups: V (n,3), F (m,3) triangles with at least one non-degenerate face. Manifoldness
 // is not required. Vertices in no face do not move. Throws MeshError on NaN/inf, bad indices, a
 // mask of the wrong size, bad parameters; CancelledError if progress returns false.
