@@ -376,19 +376,22 @@ def crest_independence(quick):
     h = max(hA, hB)
     rows, data = [], {"triangles_A": int(len(FA)), "triangles_B": int(len(FB)), "edge_A": hA, "edge_B": hB}
     inner = 0.85 * R  # compare away from the boundary, where the fits are one-sided
-    for T in (0.0, 1.0, 3.0, 10.0):
-        la = dgmesh.crest_lines(VA, FA, rings=1, threshold=T)
-        lb = dgmesh.crest_lines(VB, FB, rings=1, threshold=T)
-        sa, sb = _samples(la, 0.1 * h), _samples(lb, 0.1 * h)
-        sa = sa[np.hypot(sa[:, 0], sa[:, 1]) < inner]
-        sb = sb[np.hypot(sb[:, 0], sb[:, 1]) < inner]
-        dab, dba = _nearest(sa, sb), _nearest(sb, sa)
-        rec = {"lines_A": len(la), "lines_B": len(lb), "mean_AB": float(dab.mean() / h),
-               "mean_BA": float(dba.mean() / h), "median_AB": float(np.median(dab) / h),
-               "within1_A": float((dab < h).mean()), "within1_B": float((dba < h).mean())}
-        data[f"T={T:g}"] = rec
-        rows.append([f"{T:g}", f"{len(la)} / {len(lb)}", rec["mean_AB"], rec["mean_BA"], rec["median_AB"],
-                     f"{100 * rec['within1_A']:.0f}% / {100 * rec['within1_B']:.0f}%"])
+    for jet in (False, True):
+        for T in (0.0, 1.0, 3.0, 10.0):
+            la = dgmesh.crest_lines(VA, FA, rings=1, threshold=T, jet=jet)
+            lb = dgmesh.crest_lines(VB, FB, rings=1, threshold=T, jet=jet)
+            sa, sb = _samples(la, 0.1 * h), _samples(lb, 0.1 * h)
+            sa = sa[np.hypot(sa[:, 0], sa[:, 1]) < inner]
+            sb = sb[np.hypot(sb[:, 0], sb[:, 1]) < inner]
+            dab, dba = _nearest(sa, sb), _nearest(sb, sa)
+            rec = {"lines_A": len(la), "lines_B": len(lb), "mean_AB": float(dab.mean() / h),
+                   "mean_BA": float(dba.mean() / h), "median_AB": float(np.median(dab) / h),
+                   "within1_A": float((dab < h).mean()), "within1_B": float((dba < h).mean()),
+                   "jet_used": [bool(la.derivatives.jet_used), bool(lb.derivatives.jet_used)]}
+            fit = "jet (jet=True)" if jet else "thesis (default)"
+            data[f"T={T:g}" + (" jet" if jet else "")] = rec
+            rows.append([fit, f"{T:g}", f"{len(la)} / {len(lb)}", rec["mean_AB"], rec["mean_BA"], rec["median_AB"],
+                         f"{100 * rec['within1_A']:.0f}% / {100 * rec['within1_B']:.0f}%"])
     md = ("### Crest lines: triangulation independence (thesis fig. 4.7)\n\n"
           "The graph z = 0.8 cos(|(x, 1.5 y)|) + 0.6 exp(-|(x, y) - (2, -1)|^2 / 2) over a disc of radius "
           f"{R:.3g}, meshed twice: A, a square grid with alternating diagonals (valence 4/8, {len(FA)} "
@@ -397,7 +400,7 @@ def crest_independence(quick):
           "Distances from points on one set of crest lines to the nearest point of the other, over the "
           f"disc of radius {inner:.3g} (boundary fits are one-sided), in units of the larger mean edge "
           f"length h = {h:.3g}.\n\n"
-          + table(["threshold T", "lines A / B", "mean A->B (h)", "mean B->A (h)", "median A->B (h)",
+          + table(["fit", "threshold T", "lines A / B", "mean A->B (h)", "mean B->A (h)", "median A->B (h)",
                    "within 1 h (A / B)"], rows)
           + "\n\nUnfiltered, the jittered mesh B has extra short lines (B->A is large); a small threshold "
           "removes them and the two sets agree. Larger thresholds drop different lines on the two meshes "
