@@ -1101,8 +1101,9 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
 // the wrong side; the band t in [0, kappa t_c] is compressed onto [t_c, kappa t_c] (a shift of
 // (t_c - t_c0) (1 - t / (kappa t_c)), t_c0 the same crossing at rest, positive where the chain is
 // bent at rest, so the map is the identity at rest and continuous in the pose), plus the plane's
-// margin (growing from 0 with the crossing, so the map stays continuous). The distance to the own bone's line is
-// unchanged (a slide along it), and the shift is monotone along each line: no vertex overtakes another.
+// margin (growing from 0 with the crossing, so the map stays continuous). The distance to the own
+// bone's line is unchanged (a slide along it), and the shift is monotone along each line: no vertex
+// overtakes another.
 template <class Out, class Weight>
 void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa,
                                       Weight weight) const {
