@@ -197,7 +197,8 @@ class SkeletalRig:
         joint, the band up to kappa times its line's crossing depth compressed so that no vertex
         stays on the other limb's side (distance to its bone kept; none in the rest pose, under
         rigid motions or twists). It removes the limb-against-limb self-intersections of a bent
-        joint, not the folds of the thickness steps inside each limb (bench/notes/skeletal.md).
+        joint, not the folds of the thickness steps inside each limb; off by default (it adds pairs
+        on the armadillo's knee; 3 is the measured setting, see bench/notes/skeletal.md).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step

@@ -135,9 +135,9 @@ def main():
         print("bend %d" % ang)
         report("  DQS", skeletal_subspace_deform(V, rig.weights, REST, pose, dual_quaternion=True), pose)
         report("  LBS", skeletal_subspace_deform(V, rig.weights, REST, pose), pose)
-        report("  ours, default", rig.deform(pose), pose)
-        report("  ours, contact_slide=0 (the old default)", rig.deform(pose, contact_slide=0), pose)
-        report("  ours via multires (5000 faces)", rig_mr.deform(pose), pose)
+        report("  ours, contact_slide=3", rig.deform(pose, contact_slide=3), pose)
+        report("  ours, default (contact_slide=0)", rig.deform(pose), pose)
+        report("  ours via multires (5000 faces), contact_slide=3", rig_mr.deform(pose, contact_slide=3), pose)
         report("  ours via multires, contact_slide=0", rig_mr.deform(pose, contact_slide=0), pose)
         report("  bare reconstruction (fairing_steps=0)", rig.deform(pose, fairing_steps=0), pose)
         for cs in (0, 3):
@@ -152,7 +152,7 @@ def main():
         pose = np.array([REST[0], rot((1, 0, 0), np.radians(ang)) @ REST[1]])
         f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
         _, Sd = rig.deform_control(pose)
-        for label, X in (("default", rig.deform(pose)), ("contact_slide=0", rig.deform(pose, contact_slide=0)),
+        for label, X in (("default", rig.deform(pose)), ("contact_slide=3", rig.deform(pose, contact_slide=3)),
                          ("1 fairing step, projection=0", rig.deform(pose, fairing_steps=1, projection=0))):
             f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)
             print("twist %d %-32s sum (f - f_rest)^2 %.3g  min bone ratio %.3f"

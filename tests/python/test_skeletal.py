@@ -644,10 +644,11 @@ def test_contact_slide_separates_the_limbs_of_a_bend(rig, mesh, angle):
 def test_contact_slide_leaves_rest_and_twist_alone(rig, mesh):
     V, F = mesh
     bent = np.array([REST[0], rot((0, 0, 1), np.radians(90)) @ REST[1]])
-    rig.deform(bent)
-    assert np.array_equal(rig.deform(REST), rig.deform(REST, contact_slide=0))
-    np.testing.assert_allclose(rig.deform(REST), V, atol=1e-9)
+    rig.deform(bent, contact_slide=3)
+    assert np.array_equal(rig.deform(REST, contact_slide=3), rig.deform(REST, contact_slide=0))
+    np.testing.assert_allclose(rig.deform(REST, contact_slide=3), V, atol=1e-9)
     twist = np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]])
-    assert np.array_equal(rig.deform(twist), rig.deform(twist, contact_slide=0))
+    assert np.array_equal(rig.deform(twist, contact_slide=3), rig.deform(twist, contact_slide=0))
+    assert not np.array_equal(rig.deform(bent, contact_slide=3), rig.deform(bent, contact_slide=0))
     with pytest.raises(dgmesh.MeshError, match="contact_slide"):
         rig.deform(bent, contact_slide=0.5)
