@@ -147,9 +147,9 @@ struct SkeletalDeformOptions {
   // the map is monotone along each line (no new fold). Applied last, to the control vertices and,
   // through the multiresolution layer, to the dense ones. No move in the rest pose, under rigid
   // motions or pure twists. Not a thickness term: it leaves the folds of the thickness steps
-  // inside each limb. Off by default: it removes the limb-against-limb pairs of the capsule's and the
-  // camel's bends, but adds pairs on the armadillo's knee (see bench/notes/skeletal.md); 3 is the
-  // measured setting.
+  // inside each limb. Off by default: it halves the self-intersecting pairs of a capsule's bends
+  // (none left limb against limb) and lowers the camel knee's at 135 degrees, but adds pairs on the
+  // armadillo's knee (see bench/notes/skeletal.md); 3 is the measured setting.
   double contact_slide = 0.0;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
