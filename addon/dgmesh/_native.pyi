@@ -484,6 +484,7 @@ class SkeletalDeformOptions:
     dense_projection_passes: int  # passes of the dense mesh's step (multiresolution layer)
     dual_quaternion: bool  # pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)
     bone_clearance: float  # keep each vertex at least this fraction of its rest distance from its bones (0: off)
+    contact_slide: float  # joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa times its crossing depth (>= 1; 0: off)
     homotopy_steps: int  # L of eq. 6.3 (basic)
     fold_iterations: int  # steps of eq. 6.5 (basic)
     def __init__(self) -> None: ...

@@ -164,7 +164,8 @@ class SkeletalRig:
                homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
-               bone_clearance: float = _DEFORM.bone_clearance, skeleton: npt.ArrayLike | None = None) -> np.ndarray:
+               bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
+               skeleton: npt.ArrayLike | None = None) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
@@ -190,6 +191,14 @@ class SkeletalRig:
         them (a joint's crease where the medial surface is a sheet off the stick bones); through the
         multiresolution layer the dense vertices too (against the bones of their base face's control
         vertices); 0 = off, 1 = every rest distance kept (costs thickness under twists).
+        ``contact_slide`` (variational method, fairing on; kappa >= 1, 0 = off): at each joint whose
+        bend the pose changes, the bisector plane of the two posed bones is the contact surface of
+        the two limbs' flesh; each vertex near the joint slides along its own bone, away from the
+        joint, the band up to kappa times its line's crossing depth compressed so that no vertex
+        stays on the other limb's side (distance to its bone kept; none in the rest pose, under
+        rigid motions or twists). It removes the limb-against-limb self-intersections of a bent
+        joint, not the folds of the thickness steps inside each limb; off by default (it adds pairs
+        on the armadillo's knee; 3 is the measured setting, see bench/notes/skeletal.md).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
@@ -199,7 +208,7 @@ class SkeletalRig:
         Defaults: ``SkeletalDeformOptions()``.
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, bone_clearance)
+                                 dual_quaternion, bone_clearance, contact_slide)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
@@ -238,11 +247,11 @@ class SkeletalRig:
                        method: str | SkeletalMethod = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
                        homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
-                       bone_clearance: float = _DEFORM.bone_clearance,
+                       bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                        skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, bone_clearance)
+                                 dual_quaternion, bone_clearance, contact_slide)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
@@ -251,12 +260,13 @@ class SkeletalRig:
 
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                        dual_quaternion, bone_clearance):
+                        dual_quaternion, bone_clearance, contact_slide):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
                             fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=projection,
-                            dual_quaternion=dual_quaternion, bone_clearance=bone_clearance)
+                            dual_quaternion=dual_quaternion, bone_clearance=bone_clearance,
+                            contact_slide=contact_slide)
 
     # --- bind data ---------------------------------------------------------------------------
     def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:

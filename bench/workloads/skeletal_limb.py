@@ -169,6 +169,7 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                    "Blender Armature, Preserve Volume (DQS)": res[f"dqs{p}"],
                    "ours (2 fairing steps + projection)": rig.deform(pose),
                    "ours without the surface bone clearance (bone_clearance=0)": rig.deform(pose, bone_clearance=0),
+                   CONTACT: rig.deform(pose, contact_slide=3),
                    LINEAR: rig.deform(pose, dual_quaternion=False)}
         if rig_mr is not None:
             results[MULTIRES] = rig_mr.deform(pose)
@@ -256,6 +257,7 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
 
 
 LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
+CONTACT = "ours with the joint contact (contact_slide=3; issue 33, off by default)"
 MULTIRES = "ours via multires (5000-face control)"
 PANELS = ("Blender Armature, linear blend", "Blender Armature, Preserve Volume (DQS)", "ours (2 fairing steps + projection)")
 

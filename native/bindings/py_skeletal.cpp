@@ -117,6 +117,9 @@ void bind_skeletal(pb::module_& m) {
              "pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)")
       .field("bone_clearance", &SkeletalDeformOptions::bone_clearance,
              "keep each vertex at least this fraction of its rest distance from its bones (0: off)")
+      .field("contact_slide", &SkeletalDeformOptions::contact_slide,
+             "joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa "
+             "times its crossing depth (>= 1; 0: off)")
       .field("homotopy_steps", &SkeletalDeformOptions::homotopy_steps, "L of eq. 6.3 (basic)")
       .field("fold_iterations", &SkeletalDeformOptions::fold_iterations, "steps of eq. 6.5 (basic)");
 

@@ -340,6 +340,10 @@ struct SkeletalRig::Impl {
   // Surface bone clearance (see clear_surface) of the control vertices and, through the
   // multiresolution layer, of the dense ones (see project_dense).
   BoneClearance surface_clearance, dense_clearance;
+  // Joint contact (see contact_slide): the dense rest positions through the multiresolution layer,
+  // and the contact plane's margin (a hundredth of the median medial radius).
+  MatX3d dense_rest;
+  double contact_margin = 0;
   MatX3d cot;           // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
   double mu = 0;        // frame regularisation weight (absolute)
@@ -357,6 +361,8 @@ struct SkeletalRig::Impl {
   void posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h, std::vector<Vec3>& v) const;
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
+  template <class Out, class Weight>
+  void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight) const;
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   MatX3d solve(const MatX3d& b) const {
     Eigen::MatrixXd B = b;
@@ -429,6 +435,7 @@ void SkeletalRig::Impl::setup() {
     // The dense rest positions as the layer reconstructs them (equal to the bound mesh up to
     // rounding), so that the rest pose is a fixed point of project_dense.
     const MatX3d Xd = multires->reconstruct(X);
+    dense_rest = Xd;
     dense_f_rest = union_of_balls_distance(Xd, S, radii, &dense_arg);
     // A dense vertex's limit point and frame depend on the control vertices of its base face and
     // their 1-rings (Loop stencils); where all of them follow one bone alone, SSD and the
@@ -470,6 +477,7 @@ void SkeletalRig::Impl::setup() {
   {
     std::vector<double> rs(radii.data(), radii.data() + n);
     const double eps = 1e-3 * std::max(median(rs), 1e-12);
+    contact_margin = 10 * eps;
     std::vector<int> order(n);
     for (int i = 0; i < n; ++i) order[i] = i;
     std::sort(order.begin(), order.end(), [&](int a, int b) { return radii[a] > radii[b]; });
@@ -1082,6 +1090,58 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
   for (int i = 0; i < n; ++i) Sd.row(i) = push_out(row3(Sd, i), clearance.row(i), h, v).transpose();
 }
 
+// Joint contact (SkeletalDeformOptions::contact_slide, issue 33). The thickness steps keep each
+// vertex at its rest distance to the union of the posed medial balls, but in a bend's inner crease
+// the flesh of one limb then lies inside the other's (capsule bent 90 degrees: a third of the
+// self-intersecting triangle pairs are limb against limb, bench/tools/skeletal_crease_probe.py).
+// Per joint (parent p, child c), with the bisector plane of the posed bones as the contact surface
+// (normal m = (a + b) / |a + b|, a and b the unit bone directions, through the joint J): a vertex on
+// the parent's side at rest slides along -a, on the child's along +b (e, away from the joint). Its
+// line x + t e crosses the plane at the axial distance t_c = t + h / (a . m) from J, h = its depth on
+// the wrong side; the band t in [0, kappa t_c] is compressed onto [t_c, kappa t_c] (a shift of
+// (t_c - t_c0) (1 - t / (kappa t_c)), t_c0 the same crossing at rest, positive where the chain is
+// bent at rest, so the map is the identity at rest and continuous in the pose), plus the plane's
+// margin (growing from 0 with the crossing, so the map stays continuous). The distance to the own
+// bone's line is unchanged (a slide along it), and the shift is monotone along each line: no vertex
+// overtakes another.
+template <class Out, class Weight>
+void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa,
+                                      Weight weight) const {
+  const int B = static_cast<int>(rest.size()), n = static_cast<int>(X.rows());
+  if (!(kappa >= 1) || B < 2 || children.size() != static_cast<size_t>(B) || V0.rows() != n) return;
+  std::vector<Vec3> h, v;
+  posed_segments(pose, h, v);
+  for (int p = 0; p < B; ++p)
+    for (int c : children[p]) {
+      const double lp = bone_vec[p].norm(), lc = bone_vec[c].norm();
+      if (!(lp > 1e-12 && lc > 1e-12) || !(v[p].norm() > 1e-12 && v[c].norm() > 1e-12)) continue;
+      const Vec3 a0 = bone_vec[p] / lp, b0 = bone_vec[c] / lc, a = v[p].normalized(), b = v[c].normalized();
+      // Rest pose, rigid motions of the pair and twists leave the bend unchanged: nothing to do.
+      if (std::abs(a.dot(b) - a0.dot(b0)) < 1e-9 || (a0 + b0).norm() < 1e-6 || (a + b).norm() < 1e-6) continue;
+      const Vec3 m0 = (a0 + b0).normalized(), m = (a + b).normalized();
+      const double co0 = a0.dot(m0), co = a.dot(m);  // cos of half the angle between the bones
+      if (co < 0.05 || co0 < 0.05) continue;         // folded flat (over ~174 degrees): no plane between
+      const Vec3 J0 = bone_head[c], J = h[c];
+      const double L2 = std::min(lp, lc) * std::min(lp, lc), margin = contact_margin;
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+      for (int i = 0; i < n; ++i) {
+        const Vec3 x0 = row3(V0, i);
+        const double side0 = (x0 - J0).dot(m0);
+        if (side0 == 0 || (x0 - J0).squaredNorm() >= L2 || weight(i, p) + weight(i, c) <= 0.5) continue;
+        const double s = side0 > 0 ? 1.0 : -1.0;
+        const Vec3 e = s > 0 ? b : Vec3(-a), e0 = s > 0 ? b0 : Vec3(-a0);
+        const Vec3 x = X.row(i).transpose().template cast<double>();
+        const double t = (x - J).dot(e), tc = t - s * (x - J).dot(m) / co;
+        if (!(tc > 0)) continue;
+        const double tc0 = std::max((x0 - J0).dot(e0) - s * (x0 - J0).dot(m0) / co0, 0.0);
+        const double te = std::max(t, 0.0), T = kappa * tc;
+        if (te >= T || !(tc > tc0)) continue;
+        const double shift = (tc - tc0 + std::min(margin, tc - tc0)) * (1 - te / T);
+        X.row(i) = (x + shift * e).transpose().template cast<typename Out::Scalar>();
+      }
+    }
+}
+
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
   MatX3d Sd =
       skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
@@ -1101,6 +1161,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     throw MeshError("skeletal deform: fairing_steps and fold_iterations must be >= 0, homotopy_steps >= 1");
   if (!std::isfinite(opt.fairing_step) || !std::isfinite(opt.projection) || !std::isfinite(opt.bone_clearance))
     throw MeshError("skeletal deform: fairing_step, projection and bone_clearance must be finite");
+  if (!(opt.contact_slide == 0 || opt.contact_slide >= 1))
+    throw MeshError("skeletal deform: contact_slide must be 0 (off) or at least 1");
   const int n = static_cast<int>(S.rows());
   if (skeleton && (skeleton->rows() != n || !skeleton->allFinite()))
     throw MeshError("skeletal deform: the edited skeleton needs " + std::to_string(n) +
@@ -1127,7 +1189,10 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (opt.method != SkeletalMethod::Variational) return basic(Sd, opt);
   MatX3d X = variational(Sd, lin, opt, deep);
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
-  if (opt.fairing_steps > 0) clear_surface(X, pose, opt.bone_clearance, edited);
+  if (opt.fairing_steps > 0) {
+    clear_surface(X, pose, opt.bone_clearance, edited);
+    contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
+  }
   return X;
 }
 
@@ -1161,6 +1226,14 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   if (impl.multires) {
     impl.multires->reconstruct(Xc, out);
     if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, edited, out);
+    if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
+      const VecXi& face = impl.multires->base_face();
+      const MatX3i& F = impl.control.F;
+      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide, [&](int i, int j) {
+        const int f = face[i];
+        return (impl.W(F(f, 0), j) + impl.W(F(f, 1), j) + impl.W(F(f, 2), j)) / 3;
+      });
+    }
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }

@@ -119,7 +119,7 @@ def test_projection_reaches_the_other_limbs_balls(rig, mesh):
     V = mesh[0]
     pose = np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]])
     f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
-    X = rig.deform(pose, bone_clearance=0)
+    X = rig.deform(pose, bone_clearance=0, contact_slide=0)  # the joint contact moves crease vertices after it
     f = dgmesh.union_of_balls_distance(X, rig.skeleton_pose(pose), rig.radii)
     assert np.abs(f - f0).max() < 1e-6
 
@@ -435,7 +435,8 @@ def test_multires_surface_bone_clearance():
     ok = d0 > 1e-9
     for pose in (np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]]),
                  np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]])):
-        X0, X = rig.deform(pose, bone_clearance=0), rig.deform(pose)
+        # These tests measure the steps before the joint contact, which moves crease vertices after them.
+        X0, X = rig.deform(pose, bone_clearance=0, contact_slide=0), rig.deform(pose, contact_slide=0)
         assert (_union_dist(X0, pose, has)[ok] / d0[ok]).min() < 0.9  # not vacuous
         assert (_union_dist(X, pose, has)[ok] / d0[ok]).min() >= 0.95 - 1e-9
         assert (np.linalg.norm(X - X0, axis=1) > 1e-12).sum() < 0.3 * len(V)
@@ -499,9 +500,9 @@ def test_surface_bone_clearance_keeps_the_child_limb_off_the_parent_bone():
     d0 = d0[child]
     pose = np.array([REST[0], rot((0, 0, 1), np.radians(135)) @ REST[1]])
     ratio = lambda X: (_segment_dists(X, pose).min(1)[child] / d0).min()
-    assert ratio(rig.deform(pose, bone_clearance=0, projection=0)) < 0.6  # not vacuous
-    assert ratio(rig.deform(pose, projection=0)) > 0.75
-    assert ratio(rig.deform(pose)) > 0.95
+    assert ratio(rig.deform(pose, bone_clearance=0, projection=0, contact_slide=0)) < 0.6  # not vacuous
+    assert ratio(rig.deform(pose, projection=0, contact_slide=0)) > 0.75
+    assert ratio(rig.deform(pose, contact_slide=0)) > 0.95
     _assert_rest_and_rigid_unpushed(rig, V)
 
 
@@ -520,8 +521,8 @@ def test_multires_dense_step_finds_the_balls_a_pose_brings_close():
                         (np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]]), 0.15)):
         Sd = rig.skeleton_pose(pose)
         e = lambda X: ((dgmesh.union_of_balls_distance(X, Sd, rig.radii) - f_rest) ** 2).sum()
-        without = e(rig.deform(pose, bone_clearance=0, projection=0))
-        assert e(rig.deform(pose, bone_clearance=0)) < share * without
+        without = e(rig.deform(pose, bone_clearance=0, projection=0, contact_slide=0))
+        assert e(rig.deform(pose, bone_clearance=0, contact_slide=0)) < share * without
 
 
 def test_non_finite_deform_options_are_refused(tmp_path):
@@ -585,4 +586,69 @@ def test_multires_rigid_vertices_keep_their_bone_clearance():
     ok = d0 > 1e-9  # the tip on the first bone's head
     for R in (rot((1, 0, 0), np.pi), rot((0, 0, 1), np.pi / 2)):
         pose = np.array([REST[0], R @ REST[1]])
-        assert (_union_dist(rig.deform(pose, bone_clearance=1.0), pose, has)[ok] / d0[ok]).min() >= 1 - 1e-9
+        assert (_union_dist(rig.deform(pose, bone_clearance=1.0, contact_slide=0), pose, has)[ok] / d0[ok]).min() >= 1 - 1e-9
+
+
+def _crossing_pairs(V, F):
+    """Pairs (I, J) of triangles sharing no vertex where an edge of one crosses the other's interior
+    (all pairs; small meshes only)."""
+    T = V[F]
+    lo, hi = T.min(1), T.max(1)
+    I, J = np.triu_indices(len(F), 1)
+    ok = np.all((lo[I] <= hi[J]) & (lo[J] <= hi[I]), axis=1)
+    I, J = I[ok], J[ok]
+    share = np.zeros(len(I), bool)
+    for a in range(3):
+        for b in range(3):
+            share |= F[I, a] == F[J, b]
+    I, J = I[~share], J[~share]
+
+    def vol(a, b, c, d):
+        return np.einsum("ij,ij->i", b - a, np.cross(c - a, d - a))
+
+    hit = np.zeros(len(I), bool)
+    for X, Y in ((T[I], T[J]), (T[J], T[I])):
+        for k in range(3):
+            p, q = X[:, k], X[:, (k + 1) % 3]
+            a, b, c = Y[:, 0], Y[:, 1], Y[:, 2]
+            s1, s2 = vol(p, a, b, c), vol(q, a, b, c)
+            u, v, w = vol(p, q, a, b), vol(p, q, b, c), vol(p, q, c, a)
+            hit |= (s1 * s2 < 0) & (((u > 0) & (v > 0) & (w > 0)) | ((u < 0) & (v < 0) & (w < 0)))
+    return I[hit], J[hit]
+
+
+@pytest.mark.parametrize("angle", [90, 135])
+def test_contact_slide_separates_the_limbs_of_a_bend(rig, mesh, angle):
+    # Issue 33: without the joint contact the thickness steps put one limb's crease flesh inside the
+    # other limb's; with it no triangle of one limb (all corners on its side of the joint at rest)
+    # crosses a triangle of the other, fewer pairs cross at all, and the thickness is kept.
+    V, F = mesh
+    near = np.abs(V[F].mean(1)[:, 0]) < 2.0
+    Fn = F[near]
+    side = np.sign(V[Fn][:, :, 0]).sum(1)
+    pose = np.array([REST[0], rot((0, 0, 1), np.radians(angle)) @ REST[1]])
+    counts = {}
+    for cs in (0, 3):
+        X = rig.deform(pose, contact_slide=cs)
+        I, J = _crossing_pairs(X, Fn)
+        limbs = int((((side[I] == 3) & (side[J] == -3)) | ((side[I] == -3) & (side[J] == 3))).sum())
+        counts[cs] = (len(I), limbs)
+        if cs:
+            ratio = bone_dist(X, pose) / np.maximum(bone_dist(V, REST), 1e-300)
+            assert ratio[bone_dist(V, REST) > 1e-9].min() >= 0.9
+    assert counts[0][1] > 0  # the problem is there without it
+    assert counts[3][1] == 0
+    assert counts[3][0] < 0.75 * counts[0][0]
+
+
+def test_contact_slide_leaves_rest_and_twist_alone(rig, mesh):
+    V, F = mesh
+    bent = np.array([REST[0], rot((0, 0, 1), np.radians(90)) @ REST[1]])
+    rig.deform(bent, contact_slide=3)
+    assert np.array_equal(rig.deform(REST, contact_slide=3), rig.deform(REST, contact_slide=0))
+    np.testing.assert_allclose(rig.deform(REST, contact_slide=3), V, atol=1e-9)
+    twist = np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]])
+    assert np.array_equal(rig.deform(twist, contact_slide=3), rig.deform(twist, contact_slide=0))
+    assert not np.array_equal(rig.deform(bent, contact_slide=3), rig.deform(bent, contact_slide=0))
+    with pytest.raises(dgmesh.MeshError, match="contact_slide"):
+        rig.deform(bent, contact_slide=0.5)

@@ -1,0 +1,45 @@
+"""Issue 33's crease pairs on the bench skeletal_limb legs, with and without the joint contact:
+Blender's automatic weights and Armature modifier (LBS, DQS) through bench/workloads/_skeletal_limb.py,
+ours on the whole mesh and through the multiresolution layer (5000-face control mesh), bends of
+45 / 90 / 135 degrees and a 180-degree twist of the lower bone; pairs over the whole mesh
+(bench/tools/skeletal_crease_probe.py's counter) and the minimum ratio of the distance to the bones
+over the vertices with weight on the moving bone.
+
+    /usr/bin/python3 bench/tools/skeletal_crease_legs.py camel|armadillo
+"""
+import sys, pathlib, tempfile, time
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+sys.path[:0] = [str(ROOT), str(ROOT / "addon"), str(ROOT / "bench" / "tools")]
+import numpy as np  # noqa: E402
+import dgmesh  # noqa: E402
+from bench.common import cgal_mesh, run_blender
+from bench.workloads.skeletal_limb import CAMEL_BONES, ARMADILLO_BONES, LIMB_SCRIPT, bone_distance
+from skeletal_crease_probe import self_intersecting_pairs
+which = sys.argv[1]
+model, mesh, (heads, tails), bend_axis = {"camel": ("camel leg", "camel", CAMEL_BONES, (1, 0, 0)),
+                                          "armadillo": ("armadillo leg", "armadillo", ARMADILLO_BONES, (-1, 0, 0))}[which]
+V, F = cgal_mesh(mesh)
+axis = tails[2] - heads[2]
+poses = {"bend 45": (2, bend_axis, np.pi / 4), "bend 90": (2, bend_axis, np.pi / 2), "bend 135": (2, bend_axis, 3 * np.pi / 4),
+         "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
+with tempfile.TemporaryDirectory() as tmp:
+    inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
+    np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array([[b, *ax, ang] for b, ax, ang in poses.values()], dtype=float))
+    run_blender(LIMB_SCRIPT, [inp, outp])
+    res = dict(np.load(outp))
+rest, W = res["rest"], res["W"]
+t = time.time()
+rig = dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=len(F) + 1)
+rig_mr = dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=5000)
+print(model, len(V), "bind s %.1f" % (time.time() - t), flush=True)
+b0 = bone_distance(V, rest, rest, heads, tails)
+aff = (W[:, 2] > 0.01) & (b0 > 1e-9)
+print("rest pairs", len(self_intersecting_pairs(V, F)[0]))
+for p, pname in enumerate(poses):
+    pose = res[f"pose{p}"]
+    out = {"LBS (Blender)": res[f"lbs{p}"], "DQS (Blender)": res[f"dqs{p}"],
+           "ours slide 0": rig.deform(pose, contact_slide=0), "ours slide 3": rig.deform(pose, contact_slide=3),
+           "multires slide 0": rig_mr.deform(pose, contact_slide=0), "multires slide 3": rig_mr.deform(pose, contact_slide=3)}
+    for k, X in out.items():
+        r = (bone_distance(X, rest, pose, heads, tails) / np.maximum(b0, 1e-300))[aff]
+        print(model, pname, "%-18s pairs %5d  min bone ratio %.3f" % (k, len(self_intersecting_pairs(X, F)[0]), r.min()), flush=True)
