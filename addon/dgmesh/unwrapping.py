@@ -29,9 +29,9 @@ import numpy.typing as npt
 
 from .core import MeshError, Progress, _native, as_count, as_faces, as_real, as_vertices, make_options
 
-__all__ = ["AutoUnwrapOptions", "AutoUnwrapResult", "auto_unwrap", "UnwrapOptions", "UnwrapResult", "UnwrapStep", "UnwrapChartsResult", "UnwrapChartError", "UvMetrics",
-           "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults", "unwrap", "unwrap_charts", "uv_metrics",
-           "uv_stretch"]
+__all__ = ["AutoUnwrapOptions", "AutoUnwrapResult", "auto_unwrap", "UnwrapOptions", "UnwrapResult", "UnwrapStep",
+           "UnwrapChartsResult", "UnwrapChartError", "UvMetrics", "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults",
+           "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch"]
 
 # The contract is the C++ one (dgmesh/unwrap.h), bound as it is.
 UnwrapOptions = _native.UnwrapOptions
