@@ -63,8 +63,9 @@ from .crest import (  # noqa: E402
 )
 from .fairing import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, FairStall, RegularizeOptions, fair,  # noqa: E402
                    regularize, willmore_energy)
-from .unwrapping import (UnwrapChartError, UnwrapChartsResult, UnwrapOptions, UnwrapResult, UnwrapStep,  # noqa: E402
-                     UvBoundary, UvMetrics, UvSolver, UvWeights, unwrap, unwrap_charts, uv_metrics, uv_stretch)
+from .unwrapping import (AutoUnwrapOptions, AutoUnwrapResult, UnwrapChartError, UnwrapChartsResult,  # noqa: E402
+                         UnwrapOptions, UnwrapResult, UnwrapStep, auto_unwrap,
+                         UvBoundary, UvMetrics, UvSolver, UvWeights, unwrap, unwrap_charts, uv_metrics, uv_stretch)
 from .skeletal import (  # noqa: E402
     SkeletalDeformOptions,
     SkeletalMesh,
@@ -95,6 +96,7 @@ __all__ = [
     "willmore_energy",
     "UnwrapChartError", "UnwrapChartsResult", "UnwrapOptions", "UnwrapResult", "UnwrapStep", "UvBoundary",
     "UvMetrics", "UvSolver", "UvWeights", "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch",
+    "AutoUnwrapOptions", "AutoUnwrapResult", "auto_unwrap",
     "SkeletalDeformOptions", "SkeletalMesh", "SkeletalMethod", "SkeletalRig", "SkeletalRigOptions", "SkeletonOptions",
     "delaunay_2d", "delaunay_3d", "skeletal_mesh", "union_of_balls_distance",
     "Multires", "MultiresOptions", "MultiresTimings",

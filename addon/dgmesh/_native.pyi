@@ -140,6 +140,39 @@ class UvWeights:
     value: int
     def __init__(self, value: int) -> None: ...
 
+class AutoUnwrapOptions:
+    """Options of auto_unwrap() (dgmesh/charts.h)"""
+
+    __fields__: list[str]
+    max_stretch: float  # largest L2 stretch (eq. 5.5) a chart may keep; above it the chart is split; > 1, inf: no bound
+    charts: int  # initial charts (VSA segments), 0: automatic (8)
+    max_charts: int  # no stretch split beyond this many charts
+    margin: float  # gap between packed charts, fraction of the layout's side
+    groups: numpy.ndarray  # (m,) triangles of equal value stay in one chart; empty: none
+    unwrap: UnwrapOptions  # how each chart is unwrapped (UnwrapOptions)
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> AutoUnwrapOptions: ...
+
+class AutoUnwrapResult:
+    """Result of auto_unwrap()"""
+
+    __fields__: list[str]
+    uv: numpy.ndarray  # (3m, 2) row 3f + k: corner k of triangle f, packed in [0, 1]^2
+    chart: numpy.ndarray  # (m,) chart of each triangle
+    seams: numpy.ndarray  # (s, 2) vertex pairs of the edges between two charts
+    chart_stretch: numpy.ndarray  # (n_charts,) L2 stretch of each chart's map
+    metrics: UvMetrics  # UvMetrics of the packed map
+    n_charts: int  # charts made
+    initial_charts: int  # charts of the VSA segmentation
+    topology_splits: int  # splits that made non-disk charts disks
+    stretch_splits: int  # splits of charts above max_stretch
+    seam_length: float  # total 3D length of the seams
+    edge_length: float  # total 3D length of all edges
+    uv_area_used: float  # sum of the UV triangle areas (at most 1)
+    warnings: list  # for people
+    def __init__(self) -> None: ...
+    def replace(self, **kwargs: Any) -> AutoUnwrapResult: ...
+
 class CrestLines:
     """Crest lines: points, segments between them, and lines as point lists"""
 
@@ -660,6 +693,8 @@ class SkeletalRig:
 
 def auto_options(noise: NoiseEstimate, base: DenoiseOptions) -> DenoiseOptions: ...
 def auto_smoothing_steps(noise: NoiseEstimate) -> int: ...
+def auto_unwrap(V: numpy.ndarray, F: numpy.ndarray, options: AutoUnwrapOptions, progress: object = ...) -> AutoUnwrapResult: ...
+def chart_is_disk(F: numpy.ndarray, faces: list[int]) -> bool: ...
 def connected_labels(n: int, pairs: numpy.ndarray) -> numpy.ndarray: ...
 def crest_face_distance(V: numpy.ndarray, F: numpy.ndarray, lines: CrestLines) -> numpy.ndarray: ...
 def crest_lines(V: numpy.ndarray, F: numpy.ndarray, fit: DerivativeOptions, options: CrestOptions, progress: object = ...) -> tuple[CurvatureDerivatives, CrestLines]: ...

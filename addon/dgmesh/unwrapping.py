@@ -29,9 +29,9 @@ import numpy.typing as npt
 
 from .core import MeshError, Progress, _native, as_count, as_faces, as_real, as_vertices, make_options
 
-__all__ = ["UnwrapOptions", "UnwrapResult", "UnwrapStep", "UnwrapChartsResult", "UnwrapChartError", "UvMetrics",
-           "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults", "unwrap", "unwrap_charts", "uv_metrics",
-           "uv_stretch"]
+__all__ = ["AutoUnwrapOptions", "AutoUnwrapResult", "auto_unwrap", "UnwrapOptions", "UnwrapResult", "UnwrapStep",
+           "UnwrapChartsResult", "UnwrapChartError", "UvMetrics", "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults",
+           "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch"]
 
 # The contract is the C++ one (dgmesh/unwrap.h), bound as it is.
 UnwrapOptions = _native.UnwrapOptions
@@ -43,7 +43,10 @@ UvMetrics = _native.UvMetrics
 UvBoundary = _native.UvBoundary
 UvWeights = _native.UvWeights
 UvSolver = _native.UvSolver
+AutoUnwrapOptions = _native.AutoUnwrapOptions
+AutoUnwrapResult = _native.AutoUnwrapResult
 _D = UnwrapOptions()
+_A = AutoUnwrapOptions()
 
 
 def thesis_defaults() -> UnwrapOptions:
@@ -152,6 +155,50 @@ def unwrap_charts(V: npt.ArrayLike, F: npt.ArrayLike, charts: npt.ArrayLike, *,
     o = _options(boundary, weights, eta, iterations, slide_boundary, max_iterations, min_improvement, solver,
                  stretch_iterations)
     return _native.unwrap_charts(V, F, np.ascontiguousarray(labels, dtype=np.int32), o, progress)
+
+
+def auto_unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, max_stretch: float | None = _A.max_stretch,
+                charts: int | None = None, max_charts: int = _A.max_charts, margin: float = _A.margin,
+                groups: npt.ArrayLike | None = None, stretch_iterations: int = _D.stretch_iterations,
+                progress: Progress | None = None) -> AutoUnwrapResult:
+    """One-click unwrap of a closed or complex mesh (dgmesh/charts.h): cut into disk charts, each
+    unwrapped by :func:`unwrap` (free boundary, Uopt and the final stretch minimisation), packed
+    side by side in [0, 1]^2.
+
+    V: (n, 3), F: (m, 3) a manifold, consistently oriented triangle mesh without zero-area
+    triangles (closed or not, any genus, several pieces). The initial charts are a variational
+    shape approximation (thesis 4.9; ``charts`` segments, None: automatic), so cuts run where the
+    normal turns; a chart that is not a disk (one boundary loop, Euler characteristic 1) is split
+    in two, and so is a chart whose L2 stretch (eq. 5.5) exceeds ``max_stretch`` (> 1; None: no
+    bound), until at most ``max_charts`` charts. ``margin``: gap between packed charts, a fraction
+    of the layout's side, in [0, 0.25). ``groups``: (m,) integers >= 0, triangles of equal value
+    are never cut apart (the triangles of one polygon). ``stretch_iterations``: as :func:`unwrap`.
+
+    Returns :class:`AutoUnwrapResult`: ``uv`` (3m, 2) the UV of corner k of triangle f at row
+    3f + k (``uv.reshape(-1, 3, 2)``), ``chart`` (m,) chart of each triangle, ``seams`` (s, 2)
+    vertex pairs of the cut edges, ``chart_stretch`` (per chart L2), ``metrics`` (:class:`UvMetrics`
+    of the packed map), ``n_charts``, ``initial_charts``, ``topology_splits``, ``stretch_splits``,
+    ``seam_length`` and ``edge_length`` (3D), ``uv_area_used`` (of the unit square), ``warnings``.
+
+    Raises MeshError for input that is not such a mesh or options out of range.
+    """
+    V = as_vertices(V)
+    F = as_faces(F, n=len(V))
+    o = AutoUnwrapOptions()
+    o.max_stretch = np.inf if max_stretch is None else as_real(max_stretch, "max_stretch", 1.0, lo_open=True)
+    o.charts = 0 if charts is None else as_count(charts, "charts", 1)
+    o.max_charts = as_count(max_charts, "max_charts", 1)
+    o.margin = as_real(margin, "margin", 0.0, 0.25)
+    if o.margin >= 0.25:
+        raise MeshError(f"margin must be in [0, 0.25), got {margin!r}")
+    if groups is not None:
+        g = np.asarray(groups)
+        if g.shape != (len(F),) or (g.size and (not np.issubdtype(g.dtype, np.integer) or g.min() < 0)):
+            raise MeshError(f"groups must be one integer >= 0 per triangle ({len(F)},), got {g.shape} {g.dtype}")
+        o.groups = np.ascontiguousarray(g, dtype=np.int32)
+    o.unwrap = _options(_D.boundary.name, _D.weights.name, _D.eta, _D.iterations, _D.slide_boundary,
+                        _D.max_iterations, _D.min_improvement, _D.solver.name, stretch_iterations)
+    return _native.auto_unwrap(V, F, o, progress)
 
 
 def _as_uv(V, F, UV):

@@ -5,8 +5,9 @@ Runs inside any Blender (3.4 on bookworm, 4.3 in the trixie lane root) without t
     blender --background --factory-startup --python bench/tools/blender_uv_peer.py -- \
         OUTDIR METHOD[,METHOD...] MESH.off [MESH.off ...]
 
-METHOD: ANGLE_BASED, CONFORMAL, MINIMUM_STRETCH (Blender 4.3+: SLIM, its defaults) or
-ABF_MINIMIZE_STRETCH_<N> (ANGLE_BASED, then UV > Minimize Stretch with N iterations). Every mesh
+METHOD: ANGLE_BASED, CONFORMAL, MINIMUM_STRETCH (Blender 4.3+: SLIM, its defaults),
+ABF_MINIMIZE_STRETCH_<N> (ANGLE_BASED, then UV > Minimize Stretch with N iterations) or
+SMART_PROJECT (Smart UV Project, its defaults: angle limit 66 degrees, island margin 0, packed). Every mesh
 is unwrapped whole (all faces selected, margin 0) in a fresh scene; the time is the wall time of
 the operators alone. Writes OUTDIR/<stem>__<METHOD>.npy (the corner UVs, (m, 3, 2) float64: corner
 k of triangle f) and OUTDIR/result.json ({"blender": version, "runs": {stem: {METHOD: seconds}}});
@@ -68,7 +69,9 @@ def unwrap(obj, method):
     bpy.ops.mesh.select_all(action="SELECT")
     bpy.ops.uv.select_all(action="SELECT")
     t0 = time.perf_counter()
-    if method.startswith("ABF_MINIMIZE_STRETCH_"):
+    if method == "SMART_PROJECT":
+        bpy.ops.uv.smart_project()
+    elif method.startswith("ABF_MINIMIZE_STRETCH_"):
         bpy.ops.uv.unwrap(method="ANGLE_BASED", margin=0.0)
         bpy.ops.uv.minimize_stretch(iterations=int(method.rsplit("_", 1)[1]))
     else:

@@ -941,5 +941,90 @@ def vs_blender(quick=False):
     return {"markdown": md, "data": data}
 
 
+CLOSED_MODELS = ("bunny00", "armadillo", "camel", "elephant", "cow", "hand", "fandisk")
+
+
+def _islands(V, F, uv):
+    """Charts of corner UVs (m, 3, 2): triangles joined across an edge whose two ends have the same
+    UVs on both sides. Returns (number of charts, seam length / total edge length, UV area)."""
+    m = len(F)
+    a, b = F.ravel(), F[:, [1, 2, 0]].ravel()
+    ua, ub = uv.reshape(-1, 2), uv[:, [1, 2, 0]].reshape(-1, 2)
+    key = np.minimum(a, b).astype(np.int64) * (F.max() + 1) + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    k = key[order]
+    first = np.flatnonzero(k[1:] == k[:-1])
+    h, g = order[first], order[first + 1]  # the two half-edges of an interior edge (a->b, b->a)
+    joined = (np.abs(ua[h] - ub[g]).max(axis=1) < 1e-6) & (np.abs(ub[h] - ua[g]).max(axis=1) < 1e-6)
+    charts = chart_labels(m, np.c_[h // 3, g // 3][joined])
+    length = np.linalg.norm(V[a] - V[b], axis=1)
+    total = length.sum() - length[g].sum()  # each interior edge once
+    seam = length[h[~joined]].sum()
+    e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
+    area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+    return int(charts.max()) + 1, float(seam / total), float(area)
+
+
+def vs_smart_project(quick=False):
+    """dgmesh.auto_unwrap (defaults) against Blender's Smart UV Project (defaults) on CGAL's closed
+    scans (issue 29): L2 stretch, charts, seam length / edge length, UV area used, time."""
+    models = ("bunny00", "fandisk") if quick else CLOSED_MODELS
+    data = {"machine": machine(), "ours": {}, "loadavg_before": os.getloadavg()[0]}
+    for name in models:
+        V, F = cgal_mesh(name)
+        r, t, _ = _timed(lambda: dgmesh.auto_unwrap(V, F))
+        uv = np.asarray(r.uv).reshape(-1, 3, 2)
+        n, seam, area = _islands(V, F, uv)
+        assert n == r.n_charts and abs(seam - r.seam_length / r.edge_length) < 1e-9
+        data["ours"][name] = dict(vertices=len(V), triangles=len(F), charts=n, seam=seam, uv_area=area, seconds=t,
+                                  **dgmesh.core.fields(r.metrics), worst_chart=float(np.max(r.chart_stretch)))
+    with tempfile.TemporaryDirectory() as out:
+        paths = [str(cgal_dir() / f"{name}.off") for name in models]
+        subprocess.run(["blender", "--background", "--factory-startup", "--python-exit-code", "1", "--python",
+                        str(PEER_TOOL), "--", out, "SMART_PROJECT", *paths],
+                       check=True, capture_output=True, text=True, timeout=3600)
+        result = json.loads((pathlib.Path(out) / "result.json").read_text())
+        peer = {}
+        for name in models:
+            V, F = cgal_mesh(name)
+            uv = np.load(pathlib.Path(out) / f"{name}__SMART_PROJECT.npy")
+            n, seam, area = _islands(V, F, uv)
+            peer[name] = dict(charts=n, seam=seam, uv_area=area, seconds=result["runs"][name]["SMART_PROJECT"],
+                              **dgmesh.core.fields(dgmesh.uv_metrics(V, F, uv)))
+    data.update(blender=result["blender"], peer=peer, loadavg_after=os.getloadavg()[0])
+    rows, verdict = [], []
+    for name in models:
+        o, p = data["ours"][name], peer[name]
+        for label, x in (("dgmesh.auto_unwrap", o), (f"Blender {data['blender']} Smart UV Project", p)):
+            rows.append([f"{name} ({o['vertices']} v)", label, x["stretch_l2"], x["charts"], x["seam"], x["uv_area"],
+                         x["flipped"], x["zero_area"], x["seconds"]])
+        ok = (o["charts"] <= p["charts"] / 4, o["stretch_l2"] <= 1.05 * p["stretch_l2"], o["seam"] < p["seam"])
+        verdict.append([name, f"{o['charts']} / {p['charts']}", "yes" if ok[0] else "NO",
+                        f"{o['stretch_l2']:.4f} / {p['stretch_l2']:.4f}", "yes" if ok[1] else "NO",
+                        f"{o['seam']:.4f} / {p['seam']:.4f}", "yes" if ok[2] else "NO"])
+    m = data["machine"]
+    md = "\n".join([
+        "### Auto unwrap vs Smart UV Project (issue 29)",
+        "",
+        f"CGAL's closed scans. {m['cpu']}, {m['threads']} threads, {m['date']}, commit {m['commit']}; load "
+        f"average {data['loadavg_before']:.1f} before, {data['loadavg_after']:.1f} after (timings under load "
+        "are indicative only). dgmesh: `dgmesh.auto_unwrap(V, F)` (defaults: 8 VSA charts, split to disks "
+        f"and to L2 <= {dgmesh.AutoUnwrapOptions().max_stretch}, own shelf packing). Blender {data['blender']}: "
+        "Smart UV Project with its defaults (bench/tools/blender_uv_peer.py). Charts and seams are counted "
+        "from the corner UVs alike (an edge is a seam where its UVs differ on its two sides); seam = seam "
+        "length / total edge length; UV area = UV area used in the unit square; L2 by dgmesh.uv_metrics.",
+        "",
+        table(["model", "method", "L2", "charts", "seam", "UV area", "flipped", "zero-area", "seconds"], rows),
+        "",
+        "Issue 29's target (at most a quarter of Smart UV Project's charts, L2 at most 5% above its, shorter "
+        "seams), ours / Smart UV Project:",
+        "",
+        table(["model", "charts", "<= 1/4", "L2", "<= 1.05x", "seam", "shorter"], verdict),
+        "",
+        "Reproduce: `/usr/bin/python3 bench/run.py auto_unwrap`.",
+    ])
+    return {"markdown": md, "data": data}
+
+
 WORKLOADS = {"unwrap_quality": quality, "unwrap_speed": speed, "unwrap_thesis": thesis,
-             "unwrap_vs_blender": vs_blender}
+             "unwrap_vs_blender": vs_blender, "auto_unwrap": vs_smart_project}

@@ -1,6 +1,7 @@
 // Low-stretch unwrapping and UV metrics (thesis chapter 5): the options, results and functions of
 // dgmesh/unwrap.h as they are.
 #include "common.h"
+#include "dgmesh/charts.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/unwrap.h"
 
@@ -174,6 +175,47 @@ void bind_unwrap(pb::module_& m) {
         return connected_labels(n, pairs);
       },
       pb::arg("n"), pb::arg("pairs"));
+
+  Struct<AutoUnwrapOptions>(m, "AutoUnwrapOptions", "Options of auto_unwrap() (dgmesh/charts.h)")
+      .field("max_stretch", &AutoUnwrapOptions::max_stretch,
+             "largest L2 stretch (eq. 5.5) a chart may keep; above it the chart is split; > 1, inf: no bound")
+      .field("charts", &AutoUnwrapOptions::charts, "initial charts (VSA segments), 0: automatic (8)")
+      .field("max_charts", &AutoUnwrapOptions::max_charts, "no stretch split beyond this many charts")
+      .field("margin", &AutoUnwrapOptions::margin, "gap between packed charts, fraction of the layout's side")
+      .field("groups", &AutoUnwrapOptions::groups, "(m,) triangles of equal value stay in one chart; empty: none")
+      .field("unwrap", &AutoUnwrapOptions::unwrap, "how each chart is unwrapped (UnwrapOptions)");
+
+  Struct<AutoUnwrapResult>(m, "AutoUnwrapResult", "Result of auto_unwrap()")
+      .result("uv", &AutoUnwrapResult::uv, "(3m, 2) row 3f + k: corner k of triangle f, packed in [0, 1]^2")
+      .result("chart", &AutoUnwrapResult::chart, "(m,) chart of each triangle")
+      .result("seams", &AutoUnwrapResult::seams, "(s, 2) vertex pairs of the edges between two charts")
+      .result("chart_stretch", &AutoUnwrapResult::chart_stretch, "(n_charts,) L2 stretch of each chart's map")
+      .result("metrics", &AutoUnwrapResult::metrics, "UvMetrics of the packed map")
+      .result("n_charts", &AutoUnwrapResult::n_charts, "charts made")
+      .result("initial_charts", &AutoUnwrapResult::initial_charts, "charts of the VSA segmentation")
+      .result("topology_splits", &AutoUnwrapResult::topology_splits, "splits that made non-disk charts disks")
+      .result("stretch_splits", &AutoUnwrapResult::stretch_splits, "splits of charts above max_stretch")
+      .result("seam_length", &AutoUnwrapResult::seam_length, "total 3D length of the seams")
+      .result("edge_length", &AutoUnwrapResult::edge_length, "total 3D length of all edges")
+      .result("uv_area_used", &AutoUnwrapResult::uv_area_used, "sum of the UV triangle areas (at most 1)")
+      .result("warnings", &AutoUnwrapResult::warnings, "for people");
+
+  m.def(
+      "auto_unwrap",
+      [](InV V, InF F, const AutoUnwrapOptions& o, const pb::object& progress) {
+        const ProgressFn cb = progress_from(progress);
+        NativeScope nogil;
+        return auto_unwrap(V, F, o, cb);
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("options"), pb::arg("progress") = pb::none());
+
+  m.def(
+      "chart_is_disk",
+      [](InF F, const std::vector<int>& faces) {
+        NativeScope nogil;
+        return chart_is_disk(F, faces);
+      },
+      pb::arg("F"), pb::arg("faces"));
 }
 
 }  // namespace dgmesh::py

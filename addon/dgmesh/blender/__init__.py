@@ -9,6 +9,7 @@ import bpy
 
 from . import (
     bridge,
+    ops_auto_unwrap,
     ops_crest,
     ops_curvature,
     ops_denoise,
@@ -24,7 +25,7 @@ from . import (
 from .common import set_handlers
 
 # Registration order: preferences, operators (one module per capability), then the UI.
-_MODULES = (prefs, ops_curvature, ops_denoise, ops_fair, ops_crest, ops_unwrap, ops_multires, ops_skeletal, ops_remesh, ui)
+_MODULES = (prefs, ops_curvature, ops_denoise, ops_fair, ops_crest, ops_unwrap, ops_auto_unwrap, ops_multires, ops_skeletal, ops_remesh, ui)
 
 
 def _classes():

@@ -18,6 +18,7 @@ OPERATORS = [
     ("dgmesh.segment", "Segment", 'MOD_EXPLODE'),
     # UVs
     ("dgmesh.unwrap", "Low-Stretch Unwrap", 'UV'),
+    ("dgmesh.auto_unwrap", "Auto Unwrap (Disk Charts)", 'UV_ISLANDSEL'),
     ("dgmesh.stretch_map", "UV Stretch Map", 'UV_DATA'),
     # Remeshing
     ("dgmesh.remesh", "Remesh (Double Param.)", 'MOD_REMESH'),
