@@ -411,6 +411,15 @@ std::array<double, 4> waving_errors(const Mesh& m, const CurvatureDerivatives& d
   return out;
 }
 
+// V with Gaussian noise of standard deviation sigma on every coordinate (fixed seed).
+MatX3d with_noise(MatX3d V, double sigma, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, sigma);
+  for (int i = 0; i < V.rows(); ++i)
+    for (int c = 0; c < 3; ++c) V(i, c) += noise(rng);
+  return V;
+}
+
 // The waving disc with every vertex moved sideways by up to `jitter` h (fixed seed), back on z = cos rho.
 TriMesh jittered(TriMesh w, double h, double jitter) {
   unsigned state = 12345u;
@@ -488,12 +497,7 @@ TEST(CrestLines, JetNoiseTestFallsBackToTheThesisFitUnderNoise) {
   EXPECT_GT(clean.noise_ratio, 0.0);
   EXPECT_LT(clean.noise_ratio, kJetNoiseRatio);
 
-  std::mt19937 rng(5);
-  std::normal_distribution<double> noise(0.0, 0.05 * h);
-  MatX3d V = w.V;
-  for (int i = 0; i < V.rows(); ++i)
-    for (int c = 0; c < 3; ++c) V(i, c) += noise(rng);
-  const Mesh noisy = make_mesh(V, w.F);
+  const Mesh noisy = make_mesh(with_noise(w.V, 0.05 * h, 5), w.F);
   const CurvatureDerivatives adaptive = curvature_derivatives(noisy, jet);
   EXPECT_FALSE(adaptive.jet_used);
   EXPECT_GT(adaptive.noise_ratio, kJetNoiseRatio);
@@ -542,12 +546,7 @@ TEST(CrestLines, JetStandardErrorsAreSmallOnExactAndLargeOnNoisyMeshes) {
   plain.noise_adaptive = false;
   const CurvatureDerivatives a = curvature_derivatives(exact, plain);
   ASSERT_EQ(a.e_max_error.size(), exact.V.rows());
-  std::mt19937 rng(3);
-  std::normal_distribution<double> noise(0.0, 0.02 * h);
-  MatX3d V = w.V;
-  for (int i = 0; i < V.rows(); ++i)
-    for (int c = 0; c < 3; ++c) V(i, c) += noise(rng);
-  const CurvatureDerivatives b = curvature_derivatives(make_mesh(V, w.F), plain);
+  const CurvatureDerivatives b = curvature_derivatives(make_mesh(with_noise(w.V, 0.02 * h, 3), w.F), plain);
   auto median = [](VecXd x) {
     std::nth_element(x.data(), x.data() + x.size() / 2, x.data() + x.size());
     return x[x.size() / 2];
