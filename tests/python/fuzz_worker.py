@@ -159,6 +159,7 @@ CALLS = {
     "regularize": lambda V, F, **kw: dgmesh.regularize(V, F, **kw),
     "unwrap": lambda V, F, **kw: dgmesh.unwrap(V, F, **kw),
     "unwrap_charts": lambda V, F, **kw: dgmesh.unwrap_charts(V, F, np.zeros(len(np.asarray(F)), int), **kw),
+    "auto_unwrap": lambda V, F, **kw: dgmesh.auto_unwrap(V, F, **kw),
     "uv_metrics": lambda V, F, **kw: dgmesh.uv_metrics(V, F, _uv(V), **kw),
     "uv_stretch": lambda V, F, **kw: dgmesh.uv_stretch(V, F, _uv(V), **kw),
     "skeletal_mesh": lambda V, F, **kw: dgmesh.skeletal_mesh(V, F, **kw),

@@ -51,6 +51,7 @@ FUNCS = {
     "estimate_noise_points": dgmesh.estimate_noise, "crest_lines": dgmesh.crest_lines,
     "curvature_derivatives": dgmesh.curvature_derivatives, "decimate": dgmesh.decimate, "segment": dgmesh.segment,
     "fair": dgmesh.fair, "regularize": dgmesh.regularize, "unwrap": dgmesh.unwrap, "unwrap_charts": dgmesh.unwrap_charts,
+    "auto_unwrap": dgmesh.auto_unwrap,
     "uv_metrics": dgmesh.uv_metrics, "uv_stretch": dgmesh.uv_stretch, "skeletal_mesh": dgmesh.skeletal_mesh,
     "point_mesh_distance": dgmesh.point_mesh_distance, "remesh": dgmesh.remesh, "remesh_full": dgmesh.remesh_full,
     "multires": dgmesh.Multires.build, "skeletal_rig": dgmesh.SkeletalRig.bind,
@@ -61,13 +62,13 @@ REQUIRED = {"similarity": ("vertex",), "decimate": ("target_faces",), "remesh": 
             "remesh_full": ("target_vertices",), "icosphere": ("level",), "grid": ("nx", "ny"),
             "torus": ("R", "r", "nu", "nv")}
 SHAPES = {"icosphere", "grid", "torus"}  # their parameters are positional
-NOT_OPTIONS = {"progress", "mask", "faces", "crest_lines", "locked", "planes", "uv_faces", "normals", "out",
+NOT_OPTIONS = {"progress", "mask", "faces", "groups", "crest_lines", "locked", "planes", "uv_faces", "normals", "out",
                "bone_heads", "bone_tails", "weights"}
 # Good values of integer options where small integers would all be out of range or slow.
 GOOD_INTS = {"resolution": [16, 24, 40], "target_vertices": [4, 12, 40], "target_faces": [0, 4, 12, 40],
              "control_faces": [4, 8, 30], "segments": [1, 2, 5], "vertex": [0, 1, 5, 41],
              "multires_level": [0, 1, 2], "level": [1, 2], "levels": [0, 1, 2], "nx": [1, 2, 7],
-             "ny": [1, 3], "nu": [3, 5], "nv": [3, 4]}
+             "ny": [1, 3], "nu": [3, 5], "nv": [3, 4], "charts": [1, 2, 8], "max_charts": [1, 4, 40]}
 
 
 def _kind(p: inspect.Parameter):
