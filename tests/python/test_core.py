@@ -254,6 +254,9 @@ def test_ctrl_c_stops_a_call_without_progress_callback():
     code = textwrap.dedent("""
         import os, signal, threading, time, dgmesh
         from dgmesh import shapes
+        # A launcher without job control (a shell's background job, nohup) starts us with SIGINT
+        # ignored, and Python keeps an ignored SIGINT: take Python's own handler back.
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         V, F = shapes.grid(40, 40)
         threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
         t = time.time()
