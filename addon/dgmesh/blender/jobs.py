@@ -27,6 +27,17 @@ import numpy as np
 from .prefs import api
 
 
+def item_shares(progress, items, size):
+    """(item, its progress callback) for each item, the callback mapping the item's own fraction onto
+    its share of ``progress``, shares proportional to ``size(item)`` (one native call per object)."""
+    total = float(sum(size(it) for it in items)) or 1.0
+    done = 0.0
+    for it in items:
+        n = size(it)
+        yield it, (lambda f, done=done, n=n: progress((done + f * n) / total))
+        done += n
+
+
 class Job:
     """A callable run in a worker thread, with a progress fraction and a cancel flag."""
 

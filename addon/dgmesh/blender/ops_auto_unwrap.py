@@ -17,7 +17,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 from ..unwrapping import AutoUnwrapOptions
 from . import bridge
 from .common import poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
-from .jobs import NativeJobOperator
+from .jobs import NativeJobOperator, item_shares
 from .ops_unwrap import DGMESH_OT_unwrap, _read_polys
 from .prefs import api
 
@@ -117,20 +117,15 @@ class DGMESH_OT_auto_unwrap(NativeJobOperator, bpy.types.Operator):
             return None
         opts = (dict(max_stretch=self.max_stretch) if self.target == 'STRETCH'
                 else dict(max_stretch=None, charts=self.charts))
-        total = float(sum(len(it["F"]) for it in items))
 
         def work(progress):
-            done = 0.0
-            for it in items:
-                def sub(f, done=done, n=len(it["F"])):
-                    return progress((done + f * n) / total)
+            for it, sub in item_shares(progress, items, lambda it: len(it["F"])):
                 try:
                     it["result"] = dg.auto_unwrap(it["V"], it["F"], groups=it["groups"], progress=sub, **opts)
                 except dg.MeshError as exc:
                     if isinstance(exc, dg.Cancelled):
                         raise
                     raise dg.MeshError(f"'{it['name']}': {exc}") from None
-                done += len(it["F"])
             return items
 
         return work

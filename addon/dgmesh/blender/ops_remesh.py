@@ -25,7 +25,7 @@ from ..polymesh import flip_off_mirror_planes
 from ..remeshing import RemeshBoundary, RemeshMode, RemeshOptions
 from . import bridge
 from .common import enum_id, enum_items, plural, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
-from .jobs import NativeJobOperator
+from .jobs import NativeJobOperator, item_shares
 from .prefs import api
 
 MODES = enum_items(RemeshMode, {
@@ -140,13 +140,9 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                     boundary="keep" if keep else "resample", flip_3d=self.flips,
                     lloyd_iterations=self.relax, smooth_iterations=self.smooth)
         dg = api()
-        total_faces = float(sum(len(it["F"]) for it in items))
 
         def work(progress):
-            done = 0.0
-            for it in items:
-                def sub(f, done=done, n=len(it["F"])):
-                    return progress((done + f * n) / total_faces)
+            for it, sub in item_shares(progress, items, lambda it: len(it["F"])):
                 try:
                     it["result"] = dg.remesh_full(it["V"], it["F"], progress=sub, **opts)
                 except dg.MeshError as exc:
@@ -155,7 +151,6 @@ class DGMESH_OT_remesh(NativeJobOperator, bpy.types.Operator):
                 if it["mirror"]:
                     r = it["result"]
                     it["result"] = r.replace(F=flip_off_mirror_planes(r.V, r.F, it["mirror"]))
-                done += len(it["F"])
             return items
 
         return work

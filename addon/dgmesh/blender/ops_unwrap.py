@@ -30,7 +30,7 @@ from ..polymesh import ranges, split_charts
 from ..unwrapping import UnwrapOptions, UvBoundary, UvWeights
 from . import bridge, compat
 from .common import enum_id, enum_items, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
-from .jobs import NativeJobOperator
+from .jobs import NativeJobOperator, item_shares
 from .prefs import api
 
 ATTR_STRETCH = "dg_uv_stretch"
@@ -160,15 +160,11 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                     slide_boundary=self.slide_boundary,
                     iterations="optimal" if self.optimal else self.steps,
                     stretch_iterations=self.stretch_iterations)
-        total = float(sum(len(it["class_F"]) for it in items))
 
         def work(progress):
             # One native call per object for all its charts; all or nothing: the first chart that
             # cannot be unwrapped stops the run.
-            done = 0.0
-            for it in items:
-                def sub(f, done=done, n=len(it["class_F"])):
-                    return progress((done + f * n) / total)
+            for it, sub in item_shares(progress, items, lambda it: len(it["class_F"])):
                 try:
                     r = dg.unwrap_charts(it["class_V"], it["class_F"], it["tri_chart"], progress=sub, **opts)
                 except dg.UnwrapChartError as exc:
@@ -186,7 +182,6 @@ class DGMESH_OT_unwrap(NativeJobOperator, bpy.types.Operator):
                     auv = _area2(uv, Fc)
                     it["uv_class"][classes] = uv * (np.sqrt(a3 / auv) if auv > 0 else 1.0)
                     it["stretch"].append((rc.final.stretch_l2, len(Fc), rc.warnings))
-                done += len(it["class_F"])
             return items
 
         return work
