@@ -595,10 +595,8 @@ def _catenoid(n=41):
     return np.c_[np.cosh(v) * np.cos(u), np.cosh(v) * np.sin(u), v], F, u, v
 
 
-@pytest.mark.parametrize("linear_start", [True, False])
-def test_a_flattened_patch_of_a_catenoid_restores_to_it(linear_start):
-    """Known answer: a disk of a catenoid (about 8% of the strip) flattened onto its rim's plane is
-    faired back to the catenoid (H = 0 is a Willmore surface), with and without the linear start."""
+def _flattened_catenoid():
+    """The catenoid strip with a disk (about 8% of it) projected onto its rim's plane: (W, F, patch)."""
     V, F, u, v = _catenoid()
     patch = np.hypot(u / 1.2, v / 0.8) < 0.3
     rim = np.zeros(len(V), dtype=bool)
@@ -608,12 +606,21 @@ def test_a_flattened_patch_of_a_catenoid_restores_to_it(linear_start):
     nrm = np.linalg.svd(V[rim] - c)[2][2]
     W = V.copy()
     W[patch] -= np.outer((V[patch] - c) @ nrm, nrm)
+    return W, F, patch
 
-    def off(P):  # distance-like residual from the catenoid sqrt(x^2 + y^2) = cosh(z)
-        return np.abs(np.hypot(P[:, 0], P[:, 1]) - np.cosh(P[:, 2]))
 
+def _catenoid_residual(P):
+    """Distance-like residual from the catenoid sqrt(x^2 + y^2) = cosh(z)."""
+    return np.abs(np.hypot(P[:, 0], P[:, 1]) - np.cosh(P[:, 2]))
+
+
+@pytest.mark.parametrize("linear_start", [True, False])
+def test_a_flattened_patch_of_a_catenoid_restores_to_it(linear_start):
+    """Known answer: a disk of a catenoid (about 8% of the strip) flattened onto its rim's plane is
+    faired back to the catenoid (H = 0 is a Willmore surface), with and without the linear start."""
+    W, F, patch = _flattened_catenoid()
     r = dgmesh.fair(W, F, mask=patch, method="willmore", linear_start=linear_start)
-    flat, got = off(W[patch]).max(), off(r.vertices[patch]).max()
+    flat, got = _catenoid_residual(W[patch]).max(), _catenoid_residual(r.vertices[patch]).max()
     assert flat > 0.03 and got < 1e-3 * flat, (flat, got)
 
 
@@ -673,18 +680,9 @@ def test_the_hinge_energy_restores_a_flattened_catenoid_patch():
     comes back to within 3% of the flattening with method="hinge" (measured 1.8%: 8.2e-4 of 0.044; the hinge
     energy's discretisation on the grid's right triangles; the bilaplacian steady state is at 2.0e-4, the
     Willmore flow at 2e-7)."""
-    V, F, u, v = _catenoid()
-    patch = np.hypot(u / 1.2, v / 0.8) < 0.3
-    rim = np.zeros(len(V), dtype=bool)
-    rim[F[patch[F].any(axis=1)].ravel()] = True
-    rim &= ~patch
-    c = V[rim].mean(0)
-    nrm = np.linalg.svd(V[rim] - c)[2][2]
-    W = V.copy()
-    W[patch] -= np.outer((V[patch] - c) @ nrm, nrm)
-    off = lambda P: np.abs(np.hypot(P[:, 0], P[:, 1]) - np.cosh(P[:, 2]))  # noqa: E731
+    W, F, patch = _flattened_catenoid()
     r = dgmesh.fair(W, F, mask=patch, method="hinge")
-    flat, got = off(W[patch]).max(), off(r.vertices[patch]).max()
+    flat, got = _catenoid_residual(W[patch]).max(), _catenoid_residual(r.vertices[patch]).max()
     assert flat > 0.03 and got < 0.03 * flat, (flat, got)
 
 
