@@ -76,6 +76,14 @@ def _get(collection, key, width, dtype):
     return buf.tobytes()
 
 
+def layer_uv(mesh, name=None):
+    """(loops, 2) UVs of the named or the active UV map."""
+    layer = mesh.uv_layers[name] if name else mesh.uv_layers.active
+    uv = np.empty(2 * len(mesh.loops), np.float32)
+    layer.data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2)
+
+
 def mesh_snapshot(mesh):
     """Everything a mesh stores, as comparable values (bytes for arrays, so
     NaN compares equal to itself)."""

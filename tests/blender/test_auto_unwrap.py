@@ -3,19 +3,12 @@
 import bpy
 import numpy as np
 
-from helpers import mesh_snapshot, open_fixture, select
+from helpers import layer_uv, mesh_snapshot, open_fixture, select
 
 
 def auto_unwrap(**props):
     """Run the operator the way the UI does: with an undo push."""
     return bpy.ops.dgmesh.auto_unwrap('EXEC_DEFAULT', True, **props)
-
-
-def layer_uv(mesh, name=None):
-    layer = mesh.uv_layers[name] if name else mesh.uv_layers.active
-    uv = np.empty(2 * len(mesh.loops), np.float32)
-    layer.data.foreach_get("uv", uv)
-    return uv.reshape(-1, 2)
 
 
 def seams(mesh):

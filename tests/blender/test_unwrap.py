@@ -5,7 +5,7 @@ import bpy
 import numpy as np
 import pytest
 
-from helpers import attribute_array, mesh_snapshot, open_fixture, select
+from helpers import attribute_array, layer_uv, mesh_snapshot, open_fixture, select
 import make_fixtures
 from make_fixtures import add_mesh_object
 
@@ -19,13 +19,6 @@ def unwrap(**props):
 
 def stretch_map(**props):
     return bpy.ops.dgmesh.stretch_map('EXEC_DEFAULT', True, **props)
-
-
-def layer_uv(mesh, name=None):
-    layer = mesh.uv_layers[name] if name else mesh.uv_layers.active
-    uv = np.empty(2 * len(mesh.loops), np.float32)
-    layer.data.foreach_get("uv", uv)
-    return uv.reshape(-1, 2)
 
 
 def set_seams(mesh, edge_mask):
