@@ -136,7 +136,7 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
                           progress: Progress | None = None) -> CurvatureDerivatives:
     """Curvature tensor and its derivatives per vertex (thesis 4.5).
 
-    ``jet=True``: a two-pass fit at each vertex p of the input, several times more accurate than
+    ``jet=True`` (default): a two-pass fit at each vertex p of the input, several times more accurate than
     the thesis's fit on smooth meshes and more accurate than CGAL's jet fitting (bench
     ``crest_derivatives``), but more sensitive to noise. Pass 1 estimates the normal of every
     vertex from a jet fitted to the heights of its 2-ring (quartic for one-ring fits, cubic
@@ -150,13 +150,14 @@ def curvature_derivatives(V: npt.ArrayLike, F: npt.ArrayLike, *, rings: int = _F
     ``jet_used`` say what happened; ``e_max_error`` / ``e_min_error`` are the jet's standard errors
     of e.
 
-    Default (``jet=False``): the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex of the smoothed mesh M' (p' = mean of
-    the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
+    ``jet=False``: the thesis's fit. A cubic (eq. 4.7) is fitted by least squares at each vertex
+    of the smoothed mesh M' (p' = mean of the centroids of the faces around p; ``smooth=False`` fits the input) to the positions and Max
     normals of its ``rings``-ring, without neighbours whose normal makes an obtuse angle with the
     vertex normal. Two refinements over eq. 4.7 as printed (both on by default; off reproduces the
     thesis's fit): ``fit_tangent_plane`` adds linear terms and treats the Max normal of p' as one
     more normal equation rather than as exact, and ``transport_to_vertex`` evaluates the fitted
-    surface at the foot of the original vertex p instead of at p'. Defaults: ``DerivativeOptions()``.
+    surface at the foot of the original vertex p instead of at p' (thesis fit only).
+    Defaults: ``DerivativeOptions()``.
     Returns a :class:`CurvatureDerivatives` of per-vertex arrays: ``k_max``, ``k_min`` (positive on
     a sphere with outward faces), unit directions ``t_max``, ``t_min`` (n, 3), extremality
     coefficients ``e_max`` = dk_max/dt_max and ``e_min`` (eq. 4.8-4.9; their sign follows the

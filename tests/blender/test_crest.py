@@ -665,3 +665,30 @@ def test_crest_curve_for_every_selected_linked_duplicate(cube, capsys):
         assert "Crest lines on 1 object:" in out and "curves for 2 objects" in out
     assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=1e9, create_curves=True) == {'FINISHED'}
     assert curves() == [] and len(bpy.data.curves) == 0
+
+
+def test_crest_lines_report_names_the_fit_and_the_thesis_fit_can_be_chosen(capfd):
+    """The jet fit is the default (issue #31); on a noisy mesh it gives way to the thesis fit, and the report says
+    which ran; Fit = Thesis gives the thesis fit's lines."""
+    bpy.ops.wm.read_homefile(use_empty=True)
+    V, F = shapes.grid(40, 40)
+    V = (V - 0.5) * 8.0  # cells of 0.2
+    V[:, 2] = 0.4 * np.cos(np.hypot(V[:, 0], 1.5 * V[:, 1]))
+    obj = make_object("Waves", V, F)
+    capfd.readouterr()
+
+    def run(**kw):
+        assert bpy.ops.dgmesh.crest_lines('EXEC_DEFAULT', threshold=0.0, **kw) == {'FINISHED'}
+        return capfd.readouterr().out, edge_attr(obj.data, "dg_ridge")
+
+    out, jet = run()
+    assert "jet fit)" in out, out
+    out, thesis = run(fit='THESIS')
+    assert "thesis fit)" in out, out
+    assert (jet != thesis).any()  # the two fits' lines differ on this coarse graph
+    rng = np.random.default_rng(1)
+    noisy = V + rng.normal(0.0, 0.1 * 0.2, V.shape)
+    obj.data.vertices.foreach_set("co", noisy.ravel())
+    obj.data.update()
+    out, _ = run()
+    assert "thesis fit: the mesh looks noisy" in out, out

@@ -46,7 +46,7 @@ import hashlib
 
 import bpy
 import numpy as np
-from bpy.props import BoolProperty, FloatProperty, IntProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import colors, polymesh
 from ..crest import (MAX_FEATURE_WEIGHT, CrestOptions, DerivativeOptions, SegmentOptions, decimate_feature_defaults,
@@ -76,7 +76,7 @@ THRESHOLD_HELP = ("Keep crest lines whose strength T is at least this. T = line 
                   "dimensionless, so it does not depend on the model's size; 0 keeps every line, "
                   "about 10 keeps the salient lines of typical scans")
 
-FIT_CACHE = {}  # (mesh key, rings) -> unfiltered CrestLines; a few entries only
+FIT_CACHE = {}  # (mesh key, rings, jet) -> unfiltered CrestLines; a few entries only
 FIT_CACHE_SIZE = 4
 
 
@@ -169,13 +169,13 @@ def _mesh_key(arrays):
     return h.hexdigest()
 
 
-def cached_crest_lines(arrays, rings, progress=None):
+def cached_crest_lines(arrays, rings, progress=None, jet=FIT_DEFAULTS.jet):
     """Every traced line (threshold 0) of the mesh, from the cache when the mesh is unchanged."""
     dg = api()
-    key = (_mesh_key(arrays), int(rings))
+    key = (_mesh_key(arrays), int(rings), bool(jet))
     lines = FIT_CACHE.get(key)
     if lines is None:
-        lines = dg.crest_lines(arrays.V, arrays.F, rings=rings, threshold=0.0, progress=progress)
+        lines = dg.crest_lines(arrays.V, arrays.F, rings=rings, jet=jet, threshold=0.0, progress=progress)
         if len(FIT_CACHE) >= FIT_CACHE_SIZE:
             FIT_CACHE.pop(next(iter(FIT_CACHE)))
         FIT_CACHE[key] = lines
@@ -246,6 +246,17 @@ def _curve_objects(context, objects, lines):
         cobj.parent = obj
 
 
+def _fit_name(fit, n_jet, n):
+    """Which fit ran: the jet fit gives way to the thesis's on meshes that look noisy."""
+    if fit != "JET":
+        return "thesis fit"
+    if n_jet == n:
+        return "jet fit"
+    if n_jet == 0:
+        return "thesis fit: the mesh looks noisy" if n == 1 else "thesis fit: the meshes look noisy"
+    return f"jet fit; thesis fit on {n - n_jet} of {n} meshes, which look noisy"
+
+
 class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
     bl_idname = "dgmesh.crest_lines"
     bl_label = "Crest Lines"
@@ -259,6 +270,12 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
 
     rings: IntProperty(name="Rings", description="Fitting neighbourhood (k-ring): larger ignores finer "
                        "features and gives smoother lines", default=FIT_DEFAULTS.rings, min=1, max=4)
+    fit: EnumProperty(name="Fit", description="How the curvature derivatives are estimated", items=(
+        ("JET", "Jet", "Two-pass jet fit: the more accurate derivatives and lines that do not depend on the "
+         "triangulation; on a mesh that looks noisy, and on flat or constant-curvature regions (rounded edges), "
+         "the thesis's fit is used"),
+        ("THESIS", "Thesis", "The thesis's adjacent-normal cubic fit (eq. 4.7) everywhere: smoother, less "
+         "accurate")), default="JET" if FIT_DEFAULTS.jet else "THESIS")
     threshold: FloatProperty(name="Threshold T", description=THRESHOLD_HELP, default=CREST_DEFAULTS.threshold,
                              min=0.0, soft_max=100.0)
     ridges: BoolProperty(name="Ridges", description="Convex crest lines", default=CREST_DEFAULTS.ridges)
@@ -272,12 +289,14 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
         return _read(obj)
 
     def params(self):
-        return {"rings": self.rings, "threshold": self.threshold, "ridges": self.ridges, "valleys": self.valleys}
+        return {"rings": self.rings, "jet": self.fit == "JET", "threshold": self.threshold, "ridges": self.ridges,
+                "valleys": self.valleys}
 
     @staticmethod
     def compute(data, p, progress):
         arrays = data["arrays"]
-        lines = cached_crest_lines(arrays, p["rings"], progress).filter(p["threshold"], p["ridges"], p["valleys"])
+        lines = cached_crest_lines(arrays, p["rings"], progress, jet=p["jet"]).filter(p["threshold"], p["ridges"],
+                                                                                        p["valleys"])
         ridge, valley = polymesh.crest_edges(lines, arrays)
         return lines, ridge, valley
 
@@ -306,6 +325,7 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
         n_r = int((lines.line_kind == dg.crest.RIDGE).sum())
         return {"lines": len(lines), "ridges": n_r, "length": lines.total_length,
                 "ridge_edges": int(ridge.sum()), "valley_edges": int(valley.sum()),
+                "jet": int(lines.derivatives.jet_used),
                 "curves": len(owners) if self.create_curves and len(lines) else 0}
 
     def summary(self, written):
@@ -313,7 +333,7 @@ class DGMESH_OT_crest_lines(_PerObjectJob, bpy.types.Operator):
         return (f"Crest lines on {_plural(len(written), 'object')}: {tot['lines']} lines ({tot['ridges']} ridges, "
                 f"{tot['lines'] - tot['ridges']} valleys), total length {tot['length']:.4g}; marked "
                 f"{tot['ridge_edges']} ridge and {tot['valley_edges']} valley edges "
-                f"(threshold T {self.threshold:g}, rings {self.rings})"
+                f"(threshold T {self.threshold:g}, rings {self.rings}, {_fit_name(self.fit, tot['jet'], len(written))})"
                 # linked duplicates: one mesh computed, a curve object for each of them
                 + (f"; curves for {tot['curves']} objects" if tot["curves"] > len(written) else "")
                 + ("; Ridges and Valleys are both off" if not (self.ridges or self.valleys) else ""))

@@ -18,18 +18,16 @@ constexpr double kJetNoiseRatio = 0.5;
 
 struct DerivativeOptions {
   int rings = 1;  // k of the k-ring used for the fit (thesis: 1..4); 1..8 accepted
-  // Two-pass jet fit (opt-in; bench crest_derivatives, issue #31). Pass 1: the normal at every vertex from a jet
+  // Two-pass jet fit (the default; bench crest_derivatives, issue #31). Pass 1: the normal at every vertex from a jet
   // fitted to the heights of its 2-ring over the Max normal's tangent plane (as Cazals-Pouget jet fitting; degree 4 for
   // one-ring fits, 3 otherwise). Pass 2: a jet with free linear terms fitted at the vertex p itself to the heights of
   // its k-ring and the slopes of their pass-1 normals (the adjacent-normal equations of [GI04] with better normals),
   // degree 3 on the one-ring and 5 on larger rings, so that a wider ring does not bias the third derivatives with the
   // surface's fifth-order terms; a one-ring of fewer than six vertices is widened to the 2-ring. The fields are
   // eq. 4.9 of the fitted graph at p. The four options below then do not apply, unless noise_adaptive falls back to
-  // the thesis fit, or crest lines meet a plateau (plateaus). Not the default: on coarse G1 blends (a rounded edge a
-  // few vertices wide) the jet overshoots the jump of k at the blend's rims and traces ridges beside the blend's
-  // middle, where the thesis fit traces one line on it (bench/notes/crest_derivatives.md). false (default): the
-  // thesis's enhanced adjacent-normal cubic fit of eq. 4.7 (4.5), configured by the four options below.
-  bool jet = false;
+  // the thesis fit, or crest lines meet a plateau (plateaus). false: the thesis's enhanced adjacent-normal cubic fit
+  // of eq. 4.7 (4.5), configured by the four options below.
+  bool jet = true;
   // With jet: the jet fit is used only on a mesh that does not look noisy; otherwise the thesis's fit below (the four
   // options) is used, which is less sensitive to noise (its p->p' step averages the one-ring). The test: on at most
   // 2048 vertices spread evenly by index, a cubic and a quartic jet are fitted to the heights of the 2-ring and their
@@ -39,7 +37,7 @@ struct DerivativeOptions {
   // the noise.
   bool noise_adaptive = true;
   // crest_fields() (and so crest lines) with the jet fit: where the curvature of larger magnitude is constant along its
-  // line of curvature to within the jet's own error (its e within three standard errors, or round-off, on a vertex and
+  // line of curvature to within the jet's own error (its e within five standard errors, or round-off, on a vertex and
   // its whole one-ring: flat regions, G1 blends of constant radius, spheres, surfaces of revolution's parallels), the
   // zero crossings of e carry no information; there, and within the jet's support (rings + 2 rings) of it, where the
   // jet overshoots a jump of k at a plateau's rim, the thesis's fit below is used, whose p->p' step rounds a plateau's
