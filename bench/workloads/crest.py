@@ -131,8 +131,8 @@ FITS = [  # (label, smooth, normals, refined); refined = fitted tangent plane + 
     ("without p->p', normals, tangent plane fitted", False, True, True),
     ("with p->p', no normals", True, False, False),
     ("with p->p', normals, eq. 4.7 as printed", True, True, False),
-    ("with p->p', normals, tangent plane fitted + transported to p (default)", True, True, True),
-    ("two-pass jet fit (jet=True, bench crest_derivatives)", False, True, True),
+    ("with p->p', normals, tangent plane fitted + transported to p (thesis fit's defaults, jet=False)", True, True, True),
+    ("two-pass jet fit (the default, jet=True; bench crest_derivatives)", False, True, True),
 ]
 JET_FIT = FITS[-1][0]
 
@@ -177,11 +177,11 @@ def crest_accuracy(quick):
           "exact values (direction aligned with the exact meridian direction) over the vertices outside "
           "the boundary's one-ring. Each cell: mean over the six meshes / worst mesh.\n\n"
           "'eq. 4.7 as printed' pins the cubic's gradient to zero at p' (the Max normal of p' is taken as "
-          "exact). The default fits the tangent plane too (linear terms, the Max normal of p' as one more "
+          "exact). The thesis fit's defaults fit the tangent plane too (linear terms, the Max normal of p' as one more "
           "normal equation; only at vertices with at least five neighbours, the valence-4 vertices of the "
           "square grid keep eq. 4.7) and evaluates the fitted graph with its exact curvature formulas at the foot "
           "of the original vertex p instead of at p' (eq. 4.9 with a non-zero gradient). The last row is the two-pass jet fit "
-          "(jet=True, not the default; bench crest_derivatives).\n\n"
+          "(the default since issue #31; bench crest_derivatives).\n\n"
           + table(["fit", "e_max L2", "e_max Linf", "e_min L2", "e_min Linf", "thesis e_max", "thesis e_min"], rows)
           + "\n\nPer mesh: the jet fit (jet=True; e_max L2, Linf, e_min L2, Linf), then eq. 4.7 "
           "as printed with p->p' and normals.\n\n"
@@ -223,30 +223,46 @@ def crest_speed(quick):
     V, F = cgal_mesh("armadillo")
     Vs, Fs = dgmesh._native.subdivide_linear(V, F)  # 208K triangles
     rows, data = [], {}
+    d = dgmesh.curvature_derivatives(Vs, Fs, rings=1)
+    data["jet_noise_ratio"] = (float(d.noise_ratio), bool(d.jet_used))
+    fit_used = "jet fit" if d.jet_used else "its noise test picks the thesis fit"
     for k in ((1,) if quick else (1, 2, 3, 4)):
         dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0)  # warm-up
         t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0), repeats=3 if quick else 5)
-        rows.append([f"crest lines (fit + trace), k = {k}", len(Fs), t, c])
+        rows.append([f"crest lines (fit + trace), k = {k}, default ({fit_used})", len(Fs), t, c])
         data[f"crest_k{k}"] = t
-    for k in (1, 2):  # the two-pass jet fit (opt-in) itself: its noise test picks the thesis fit on this scan
-        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0, jet=True, noise_adaptive=False),
-                      repeats=3)
-        rows.append([f"crest lines (fit + trace), k = {k}, jet fit (jet=True, noise_adaptive=False)", len(Fs), t, c])
+    for k in (1, 2):  # the jet fit itself, as on a mesh it does not find noisy
+        t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=k, threshold=0.0, noise_adaptive=False), repeats=3)
+        rows.append([f"crest lines (fit + trace), k = {k}, jet fit (noise_adaptive=False)", len(Fs), t, c])
         data[f"crest_k{k}_jet"] = t
-    d = dgmesh.curvature_derivatives(Vs, Fs, rings=1, jet=True)
-    data["jet_noise_ratio"] = (float(d.noise_ratio), bool(d.jet_used))
+    t, c = _timed(lambda: dgmesh.crest_lines(Vs, Fs, rings=1, threshold=0.0, jet=False), repeats=3)
+    rows.append(["crest lines (fit + trace), k = 1, thesis fit (jet=False)", len(Fs), t, c])
+    data["crest_k1_thesis"] = t
+    # A smooth mesh of the same size, where the default uses the jet fit.
+    Vl, Fl = loop_subdivide(V, F, 1)
+    dl = dgmesh.curvature_derivatives(Vl, Fl, rings=1)
+    data["loop_noise_ratio"] = (float(dl.noise_ratio), bool(dl.jet_used))
+    t, c = _timed(lambda: dgmesh.crest_lines(Vl, Fl, rings=1, threshold=0.0), repeats=3)
+    rows.append([f"Loop-subdivided: crest lines (fit + trace), k = 1, default "
+                 f"({'jet fit' if dl.jet_used else 'thesis fit'})", len(Fl), t, c])
+    data["crest_k1_loop"] = t
     exe = cgal_tool("cgal_ridges.cpp", "CGAL/Ridges.h")
     if exe is not None:
-        with tempfile.TemporaryDirectory() as tmp:
-            off = pathlib.Path(tmp) / "m.off"
-            dgmesh.write_mesh(off, Vs, Fs)
-            out = subprocess.run([str(exe), str(off)], check=True, capture_output=True, text=True).stdout.split()
-        fit_s, ridge_s = float(out[0]), float(out[1])
-        rows.append(["CGAL Ridges_3 example pipeline (jet fitting d = 3 + compute_crest_ridges), 1 thread",
-                     len(Fs), fit_s + ridge_s, fit_s + ridge_s])
-        data["cgal_ridges"] = {"fit": fit_s, "ridges": ridge_s, "lines": int(out[2])}
-        data["cgal_ridges_over_ours_k1"] = (fit_s + ridge_s) / data["crest_k1"]
-        data["cgal_ridges_over_ours_k2"] = (fit_s + ridge_s) / data["crest_k2"] if "crest_k2" in data else None
+        for tag, (Vc, Fc) in (("", (Vs, Fs)), ("_loop", (Vl, Fl))):
+            with tempfile.TemporaryDirectory() as tmp:
+                off = pathlib.Path(tmp) / "m.off"
+                dgmesh.write_mesh(off, Vc, Fc)
+                out = subprocess.run([str(exe), str(off)], check=True, capture_output=True, text=True).stdout.split()
+            fit_s, ridge_s = float(out[0]), float(out[1])
+            rows.append([("Loop-subdivided: " if tag else "") + "CGAL Ridges_3 example pipeline (jet fitting d = 3 + "
+                         "compute_crest_ridges), 1 thread", len(Fc), fit_s + ridge_s, fit_s + ridge_s])
+            data["cgal_ridges" + tag] = {"fit": fit_s, "ridges": ridge_s, "lines": int(out[2])}
+        cgal = data["cgal_ridges"]["fit"] + data["cgal_ridges"]["ridges"]
+        data["cgal_ridges_over_ours_k1"] = cgal / data["crest_k1"]
+        data["cgal_ridges_over_ours_k2"] = cgal / data["crest_k2"] if "crest_k2" in data else None
+        data["cgal_ridges_over_jet_k1"] = cgal / data["crest_k1_jet"]
+        data["cgal_ridges_over_ours_k1_loop"] = (
+            (data["cgal_ridges_loop"]["fit"] + data["cgal_ridges_loop"]["ridges"]) / data["crest_k1_loop"])
     if not quick:
         V2, F2 = dgmesh._native.subdivide_linear(Vs, Fs)  # 832K
         V3, F3 = dgmesh._native.subdivide_linear(V2, F2)  # 3.3M
@@ -286,7 +302,8 @@ def crest_speed(quick):
                    "quadric error (area-weighted squared distances of each input face's corners, at their "
                    "output positions, to the face's plane), decimating by 90%.\n\n"
                    + table(["model", "triangles", "target", "QEM passes / QEM greedy"], qrows))
-    md = ("### Crest lines: speed\n\nCrest lines: armadillo (CGAL data) linearly subdivided; decimation: "
+    md = ("### Crest lines: speed\n\nCrest lines: armadillo (CGAL data) linearly subdivided (piecewise flat), and "
+          "Loop-subdivided once (smooth); decimation: "
           "bunny00 Loop-subdivided twice. Median wall time including input validation, "
           f"{dgmesh.num_threads()} threads, load average {load:.1f} when the run started (other jobs "
           "share the machine). Targets: fit + trace on ~200K triangles, k = 1 <= 0.3 s; "
@@ -296,10 +313,13 @@ def crest_speed(quick):
           "process's user + system time over all "
           "threads for the same run (less sensitive to the machine's load than wall time).\n\n"
           + table(["task", "triangles", "wall seconds", "CPU seconds"], rows)
-          + (f"\n\nThe jet rows time the jet fit itself (noise_adaptive=False): on this mesh its noise test gives "
-             f"{data['jet_noise_ratio'][0]:.2f} (threshold {dgmesh.crest.JET_NOISE_RATIO:g}), so jet=True alone "
-             f"would use the {'jet' if data['jet_noise_ratio'][1] else 'thesis'} fit." if "jet_noise_ratio" in data
-             else "") + quality
+          + (f"\n\nThe default fit is the jet fit with its noise test: on the linearly subdivided mesh the test "
+             f"gives {data['jet_noise_ratio'][0]:.2f} (threshold {dgmesh.crest.JET_NOISE_RATIO:g}), on the "
+             f"Loop-subdivided one {data['loop_noise_ratio'][0]:.2f}; the rows with noise_adaptive=False time the jet "
+             "fit itself." if "jet_noise_ratio" in data else "")
+          + (f" CGAL's Ridges_3 over ours: {data['cgal_ridges_over_ours_k1']:.1f}x (default, k = 1), "
+             f"{data['cgal_ridges_over_jet_k1']:.1f}x (jet fit, k = 1), {data['cgal_ridges_over_ours_k1_loop']:.1f}x "
+             "(Loop-subdivided, default)." if "cgal_ridges_over_jet_k1" in data else "") + quality
           + "\n\n`/usr/bin/python3 bench/run.py crest_speed`\n")
     return {"markdown": md, "data": data}
 
@@ -378,7 +398,7 @@ def crest_independence(quick):
     inner = 0.85 * R  # compare away from the boundary, where the fits are one-sided
     for jet in (False, True):
         for T in (0.0, 1.0, 3.0, 10.0):
-            la = dgmesh.crest_lines(VA, FA, rings=1, threshold=T, jet=jet)
+            la = dgmesh.crest_lines(VA, FA, rings=1, threshold=T, jet=jet)  # exact graphs: the jet is used
             lb = dgmesh.crest_lines(VB, FB, rings=1, threshold=T, jet=jet)
             sa, sb = _samples(la, 0.1 * h), _samples(lb, 0.1 * h)
             sa = sa[np.hypot(sa[:, 0], sa[:, 1]) < inner]
@@ -388,7 +408,7 @@ def crest_independence(quick):
                    "mean_BA": float(dba.mean() / h), "median_AB": float(np.median(dab) / h),
                    "within1_A": float((dab < h).mean()), "within1_B": float((dba < h).mean()),
                    "jet_used": [bool(la.derivatives.jet_used), bool(lb.derivatives.jet_used)]}
-            fit = "jet (jet=True)" if jet else "thesis (default)"
+            fit = "jet (default)" if jet else "thesis (jet=False)"
             data[f"T={T:g}" + (" jet" if jet else "")] = rec
             rows.append([fit, f"{T:g}", f"{len(la)} / {len(lb)}", rec["mean_AB"], rec["mean_BA"], rec["median_AB"],
                          f"{100 * rec['within1_A']:.0f}% / {100 * rec['within1_B']:.0f}%"])
@@ -690,12 +710,12 @@ def cgal_jet(V, rings, normals, d=3, m=3):
 
 
 DERIV_FITS = [  # (label, rings, options)
-    ("ours: jet fit (jet=True; noise_adaptive: the thesis fit where the mesh looks noisy), 1-ring", 1, {"jet": True}),
+    ("ours: jet fit (the default; noise_adaptive: the thesis fit where the mesh looks noisy), 1-ring", 1, {"jet": True}),
     ("ours: jet fit (jet=True; noise_adaptive), 2-ring", 2, {"jet": True}),
     ("ours: jet fit without the noise test (noise_adaptive=False), 1-ring", 1, {"jet": True, "noise_adaptive": False}),
     ("ours: jet fit without the noise test, 2-ring", 2, {"jet": True, "noise_adaptive": False}),
-    ("ours: default (p->p', normals, tangent plane, transport), 1-ring", 1, {"jet": False}),
-    ("ours: default, 2-ring", 2, {"jet": False}),
+    ("ours: thesis fit (jet=False; p->p', normals, tangent plane, transport), 1-ring", 1, {"jet": False}),
+    ("ours: thesis fit (jet=False), 2-ring", 2, {"jet": False}),
     ("thesis fit as printed (p->p', normals, eq. 4.7), 1-ring", 1,
      {"jet": False, "fit_tangent_plane": False, "transport_to_vertex": False}),
 ]
@@ -784,10 +804,11 @@ def crest_derivatives(quick):
           "truncation, and the thesis fit (p->p' smoothing) is used. The rows 'without the noise test' are the jet fit "
           "alone. 'No estimate' is the error of answering e = 0 everywhere: under this much noise a fit below that "
           "row carries information, one above it does not (on the finely meshed ellipsoid, torus and monkey saddle no "
-          "fit, ours or CGAL's, does at 0.05). The jet fit is not the default: on a G1 blend (the rounded cube's "
-          "edges) k_max is constant across the blend, the jet resolves that plateau (e = 0 to round-off) and traces "
-          "lines off the blend's middle, where the thesis's smoothing puts one. Between the exact meshes and 0.05 "
-          "(bench/tools/crest_noise_sweep.py) and why more rings hurt the default fit: "
+          "fit, ours or CGAL's, does at 0.05). The jet fit is the default. For crest lines, on a G1 blend (the rounded "
+          "cube's edges) k_max is constant across the blend, the jet resolves that plateau (e = 0 to round-off) and "
+          "would trace lines off the blend's middle, so there (DerivativeOptions.plateaus) the lines are traced on "
+          "the thesis fit, whose smoothing puts one on the middle. Between the exact meshes and 0.05 "
+          "(bench/tools/crest_noise_sweep.py) and why more rings hurt the thesis fit: "
           "bench/notes/crest_derivatives.md."
           + "\n\n`/usr/bin/python3 bench/run.py crest_derivatives`\n")
     return {"markdown": md, "data": data}
