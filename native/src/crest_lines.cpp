@@ -272,17 +272,19 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
   }
   if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0, rows += 2;  // n itself: h_x = h_y = 0 at p
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
-  const Eigen::LDLT<MatM> ldlt(A);
-  const VecM c = ldlt.solve(b);
+  const Eigen::LLT<MatM> llt(A);  // A is positive definite (regularised)
+  const VecM c = llt.solve(b);
   s.c.head<M>() = c;
   if constexpr (D >= 3) {
     if (!error) return c.allFinite();
     // Residual sum of squares from the normal equations: |A c - z|^2 = zz - 2 c.b + c.A c.
     const double rss = std::max(0.0, zz - 2.0 * c.dot(b) + c.dot(A * c));
     const double sigma2 = rows > M ? rss / (rows - M) : 0.0;
-    Eigen::Matrix<double, M, 4> E = Eigen::Matrix<double, M, 4>::Zero();
-    E.template block<4, 4>(5, 0).setIdentity();
-    s.cov3 = sigma2 * ldlt.solve(E).template middleRows<4>(5);
+    for (int k = 0; k < 4; ++k) {  // column by column: fixed-size vector solves, not a general matrix solve
+      VecM e = VecM::Zero();
+      e[5 + k] = 1.0;
+      s.cov3.col(k) = sigma2 * llt.solve(e).template segment<4>(5);
+    }
   }
   return c.allFinite();
 }
