@@ -234,17 +234,20 @@ struct JetScratch {
 };
 
 // Normal equations of the jet fit of degree D over the neighbours listed in s.ring (skipping the
-// vertex itself and those with mark false), fixed size so that the outer products vectorise. With
-// `error`, also the covariance of the third-derivative coefficients, sigma^2 (A^-1)[5..8] with sigma^2
-// the residual variance per degree of freedom (0 without spare equations).
+// vertex itself and those whose normal makes an obtuse angle with n). Every entry of the normal equations is a moment
+// of the neighbours' tangent coordinates: monomial k is m_k = x^a y^b / (a! b!), so a height row gives m_k m_l =
+// x^(a+a') y^(b+b') / (a! b! a'! b'!) and a slope row d/dx the same with a a' x^(a+a'-2) (d/dy: b b' y^(b+b'-2)). The
+// moments sum x^i y^j (i + j <= 2D) and those weighted by the right-hand sides are summed once per neighbour, then A is
+// filled from them: (2D+1)(2D+2)/2 products a neighbour instead of (1 or 3) M^2. With `error`, also the covariance of
+// the third-derivative coefficients, sigma^2 (A^-1)[5..8] with sigma^2 the residual variance per degree of freedom (0
+// without spare equations).
 template <int D>
 bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, const Vec3& u, const Vec3& w,
                double scale, bool slopes, bool error, JetScratch& s) {
   constexpr int M = (D + 1) * (D + 2) / 2 - 1;
   using MatM = Eigen::Matrix<double, M, M>;
   using VecM = Eigen::Matrix<double, M, 1>;
-  MatM A = MatM::Zero();
-  VecM b = VecM::Zero(), r;
+  double mom[2 * D + 1][2 * D + 1] = {}, hz[D + 1][D + 1] = {}, hx[D + 1][D + 1] = {}, hy[D + 1][D + 1] = {};
   double zz = 0.0;
   int rows = 0;
   for (size_t j = 1; j < s.ring.size(); ++j) {
@@ -253,22 +256,50 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
     if (nv.dot(n) <= 0.0) continue;
     const Vec3 d = (Vec3(V.row(v)) - p) * scale;
     const double x = d.dot(u), y = d.dot(w), z = d.dot(n);
-    jet_row(x, y, D, 0, r.data());
-    A.noalias() += r * r.transpose();
-    b.noalias() += r * z;
+    double xp[2 * D + 1], yp[2 * D + 1];
+    xp[0] = yp[0] = 1.0;
+    for (int i = 1; i <= 2 * D; ++i) xp[i] = xp[i - 1] * x, yp[i] = yp[i - 1] * y;
+    for (int i = 0; i <= 2 * D; ++i)
+      for (int k = 0; k <= 2 * D - i; ++k) mom[i][k] += xp[i] * yp[k];
+    for (int i = 0; i <= D; ++i)
+      for (int k = 0; k <= D - i; ++k) hz[i][k] += z * xp[i] * yp[k];
     zz += z * z;
     ++rows;
     if (slopes) {
-      const double ma = nv.dot(u), mb = nv.dot(w), mc = nv.dot(n);
-      jet_row(x, y, D, 1, r.data());
-      A.noalias() += r * r.transpose();
-      b.noalias() += r * (-ma / mc);
-      jet_row(x, y, D, 2, r.data());
-      A.noalias() += r * r.transpose();
-      b.noalias() += r * (-mb / mc);
-      zz += (ma * ma + mb * mb) / (mc * mc);
+      const double mc = nv.dot(n), sx = -nv.dot(u) / mc, sy = -nv.dot(w) / mc;
+      for (int i = 0; i < D; ++i)
+        for (int k = 0; k < D - i; ++k) hx[i][k] += sx * xp[i] * yp[k], hy[i][k] += sy * xp[i] * yp[k];
+      zz += sx * sx + sy * sy;
       rows += 2;
     }
+  }
+  // Exponents and 1 / (a! b!) of the monomials, in jet_row's order.
+  int ea[M], eb[M];
+  double f[M];
+  for (int t = 1, k = 0; t <= D; ++t)
+    for (int a = t; a >= 0; --a, ++k) {
+      ea[k] = a, eb[k] = t - a, f[k] = 1.0;
+      for (int i = 2; i <= a; ++i) f[k] /= i;
+      for (int i = 2; i <= t - a; ++i) f[k] /= i;
+    }
+  MatM A;
+  VecM b;
+  for (int k = 0; k < M; ++k) {
+    for (int l = 0; l < M; ++l) {
+      const int a = ea[k] + ea[l], c = eb[k] + eb[l];
+      double m = mom[a][c];
+      if (slopes) {
+        if (ea[k] > 0 && ea[l] > 0) m += ea[k] * ea[l] * mom[a - 2][c];
+        if (eb[k] > 0 && eb[l] > 0) m += eb[k] * eb[l] * mom[a][c - 2];
+      }
+      A(k, l) = f[k] * f[l] * m;
+    }
+    double r = hz[ea[k]][eb[k]];
+    if (slopes) {
+      if (ea[k] > 0) r += ea[k] * hx[ea[k] - 1][eb[k]];
+      if (eb[k] > 0) r += eb[k] * hy[ea[k]][eb[k] - 1];
+    }
+    b[k] = f[k] * r;
   }
   if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0, rows += 2;  // n itself: h_x = h_y = 0 at p
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
@@ -280,10 +311,17 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
     // Residual sum of squares from the normal equations: |A c - z|^2 = zz - 2 c.b + c.A c.
     const double rss = std::max(0.0, zz - 2.0 * c.dot(b) + c.dot(A * c));
     const double sigma2 = rows > M ? rss / (rows - M) : 0.0;
-    for (int k = 0; k < 4; ++k) {  // column by column: fixed-size vector solves, not a general matrix solve
-      VecM e = VecM::Zero();
-      e[5 + k] = 1.0;
-      s.cov3.col(k) = sigma2 * llt.solve(e).template segment<4>(5);
+    if constexpr (M == 9) {
+      // The cubic's third derivatives are its last four coefficients: with A = L L^T, the trailing block of A^-1 is
+      // (L22 L22^T)^-1, L22 the trailing 4 x 4 block of L.
+      const Mat4 Li = llt.matrixL().toDenseMatrix().template bottomRightCorner<4, 4>().inverse();
+      s.cov3 = sigma2 * Li.transpose() * Li;
+    } else {
+      for (int k = 0; k < 4; ++k) {  // column by column: fixed-size vector solves, not a general matrix solve
+        VecM e = VecM::Zero();
+        e[5 + k] = 1.0;
+        s.cov3.col(k) = sigma2 * llt.solve(e).template segment<4>(5);
+      }
     }
   }
   return c.allFinite();
