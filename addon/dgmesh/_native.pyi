@@ -396,6 +396,7 @@ class NoiseEstimate:
     edge_length: float  # mean edge length (clouds: mean spacing to 6 nearest)
     curvature: float  # median of edge length times the largest absolute principal curvature of the local fits
     outliers: float  # fraction of points whose standardised residual exceeds 3 sigma (features, spikes)
+    detail: float  # sqrt(max(0, sigma of fits of wide_neighbours points^2 - sigma^2)), edge lengths: shape detail at the sampling scale
     samples: int  # points that gave a residual
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> NoiseEstimate: ...

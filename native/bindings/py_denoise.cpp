@@ -35,6 +35,9 @@ void bind_denoise(pb::module_& m) {
               "median of edge length times the largest absolute principal curvature of the local fits")
       .result("outliers", &NoiseEstimate::outliers,
               "fraction of points whose standardised residual exceeds 3 sigma (features, spikes)")
+      .result("detail", &NoiseEstimate::detail,
+              "sqrt(max(0, sigma of fits of wide_neighbours points^2 - sigma^2)), edge lengths: shape detail at the "
+              "sampling scale")
       .result("samples", &NoiseEstimate::samples, "points that gave a residual");
 
   pb::enum_<DenoiseMethod>(m, "DenoiseMethod", "Denoising filter")
