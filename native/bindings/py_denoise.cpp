@@ -25,7 +25,9 @@ void bind_denoise(pb::module_& m) {
       .field("neighbours", &NoiseOptions::neighbours,
              "points of each local cubic fit, the centre included (19 = a regular mesh's 2-ring); 12..64")
       .field("weld_tolerance", &NoiseOptions::weld_tolerance,
-             "points closer than this (relative to the bounding-box diagonal) count once");
+             "points closer than this (relative to the bounding-box diagonal) count once")
+      .field("measure_detail", &NoiseOptions::measure_detail,
+             "also run the wide fits that measure detail (about 1.5 times the cost)");
 
   Struct<NoiseEstimate>(m, "NoiseEstimate", "Result of estimate_noise()")
       .result("sigma", &NoiseEstimate::sigma, "noise deviation in units of the mean edge length")

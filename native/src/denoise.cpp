@@ -969,7 +969,9 @@ DenoiseResult run_auto(const MatX3d& V, const MatX3i* F, const MatX3d* N, const 
   // The rule asks for smoothing: keep the filter's result if it shows sharp features, else smooth.
   NoiseEstimate after;
   try {
-    after = estimate_noise(r.vertices, *F, no);
+    NoiseOptions feature_test = no;
+    feature_test.measure_detail = false;  // only outliers and curvature are read
+    after = estimate_noise(r.vertices, *F, feature_test);
   } catch (const MeshError&) {
     return r;  // the filtered mesh is degenerate for a fit: keep it
   }

@@ -165,7 +165,8 @@ NoiseEstimate estimate(const MatX3d& P, double e, const NoiseOptions& o, const P
   const KdTree tree(P);
   const double inv_e = 1.0 / e;
   const int wide = wide_neighbours(o.neighbours);
-  const double split = n >= wide ? 0.5 : 1.0;
+  const bool detail = o.measure_detail && n >= wide;
+  const double split = detail ? 0.4 : 1.0;
   std::vector<double> z, kappa;
   fit_all(tree, o.neighbours, inv_e, z, kappa, progress, 0.0, split);
   std::vector<double> az, ak;
@@ -188,7 +189,7 @@ NoiseEstimate estimate(const MatX3d& P, double e, const NoiseOptions& o, const P
   long long out = 0;
   for (double a : az) out += a > cut;
   r.outliers = static_cast<double>(out) / static_cast<double>(az.size());
-  if (n >= wide) {  // detail: the wide fits' estimate against this one (see the header)
+  if (detail) {  // detail: the wide fits' estimate against this one (see the header)
     fit_all(tree, wide, inv_e, z, kappa, progress, split, 1.0);
     std::vector<double> aw;
     aw.reserve(n);
