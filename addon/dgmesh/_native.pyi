@@ -407,7 +407,7 @@ class NoiseOptions:
     __fields__: list[str]
     neighbours: int  # points of each local cubic fit, the centre included (19 = a regular mesh's 2-ring); 12..64
     weld_tolerance: float  # points closer than this (relative to the bounding-box diagonal) count once
-    measure_detail: bool  # also run the wide fits that measure detail (about 1.5 times the cost)
+    measure_detail: bool  # also run the wide fits that measure detail (a second, larger pass); false leaves detail 0
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> NoiseOptions: ...
 

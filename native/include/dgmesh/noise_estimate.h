@@ -40,7 +40,7 @@ struct NoiseOptions {
   /// Points closer than this (relative to the bounding-box diagonal) are one point (a soup's copies
   /// of a vertex); in [0, 0.01).
   double weld_tolerance = 1e-9;
-  /// Also run the wide fits that measure `detail` (about 1.5 times the cost); false leaves detail 0.
+  /// Also run the wide fits that measure `detail` (a second, larger pass); false leaves detail 0.
   bool measure_detail = true;
 };
 
