@@ -396,6 +396,7 @@ class NoiseEstimate:
     edge_length: float  # mean edge length (clouds: mean spacing to 6 nearest)
     curvature: float  # median of edge length times the largest absolute principal curvature of the local fits
     outliers: float  # fraction of points whose standardised residual exceeds 3 sigma (features, spikes)
+    detail: float  # sqrt(max(0, sigma of fits of wide_neighbours points^2 - sigma^2)), edge lengths: shape detail at the sampling scale
     samples: int  # points that gave a residual
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> NoiseEstimate: ...
@@ -406,6 +407,7 @@ class NoiseOptions:
     __fields__: list[str]
     neighbours: int  # points of each local cubic fit, the centre included (19 = a regular mesh's 2-ring); 12..64
     weld_tolerance: float  # points closer than this (relative to the bounding-box diagonal) count once
+    measure_detail: bool  # also run the wide fits that measure detail (a second, larger pass); false leaves detail 0
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> NoiseOptions: ...
 

@@ -55,7 +55,9 @@ def denoise(V: npt.ArrayLike, F: npt.ArrayLike | None = None, normals: npt.Array
         and ``options``); eta2 and eta3 are used as given. Similarity on meshes: where the
         estimate asks for smoothing (``_native.auto_smoothing_steps``) and the filtered mesh shows
         no sharp features (``_native.shows_features``), the input is Taubin-smoothed instead of
-        filtered (``options.smoothing_steps`` > 0, ``iterations`` 0 in the result). False: every
+        filtered (``options.smoothing_steps`` > 0, ``iterations`` 0 in the result); where it asks
+        for no step (noise small against the shape detail, e.g. noise-free input) the mesh is
+        returned unchanged (both 0). False: every
         parameter as given (no smoothing). None (default): automatic unless eta1, iterations or
         quadratic_fit is given.
     eta1, eta2, eta3, iterations : sigma_i = eta_i * e. None takes the method's default from
@@ -147,7 +149,9 @@ def estimate_noise(V: npt.ArrayLike, F: npt.ArrayLike | None = None, *,
     denoising etas), ``sigma_abs`` (model units), ``edge_length`` (point clouds: mean distance to
     the 6 nearest points), ``curvature`` (median of edge length times the fits' largest absolute
     principal curvature: how coarse the sampling is for the surface), ``outliers`` (fraction of
-    points beyond 3 sigma: sharp features, spikes), ``samples``.
+    points beyond 3 sigma: sharp features, spikes), ``detail`` (sqrt(max(0, sigma_wide^2 -
+    sigma^2)) with sigma_wide read by fits of 2 ``neighbours`` - 2 points: shape detail at the
+    sampling scale, which noise alone does not raise), ``samples``.
 
     Raises MeshError for NaN/inf coordinates, bad indices, no face of positive area, fewer distinct
     points than ``neighbours``, or ``neighbours`` outside [12, 64]. ``progress`` as in :func:`denoise`.

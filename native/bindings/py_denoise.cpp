@@ -25,7 +25,9 @@ void bind_denoise(pb::module_& m) {
       .field("neighbours", &NoiseOptions::neighbours,
              "points of each local cubic fit, the centre included (19 = a regular mesh's 2-ring); 12..64")
       .field("weld_tolerance", &NoiseOptions::weld_tolerance,
-             "points closer than this (relative to the bounding-box diagonal) count once");
+             "points closer than this (relative to the bounding-box diagonal) count once")
+      .field("measure_detail", &NoiseOptions::measure_detail,
+             "also run the wide fits that measure detail (a second, larger pass); false leaves detail 0");
 
   Struct<NoiseEstimate>(m, "NoiseEstimate", "Result of estimate_noise()")
       .result("sigma", &NoiseEstimate::sigma, "noise deviation in units of the mean edge length")
@@ -35,6 +37,9 @@ void bind_denoise(pb::module_& m) {
               "median of edge length times the largest absolute principal curvature of the local fits")
       .result("outliers", &NoiseEstimate::outliers,
               "fraction of points whose standardised residual exceeds 3 sigma (features, spikes)")
+      .result("detail", &NoiseEstimate::detail,
+              "sqrt(max(0, sigma of fits of wide_neighbours points^2 - sigma^2)), edge lengths: shape detail at the "
+              "sampling scale")
       .result("samples", &NoiseEstimate::samples, "points that gave a residual");
 
   pb::enum_<DenoiseMethod>(m, "DenoiseMethod", "Denoising filter")

@@ -41,14 +41,18 @@ constexpr int kAutoIterationsSimilarity = 3;
 constexpr int kAutoIterationsBilateral = 3;
 constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed (2 per coefficient)
 // Taubin smoothing (DenoiseOptions::smoothing_steps) and its automatic rule: steps =
-// kAutoSmoothScale sigma^kAutoSmoothPower / curvature^2, a least-squares fit of the best step count
-// on denoise_auto's rows (bench/notes/denoise.md); the feature test of the automatic choice.
+// kAutoSmoothScale sigma^kAutoSmoothPower / max(detail, kAutoSmoothMinDetail)^kAutoSmoothDetailPower,
+// fitted (grid search minimising the mean log ratio of the error to the best step count's) on the
+// best counts of denoise_auto's six subset models (bench/notes/denoise.md); the feature test of the
+// automatic choice.
 constexpr double kTaubinLambda = 0.6;
 constexpr double kTaubinMu = -0.62;
-constexpr double kAutoSmoothScale = 28.6;
-constexpr double kAutoSmoothPower = 1.62;
-constexpr double kAutoSmoothMinCurvature = 0.05;
-constexpr int kAutoSmoothMaxSteps = 40;
+constexpr double kAutoSmoothScale = 19.0;
+constexpr double kAutoSmoothPower = 2.4;
+constexpr double kAutoSmoothDetailPower = 1.5;
+constexpr double kAutoSmoothMinDetail = 0.03;
+constexpr double kAutoSmoothMinCurvature = 0.05;  // the feature test's floor
+constexpr int kAutoSmoothMaxSteps = 60;
 constexpr double kAutoFeatureRatio = 1.0;
 using detail::kPi;
 
@@ -913,8 +917,8 @@ DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& ba
 
 int auto_smoothing_steps(const NoiseEstimate& noise) {
   const double sigma = std::isfinite(noise.sigma) ? std::max(0.0, noise.sigma) : 0.0;
-  const double curv = std::isfinite(noise.curvature) ? std::max(kAutoSmoothMinCurvature, noise.curvature) : 1.0;
-  const double k = kAutoSmoothScale * std::pow(sigma, kAutoSmoothPower) / (curv * curv);
+  const double detail = std::isfinite(noise.detail) ? std::max(kAutoSmoothMinDetail, noise.detail) : 1.0;
+  const double k = kAutoSmoothScale * std::pow(sigma, kAutoSmoothPower) / std::pow(detail, kAutoSmoothDetailPower);
   return static_cast<int>(std::lround(std::min<double>(k, kAutoSmoothMaxSteps)));
 }
 
@@ -945,7 +949,18 @@ DenoiseResult run_auto(const MatX3d& V, const MatX3i* F, const MatX3d* N, const 
     throw MeshError(std::string("automatic parameters: ") + e.what() + "; turn automatic off and set the etas");
   }
   const DenoiseOptions o = auto_options(est, opt);
-  const int steps = F && o.method == DenoiseMethod::Similarity ? auto_smoothing_steps(est) : 0;
+  const bool choose = F && o.method == DenoiseMethod::Similarity;
+  const int steps = choose ? auto_smoothing_steps(est) : 0;
+  if (choose && steps == 0) {
+    // The noise is too small against the shape detail for a smoothing step to pay: leave the mesh
+    // as it is (the filter would add its own bias: 3.0 degrees on the noise-free camel).
+    DenoiseOptions none = o;
+    none.iterations = 0;
+    DenoiseResult r = run(V, F, N, none, rest);
+    r.noise = est;
+    r.options = none;
+    return r;
+  }
   const ProgressFn filter_part = progress && steps > 0 ? ProgressFn([&](double f) { return rest(0.9 * f); }) : rest;
   DenoiseResult r = run(V, F, N, o, filter_part);
   r.noise = est;
@@ -954,7 +969,9 @@ DenoiseResult run_auto(const MatX3d& V, const MatX3i* F, const MatX3d* N, const 
   // The rule asks for smoothing: keep the filter's result if it shows sharp features, else smooth.
   NoiseEstimate after;
   try {
-    after = estimate_noise(r.vertices, *F, no);
+    NoiseOptions feature_test = no;
+    feature_test.measure_detail = false;  // only outliers and curvature are read
+    after = estimate_noise(r.vertices, *F, feature_test);
   } catch (const MeshError&) {
     return r;  // the filtered mesh is degenerate for a fit: keep it
   }

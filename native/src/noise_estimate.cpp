@@ -127,17 +127,13 @@ double median(std::vector<double>& a) {
   return 0.5 * (hi + *std::max_element(a.begin(), a.begin() + m));
 }
 
-NoiseEstimate estimate(const MatX3d& P, double e, const NoiseOptions& o, const ProgressFn& progress_fn) {
-  const int n = static_cast<int>(P.rows());
-  if (n < o.neighbours)
-    throw MeshError("the noise estimate needs at least " + std::to_string(o.neighbours) + " distinct points, got " +
-                    std::to_string(n));
-  if (!(e > 0) || !std::isfinite(e)) throw MeshError("the points have no spacing (all coincident)");
-  Progress progress(progress_fn);
-  progress(0.0);
-  const KdTree tree(P);
-  const double inv_e = 1.0 / e;
-  std::vector<double> z(n, std::numeric_limits<double>::quiet_NaN()), kappa(n, 0.0);
+// Fits of k points around every point: standardised residuals z (NaN where ill-posed) and curvatures.
+// Progress runs over [p0, p1].
+void fit_all(const KdTree& tree, int k, double inv_e, std::vector<double>& z, std::vector<double>& kappa,
+             Progress& progress, double p0, double p1) {
+  const int n = static_cast<int>(tree.points().rows());
+  z.assign(n, std::numeric_limits<double>::quiet_NaN());
+  kappa.assign(n, 0.0);
   const int block = std::max(4096, n / 20);
   for (int start = 0; start < n; start += block) {
     const int end = std::min(n, start + block);
@@ -148,14 +144,31 @@ NoiseEstimate estimate(const MatX3d& P, double e, const NoiseOptions& o, const P
 #pragma omp for schedule(static)
       for (int i = start; i < end; ++i) {
         double zi, ki;
-        if (fit_point(tree, i, o.neighbours, inv_e, idx, d2, zi, ki)) {
+        if (fit_point(tree, i, k, inv_e, idx, d2, zi, ki)) {
           z[i] = zi;
           kappa[i] = ki;
         }
       }
     }
-    progress(static_cast<double>(end) / n);
+    progress(p0 + (p1 - p0) * static_cast<double>(end) / n);
   }
+}
+
+NoiseEstimate estimate(const MatX3d& P, double e, const NoiseOptions& o, const ProgressFn& progress_fn) {
+  const int n = static_cast<int>(P.rows());
+  if (n < o.neighbours)
+    throw MeshError("the noise estimate needs at least " + std::to_string(o.neighbours) + " distinct points, got " +
+                    std::to_string(n));
+  if (!(e > 0) || !std::isfinite(e)) throw MeshError("the points have no spacing (all coincident)");
+  Progress progress(progress_fn);
+  progress(0.0);
+  const KdTree tree(P);
+  const double inv_e = 1.0 / e;
+  const int wide = wide_neighbours(o.neighbours);
+  const bool detail = o.measure_detail && n >= wide;
+  const double split = detail ? 0.4 : 1.0;
+  std::vector<double> z, kappa;
+  fit_all(tree, o.neighbours, inv_e, z, kappa, progress, 0.0, split);
   std::vector<double> az, ak;
   az.reserve(n);
   ak.reserve(n);
@@ -176,11 +189,24 @@ NoiseEstimate estimate(const MatX3d& P, double e, const NoiseOptions& o, const P
   long long out = 0;
   for (double a : az) out += a > cut;
   r.outliers = static_cast<double>(out) / static_cast<double>(az.size());
+  if (detail) {  // detail: the wide fits' estimate against this one (see the header)
+    fit_all(tree, wide, inv_e, z, kappa, progress, split, 1.0);
+    std::vector<double> aw;
+    aw.reserve(n);
+    for (int i = 0; i < n; ++i)
+      if (std::isfinite(z[i])) aw.push_back(std::abs(z[i]));
+    if (!aw.empty()) {
+      const double wide_sigma = kMadToSigma * median(aw);
+      r.detail = std::sqrt(std::max(0.0, wide_sigma * wide_sigma - r.sigma * r.sigma));
+    }
+  }
   progress(1.0);
   return r;
 }
 
 }  // namespace
+
+int wide_neighbours(int neighbours) { return std::min(64, 2 * neighbours - 2); }
 
 NoiseEstimate estimate_noise(const MatX3d& V, const MatX3i& F, const NoiseOptions& opt, const ProgressFn& progress) {
   check_options(opt);

@@ -345,17 +345,18 @@ TEST(Denoise, TaubinSmoothingStepsLowerTheNoiseAndKeepFixedVertices) {
 TEST(Denoise, AutomaticSmoothingRule) {
   NoiseEstimate e;
   EXPECT_EQ(auto_smoothing_steps(e), 0);  // noise-free: no smoothing
-  e.curvature = 0.4;
+  e.detail = 0.1;
   e.sigma = 0.1;
   const int low = auto_smoothing_steps(e);
   e.sigma = 0.3;
   const int high = auto_smoothing_steps(e);
   EXPECT_GT(low, 0);
   EXPECT_GT(high, low);  // more noise, more steps
-  e.curvature = 0.6;
-  EXPECT_LT(auto_smoothing_steps(e), high);  // coarser sampling for the bending, fewer steps
-  e.curvature = 0;
-  EXPECT_EQ(auto_smoothing_steps(e), 40);  // capped
+  e.detail = 0.3;
+  EXPECT_LT(auto_smoothing_steps(e), high);  // more shape detail at the sampling scale, fewer steps
+  e.detail = 0;
+  e.sigma = 1.0;
+  EXPECT_EQ(auto_smoothing_steps(e), 60);  // capped
   e.outliers = 0.3;
   e.curvature = 0.1;
   EXPECT_TRUE(shows_features(e));

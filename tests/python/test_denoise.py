@@ -226,7 +226,7 @@ AUTO_SHAPES = {
     "graph": graph,
     "rounded_cube": lambda: shapes.rounded_cube(16, 0.3),
 }
-for _name in ("fandisk", "homer", "elephant"):
+for _name in ("fandisk", "homer", "elephant", "camel", "lion-head"):
     if (CGAL / f"{_name}.off").exists():
         AUTO_SHAPES[_name] = lambda _name=_name: dgmesh.read_mesh(CGAL / f"{_name}.off")
 
@@ -258,6 +258,11 @@ def test_default_leaves_noise_free_input_nearly_unchanged(auto_shape, request):
         request.applymarker(pytest.mark.xfail(strict=True, reason="coarse mesh: model error read as noise"))
     r = dgmesh.denoise(V, F)
     assert normal_error_deg(r.vertices, V, F).mean() < 0.5, name
+    if name in ("camel", "lion-head"):
+        # Scans where the filter itself moved the noise-free mesh (3.0 and 0.9 degrees): the rule
+        # asks for no smoothing step, so nothing runs.
+        assert r.options.smoothing_steps == 0 and r.iterations == 0
+        assert np.array_equal(r.vertices, V)
 
 
 def test_automatic_reports_its_estimate_and_options(sphere):

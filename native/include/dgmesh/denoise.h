@@ -70,8 +70,10 @@ struct DenoiseOptions {
 //               quadratic_fit = (noise.curvature > sigma): coarse sampling for the surface's bending;
 //   bilateral:  eta1 = k_b * sigma (k_b = sqrt(2));
 //   eta1 at least 0.001, iterations = 3,
-//   smoothing_steps = round(28.6 sigma^1.62 / max(curvature, 0.05)^2), at most 40 (meshes; the
-//               optimal Taubin step count, fitted on denoise_auto, bench/notes/denoise.md),
+//   smoothing_steps = round(19 sigma^2.4 / max(detail, 0.03)^1.5), at most 60 (meshes; the best
+//               Taubin step count grows with the noise and falls with the shape detail that the
+//               sampling carries, which smoothing destroys; fitted on denoise_auto's subset models,
+//               bench/notes/denoise.md),
 // and every other field of `base` unchanged (auto_options itself sets smoothing_steps to 0: the
 // choice between the two is made by denoise(), below). Noise-free input (sigma -> 0) gives a kernel
 // narrower than any difference between neighbourhoods, so the filter leaves it nearly unchanged.
@@ -107,9 +109,11 @@ struct DenoiseResult {
 // with the rule's eta1 (no smoothing) and Taubin smoothing alone with the rule's step count (no
 // filter). It runs the filter first and estimates the noise of its output: if that shows sharp
 // features (outliers / curvature of the estimate above 1: creases read as outliers against a
-// smooth fit, issue #32's fandisk) or the rule asks for no smoothing, the filter's result is kept;
+// smooth fit, issue #32's fandisk), the filter's result is kept;
 // else the input is smoothed instead (coarse organic meshes, where the tuned peers were Laplacian
-// smoothers). result.options tells which ran: smoothing_steps > 0 and iterations 0 for smoothing.
+// smoothers). If the rule asks for no smoothing step (noise small against the shape detail, e.g.
+// noise-free input), neither runs and the mesh is returned unchanged. result.options tells which
+// ran: smoothing_steps > 0 and iterations 0 for smoothing, both 0 for none.
 // Meshes and soups: V (n,3), F (m,3) triangles with at least one non-degenerate face. Manifoldness
 // is not required. Vertices in no face do not move. Throws MeshError on NaN/inf, bad indices, a
 // mask of the wrong size, bad parameters; CancelledError if progress returns false.

@@ -17,6 +17,15 @@
 /// so sharp edges and corners (where a polynomial cannot fit) move it only as far as they move the
 /// median. Noise along the normals and isotropic noise (each coordinate N(0, sigma^2)) both give
 /// sigma: only the normal component changes a height to first order.
+///
+/// Detail: the same estimate from wider fits (wide_neighbours(neighbours) points, 36 for 19) reads
+/// sigma_wide; noise gives the same value at both widths (the standardised residual is N(0, sigma^2)
+/// whatever the fit), while surface detail that a cubic cannot follow grows with the patch, so
+///     detail = sqrt(max(0, sigma_wide^2 - sigma^2))
+/// measures how much shape the sampling carries below the scale of a 2-ring (large on coarse or
+/// highly detailed meshes, near 0 on finely sampled smooth ones). On coarse meshes the small fits
+/// miss some of that detail too and read it as noise (no local statistic tells the two apart:
+/// bench/notes/denoise.md), which is why the denoising rule weighs sigma against detail.
 #pragma once
 
 #include "dgmesh/progress.h"
@@ -31,6 +40,8 @@ struct NoiseOptions {
   /// Points closer than this (relative to the bounding-box diagonal) are one point (a soup's copies
   /// of a vertex); in [0, 0.01).
   double weld_tolerance = 1e-9;
+  /// Also run the wide fits that measure `detail` (a second, larger pass); false leaves detail 0.
+  bool measure_detail = true;
 };
 
 struct NoiseEstimate {
@@ -43,8 +54,14 @@ struct NoiseEstimate {
   /// Fraction of the fitted points whose standardised residual exceeds 3 sigma: sharp features,
   /// spikes or sampling too coarse for a cubic (Gaussian noise alone gives 0.0027).
   double outliers = 0;
+  /// sqrt(max(0, sigma_wide^2 - sigma^2)), in units of edge_length: shape detail at the sampling
+  /// scale (see above). 0 when the wide fits are ill-posed (too few points).
+  double detail = 0;
   int samples = 0;  ///< points that gave a residual (distinct points with a well-posed fit)
 };
+
+/// Points of the wide fits that measure `detail`: 2 neighbours - 2 (36 for 19), at most 64.
+int wide_neighbours(int neighbours);
 
 /// Meshes and soups: V (n, 3), F (m, 3) triangles with at least one of positive area; manifoldness
 /// is not required and vertices in no face are ignored. Throws MeshError on NaN/inf coordinates,
