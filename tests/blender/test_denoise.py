@@ -442,3 +442,18 @@ def test_edit_mode_object_without_selection_is_skipped():
     assert denoise() == {'FINISHED'}
     bpy.ops.object.mode_set(mode='OBJECT')
     assert not np.array_equal(coords(a.data), ca) and np.array_equal(coords(b.data), cb)
+
+
+def test_auto_on_a_clean_mesh_changes_nothing_and_says_so(dg, capsys):
+    """A noise-free sphere: the automatic mode finds no noise to remove, leaves the vertices alone and its report
+    says that nothing ran (it said 'similarity, 0 iterations')."""
+    open_fixture("shapes")
+    V, F = dg.shapes.icosphere(4, 1.0)
+    obj = add_mesh_object("Clean", V, F)
+    before = coords(obj.data).copy()
+    select("Clean")
+    capsys.readouterr()
+    assert denoise() == {'FINISHED'}
+    out = capsys.readouterr().out
+    assert "with nothing (Auto found no noise to remove)" in out and "0 moved" in out, out
+    np.testing.assert_array_equal(coords(obj.data), before)

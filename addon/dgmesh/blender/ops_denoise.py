@@ -278,10 +278,14 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         entropy = f"{H[0]:.3f} bits" if len(H) == 1 else f"{min(H):.3f}-{max(H):.3f} bits (per object)"
         clouds = sum(1 for j in written if j.F is None)
         welded = sum(1 for j in written if j.result.welded)
-        # What ran per object: the filter, or (automatic mode on meshes) Taubin smoothing instead.
-        ran = sorted({f"Taubin smoothing, {_plural(j.result.options.smoothing_steps, 'step')}"
-                      if j.result.options.smoothing_steps and not j.result.iterations
-                      else f"{self.method.lower()}, {_plural(j.result.iterations, 'iteration')}" for j in written})
+        # What ran per object: the filter, or (automatic mode on meshes) Taubin smoothing instead, or nothing.
+        def ran_on(r):
+            if r.options.smoothing_steps and not r.iterations:
+                return f"Taubin smoothing, {_plural(r.options.smoothing_steps, 'step')}"
+            if self.automatic and not r.iterations:
+                return "nothing (Auto found no noise to remove)"
+            return f"{self.method.lower()}, {_plural(r.iterations, 'iteration')}"
+        ran = sorted({ran_on(j.result) for j in written})
         text = (f"Denoised {_plural(len(written), 'object')} ({nverts} vertices, {moved} moved) with "
                 f"{' / '.join(ran)}{' (per object)' if len(ran) > 1 else ''}, "
                 f"in {seconds:.2f} s; residual entropy {entropy}")
