@@ -1,6 +1,7 @@
 // One-click unwrap of closed or complex meshes (issue 29): the surface is cut into charts that are
-// topological disks, each chart is unwrapped by the low-stretch method of unwrap.h (thesis chapter
-// 5: Uopt and the final stretch minimisation), and the charts are laid out side by side in [0,1]^2.
+// topological disks once cut open along their own cuts, each chart is unwrapped by the low-stretch
+// method of unwrap.h (thesis chapter 5: Uopt and the final stretch minimisation), and the charts
+// are laid out side by side in [0,1]^2.
 //
 // 1. Initial charts: variational shape approximation (segment.h, thesis 4.9: L^{2,1} proxies of the
 //    normals, Lloyd iterations), so chart borders run where the normal turns (high curvature).
@@ -8,8 +9,8 @@
 //    (chart_is_disk). A sphere with b >= 2 holes (a tube: an open cylinder, a limb's band) is cut
 //    open inside the chart along the shortest edge path from one boundary loop to another, b - 1
 //    times, so it stays one chart (its seam runs rim to rim). Any other chart that is not a disk
-//    (a torus's band, a closed piece) is split in two by a
-//    2-proxy VSA grown inside it from its two mutually farthest faces, and both halves are checked
+//    (a torus's band, a closed piece) is split in two by a 2-proxy VSA grown inside it from its
+//    two mutually farthest faces, and both halves are checked
 //    again (with groups, each group goes to the side of its first triangle, and a side that falls
 //    apart becomes one chart per connected piece).
 // 3. Each disk is unwrapped (unwrap(), free boundary). Then the worst chart is split the same way
@@ -21,7 +22,8 @@
 //    Stretch splits stop at max_charts (a warning).
 // 4. Merge: neighbouring charts (in decreasing length of their common border) are joined when the
 //    union is a disk whose map has no failed triangle, is within max_stretch, and keeps the whole
-//    map within target_stretch (a CAD part's plane and cylinder may share one chart).
+//    map within target_stretch (a CAD part's plane and cylinder may share one chart). A union
+//    that is a tube is cut open as in step 2.
 // 5. Packing: every chart's map is scaled to its 3D area, turned to its smallest bounding box (16
 //    angles) and placed on shelves (tallest first) with `margin` between charts; the layout is
 //    scaled uniformly into [0,1]^2. Charts never overlap (disjoint boxes); within a chart the
