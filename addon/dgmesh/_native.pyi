@@ -145,6 +145,8 @@ class AutoUnwrapOptions:
 
     __fields__: list[str]
     max_stretch: float  # largest L2 stretch (eq. 5.5) a chart may keep; above it the chart is split; > 1, inf: no bound
+    target_stretch: float  # largest L2 stretch of the whole packed map; the worst chart is split until within it
+    merge: bool  # merge neighbouring charts while within both bounds
     charts: int  # initial charts (VSA segments), 0: automatic (8)
     max_charts: int  # no stretch split beyond this many charts
     margin: float  # gap between packed charts, fraction of the layout's side
@@ -166,6 +168,8 @@ class AutoUnwrapResult:
     initial_charts: int  # charts of the VSA segmentation
     topology_splits: int  # splits that made non-disk charts disks
     stretch_splits: int  # splits of charts above max_stretch
+    merges: int  # pairs of charts merged
+    path_cuts: int  # charts made disks by cutting between their boundary loops
     seam_length: float  # total 3D length of the seams
     edge_length: float  # total 3D length of all edges
     uv_area_used: float  # sum of the UV triangle areas (at most 1)

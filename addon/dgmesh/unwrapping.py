@@ -27,7 +27,7 @@ normalisation: 1 is an isometry up to scale; infinite when a UV triangle has zer
 import numpy as np
 import numpy.typing as npt
 
-from .core import MeshError, Progress, _native, as_count, as_faces, as_real, as_vertices, make_options
+from .core import MeshError, Progress, _native, as_count, as_faces, as_flag, as_real, as_vertices, make_options
 
 __all__ = ["AutoUnwrapOptions", "AutoUnwrapResult", "auto_unwrap", "UnwrapOptions", "UnwrapResult", "UnwrapStep",
            "UnwrapChartsResult", "UnwrapChartError", "UvMetrics", "UvBoundary", "UvWeights", "UvSolver", "thesis_defaults",
@@ -157,8 +157,8 @@ def unwrap_charts(V: npt.ArrayLike, F: npt.ArrayLike, charts: npt.ArrayLike, *,
     return _native.unwrap_charts(V, F, np.ascontiguousarray(labels, dtype=np.int32), o, progress)
 
 
-def auto_unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, max_stretch: float | None = _A.max_stretch,
-                charts: int | None = None, max_charts: int = _A.max_charts, margin: float = _A.margin,
+def auto_unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, target_stretch: float | None = _A.target_stretch,
+                max_stretch: float | None = _A.max_stretch, merge: bool = _A.merge, charts: int | None = None, max_charts: int = _A.max_charts, margin: float = _A.margin,
                 groups: npt.ArrayLike | None = None, stretch_iterations: int = _D.stretch_iterations,
                 progress: Progress | None = None) -> AutoUnwrapResult:
     """One-click unwrap of a closed or complex mesh (dgmesh/charts.h): cut into disk charts, each
@@ -169,8 +169,10 @@ def auto_unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, max_stretch: float | None
     triangles (closed or not, any genus, several pieces). The initial charts are a variational
     shape approximation (thesis 4.9; ``charts`` segments, None: automatic), so cuts run where the
     normal turns; a chart that is not a disk (one boundary loop, Euler characteristic 1) is split
-    in two, and so is a chart whose L2 stretch (eq. 5.5) exceeds ``max_stretch`` (> 1; None: no
-    bound), until at most ``max_charts`` charts. ``margin``: gap between packed charts, a fraction
+    in two. Then the worst chart is split (only its halves are unwrapped again) until the whole
+    packed map's L2 stretch (eq. 5.5) is at most ``target_stretch`` and no chart's own exceeds
+    ``max_stretch`` (both > 1; None: no bound), or ``max_charts`` charts are reached. ``merge``:
+    then join neighbouring charts while the union is a disk and both bounds hold. ``margin``: gap between packed charts, a fraction
     of the layout's side, in [0, 0.25). ``groups``: (m,) integers >= 0, triangles of equal value
     are never cut apart (the triangles of one polygon). ``stretch_iterations``: as :func:`unwrap`.
 
@@ -178,7 +180,7 @@ def auto_unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, max_stretch: float | None
     3f + k (``uv.reshape(-1, 3, 2)``), ``chart`` (m,) chart of each triangle, ``seams`` (s, 2)
     vertex pairs of the cut edges, ``chart_stretch`` (per chart L2), ``metrics`` (:class:`UvMetrics`
     of the packed map), ``n_charts``, ``initial_charts``, ``topology_splits``, ``stretch_splits``,
-    ``seam_length`` and ``edge_length`` (3D), ``uv_area_used`` (of the unit square), ``warnings``.
+    ``merges``, ``seam_length`` and ``edge_length`` (3D), ``uv_area_used`` (of the unit square), ``warnings``.
 
     Raises MeshError for input that is not such a mesh or options out of range.
     """
@@ -186,6 +188,9 @@ def auto_unwrap(V: npt.ArrayLike, F: npt.ArrayLike, *, max_stretch: float | None
     F = as_faces(F, n=len(V))
     o = AutoUnwrapOptions()
     o.max_stretch = np.inf if max_stretch is None else as_real(max_stretch, "max_stretch", 1.0, lo_open=True)
+    o.target_stretch = (np.inf if target_stretch is None
+                        else as_real(target_stretch, "target_stretch", 1.0, lo_open=True))
+    o.merge = as_flag(merge, "merge")
     o.charts = 0 if charts is None else as_count(charts, "charts", 1)
     o.max_charts = as_count(max_charts, "max_charts", 1)
     o.margin = as_real(margin, "margin", 0.0, 0.25)

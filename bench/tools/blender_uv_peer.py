@@ -7,7 +7,9 @@ Runs inside any Blender (3.4 on bookworm, 4.3 in the trixie lane root) without t
 
 METHOD: ANGLE_BASED, CONFORMAL, MINIMUM_STRETCH (Blender 4.3+: SLIM, its defaults),
 ABF_MINIMIZE_STRETCH_<N> (ANGLE_BASED, then UV > Minimize Stretch with N iterations) or
-SMART_PROJECT (Smart UV Project, its defaults: angle limit 66 degrees, island margin 0, packed). Every mesh
+SMART_PROJECT (Smart UV Project, its defaults: angle limit 66 degrees, island margin 0, packed) or
+SMART_SEAMS_MINIMUM_STRETCH (Blender 4.3+: Smart UV Project, UV > Seams from Islands, then Unwrap with
+MINIMUM_STRETCH on those seams, packed; the time is that of all three). Every mesh
 is unwrapped whole (all faces selected, margin 0) in a fresh scene; the time is the wall time of
 the operators alone. Writes OUTDIR/<stem>__<METHOD>.npy (the corner UVs, (m, 3, 2) float64: corner
 k of triangle f) and OUTDIR/result.json ({"blender": version, "runs": {stem: {METHOD: seconds}}});
@@ -71,6 +73,11 @@ def unwrap(obj, method):
     t0 = time.perf_counter()
     if method == "SMART_PROJECT":
         bpy.ops.uv.smart_project()
+    elif method == "SMART_SEAMS_MINIMUM_STRETCH":
+        bpy.ops.uv.smart_project()
+        bpy.ops.uv.select_all(action="SELECT")
+        bpy.ops.uv.seams_from_islands(mark_seams=True)
+        bpy.ops.uv.unwrap(method="MINIMUM_STRETCH", margin=0.0)
     elif method.startswith("ABF_MINIMIZE_STRETCH_"):
         bpy.ops.uv.unwrap(method="ANGLE_BASED", margin=0.0)
         bpy.ops.uv.minimize_stretch(iterations=int(method.rsplit("_", 1)[1]))

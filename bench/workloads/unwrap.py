@@ -942,6 +942,8 @@ def vs_blender(quick=False):
 
 
 CLOSED_MODELS = ("bunny00", "armadillo", "camel", "elephant", "cow", "hand", "fandisk")
+SMART_RENDER_MODELS = ("bunny00", "camel", "fandisk")
+SMART_RENDER_TOOL = ROOT / "bench" / "tools" / "auto_unwrap_render.py"
 
 
 def _islands(V, F, uv):
@@ -965,15 +967,50 @@ def _islands(V, F, uv):
     return int(charts.max()) + 1, float(seam / total), float(area)
 
 
+# The second peer of auto_unwrap (issue 29): Blender 4.3's Minimum Stretch (SLIM) on Smart UV
+# Project's seams, run in the trixie lane root like _peer_lane (recorded figures when the lane is not
+# run).
+SMART_LANE_METHOD = "SMART_SEAMS_MINIMUM_STRETCH"
+SMART_LANE_RECORD = ROOT / "bench" / "results" / "auto_unwrap_trixie_peer.json"
+
+
+def _smart_lane(models):
+    """Blender 4.3 Smart UV seams + Minimum Stretch on the closed scans: (version, {model: figures}, note)."""
+    if os.environ.get("DGMESH_BENCH_NO_LANE") != "1" and os.geteuid() == 0 and (LANE_ROOT / ".dgmesh-root").exists():
+        rel = ".cache/peer-trixie-auto-unwrap"
+        cmd = ["bash", str(ROOT / "scripts" / "lanes.sh"), "--run", "trixie", "blender", "--background",
+               "--factory-startup", "--python-exit-code", "1", "--python", "bench/tools/blender_uv_peer.py", "--",
+               rel, SMART_LANE_METHOD, *[f".cache/cgal-data/data/meshes/{name}.off" for name in models]]
+        subprocess.run(cmd, check=True, capture_output=True, text=True, timeout=3600)
+        out = LANE_ROOT / "src" / "dgmesh" / rel
+        result = json.loads((out / "result.json").read_text())
+        metrics = {}
+        for name in models:
+            V, F = cgal_mesh(name)
+            uv = np.load(out / f"{name}__{SMART_LANE_METHOD}.npy")
+            n, seam, area = _islands(V, F, uv)
+            metrics[name] = dict(charts=n, seam=seam, uv_area=area, seconds=result["runs"][name][SMART_LANE_METHOD],
+                                 **dgmesh.core.fields(dgmesh.uv_metrics(V, F, uv)))
+        m = machine()
+        SMART_LANE_RECORD.write_text(json.dumps(dict(blender=result["blender"], date=m["date"], commit=m["commit"],
+                                                     command=" ".join(["bash", "scripts/lanes.sh", *cmd[2:]]),
+                                                     metrics=metrics), indent=1))
+        return result["blender"], metrics, "measured in this run"
+    rec = json.loads(SMART_LANE_RECORD.read_text())
+    return rec["blender"], rec["metrics"], f"recorded {rec['date']} at commit {rec['commit']} (lane not run)"
+
+
 def vs_smart_project(quick=False):
     """dgmesh.auto_unwrap (defaults) against Blender's Smart UV Project (defaults) on CGAL's closed
     scans (issue 29): L2 stretch, charts, seam length / edge length, UV area used, time."""
     models = ("bunny00", "fandisk") if quick else CLOSED_MODELS
     data = {"machine": machine(), "ours": {}, "loadavg_before": os.getloadavg()[0]}
+    ours_uv = {}
     for name in models:
         V, F = cgal_mesh(name)
         r, t, _ = _timed(lambda: dgmesh.auto_unwrap(V, F))
         uv = np.asarray(r.uv).reshape(-1, 3, 2)
+        ours_uv[name] = uv
         n, seam, area = _islands(V, F, uv)
         assert n == r.n_charts and abs(seam - r.seam_length / r.edge_length) < 1e-9
         data["ours"][name] = dict(vertices=len(V), triangles=len(F), charts=n, seam=seam, uv_area=area, seconds=t,
@@ -991,11 +1028,28 @@ def vs_smart_project(quick=False):
             n, seam, area = _islands(V, F, uv)
             peer[name] = dict(charts=n, seam=seam, uv_area=area, seconds=result["runs"][name]["SMART_PROJECT"],
                               **dgmesh.core.fields(dgmesh.uv_metrics(V, F, uv)))
-    data.update(blender=result["blender"], peer=peer, loadavg_after=os.getloadavg()[0])
-    rows, verdict = [], []
+            if name in SMART_RENDER_MODELS:  # checker renders: ours | Smart UV Project
+                np.savez(pathlib.Path(out) / f"{name}_render.npz", V=V, F=F, uv0=ours_uv[name], uv1=uv)
+                subprocess.run(["blender", "--background", "--factory-startup", "--python-exit-code", "1", "--python",
+                                str(SMART_RENDER_TOOL), "--", str(pathlib.Path(out) / f"{name}_render.npz"),
+                                str(IMAGES / f"auto_unwrap_{name}.png")],
+                               check=True, capture_output=True, text=True, timeout=3600)
+                data.setdefault("renders", []).append(f"images/auto_unwrap_{name}.png")
+    v43, lane, lane_note = _smart_lane(models)
+    data.update(blender=result["blender"], peer=peer, blender_lane=v43, peer_lane=lane, lane_note=lane_note,
+                loadavg_after=os.getloadavg()[0])
+    rows, verdict, slim = [], [], []
     for name in models:
         o, p = data["ours"][name], peer[name]
-        for label, x in (("dgmesh.auto_unwrap", o), (f"Blender {data['blender']} Smart UV Project", p)):
+        cands = [("dgmesh.auto_unwrap", o), (f"Blender {data['blender']} Smart UV Project", p)]
+        if name in lane:
+            q = lane[name]
+            cands.append((f"Blender {v43} Smart UV seams + Minimum Stretch", q))
+            slim.append([name, f"{o['stretch_l2']:.4f} / {q['stretch_l2']:.4f}",
+                         "lower" if o["stretch_l2"] < q["stretch_l2"] else "HIGHER",
+                         f"{o['charts']} / {q['charts']}", f"{o['seam']:.4f} / {q['seam']:.4f}",
+                         f"{o['seconds']:.3g} / {q['seconds']:.3g}"])
+        for label, x in cands:
             rows.append([f"{name} ({o['vertices']} v)", label, x["stretch_l2"], x["charts"], x["seam"], x["uv_area"],
                          x["flipped"], x["zero_area"], x["seconds"]])
         ok = (o["charts"] <= p["charts"] / 4, o["stretch_l2"] <= 1.05 * p["stretch_l2"], o["seam"] < p["seam"])
@@ -1009,8 +1063,12 @@ def vs_smart_project(quick=False):
         f"CGAL's closed scans. {m['cpu']}, {m['threads']} threads, {m['date']}, commit {m['commit']}; load "
         f"average {data['loadavg_before']:.1f} before, {data['loadavg_after']:.1f} after (timings under load "
         "are indicative only). dgmesh: `dgmesh.auto_unwrap(V, F)` (defaults: 8 VSA charts, split to disks "
-        f"and to L2 <= {dgmesh.AutoUnwrapOptions().max_stretch}, own shelf packing). Blender {data['blender']}: "
-        "Smart UV Project with its defaults (bench/tools/blender_uv_peer.py). Charts and seams are counted "
+        f"with tubes cut open, worst chart split until the whole map's L2 <= "
+        f"{dgmesh.AutoUnwrapOptions().target_stretch} and every chart's <= {dgmesh.AutoUnwrapOptions().max_stretch}, "
+        f"neighbours merged while that holds, own shelf packing). Blender {data['blender']} (this machine): "
+        f"Smart UV Project with its defaults (bench/tools/blender_uv_peer.py). Blender {v43} (Debian trixie lane "
+        f"root): Smart UV Project, Seams from Islands, then Unwrap with Minimum Stretch (SLIM, defaults) on "
+        f"those seams, {lane_note}; its seconds are the three operators together. Charts and seams are counted "
         "from the corner UVs alike (an edge is a seam where its UVs differ on its two sides); seam = seam "
         "length / total edge length; UV area = UV area used in the unit square; L2 by dgmesh.uv_metrics.",
         "",
@@ -1021,7 +1079,15 @@ def vs_smart_project(quick=False):
         "",
         table(["model", "charts", "<= 1/4", "L2", "<= 1.05x", "seam", "shorter"], verdict),
         "",
-        "Reproduce: `/usr/bin/python3 bench/run.py auto_unwrap`.",
+        *[f"![{pathlib.Path(p).stem}]({p}) (left: dgmesh.auto_unwrap, right: Blender {data['blender']} Smart UV "
+          "Project; checker at the same texel density on both)" for p in data.get("renders", [])],
+        "",
+        f"Against Blender {v43} Minimum Stretch on Smart UV Project's seams, ours / its:",
+        "",
+        table(["model", "L2", "", "charts", "seam", "seconds"], slim) if slim else "(no lane figures)",
+        "",
+        "Reproduce: `/usr/bin/python3 bench/run.py auto_unwrap` (as root with the trixie lane root present; "
+        "DGMESH_BENCH_NO_LANE=1 uses the recorded Blender 4.3 figures).",
     ])
     return {"markdown": md, "data": data}
 

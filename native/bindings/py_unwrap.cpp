@@ -179,6 +179,9 @@ void bind_unwrap(pb::module_& m) {
   Struct<AutoUnwrapOptions>(m, "AutoUnwrapOptions", "Options of auto_unwrap() (dgmesh/charts.h)")
       .field("max_stretch", &AutoUnwrapOptions::max_stretch,
              "largest L2 stretch (eq. 5.5) a chart may keep; above it the chart is split; > 1, inf: no bound")
+      .field("target_stretch", &AutoUnwrapOptions::target_stretch,
+             "largest L2 stretch of the whole packed map; the worst chart is split until within it")
+      .field("merge", &AutoUnwrapOptions::merge, "merge neighbouring charts while within both bounds")
       .field("charts", &AutoUnwrapOptions::charts, "initial charts (VSA segments), 0: automatic (8)")
       .field("max_charts", &AutoUnwrapOptions::max_charts, "no stretch split beyond this many charts")
       .field("margin", &AutoUnwrapOptions::margin, "gap between packed charts, fraction of the layout's side")
@@ -195,6 +198,8 @@ void bind_unwrap(pb::module_& m) {
       .result("initial_charts", &AutoUnwrapResult::initial_charts, "charts of the VSA segmentation")
       .result("topology_splits", &AutoUnwrapResult::topology_splits, "splits that made non-disk charts disks")
       .result("stretch_splits", &AutoUnwrapResult::stretch_splits, "splits of charts above max_stretch")
+      .result("merges", &AutoUnwrapResult::merges, "pairs of charts merged")
+      .result("path_cuts", &AutoUnwrapResult::path_cuts, "charts made disks by cutting between their boundary loops")
       .result("seam_length", &AutoUnwrapResult::seam_length, "total 3D length of the seams")
       .result("edge_length", &AutoUnwrapResult::edge_length, "total 3D length of all edges")
       .result("uv_area_used", &AutoUnwrapResult::uv_area_used, "sum of the UV triangle areas (at most 1)")

@@ -170,26 +170,139 @@ std::vector<std::vector<int>> split(Surface& s, const std::vector<int>& S) {
   return parts;
 }
 
-// One chart's triangles as a mesh of its own: vertices in increasing order of their index in V.
+// One chart's triangles as a mesh of its own, cut open along `cuts` (sorted mesh edges inside the
+// chart): corners of a vertex in two chart faces across an edge that is not a cut are one vertex.
 struct SubMesh {
-  std::vector<int> verts;
+  std::vector<int> verts;  // local vertex -> vertex of V
   MatX3d V;
   MatX3i F;
 };
 
-SubMesh submesh(const MatX3d& V, const MatX3i& F, const std::vector<int>& faces) {
+SubMesh submesh(const Surface& s, const MatX3d& V, const MatX3i& F, const std::vector<int>& faces,
+                const std::vector<int>& cuts) {
+  const int n = static_cast<int>(faces.size());
+  std::vector<int> local(F.rows(), -1);
+  for (int i = 0; i < n; ++i) local[faces[i]] = i;
+  std::vector<int> parent(3 * n);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::function<int(int)> root = [&](int x) { return parent[x] == x ? x : parent[x] = root(parent[x]); };
+  auto corner = [&](int i, int v) {
+    const int f = faces[i];
+    return 3 * i + (F(f, 0) == v ? 0 : F(f, 1) == v ? 1 : 2);
+  };
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      const int e = s.topo.face_edges(faces[i], k);
+      const int g = s.neighbour(faces[i], k);
+      if (g < 0 || local[g] < 0 || local[g] < i || std::binary_search(cuts.begin(), cuts.end(), e)) continue;
+      for (int j = 0; j < 2; ++j) {
+        const int v = s.topo.edges(e, j);
+        parent[root(corner(i, v))] = root(corner(local[g], v));
+      }
+    }
   SubMesh m;
-  for (int f : faces)
-    for (int j = 0; j < 3; ++j) m.verts.push_back(F(f, j));
-  std::sort(m.verts.begin(), m.verts.end());
-  m.verts.erase(std::unique(m.verts.begin(), m.verts.end()), m.verts.end());
-  m.V.resize(m.verts.size(), 3);
+  std::vector<int> id(3 * n, -1);
+  m.F.resize(n, 3);
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 3; ++k) {
+      int& r = id[root(3 * i + k)];
+      if (r < 0) {
+        r = static_cast<int>(m.verts.size());
+        m.verts.push_back(F(faces[i], k));
+      }
+      m.F(i, k) = r;
+    }
+  m.V.resize(static_cast<Eigen::Index>(m.verts.size()), 3);
   for (size_t i = 0; i < m.verts.size(); ++i) m.V.row(i) = V.row(m.verts[i]);
-  m.F.resize(faces.size(), 3);
-  for (size_t i = 0; i < faces.size(); ++i)
-    for (int j = 0; j < 3; ++j)
-      m.F(i, j) = static_cast<int>(std::lower_bound(m.verts.begin(), m.verts.end(), F(faces[i], j)) - m.verts.begin());
   return m;
+}
+
+// Makes the chart `faces` (connected) a disk by cutting it open, when it is a sphere with holes
+// (genus 0, b >= 2 boundary loops): adds to `cuts` the shortest edge path (3D length) from one
+// loop to another through interior vertices, b - 1 times, never along an edge inside a group.
+// Returns whether the cut-open chart is a disk (false: closed, of higher genus, or no such path).
+bool cut_to_disk(const Surface& s, const MatX3d& V, const MatX3i& F, const std::vector<int>& faces,
+                 std::vector<int>& cuts) {
+  for (;;) {
+    const SubMesh m = submesh(s, V, F, faces, cuts);
+    if (chart_is_disk(m.F, [&] {
+          std::vector<int> all(faces.size());
+          std::iota(all.begin(), all.end(), 0);
+          return all;
+        }()))
+      return true;
+    // Half-edges of the cut-open chart: boundary ones have no twin.
+    const int nv = static_cast<int>(m.verts.size());
+    std::vector<std::tuple<int, int, int>> he;  // (a, b, mesh edge)
+    for (Eigen::Index i = 0; i < m.F.rows(); ++i)
+      for (int k = 0; k < 3; ++k) he.emplace_back(m.F(i, k), m.F(i, (k + 1) % 3), s.topo.face_edges(faces[i], k));
+    std::sort(he.begin(), he.end());
+    auto twin = [&](int a, int b) {
+      auto it = std::lower_bound(he.begin(), he.end(), std::make_tuple(b, a, -1));
+      return it != he.end() && std::get<0>(*it) == b && std::get<1>(*it) == a;
+    };
+    std::vector<int> next(nv, -1), loop(nv, -1);
+    long edges2 = 0;
+    for (const auto& [a, b, e] : he) {
+      if (twin(a, b)) {
+        ++edges2;
+        continue;
+      }
+      edges2 += 2;
+      if (next[a] >= 0) return false;  // pinched
+      next[a] = b;
+    }
+    int loops = 0;
+    for (int v = 0; v < nv; ++v) {
+      if (next[v] < 0 || loop[v] >= 0) continue;
+      for (int w = v; loop[w] < 0; w = next[w]) {
+        loop[w] = loops;
+        if (next[w] < 0) return false;
+      }
+      ++loops;
+    }
+    const long chi = nv - edges2 / 2 + static_cast<long>(faces.size());
+    if (loops < 2 || chi + loops != 2) return false;  // closed, or not genus 0
+    // Dijkstra from loop 0 over interior edges, to the first vertex of another loop.
+    std::vector<std::vector<std::pair<int, int>>> adj(nv);  // (neighbour, mesh edge)
+    for (const auto& [a, b, e] : he) {
+      if (!twin(a, b)) continue;
+      const int f0 = s.topo.edge_faces(e, 0), f1 = s.topo.edge_faces(e, 1);
+      if (s.rep[f0] == s.rep[f1]) continue;  // inside a polygon
+      adj[a].emplace_back(b, e);
+    }
+    std::vector<double> dist(nv, kInf);
+    std::vector<int> via(nv, -1), from(nv, -1);
+    Heap heap;
+    for (int v = 0; v < nv; ++v)
+      if (loop[v] == 0) {
+        dist[v] = 0;
+        heap.emplace(0.0, v, -1);
+      }
+    int hit = -1;
+    while (!heap.empty()) {
+      const auto [d, v, unused] = heap.top();
+      heap.pop();
+      if (d > dist[v]) continue;
+      if (loop[v] > 0) {
+        hit = v;
+        break;
+      }
+      if (loop[v] < 0 || d == 0)
+        for (const auto& [w, e] : adj[v]) {
+          if (loop[w] == 0) continue;
+          const double p = d + (m.V.row(v) - m.V.row(w)).norm();
+          if (p < dist[w]) {
+            dist[w] = p;
+            via[w] = e;
+            from[w] = v;
+            heap.emplace(p, w, 0);
+          }
+        }
+    }
+    if (hit < 0) return false;
+    for (int v = hit; via[v] >= 0; v = from[v]) cuts.insert(std::upper_bound(cuts.begin(), cuts.end(), via[v]), via[v]);
+  }
 }
 
 // A single triangle laid flat with its 3D edge lengths.
@@ -204,9 +317,14 @@ MatX2d flat_triangle(const MatX3d& V) {
 
 struct Chart {
   std::vector<int> faces;
+  std::vector<int> cuts;  // sorted mesh edges inside the chart along which it is cut open
   SubMesh mesh;
-  MatX2d uv;  // per chart vertex
-  double stretch = 1;
+  MatX2d uv;                // per chart vertex
+  double stretch = 1;       // L2 stretch of its own map (eq. 5.5)
+  double area = 0;          // 3D area
+  bool failed = false;      // the map has a flipped or zero-area triangle (or none could be made)
+  bool splittable = false;  // holds more than one group
+  long id = 0;              // unique per map made, for the merge step
 };
 
 // Shelf packing (charts.h, step 4): the corner UVs of every triangle.
@@ -359,6 +477,9 @@ AutoUnwrapResult auto_unwrap(const MatX3d& V, const MatX3i& F, const AutoUnwrapO
   if (!(opt.max_stretch > 1.0))
     throw MeshError("max_stretch must be above 1 (the L2 stretch of an isometry), got " +
                     std::to_string(opt.max_stretch));
+  if (!(opt.target_stretch > 1.0))
+    throw MeshError("target_stretch must be above 1 (the L2 stretch of an isometry), got " +
+                    std::to_string(opt.target_stretch));
   if (opt.charts < 0) throw MeshError("charts must be >= 0 (0: automatic), got " + std::to_string(opt.charts));
   if (opt.max_charts < 1) throw MeshError("max_charts must be >= 1, got " + std::to_string(opt.max_charts));
   if (!(opt.margin >= 0.0 && opt.margin < 0.25))
@@ -396,7 +517,7 @@ AutoUnwrapResult auto_unwrap(const MatX3d& V, const MatX3i& F, const AutoUnwrapO
               progress_fn ? ProgressFn([&progress_fn, seg_share](double f) { return progress_fn(seg_share * f); })
                           : ProgressFn());
   // The segments, each group in the segment of its first triangle, as connected pieces.
-  std::vector<std::vector<int>> todo;
+  std::vector<std::vector<int>> pieces;
   {
     std::vector<int> all(nf), lab(nf);
     std::iota(all.begin(), all.end(), 0);
@@ -404,60 +525,196 @@ AutoUnwrapResult auto_unwrap(const MatX3d& V, const MatX3i& F, const AutoUnwrapO
       s.local[f] = f;
       lab[f] = seg.labels[s.rep[f]];
     }
-    add_pieces(s, all, lab, todo);
+    add_pieces(s, all, lab, pieces);
     std::fill(s.local.begin(), s.local.end(), -1);
   }
-  res.initial_charts = static_cast<int>(todo.size());
+  res.initial_charts = static_cast<int>(pieces.size());
 
-  std::vector<Chart> charts;
-  long done = 0;
-  bool capped = false;
-  int failed_maps = 0;
-  while (!todo.empty()) {
-    std::vector<int> S = std::move(todo.back());
-    todo.pop_back();
-    const bool can_split = std::any_of(S.begin(), S.end(), [&](int f) { return s.rep[f] != s.rep[S[0]]; });
-    if (can_split && !chart_is_disk(F, S)) {
-      for (auto& p : split(s, S)) todo.push_back(std::move(p));
-      ++res.topology_splits;
-      continue;
+  auto can_split = [&](const std::vector<int>& S) {
+    return std::any_of(S.begin(), S.end(), [&](int f) { return s.rep[f] != s.rep[S[0]]; });
+  };
+  // Step 2: cut open or split pieces until every one is a disk (or a single group): (faces, cuts).
+  using Piece = std::pair<std::vector<int>, std::vector<int>>;
+  auto make_disks = [&](std::vector<std::vector<int>> todo) {
+    std::vector<Piece> disks;
+    while (!todo.empty()) {
+      std::vector<int> S = std::move(todo.back());
+      todo.pop_back();
+      std::vector<int> cuts;
+      if (!can_split(S) || chart_is_disk(F, S)) {
+        disks.emplace_back(std::move(S), std::move(cuts));
+      } else if (cut_to_disk(s, mesh.V, F, S, cuts)) {
+        ++res.path_cuts;
+        disks.emplace_back(std::move(S), std::move(cuts));
+      } else {
+        for (auto& p : split(s, S)) todo.push_back(std::move(p));
+        ++res.topology_splits;
+      }
     }
+    return disks;
+  };
+  // Step 3: one disk's own map, its L2 stretch and 3D area.
+  long next_id = 0;
+  auto unwrap_chart = [&](Piece piece) {
     Chart ch;
-    ch.mesh = submesh(mesh.V, F, S);
-    ch.faces = std::move(S);
-    const bool below_cap = static_cast<int>(charts.size() + todo.size()) + 2 <= opt.max_charts;
+    ch.id = next_id++;
+    ch.mesh = submesh(s, mesh.V, F, piece.first, piece.second);
+    ch.faces = std::move(piece.first);
+    ch.cuts = std::move(piece.second);
+    for (int f : ch.faces) ch.area += s.A[f];
+    ch.splittable = can_split(ch.faces);
     if (ch.faces.size() == 1) {
       ch.uv = flat_triangle(ch.mesh.V);
-    } else {
-      UvMetrics m;
-      bool ok = true;
-      try {
-        UnwrapResult r = unwrap(ch.mesh.V, ch.mesh.F, opt.unwrap);
-        m = r.steps[r.chosen].metrics;
-        ch.uv = std::move(r.uv);
-      } catch (const MeshError&) {
-        ok = false;  // cannot be for a disk; split it all the same
-      }
-      const bool failed = !ok || m.flipped > 0 || m.zero_area > 0;
-      if ((failed || !(m.stretch_l2 <= opt.max_stretch)) && (below_cap || !ok) && can_split) {
-        for (auto& p : split(s, ch.faces)) todo.push_back(std::move(p));
-        ++res.stretch_splits;
-        continue;
-      }
-      if (!ok)
+      return ch;
+    }
+    try {
+      UnwrapResult r = unwrap(ch.mesh.V, ch.mesh.F, opt.unwrap);
+      const UvMetrics& m = r.steps[r.chosen].metrics;
+      ch.failed = m.flipped > 0 || m.zero_area > 0;
+      ch.stretch = m.stretch_l2;
+      ch.uv = std::move(r.uv);
+    } catch (const MeshError&) {  // cannot be for a disk; split it all the same
+      if (!ch.splittable)
         throw MeshError("auto_unwrap: a polygon of " + std::to_string(ch.faces.size()) +
                         " triangles is not a disk and cannot be unwrapped");
-      if (!(m.stretch_l2 <= opt.max_stretch)) capped = true;
-      if (failed) ++failed_maps;
-      ch.stretch = m.stretch_l2;
+      ch.failed = true;
+      ch.stretch = kInf;
     }
-    done += static_cast<long>(ch.faces.size());
-    charts.push_back(std::move(ch));
-    progress(seg_share + (0.95 - seg_share) * static_cast<double>(done) / nf);
+    if (!std::isfinite(ch.stretch)) ch.failed = true;
+    return ch;
+  };
+
+  std::vector<Chart> charts;
+  {
+    std::vector<Piece> disks = make_disks(std::move(pieces));
+    long done = 0;
+    for (auto& d : disks) {
+      done += static_cast<long>(d.first.size());
+      charts.push_back(unwrap_chart(std::move(d)));
+      progress(seg_share + 0.4 * static_cast<double>(done) / nf);
+    }
   }
-  if (capped)
+  double total_area = 0;
+  for (int f = 0; f < nf; ++f) total_area += s.A[f];
+  // The whole map's L2 stretch: every chart is scaled to its 3D area when packed, so the packed
+  // map's eq. 5.5 is the area-weighted root mean square of the charts' own.
+  auto energy = [](const Chart& c) { return c.area * c.stretch * c.stretch; };
+  auto whole = [&]() {
+    double e = 0;
+    for (const Chart& c : charts) e += energy(c);
+    return std::sqrt(e / total_area);
+  };
+
+  // Step 3: split the worst chart (a failed map first, then one above max_stretch, then the one
+  // whose stretch costs most, A (s^2 - 1)) until the whole map is within target_stretch. Only the
+  // two new charts are unwrapped; the others keep their maps.
+  const double start_excess = std::max(1e-12, whole() - opt.target_stretch);
+  double shown = seg_share + 0.4;
+  for (;;) {
+    int worst = -1;
+    int rank = 0;  // 3: failed map, 2: above max_stretch, 1: above target_stretch overall
+    double cost = -1;
+    const bool over_target = whole() > opt.target_stretch;
+    const bool below_cap = static_cast<int>(charts.size()) + 1 <= opt.max_charts;
+    for (size_t c = 0; c < charts.size(); ++c) {
+      const Chart& ch = charts[c];
+      if (!ch.splittable) continue;
+      const int r = ch.failed ? 3 : ch.stretch > opt.max_stretch ? 2 : over_target ? 1 : 0;
+      if (r == 0 || (r < 3 && !below_cap)) continue;
+      const double k = ch.failed ? ch.area : ch.area * (ch.stretch * ch.stretch - 1);
+      if (r > rank || (r == rank && k > cost)) {
+        worst = static_cast<int>(c);
+        rank = r;
+        cost = k;
+      }
+    }
+    if (worst < 0) break;
+    std::vector<int> S = std::move(charts[worst].faces);
+    charts.erase(charts.begin() + worst);
+    for (auto& d : make_disks(split(s, S))) charts.push_back(unwrap_chart(std::move(d)));
+    ++res.stretch_splits;
+    const double w = whole();
+    if (std::isfinite(w))
+      shown =
+          std::max(shown, seg_share + 0.4 + 0.4 * std::clamp(1 - (w - opt.target_stretch) / start_excess, 0.0, 1.0));
+    progress(shown);
+  }
+
+  // Step 4: merge neighbouring charts while the union is a disk whose map has no failed triangle,
+  // stays within max_stretch, and the whole map stays within target_stretch (charts cut only by
+  // the initial segmentation or a topology split often share a developable surface: a CAD part's
+  // plane and cylinder). Pairs are tried in decreasing length of their common border.
+  if (opt.merge) {
+    const Topology& topo = mesh.topo;
+    std::vector<int> owner(nf);
+    std::vector<std::pair<long, long>> tried;  // chart ids of pairs tried, sorted
+    for (;;) {
+      for (size_t c = 0; c < charts.size(); ++c)
+        for (int f : charts[c].faces) owner[f] = static_cast<int>(c);
+      std::vector<std::tuple<double, int, int>> pairs;  // (-common length, c, d)
+      {
+        std::vector<std::tuple<int, int, double>> border;
+        for (int e = 0; e < topo.n_edges(); ++e) {
+          const int f0 = topo.edge_faces(e, 0), f1 = topo.edge_faces(e, 1);
+          if (f0 < 0 || f1 < 0 || owner[f0] == owner[f1]) continue;
+          const double len = (mesh.V.row(topo.edges(e, 0)) - mesh.V.row(topo.edges(e, 1))).norm();
+          border.emplace_back(std::min(owner[f0], owner[f1]), std::max(owner[f0], owner[f1]), len);
+        }
+        std::sort(border.begin(), border.end());
+        for (size_t i = 0; i < border.size();) {
+          size_t j = i;
+          double len = 0;
+          while (j < border.size() && std::get<0>(border[j]) == std::get<0>(border[i]) &&
+                 std::get<1>(border[j]) == std::get<1>(border[i]))
+            len += std::get<2>(border[j++]);
+          pairs.emplace_back(-len, std::get<0>(border[i]), std::get<1>(border[i]));
+          i = j;
+        }
+        std::sort(pairs.begin(), pairs.end());
+      }
+      double e_all = 0;
+      for (const Chart& c : charts) e_all += energy(c);
+      if (!std::isfinite(e_all)) break;  // a chart without a usable map (kept as a warning below)
+      const double budget = opt.target_stretch * opt.target_stretch * total_area;
+      bool merged = false;
+      for (const auto& [neg_len, c, d] : pairs) {
+        const Chart &a = charts[c], &b = charts[d];
+        if (a.failed || b.failed) continue;
+        const std::pair<long, long> key = {std::min(a.id, b.id), std::max(a.id, b.id)};
+        if (std::binary_search(tried.begin(), tried.end(), key)) continue;
+        // Skip pairs that could fit only if the union stretched less than its worse part (a
+        // heuristic: it rarely does; it saves unwrapping the union).
+        const double lower = (a.area + b.area) * std::max(a.stretch, b.stretch) * std::max(a.stretch, b.stretch);
+        if (std::max(a.stretch, b.stretch) > opt.max_stretch || e_all - energy(a) - energy(b) + lower > budget) {
+          tried.insert(std::upper_bound(tried.begin(), tried.end(), key), key);
+          continue;
+        }
+        Piece U = {a.faces, {}};
+        U.first.insert(U.first.end(), b.faces.begin(), b.faces.end());
+        std::set_union(a.cuts.begin(), a.cuts.end(), b.cuts.begin(), b.cuts.end(), std::back_inserter(U.second));
+        tried.insert(std::upper_bound(tried.begin(), tried.end(), key), key);
+        if (!cut_to_disk(s, mesh.V, F, U.first, U.second)) continue;
+        Chart u = unwrap_chart(std::move(U));
+        progress(shown);  // (cancellation)
+        if (u.failed || u.stretch > opt.max_stretch || e_all - energy(a) - energy(b) + energy(u) > budget) continue;
+        charts[c] = std::move(u);
+        charts.erase(charts.begin() + d);
+        ++res.merges;
+        merged = true;
+        break;
+      }
+      if (!merged) break;
+    }
+  }
+  int failed_maps = 0;
+  bool capped = false;
+  for (const Chart& c : charts) {
+    if (c.failed) ++failed_maps;
+    if (c.splittable && !c.failed && c.stretch > opt.max_stretch) capped = true;
+  }
+  if (capped || (whole() > opt.target_stretch && std::isfinite(whole())))
     res.warnings.push_back("max_charts (" + std::to_string(opt.max_charts) +
-                           ") reached: some charts keep an L2 stretch above max_stretch");
+                           ") reached: the map keeps an L2 stretch above target_stretch or max_stretch");
   if (failed_maps)
     res.warnings.push_back(std::to_string(failed_maps) + " chart(s) kept a flipped or zero-area triangle");
 
@@ -475,12 +732,15 @@ AutoUnwrapResult auto_unwrap(const MatX3d& V, const MatX3i& F, const AutoUnwrapO
   res.uv_area_used = pack(s.A, charts, opt.margin, res.uv);
 
   const Topology& topo = mesh.topo;
+  std::vector<char> cut(topo.n_edges(), 0);
+  for (const Chart& c : charts)
+    for (int e : c.cuts) cut[e] = 1;
   std::vector<int> seam_edges;
   for (int e = 0; e < topo.n_edges(); ++e) {
     const double len = (mesh.V.row(topo.edges(e, 0)) - mesh.V.row(topo.edges(e, 1))).norm();
     res.edge_length += len;
     const int f0 = topo.edge_faces(e, 0), f1 = topo.edge_faces(e, 1);
-    if (f0 >= 0 && f1 >= 0 && res.chart[f0] != res.chart[f1]) {
+    if (f0 >= 0 && f1 >= 0 && (res.chart[f0] != res.chart[f1] || cut[e])) {
       seam_edges.push_back(e);
       res.seam_length += len;
     }

@@ -45,13 +45,18 @@ def seam_charts(mesh, faces):
 
 
 def euler(mesh, chart):
-    """V - E + F of a set of polygons and the number of its boundary edges."""
+    """V - E + F of a set of polygons cut open where their UVs differ (one vertex per vertex and
+    UV, as the charts are laid out: a chart may be cut inside along a seam) and the number of its
+    boundary edges."""
+    uv = np.round(layer_uv(mesh).astype(np.float64), 5)
     verts, edges = set(), {}
     for p in chart:
         poly = mesh.polygons[p]
-        verts.update(poly.vertices)
-        for k in poly.edge_keys:
-            edges[k] = edges.get(k, 0) + 1
+        corners = [(mesh.loops[i].vertex_index, tuple(uv[i])) for i in poly.loop_indices]
+        verts.update(corners)
+        for k in range(len(corners)):
+            e = tuple(sorted((corners[k], corners[(k + 1) % len(corners)])))
+            edges[e] = edges.get(e, 0) + 1
     return len(verts) - len(edges) + len(chart), sum(1 for c in edges.values() if c == 1)
 
 
@@ -165,3 +170,34 @@ def test_menu_lists_it_next_to_unwrap():
     from dgmesh.blender import ui
     ids = [op[0] for op in ui.OPERATORS]
     assert ids.index("dgmesh.auto_unwrap") == ids.index("dgmesh.unwrap") + 1
+
+
+def test_open_tube_becomes_one_chart_with_one_rim_to_rim_seam():
+    # Known answer: an open cylinder of n x rows quads (developable) unwraps into one chart, cut
+    # along a single path of `rows` edges from the bottom rim to the top one, without stretch.
+    open_fixture("shapes")
+    n, rows, h = 16, 4, 2.0
+    t = 2 * np.pi * np.arange(n) / n
+    verts = [(np.cos(a), np.sin(a), h * k / rows) for k in range(rows + 1) for a in t]
+    quads = [(k * n + i, k * n + (i + 1) % n, (k + 1) * n + (i + 1) % n, (k + 1) * n + i)
+             for k in range(rows) for i in range(n)]
+    mesh = bpy.data.meshes.new("Tube")
+    mesh.from_pydata(verts, [], quads)
+    mesh.update()
+    obj = bpy.data.objects.new("Tube", mesh)
+    bpy.context.scene.collection.objects.link(obj)
+    select("Tube")
+    assert auto_unwrap() == {'FINISHED'}
+    charts = seam_charts(mesh, range(len(mesh.polygons)))
+    assert len(charts) == 1
+    assert euler(mesh, charts[0]) == (1, 2 * n + 2 * rows), "cut open: one disk, both rims and the cut's two sides"
+    s = np.flatnonzero(seams(mesh))
+    assert len(s) == rows
+    ev = np.array([mesh.edges[e].vertices[:] for e in s])
+    v, deg = np.unique(ev, return_counts=True)
+    assert sorted(deg.tolist()) == [1, 1] + [2] * (rows - 1)
+    z = sorted(mesh.vertices[int(i)].co.z for i in v[deg == 1])
+    assert abs(z[0]) < 1e-6 and abs(z[1] - h) < 1e-6
+    uv = layer_uv(mesh)
+    a = signed_uv_areas(uv, uv_triangles(mesh))
+    assert (a > 0).all() or (a < 0).all()

@@ -1,13 +1,15 @@
 """Operator dgmesh.auto_unwrap: one-click unwrap of closed or complex meshes (issue 29).
 
 The faces to unwrap (the selected, shown faces in Edit mode, all faces in Object mode) are cut into
-disk charts by dgmesh.auto_unwrap (dgmesh/charts.h: VSA segmentation, charts split until each is a
-disk and within the stretch bound, each unwrapped by the low-stretch method); a polygon is never cut
-(its triangles are one group). The UVs go into the active UV map (created if none) at the unwrapped
-faces' corners only, seams (edge.use_seam) are set on the edges between two charts and cleared on the
-other edges inside the unwrapped faces (edges on the selection's border keep theirs), then Blender's
-packer lays out the charts (as dgmesh.unwrap packs). Long runs show progress and Esc cancels
-(jobs.NativeJobOperator); nothing is written before the computation has finished.
+disk charts by dgmesh.auto_unwrap (dgmesh/charts.h: VSA segmentation, tubes cut open from rim to
+rim, other charts split until each is a disk, the worst chart split until the whole map is within
+the stretch target, neighbours merged while it holds; each unwrapped by the low-stretch method); a
+polygon is never cut (its triangles are one group). The UVs go into the active UV map (created if
+none) at the unwrapped faces' corners only, seams (edge.use_seam) are set on the cuts (between two
+charts or inside one) and cleared on the other edges inside the unwrapped faces (edges on the
+selection's border keep theirs), then Blender's packer lays out the charts (as dgmesh.unwrap
+packs). Long runs show progress and Esc cancels (jobs.NativeJobOperator); nothing is written
+before the computation has finished.
 """
 
 import bpy
@@ -37,15 +39,17 @@ def read_faces(obj, edit):
     tri_mask = mask[arrays.tri_poly]
     F = arrays.F[tri_mask]
     used, Fc = np.unique(F, return_inverse=True)
-    return dict(name=obj.name, counts=(len(mesh.loops), len(mesh.polygons)), mask=mask,
+    return dict(name=obj.name, counts=(len(mesh.loops), len(mesh.polygons)), mask=mask, used=used,
                 V=np.ascontiguousarray(arrays.V[used]), F=Fc.reshape(-1, 3).astype(np.int32),
                 groups=arrays.tri_poly[tri_mask].astype(np.int32), tri_loops=arrays.tri_loops[tri_mask],
                 loop_edge=le, poly_total=total, n_edges=len(mesh.edges))
 
 
-def seam_flags(it, chart):
+def seam_flags(it, chart, cuts, edge_verts):
     """(edges inside the unwrapped faces, their new use_seam): an edge all of whose corners belong to
-    unwrapped faces is a seam when those faces lie in different charts."""
+    unwrapped faces is a seam when those faces lie in different charts, or when it is one of the
+    cuts inside a chart (``cuts``: the result's seams, vertex pairs of it["V"]; ``edge_verts``: the
+    mesh's (edges, 2) vertices)."""
     mask, total, le = it["mask"], it["poly_total"], it["loop_edge"]
     poly_chart = np.full(len(mask), -1, np.int64)
     poly_chart[it["groups"]] = chart  # every triangle of a polygon is in the polygon's chart
@@ -59,7 +63,11 @@ def seam_flags(it, chart):
     hi = np.full(n, -1)
     np.minimum.at(lo, le[inner], loop_chart[inner])
     np.maximum.at(hi, le[inner], loop_chart[inner])
-    return inside, inside & (lo != hi)
+    n_verts = int(max(edge_verts.max(initial=0), it["used"].max(initial=0))) + 1
+    c = np.sort(it["used"][cuts.reshape(-1, 2)], axis=1).astype(np.int64)
+    e = np.sort(edge_verts, axis=1).astype(np.int64)
+    in_cuts = np.isin(e[:, 0] * n_verts + e[:, 1], c[:, 0] * n_verts + c[:, 1])
+    return inside, inside & ((lo != hi) | in_cuts)
 
 
 class DGMESH_OT_auto_unwrap(NativeJobOperator, bpy.types.Operator):
@@ -72,11 +80,14 @@ class DGMESH_OT_auto_unwrap(NativeJobOperator, bpy.types.Operator):
     bl_options = {'REGISTER', 'UNDO'}
 
     target: EnumProperty(name="Target", items=[
-        ('STRETCH', "Stretch", "Split charts until each one's L2 stretch is at most Max Stretch"),
+        ('STRETCH', "Stretch", "Split the worst chart until the whole map's L2 stretch is at most Target "
+                               "Stretch and no chart's is above Max Stretch, then merge charts within both"),
         ('CHARTS', "Chart Count", "Start from this many charts; split only charts that are not disks"),
     ], default='STRETCH')
+    target_stretch: FloatProperty(name="Target Stretch", default=DEFAULTS.target_stretch, min=1.001, max=10.0,
+                                  description="Largest L2 stretch of the whole map (1: no stretch)")
     max_stretch: FloatProperty(name="Max Stretch", default=DEFAULTS.max_stretch, min=1.001, max=10.0,
-                               description="Largest L2 stretch a chart may keep (1: no stretch)")
+                               description="Largest L2 stretch any one chart may keep (1: no stretch)")
     charts: IntProperty(name="Charts", default=8, min=1, max=100000,
                         description="Charts of the initial segmentation (more when needed for disks)")
     mark_seams: BoolProperty(name="Mark Seams", default=True,
@@ -93,7 +104,11 @@ class DGMESH_OT_auto_unwrap(NativeJobOperator, bpy.types.Operator):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(self, "target")
-        layout.prop(self, "max_stretch" if self.target == 'STRETCH' else "charts")
+        if self.target == 'STRETCH':
+            layout.prop(self, "target_stretch")
+            layout.prop(self, "max_stretch")
+        else:
+            layout.prop(self, "charts")
         layout.prop(self, "mark_seams")
         layout.prop(self, "pack")
         row = layout.row()
@@ -115,8 +130,8 @@ class DGMESH_OT_auto_unwrap(NativeJobOperator, bpy.types.Operator):
         if not items:
             self.report({'WARNING'}, "No faces to unwrap (select faces in Edit mode)" if edit else "No faces to unwrap")
             return None
-        opts = (dict(max_stretch=self.max_stretch) if self.target == 'STRETCH'
-                else dict(max_stretch=None, charts=self.charts))
+        opts = (dict(target_stretch=self.target_stretch, max_stretch=self.max_stretch) if self.target == 'STRETCH'
+                else dict(target_stretch=None, max_stretch=None, merge=False, charts=self.charts))
 
         def work(progress):
             for it, sub in item_shares(progress, items, lambda it: len(it["F"])):
@@ -148,7 +163,8 @@ class DGMESH_OT_auto_unwrap(NativeJobOperator, bpy.types.Operator):
                 full[it["tri_loops"].ravel()] = np.asarray(it["result"].uv)
                 layer.data.foreach_set("uv", full.ravel())
                 if self.mark_seams:
-                    inside, cut = seam_flags(it, np.asarray(it["result"].chart))
+                    inside, cut = seam_flags(it, np.asarray(it["result"].chart), np.asarray(it["result"].seams),
+                                             bridge.get_array(mesh.edges, "vertices", np.int32, 2))
                     seam = bridge.get_array(mesh.edges, "use_seam")
                     seam[inside] = cut[inside]
                     mesh.edges.foreach_set("use_seam", seam)
