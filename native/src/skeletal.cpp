@@ -362,6 +362,8 @@ struct SkeletalRig::Impl {
   // data saved without them), their one-ring CSR and the faces with a vertex not in dense_rigid.
   MatX3i dense_F;
   std::vector<int> dense_vv_offset, dense_vv_index, dense_faces;
+  // Triangle pairs that cross at rest (the untangling leaves them alone), control and dense.
+  std::vector<std::pair<int, int>> rest_pairs, dense_rest_pairs;
   MatX3d cot;           // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
   double mu = 0;        // frame regularisation weight (absolute)
@@ -513,6 +515,7 @@ void SkeletalRig::Impl::setup() {
       for (size_t k = 0; k < edges.size(); ++k)
         ++dense_vv_offset[edges[k].first + 1], dense_vv_index[k] = edges[k].second;
       for (int i = 0; i < nd; ++i) dense_vv_offset[i + 1] += dense_vv_offset[i];
+      dense_rest_pairs = self_intersecting_pairs(Xd, dense_F, &dense_faces);
     }
     dense_untangle_clearance = union_clearance(Xd, [&](int i, int j) {
       const int f = face[i];
@@ -1068,6 +1071,7 @@ void SkeletalRig::Impl::setup_clearance() {
   }
   surface_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_parent(W.row(i), j); });
   untangle_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_adjacent(W.row(i), j); });
+  rest_pairs = self_intersecting_pairs(control.V, control.F);
 }
 
 // Whether a point with bone weights w keeps its distance to bone j: j is one of its bones or the
@@ -1222,11 +1226,21 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
 // falling; an iteration that did not lower it is undone. Rest pose and rigid motions: no pair, no move.
 template <class Push, class Clear>
 void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
-                    const std::vector<int>* faces, int iterations, int rings, Push push, Clear clear) {
+                    const std::vector<int>* faces, const std::vector<std::pair<int, int>>& at_rest, int iterations,
+                    int rings, Push push, Clear clear) {
+  // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
+  const auto detect = [&] {
+    auto p = self_intersecting_pairs(X, F, faces);
+    if (!at_rest.empty())
+      p.erase(std::remove_if(p.begin(), p.end(),
+                             [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
+              p.end());
+    return p;
+  };
   constexpr int kUntangleSweeps = 3;
   constexpr double kUntangleWeight = 0.5;
   const int n = static_cast<int>(X.rows());
-  auto pairs = self_intersecting_pairs(X, F, faces);
+  auto pairs = detect();
   if (pairs.empty()) return;
   std::vector<int> stamp(n, -1), region, front, next;
   MatX3d before, Y;
@@ -1266,7 +1280,7 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
         if (clear(region[k], y)) X.row(region[k]) = y.transpose();
       }
     }
-    auto now = self_intersecting_pairs(X, F, faces);
+    auto now = detect();
     if (now.size() >= pairs.size()) {
       for (int k = 0; k < nr; ++k) X.row(region[k]) = before.row(k);
       break;
@@ -1277,13 +1291,14 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
 
 void SkeletalRig::Impl::untangle(MatX3d& X, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                                  const std::vector<char>& edited) const {
-  if (opt.untangle_iterations <= 0) return;
+  if (opt.untangle_iterations <= 0 || rest.size() < 2) return;  // one bone moves everything rigidly
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   const bool clamp = rest.size() >= 2 && untangle_clearance.rest.size() == X.rows();
   const double fraction = std::max(opt.bone_clearance, 0.9);
   untangle_folds(
-      X, control.F, control.topo.vv_offset, control.topo.vv_index, nullptr, opt.untangle_iterations, opt.untangle_rings,
+      X, control.F, control.topo.vv_offset, control.topo.vv_index, nullptr, rest_pairs, opt.untangle_iterations,
+      opt.untangle_rings,
       [&](int i, const Vec3& x) {
         return clamp && (edited.empty() || !edited[i]) ? untangle_clearance.push(i, x, fraction, h, v) : x;
       },
@@ -1298,7 +1313,7 @@ void SkeletalRig::Impl::untangle(MatX3d& X, const std::vector<Mat4>& pose, const
 template <class Out>
 void SkeletalRig::Impl::untangle_dense(Out& out, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                                        const std::vector<char>& edited) const {
-  if (opt.untangle_iterations <= 0 || dense_F.rows() == 0 || dense_faces.empty()) return;
+  if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   const int n = static_cast<int>(out.rows());
@@ -1308,7 +1323,8 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const std::vector<Mat4>& pose, 
   const VecXi& face = multires->base_face();
   const MatX3i& Fc = control.F;
   untangle_folds(
-      X, dense_F, dense_vv_offset, dense_vv_index, &dense_faces, opt.untangle_iterations, opt.untangle_rings,
+      X, dense_F, dense_vv_offset, dense_vv_index, &dense_faces, dense_rest_pairs, opt.untangle_iterations,
+      opt.untangle_rings,
       [&](int i, const Vec3& x) {
         const int f = face[i];
         const bool on_edit = !edited.empty() && (edited[Fc(f, 0)] || edited[Fc(f, 1)] || edited[Fc(f, 2)]);
