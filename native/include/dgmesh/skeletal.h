@@ -156,12 +156,15 @@ struct SkeletalDeformOptions {
   // self-intersecting triangle pairs (self_intersection.h), smooths their vertices and
   // untangle_rings rings around them (three Jacobi steps of the uniform umbrella operator, weight
   // 1/2) and pushes them back out to at least max(0.9, bone_clearance) of their rest distance to
-  // their bones; it stops when the count stops falling (an iteration that does not lower it is
-  // undone). Applied last, to the control mesh and, through the multiresolution layer, to the dense
-  // one (its faces near the moving joints; not for data saved without the dense faces). See
-  // bench/notes/skeletal.md.
+  // the bones they follow, their parents and their children (a vertex the push cannot clear keeps
+  // its position). An iteration that does not lower the count is undone and the next takes one ring
+  // more (at most 3 more). Pairs that cross at rest are left alone. Applied last, to the control
+  // mesh and, through the multiresolution layer, to the dense one (its faces with a vertex not moved
+  // rigidly by one bone; not for data saved without the dense faces). Off by default: each
+  // iteration costs a self-intersection search (see bench/notes/skeletal.md for what it measured).
+  // rings 4: capsule of bench skeletal_limb bent 90 degrees, 5 pairs left (2 rings: 49; DQS 46).
   int untangle_iterations = 0;
-  int untangle_rings = 2;
+  int untangle_rings = 4;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
 };
