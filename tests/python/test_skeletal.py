@@ -693,7 +693,7 @@ def test_untangle_removes_the_crease_folds_of_a_90_degree_bend(rig, mesh):
 def test_untangle_through_the_multiresolution_layer():
     # The dense faces are kept from bind (and saved): the dense mesh is untangled too. Debian 12,
     # 48 x 8 x 96 capsule through a 1500-face control mesh, 90 degrees: default 111 pairs, untangled 0,
-    # min bone ratio 0.957; data saved without the dense faces (older saves) untangle the control mesh
+    # min bone ratio 0.954; data saved without the dense faces (older saves) untangle the control mesh
     # only (19).
     V, F = capsule(0.5, 6.0, 48, 8, 96)
     rig = dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS, control_faces=1500)
