@@ -206,8 +206,10 @@ class SkeletalRig:
         term of eq. 6.15 where the surface folds: each iteration finds the self-intersecting triangle
         pairs of the control mesh, smooths their vertices and ``untangle_rings`` rings around them
         (umbrella steps) and pushes them back out to at least max(0.9, ``bone_clearance``) of their
-        rest distance to their bones; it stops when the count stops falling. See
-        bench/notes/skeletal.md for what it measured.
+        rest distance to their bones (and their parents and children); an iteration that does not
+        lower the count is undone and the next takes one ring more. Pairs that cross at rest are
+        left alone. Through the multiresolution layer the dense mesh too. Off by default (each
+        iteration is a self-intersection search); see bench/notes/skeletal.md for what it measured.
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
