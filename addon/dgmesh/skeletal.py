@@ -33,6 +33,7 @@ __all__ = [
     "SkeletonOptions",
     "skeletal_mesh",
     "union_of_balls_distance",
+    "self_intersecting_pairs",
     "gaussian_bone_weights",
     "skeletal_subspace_deform",
     "delaunay_3d",
@@ -165,6 +166,8 @@ class SkeletalRig:
                projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
                bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
+               untangle_iterations: int = _DEFORM.untangle_iterations,
+               untangle_rings: int = _DEFORM.untangle_rings,
                skeleton: npt.ArrayLike | None = None) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
@@ -199,6 +202,14 @@ class SkeletalRig:
         rigid motions or twists). It removes the limb-against-limb self-intersections of a bent
         joint, not the folds of the thickness steps inside each limb; off by default (it adds pairs
         on the armadillo's knee; 3 is the measured setting, see bench/notes/skeletal.md).
+        ``untangle_iterations`` (variational method, fairing on; 0 = off): the thesis's smoothing
+        term of eq. 6.15 where the surface folds: each iteration finds the self-intersecting triangle
+        pairs of the control mesh, smooths their vertices and ``untangle_rings`` rings around them
+        (umbrella steps) and pushes them back out to at least max(0.9, ``bone_clearance``) of their
+        rest distance to their bones (and their parents and children); an iteration that does not
+        lower the count is undone and the next takes one ring more. Pairs that cross at rest are
+        left alone. Through the multiresolution layer the dense mesh too. Off by default (each
+        iteration is a self-intersection search); see bench/notes/skeletal.md for what it measured.
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
@@ -208,7 +219,8 @@ class SkeletalRig:
         Defaults: ``SkeletalDeformOptions()``.
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, bone_clearance, contact_slide)
+                                 dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
+                                 untangle_rings)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
@@ -248,10 +260,13 @@ class SkeletalRig:
                        homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
                        bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
+                       untangle_iterations: int = _DEFORM.untangle_iterations,
+                       untangle_rings: int = _DEFORM.untangle_rings,
                        skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, bone_clearance, contact_slide)
+                                 dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
+                                 untangle_rings)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
@@ -260,13 +275,15 @@ class SkeletalRig:
 
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                        dual_quaternion, bone_clearance, contact_slide):
+                        dual_quaternion, bone_clearance, contact_slide, untangle_iterations, untangle_rings):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
                             fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=projection,
                             dual_quaternion=dual_quaternion, bone_clearance=bone_clearance,
-                            contact_slide=contact_slide)
+                            contact_slide=contact_slide,
+                            untangle_iterations=as_count(untangle_iterations, "untangle_iterations"),
+                            untangle_rings=as_count(untangle_rings, "untangle_rings"))
 
     # --- bind data ---------------------------------------------------------------------------
     def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:
@@ -295,7 +312,7 @@ class SkeletalRig:
                 if v.size != 1:
                     raise MeshError(f"bind data {k!r} must be a single value, got shape {v.shape}")
                 d[k] = kind(v.reshape(-1)[0], f"bind data {k!r}")
-        for k in ("control_F", "mr_control_F", "mr_face"):
+        for k in ("control_F", "mr_control_F", "mr_face", "mr_dense_F"):
             if k in d:
                 d[k] = np.ascontiguousarray(d[k], dtype=np.int32)
         return cls(_native.SkeletalRig.from_data(d))
@@ -348,6 +365,15 @@ def union_of_balls_distance(X: npt.ArrayLike, centers: npt.ArrayLike, radii: npt
     """Signed distance of points to the union of balls (eq. 6.13): min_j |x - c_j| - r_j."""
     return _native.union_of_balls_distance(as_vertices(X), as_vertices(centers, "centers"),
                                            np.ascontiguousarray(radii, dtype=np.float64))
+
+
+def self_intersecting_pairs(V: npt.ArrayLike, F: npt.ArrayLike) -> np.ndarray:
+    """Self-intersecting triangle pairs (k, 2), sorted, i < j: faces sharing no vertex where an
+    edge of one crosses the other's interior (native, through a uniform grid)."""
+    V = as_vertices(V)
+    if not np.isfinite(V).all():
+        raise MeshError("V has non-finite coordinates")
+    return _native.self_intersecting_pairs(V, as_faces(F, n=len(V)))
 
 
 def gaussian_bone_weights(P: npt.ArrayLike, heads: npt.ArrayLike, tails: npt.ArrayLike, sigma: float) -> np.ndarray:

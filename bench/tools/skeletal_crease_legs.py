@@ -1,11 +1,12 @@
-"""Issue 33's crease pairs on the bench skeletal_limb legs, with and without the joint contact:
+"""Issue 33's crease pairs on the bench skeletal_limb legs, with and without the untangling
+(untangle_iterations=20; --slide adds the joint contact, contact_slide=3):
 Blender's automatic weights and Armature modifier (LBS, DQS) through bench/workloads/_skeletal_limb.py,
 ours on the whole mesh and through the multiresolution layer (5000-face control mesh), bends of
 45 / 90 / 135 degrees and a 180-degree twist of the lower bone; pairs over the whole mesh
 (bench/tools/skeletal_crease_probe.py's counter) and the minimum ratio of the distance to the bones
 over the vertices with weight on the moving bone.
 
-    /usr/bin/python3 bench/tools/skeletal_crease_legs.py camel|armadillo
+    /usr/bin/python3 bench/tools/skeletal_crease_legs.py camel|armadillo [--slide]
 """
 import sys, pathlib, tempfile, time
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -38,8 +39,11 @@ print("rest pairs", len(self_intersecting_pairs(V, F)[0]))
 for p, pname in enumerate(poses):
     pose = res[f"pose{p}"]
     out = {"LBS (Blender)": res[f"lbs{p}"], "DQS (Blender)": res[f"dqs{p}"],
-           "ours slide 0": rig.deform(pose, contact_slide=0), "ours slide 3": rig.deform(pose, contact_slide=3),
-           "multires slide 0": rig_mr.deform(pose, contact_slide=0), "multires slide 3": rig_mr.deform(pose, contact_slide=3)}
+           "ours": rig.deform(pose), "ours untangle 20": rig.deform(pose, untangle_iterations=20),
+           "multires": rig_mr.deform(pose), "multires untangle 20": rig_mr.deform(pose, untangle_iterations=20)}
+    if "--slide" in sys.argv:  # the joint contact's columns of bench/notes/skeletal.md
+        out.update({"ours slide 3": rig.deform(pose, contact_slide=3),
+                    "multires slide 3": rig_mr.deform(pose, contact_slide=3)})
     for k, X in out.items():
         r = (bone_distance(X, rest, pose, heads, tails) / np.maximum(b0, 1e-300))[aff]
         print(model, pname, "%-18s pairs %5d  min bone ratio %.3f" % (k, len(self_intersecting_pairs(X, F)[0]), r.min()), flush=True)

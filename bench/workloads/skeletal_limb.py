@@ -170,9 +170,11 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                    "ours (2 fairing steps + projection)": rig.deform(pose),
                    "ours without the surface bone clearance (bone_clearance=0)": rig.deform(pose, bone_clearance=0),
                    CONTACT: rig.deform(pose, contact_slide=3),
+                   UNTANGLE: rig.deform(pose, untangle_iterations=20),
                    LINEAR: rig.deform(pose, dual_quaternion=False)}
         if rig_mr is not None:
             results[MULTIRES] = rig_mr.deform(pose)
+            results[MULTIRES_UNTANGLE] = rig_mr.deform(pose, untangle_iterations=20)
         panels = []
         overlap_in[pname] = results
         for mname, X in results.items():
@@ -259,6 +261,8 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
 LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
 CONTACT = "ours with the joint contact (contact_slide=3; issue 33, off by default)"
 MULTIRES = "ours via multires (5000-face control)"
+UNTANGLE = "ours with the untangling (untangle_iterations=20; issue 33, off by default)"
+MULTIRES_UNTANGLE = "ours via multires with the untangling (untangle_iterations=20)"
 PANELS = ("Blender Armature, linear blend", "Blender Armature, Preserve Volume (DQS)", "ours (2 fairing steps + projection)")
 
 ARMADILLO_BONES = (  # the right leg (x > 0): hip (inside the body), thigh, shin

@@ -2,6 +2,7 @@
 #include "common.h"
 #include "dgmesh/delaunay.h"
 #include "dgmesh/errors.h"
+#include "dgmesh/self_intersection.h"
 #include "dgmesh/skeletal.h"
 #include "dgmesh/validate.h"
 
@@ -120,6 +121,10 @@ void bind_skeletal(pb::module_& m) {
       .field("contact_slide", &SkeletalDeformOptions::contact_slide,
              "joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa "
              "times its crossing depth (>= 1; 0: off)")
+      .field("untangle_iterations", &SkeletalDeformOptions::untangle_iterations,
+             "untangling: iterations of the local smoothing of the self-intersecting triangles' vertices (0: off)")
+      .field("untangle_rings", &SkeletalDeformOptions::untangle_rings,
+             "untangling: rings around the crossing triangles' vertices smoothed with them")
       .field("homotopy_steps", &SkeletalDeformOptions::homotopy_steps, "L of eq. 6.3 (basic)")
       .field("fold_iterations", &SkeletalDeformOptions::fold_iterations, "steps of eq. 6.5 (basic)");
 
@@ -134,6 +139,16 @@ void bind_skeletal(pb::module_& m) {
     NativeScope nogil;
     if (!X.allFinite() || !C.allFinite() || !r.allFinite()) throw MeshError("union of balls: inputs must be finite");
     return union_of_balls_distance(X, C, r);
+  });
+  m.def("self_intersecting_pairs", [](InV V, InF F) {
+    if (!V.allFinite()) throw MeshError("self_intersecting_pairs: V must be finite");
+    if (F.size() && (F.minCoeff() < 0 || F.maxCoeff() >= V.rows()))
+      throw MeshError("self_intersecting_pairs: F has a vertex index out of range");
+    NativeScope nogil;
+    const auto pairs = self_intersecting_pairs(V, F);
+    MatX2i out(static_cast<Eigen::Index>(pairs.size()), 2);
+    for (size_t k = 0; k < pairs.size(); ++k) out(k, 0) = pairs[k].first, out(k, 1) = pairs[k].second;
+    return out;
   });
   m.def("gaussian_bone_weights", [](InV P, InV heads, InV tails, double sigma) {
     NativeScope nogil;
@@ -235,6 +250,7 @@ void bind_skeletal(pb::module_& m) {
                o["mr_face"] = d.multires.face;
                o["mr_st"] = d.multires.st;
                o["mr_disp"] = d.multires.disp;
+               o["mr_dense_F"] = d.dense_F;
              }
              return o;
            })
@@ -254,6 +270,7 @@ void bind_skeletal(pb::module_& m) {
           d.multires.face = get<VecXi>(o, "mr_face");
           d.multires.st = get<MatX2d>(o, "mr_st");
           d.multires.disp = get<MatX3d>(o, "mr_disp");
+          if (o.contains("mr_dense_F")) d.dense_F = get<MatX3i>(o, "mr_dense_F");  // absent in older data
         }
         NativeScope nogil;
         return SkeletalRig::from_data(d);

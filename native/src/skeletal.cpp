@@ -14,6 +14,7 @@
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/parallel.h"
+#include "dgmesh/self_intersection.h"
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/spatial_index.h"
 #include "dgmesh/validate.h"
@@ -130,6 +131,16 @@ struct BoneClearance {
       if (!moved) break;
     }
     return p;
+  }
+  // Whether p is at least fraction * rest[i] (less a rounding tolerance) from the union of its
+  // posed segments.
+  bool clear(int i, const Vec3& p, double fraction, const std::vector<Vec3>& h, const std::vector<Vec3>& v) const {
+    const double e = fraction * rest[i];
+    if (!(e > 0)) return true;
+    double d2 = std::numeric_limits<double>::infinity();
+    for (int k = offset[i]; k < offset[i + 1]; ++k)
+      d2 = std::min(d2, segment_sq_dist(p, h[bones[k]], h[bones[k]] + v[bones[k]]));
+    return d2 >= e * e * (1 - 1e-9);
   }
 };
 
@@ -340,10 +351,19 @@ struct SkeletalRig::Impl {
   // Surface bone clearance (see clear_surface) of the control vertices and, through the
   // multiresolution layer, of the dense ones (see project_dense).
   BoneClearance surface_clearance, dense_clearance;
+  // The untangling's clearance (see untangle): against the bones of surface_clearance and their
+  // children as well (a smoothed crease vertex must not sink onto the other limb's bone either).
+  BoneClearance untangle_clearance, dense_untangle_clearance;
   // Joint contact (see contact_slide): the dense rest positions through the multiresolution layer,
   // and the contact plane's margin (a hundredth of the median medial radius).
   MatX3d dense_rest;
   double contact_margin = 0;
+  // Untangling through the multiresolution layer (see untangle_dense): the dense faces (empty for
+  // data saved without them), their one-ring CSR and the faces with a vertex not in dense_rigid.
+  MatX3i dense_F;
+  std::vector<int> dense_vv_offset, dense_vv_index, dense_faces;
+  // Triangle pairs that cross at rest (the untangling leaves them alone), control and dense.
+  std::vector<std::pair<int, int>> rest_pairs, dense_rest_pairs;
   MatX3d cot;           // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
   double mu = 0;        // frame regularisation weight (absolute)
@@ -364,6 +384,12 @@ struct SkeletalRig::Impl {
   template <class Out, class Weight>
   void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight) const;
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
+  bool follows_or_adjacent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
+  void untangle(MatX3d& X, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                const std::vector<char>& edited) const;
+  template <class Out>
+  void untangle_dense(Out& out, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                      const std::vector<char>& edited) const;
   MatX3d solve(const MatX3d& b) const {
     Eigen::MatrixXd B = b;
     Eigen::MatrixXd X = solver.solve(B);
@@ -468,6 +494,34 @@ void SkeletalRig::Impl::setup() {
     // follows the bones those three have weight on, and their parents (adding the rings' bones
     // changed no minimum ratio of bench skeletal_limb). Vertices that move rigidly with one bone (dense_rigid) are
     // skipped by project_dense, as by its thickness step.
+    if (dense_F.rows() > 0) {
+      const int nd = static_cast<int>(Xd.rows());
+      std::vector<std::pair<int, int>> edges;
+      edges.reserve(static_cast<size_t>(dense_F.rows()) * 6);
+      dense_faces.clear();
+      for (Eigen::Index f = 0; f < dense_F.rows(); ++f) {
+        bool rigid = true;
+        for (int k = 0; k < 3; ++k) {
+          const int a = dense_F(f, k), b = dense_F(f, (k + 1) % 3);
+          edges.emplace_back(a, b), edges.emplace_back(b, a);
+          rigid = rigid && dense_rigid[a];
+        }
+        if (!rigid) dense_faces.push_back(static_cast<int>(f));
+      }
+      std::sort(edges.begin(), edges.end());
+      edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+      dense_vv_offset.assign(nd + 1, 0);
+      dense_vv_index.resize(edges.size());
+      for (size_t k = 0; k < edges.size(); ++k)
+        ++dense_vv_offset[edges[k].first + 1], dense_vv_index[k] = edges[k].second;
+      for (int i = 0; i < nd; ++i) dense_vv_offset[i + 1] += dense_vv_offset[i];
+      dense_rest_pairs = self_intersecting_pairs(Xd, dense_F, &dense_faces);
+    }
+    dense_untangle_clearance = union_clearance(Xd, [&](int i, int j) {
+      const int f = face[i];
+      return follows_or_adjacent(W.row(F(f, 0)), j) || follows_or_adjacent(W.row(F(f, 1)), j) ||
+             follows_or_adjacent(W.row(F(f, 2)), j);
+    });
     dense_clearance = union_clearance(Xd, [&](int i, int j) {
       const int f = face[i];
       return follows_or_parent(W.row(F(f, 0)), j) || follows_or_parent(W.row(F(f, 1)), j) ||
@@ -877,6 +931,7 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
       prog(0.6 * f);
       return true;
     });
+    impl->dense_F = F;
     impl->control =
         make_mesh(impl->multires->control_vertices(), impl->multires->control_faces(), kSurface | kNoLooseVertices);
   } else {
@@ -943,6 +998,11 @@ SkeletalRig SkeletalRig::from_data(const SkeletalRigData& d) {
   if (d.has_multires) {
     impl->multires = Multires::from_data(d.multires);
     if (impl->multires->n_control() != nc) throw MeshError("skeletal data: multires control mesh does not match");
+    if (d.dense_F.rows() > 0) {
+      if (d.dense_F.minCoeff() < 0 || d.dense_F.maxCoeff() >= impl->multires->n_dense())
+        throw MeshError("skeletal data: dense faces index vertices out of range");
+      impl->dense_F = d.dense_F;
+    }
   }
   impl->setup();
   return SkeletalRig(impl);
@@ -957,6 +1017,7 @@ SkeletalRigData SkeletalRig::data() const {
   d.bones_rest = impl_->rest;
   d.has_multires = impl_->multires.has_value();
   if (d.has_multires) d.multires = impl_->multires->data();
+  d.dense_F = impl_->dense_F;
   d.frame_regularization = impl_->frame_regularization;
   return d;
 }
@@ -1009,6 +1070,8 @@ void SkeletalRig::Impl::setup_clearance() {
     if (parent >= 0) children[parent].push_back(k);
   }
   surface_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_parent(W.row(i), j); });
+  untangle_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_adjacent(W.row(i), j); });
+  rest_pairs = self_intersecting_pairs(control.V, control.F);
 }
 
 // Whether a point with bone weights w keeps its distance to bone j: j is one of its bones or the
@@ -1022,6 +1085,16 @@ bool SkeletalRig::Impl::follows_or_parent(const Eigen::Ref<const Eigen::RowVecto
   if (w[j] > 1e-3) return true;
   for (int k : children[j])
     if (w[k] > 1e-3) return true;
+  return false;
+}
+
+// follows_or_parent, or j is a child of one of the bones w has weight on (the untangling's clearance).
+bool SkeletalRig::Impl::follows_or_adjacent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const {
+  if (follows_or_parent(w, j)) return true;
+  for (size_t p = 0; p < children.size(); ++p)
+    if (w[static_cast<Eigen::Index>(p)] > 1e-3)
+      for (int k : children[p])
+        if (k == j) return true;
   return false;
 }
 
@@ -1142,6 +1215,135 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
     }
 }
 
+// Untangling (SkeletalDeformOptions::untangle_iterations, issue 33): the thesis's remedy for folds,
+// a smoothing term in the flow eq. 6.15, applied only where the surface crosses itself. Each
+// iteration finds the self-intersecting triangle pairs among `faces` (self_intersection.h), takes
+// their vertices and `rings` rings around them (vv: the mesh's one-ring CSR), moves each by
+// kUntangleSweeps Jacobi steps of the uniform umbrella operator (weight 1/2; tangential and normal,
+// which in a concave crease lifts the fold out of it); after each, `push` moves it back out to the
+// surface bone clearance, and a vertex still short of it (`clear`; deep in a tight bend's corner
+// the push away from one bone moves it towards the other) keeps its position. An iteration that
+// does not lower the count is undone and the next one takes one ring more (up to kUntangleWiden
+// more: a wider region untangles a fold a narrow one cannot; capsule of bench skeletal_limb, 90
+// degrees: 49 pairs left with 2 rings, 5 with 4); every iteration counts towards `iterations`.
+// Rest pose and rigid motions: no pair, no move.
+template <class Push, class Clear>
+void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
+                    const std::vector<int>* faces, const std::vector<std::pair<int, int>>& at_rest, int iterations,
+                    int rings, Push push, Clear clear) {
+  // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
+  const auto detect = [&] {
+    auto p = self_intersecting_pairs(X, F, faces);
+    if (!at_rest.empty())
+      p.erase(std::remove_if(p.begin(), p.end(),
+                             [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
+              p.end());
+    return p;
+  };
+  constexpr int kUntangleSweeps = 3;
+  constexpr double kUntangleWeight = 0.5;
+  constexpr int kUntangleWiden = 3;
+  int widen = 0;  // extra rings after an iteration that did not lower the count
+  const int n = static_cast<int>(X.rows());
+  auto pairs = detect();
+  if (pairs.empty()) return;
+  std::vector<int> stamp(n, -1), region, front, next;
+  MatX3d before, Y;
+  for (int it = 0; it < iterations && !pairs.empty(); ++it) {
+    front.clear();
+    for (const auto& [a, b] : pairs)
+      for (int f : {a, b})
+        for (int c = 0; c < 3; ++c)
+          if (stamp[F(f, c)] != it) stamp[F(f, c)] = it, front.push_back(F(f, c));
+    region = front;
+    for (int r = 0; r < rings + widen; ++r) {
+      next.clear();
+      for (int i : front)
+        for (int k = vv_offset[i]; k < vv_offset[i + 1]; ++k) {
+          const int j = vv_index[k];
+          if (stamp[j] != it) stamp[j] = it, next.push_back(j);
+        }
+      region.insert(region.end(), next.begin(), next.end());
+      front.swap(next);
+    }
+    const int nr = static_cast<int>(region.size());
+    before.resize(nr, 3);
+    Y.resize(nr, 3);
+    for (int k = 0; k < nr; ++k) before.row(k) = X.row(region[k]);
+    for (int sweep = 0; sweep < kUntangleSweeps; ++sweep) {
+      for (int k = 0; k < nr; ++k) {
+        const int i = region[k], k0 = vv_offset[i], k1 = vv_offset[i + 1];
+        Y.row(k) = X.row(i);
+        if (k1 == k0) continue;
+        Vec3 avg = Vec3::Zero();
+        for (int q = k0; q < k1; ++q) avg += row3(X, vv_index[q]);
+        avg /= double(k1 - k0);
+        Y.row(k) += kUntangleWeight * (avg.transpose() - X.row(i));
+      }
+      for (int k = 0; k < nr; ++k) {
+        const Vec3 y = push(region[k], Vec3(Y.row(k).transpose()));
+        if (clear(region[k], y)) X.row(region[k]) = y.transpose();
+      }
+    }
+    auto now = detect();
+    if (now.size() >= pairs.size()) {
+      for (int k = 0; k < nr; ++k) X.row(region[k]) = before.row(k);
+      if (++widen > kUntangleWiden) break;
+      continue;
+    }
+    pairs.swap(now);
+  }
+}
+
+void SkeletalRig::Impl::untangle(MatX3d& X, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                 const std::vector<char>& edited) const {
+  if (opt.untangle_iterations <= 0 || rest.size() < 2) return;  // one bone moves everything rigidly
+  std::vector<Vec3> h, v;
+  posed_segments(pose, h, v);
+  const bool clamp = rest.size() >= 2 && untangle_clearance.rest.size() == X.rows();
+  const double fraction = std::max(opt.bone_clearance, 0.9);
+  untangle_folds(
+      X, control.F, control.topo.vv_offset, control.topo.vv_index, nullptr, rest_pairs, opt.untangle_iterations,
+      opt.untangle_rings,
+      [&](int i, const Vec3& x) {
+        return clamp && (edited.empty() || !edited[i]) ? untangle_clearance.push(i, x, fraction, h, v) : x;
+      },
+      [&](int i, const Vec3& x) {
+        return !clamp || (!edited.empty() && edited[i]) || untangle_clearance.clear(i, x, fraction, h, v);
+      });
+}
+
+// The same on the dense mesh through the multiresolution layer (its faces from bind, see
+// SkeletalRigData::dense_F), over the faces with a vertex that does not move rigidly with one bone,
+// against the dense vertices' bone clearance.
+template <class Out>
+void SkeletalRig::Impl::untangle_dense(Out& out, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                       const std::vector<char>& edited) const {
+  if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return;
+  std::vector<Vec3> h, v;
+  posed_segments(pose, h, v);
+  const int n = static_cast<int>(out.rows());
+  const bool clamp = rest.size() >= 2 && dense_untangle_clearance.rest.size() == n;
+  const double fraction = std::max(opt.bone_clearance, 0.9);
+  MatX3d X = out.template cast<double>();
+  const VecXi& face = multires->base_face();
+  const MatX3i& Fc = control.F;
+  untangle_folds(
+      X, dense_F, dense_vv_offset, dense_vv_index, &dense_faces, dense_rest_pairs, opt.untangle_iterations,
+      opt.untangle_rings,
+      [&](int i, const Vec3& x) {
+        const int f = face[i];
+        const bool on_edit = !edited.empty() && (edited[Fc(f, 0)] || edited[Fc(f, 1)] || edited[Fc(f, 2)]);
+        return clamp && !on_edit ? dense_untangle_clearance.push(i, x, fraction, h, v) : x;
+      },
+      [&](int i, const Vec3& x) {
+        const int f = face[i];
+        const bool on_edit = !edited.empty() && (edited[Fc(f, 0)] || edited[Fc(f, 1)] || edited[Fc(f, 2)]);
+        return !clamp || on_edit || dense_untangle_clearance.clear(i, x, fraction, h, v);
+      });
+  out = X.template cast<typename Out::Scalar>();
+}
+
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
   MatX3d Sd =
       skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
@@ -1163,6 +1365,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     throw MeshError("skeletal deform: fairing_step, projection and bone_clearance must be finite");
   if (!(opt.contact_slide == 0 || opt.contact_slide >= 1))
     throw MeshError("skeletal deform: contact_slide must be 0 (off) or at least 1");
+  if (opt.untangle_iterations < 0 || opt.untangle_rings < 0)
+    throw MeshError("skeletal deform: untangle_iterations and untangle_rings must be >= 0");
   const int n = static_cast<int>(S.rows());
   if (skeleton && (skeleton->rows() != n || !skeleton->allFinite()))
     throw MeshError("skeletal deform: the edited skeleton needs " + std::to_string(n) +
@@ -1192,6 +1396,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);
     contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
+    untangle(X, pose, opt, edited);
   }
   return X;
 }
@@ -1233,6 +1438,7 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
         const int f = face[i];
         return (impl.W(F(f, 0), j) + impl.W(F(f, 1), j) + impl.W(F(f, 2), j)) / 3;
       });
+      impl.untangle_dense(out, pose, opt, edited);
     }
   } else {
     out = Xc.template cast<typename Out::Scalar>();

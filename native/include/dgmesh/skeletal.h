@@ -151,6 +151,20 @@ struct SkeletalDeformOptions {
   // (none left limb against limb) and lowers the camel knee's at 135 degrees, but adds pairs on the
   // armadillo's knee (see bench/notes/skeletal.md); 3 is the measured setting.
   double contact_slide = 0.0;
+  // Untangling (variational method, fairing_steps > 0; issue 33), iterations, 0 = off: the
+  // thesis's smoothing term of eq. 6.15 applied where the surface folds. Each iteration finds the
+  // self-intersecting triangle pairs (self_intersection.h), smooths their vertices and
+  // untangle_rings rings around them (three Jacobi steps of the uniform umbrella operator, weight
+  // 1/2) and pushes them back out to at least max(0.9, bone_clearance) of their rest distance to
+  // the bones they follow, their parents and their children (a vertex the push cannot clear keeps
+  // its position). An iteration that does not lower the count is undone and the next takes one ring
+  // more (at most 3 more). Pairs that cross at rest are left alone. Applied last, to the control
+  // mesh and, through the multiresolution layer, to the dense one (its faces with a vertex not moved
+  // rigidly by one bone; not for data saved without the dense faces). Off by default: each
+  // iteration costs a self-intersection search (see bench/notes/skeletal.md for what it measured).
+  // rings 4: capsule of bench skeletal_limb bent 90 degrees, 5 pairs left (2 rings: 49; DQS 46).
+  int untangle_iterations = 0;
+  int untangle_rings = 4;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
 };
@@ -164,6 +178,7 @@ struct SkeletalRigData {
   std::vector<Mat4> bones_rest;
   bool has_multires = false;
   MultiresData multires;
+  MatX3i dense_F;  // the dense mesh's faces (untangling through the layer); may be empty
   double frame_regularization = 0.05;
 };
 

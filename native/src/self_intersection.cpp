@@ -1,0 +1,106 @@
+// Self-intersecting triangle pairs through a uniform grid (see self_intersection.h).
+#include "dgmesh/self_intersection.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <numeric>
+
+namespace dgmesh {
+
+namespace {
+
+double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) { return (b - a).dot((c - a).cross(d - a)); }
+
+// Whether the segment pq crosses the interior of the triangle abc (strictly).
+bool edge_crosses(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+  const double s1 = orient(p, a, b, c), s2 = orient(q, a, b, c);
+  if (!(s1 * s2 < 0)) return false;
+  const double u = orient(p, q, a, b), v = orient(p, q, b, c), w = orient(p, q, c, a);
+  return (u > 0 && v > 0 && w > 0) || (u < 0 && v < 0 && w < 0);
+}
+
+bool triangles_cross(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t) {
+  for (int k = 0; k < 3; ++k)
+    if (edge_crosses(s[k], s[(k + 1) % 3], t[0], t[1], t[2]) || edge_crosses(t[k], t[(k + 1) % 3], s[0], s[1], s[2]))
+      return true;
+  return false;
+}
+
+}  // namespace
+
+std::vector<std::pair<int, int>> self_intersecting_pairs(const MatX3d& V, const MatX3i& F,
+                                                         const std::vector<int>* faces) {
+  std::vector<int> all;
+  if (!faces) {
+    all.resize(F.rows());
+    std::iota(all.begin(), all.end(), 0);
+    faces = &all;
+  }
+  const int m = static_cast<int>(faces->size());
+  std::vector<std::pair<int, int>> pairs;
+  if (m < 2) return pairs;
+  // Boxes, and the grid's cell: the mean box extent (each box covers a few cells).
+  std::vector<Vec3> lo(m), hi(m);
+  double ext = 0;
+  Vec3 origin = Vec3::Constant(std::numeric_limits<double>::infinity());
+  for (int k = 0; k < m; ++k) {
+    const int f = (*faces)[k];
+    lo[k] = hi[k] = V.row(F(f, 0)).transpose();
+    for (int c = 1; c < 3; ++c) {
+      lo[k] = lo[k].cwiseMin(V.row(F(f, c)).transpose());
+      hi[k] = hi[k].cwiseMax(V.row(F(f, c)).transpose());
+    }
+    ext += (hi[k] - lo[k]).maxCoeff();
+    origin = origin.cwiseMin(lo[k]);
+  }
+  const double cell = std::max(ext / m, 1e-12);
+  if (!origin.allFinite()) return pairs;
+  // Cell ranges per face (coordinates clamped to 21 bits), and (cell key, face) entries sorted.
+  std::vector<std::array<int, 6>> range(m);
+  std::vector<std::pair<uint64_t, int>> entries;
+  entries.reserve(static_cast<size_t>(m) * 4);
+  const auto coord = [&](double x, double o) {
+    return static_cast<int>(std::clamp(std::floor((x - o) / cell), 0.0, double((1 << 21) - 1)));
+  };
+  for (int k = 0; k < m; ++k) {
+    auto& r = range[k];
+    for (int d = 0; d < 3; ++d) r[d] = coord(lo[k][d], origin[d]), r[d + 3] = coord(hi[k][d], origin[d]);
+    for (int x = r[0]; x <= r[3]; ++x)
+      for (int y = r[1]; y <= r[4]; ++y)
+        for (int z = r[2]; z <= r[5]; ++z)
+          entries.emplace_back((uint64_t(x) << 42) | (uint64_t(y) << 21) | uint64_t(z), k);
+  }
+  std::sort(entries.begin(), entries.end());
+  for (size_t a = 0; a < entries.size();) {
+    size_t b = a;
+    while (b < entries.size() && entries[b].first == entries[a].first) ++b;
+    const uint64_t key = entries[a].first;
+    const int cx = int(key >> 42), cy = int((key >> 21) & 0x1FFFFF), cz = int(key & 0x1FFFFF);
+    for (size_t i = a; i < b; ++i)
+      for (size_t j = i + 1; j < b; ++j) {
+        const int p = entries[i].second, q = entries[j].second;
+        // Each pair once: in the first cell of the overlap of its two cell ranges.
+        const auto &rp = range[p], &rq = range[q];
+        if (cx != std::max(rp[0], rq[0]) || cy != std::max(rp[1], rq[1]) || cz != std::max(rp[2], rq[2])) continue;
+        if ((lo[p].array() > hi[q].array()).any() || (lo[q].array() > hi[p].array()).any()) continue;
+        const int fp = (*faces)[p], fq = (*faces)[q];
+        bool share = false;
+        for (int s = 0; s < 3; ++s)
+          for (int t = 0; t < 3; ++t) share |= F(fp, s) == F(fq, t);
+        if (share) continue;
+        const std::array<Vec3, 3> S{V.row(F(fp, 0)).transpose(), V.row(F(fp, 1)).transpose(),
+                                    V.row(F(fp, 2)).transpose()};
+        const std::array<Vec3, 3> T{V.row(F(fq, 0)).transpose(), V.row(F(fq, 1)).transpose(),
+                                    V.row(F(fq, 2)).transpose()};
+        if (triangles_cross(S, T)) pairs.emplace_back(std::min(fp, fq), std::max(fp, fq));
+      }
+    a = b;
+  }
+  std::sort(pairs.begin(), pairs.end());
+  return pairs;
+}
+
+}  // namespace dgmesh
