@@ -47,6 +47,40 @@ struct FitScratch {
   std::vector<int> ring, mark;
 };
 
+// In-place Cholesky factorisation A = L L^T of a small positive definite matrix (its lower triangle read, L written
+// there): plain loops, which for these sizes beat Eigen's LLT (whose column updates go through general matrix-vector
+// products). False when A is not numerically positive definite.
+template <int M>
+bool cholesky(Eigen::Matrix<double, M, M>& A) {
+  for (int j = 0; j < M; ++j) {
+    double d = A(j, j);
+    for (int k = 0; k < j; ++k) d -= A(j, k) * A(j, k);
+    if (!(d > 0.0)) return false;
+    d = std::sqrt(d);
+    A(j, j) = d;
+    for (int i = j + 1; i < M; ++i) {
+      double v = A(i, j);
+      for (int k = 0; k < j; ++k) v -= A(i, k) * A(j, k);
+      A(i, j) = v / d;
+    }
+  }
+  return true;
+}
+
+// x with L L^T x = b, L from cholesky().
+template <int M>
+Eigen::Matrix<double, M, 1> cholesky_solve(const Eigen::Matrix<double, M, M>& L, Eigen::Matrix<double, M, 1> x) {
+  for (int i = 0; i < M; ++i) {
+    for (int k = 0; k < i; ++k) x[i] -= L(i, k) * x[k];
+    x[i] /= L(i, i);
+  }
+  for (int i = M - 1; i >= 0; --i) {
+    for (int k = i + 1; k < M; ++k) x[i] -= L(k, i) * x[k];
+    x[i] /= L(i, i);
+  }
+  return x;
+}
+
 // The fields of a vertex without a fit (no normal, too few neighbours): zero curvature and
 // derivatives, no directions, its normal n.
 void write_no_fit(int i, const Vec3& n, CurvatureDerivatives& out) {
@@ -176,7 +210,9 @@ void fit_vertex(int i, const MatX3d& V, const MatX3d& P, const MatX3d& N, const 
   A(1, 1) += 1.0;
   // A tiny ridge keeps under-determined fits (boundary corners, valence-3 vertices) finite.
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
-  const Vec9 c = A.ldlt().solve(b);
+  Mat9 L = A;
+  if (!cholesky(L)) return write_no_fit(i, n, out);
+  const Vec9 c = cholesky_solve(L, b);
   if (!c.allFinite()) return write_no_fit(i, n, out);
   const double cc[4] = {c[5], c[6], c[7], c[8]};
 
@@ -233,6 +269,22 @@ struct JetScratch {
   Mat4 cov3;  // with `error`: covariance of the third derivatives c[5..8] (scaled units)
 };
 
+// Exponents (a, b) and 1 / (a! b!) of the jet's monomials of degree D, in jet_row's order.
+template <int D>
+struct Monomials {
+  static constexpr int M = (D + 1) * (D + 2) / 2 - 1;
+  int a[M], b[M];
+  double f[M];
+  Monomials() {
+    for (int t = 1, k = 0; t <= D; ++t)
+      for (int e = t; e >= 0; --e, ++k) {
+        a[k] = e, b[k] = t - e, f[k] = 1.0;
+        for (int i = 2; i <= e; ++i) f[k] /= i;
+        for (int i = 2; i <= t - e; ++i) f[k] /= i;
+      }
+  }
+};
+
 // Normal equations of the jet fit of degree D over the neighbours listed in s.ring (skipping the
 // vertex itself and those whose normal makes an obtuse angle with n). Every entry of the normal equations is a moment
 // of the neighbours' tangent coordinates: monomial k is m_k = x^a y^b / (a! b!), so a height row gives m_k m_l =
@@ -273,15 +325,9 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
       rows += 2;
     }
   }
-  // Exponents and 1 / (a! b!) of the monomials, in jet_row's order.
-  int ea[M], eb[M];
-  double f[M];
-  for (int t = 1, k = 0; t <= D; ++t)
-    for (int a = t; a >= 0; --a, ++k) {
-      ea[k] = a, eb[k] = t - a, f[k] = 1.0;
-      for (int i = 2; i <= a; ++i) f[k] /= i;
-      for (int i = 2; i <= t - a; ++i) f[k] /= i;
-    }
+  static const Monomials<D> mono;
+  const int *ea = mono.a, *eb = mono.b;
+  const double* f = mono.f;
   MatM A;
   VecM b;
   for (int k = 0; k < M; ++k) {
@@ -303,8 +349,9 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
   }
   if (slopes) A(0, 0) += 1.0, A(1, 1) += 1.0, rows += 2;  // n itself: h_x = h_y = 0 at p
   A.diagonal().array() += 1e-9 * (A.trace() + 1.0);
-  const Eigen::LLT<MatM> llt(A);  // A is positive definite (regularised)
-  const VecM c = llt.solve(b);
+  MatM L = A;
+  if (!cholesky(L)) return false;
+  const VecM c = cholesky_solve(L, b);
   s.c.head<M>() = c;
   if constexpr (D >= 3) {
     if (!error) return c.allFinite();
@@ -314,13 +361,14 @@ bool solve_jet(const MatX3d& V, const MatX3d& N, const Vec3& p, const Vec3& n, c
     if constexpr (M == 9) {
       // The cubic's third derivatives are its last four coefficients: with A = L L^T, the trailing block of A^-1 is
       // (L22 L22^T)^-1, L22 the trailing 4 x 4 block of L.
-      const Mat4 Li = llt.matrixL().toDenseMatrix().template bottomRightCorner<4, 4>().inverse();
+      const Mat4 L22 = L.template bottomRightCorner<4, 4>().template triangularView<Eigen::Lower>();
+      const Mat4 Li = L22.inverse();
       s.cov3 = sigma2 * Li.transpose() * Li;
     } else {
       for (int k = 0; k < 4; ++k) {  // column by column: fixed-size vector solves, not a general matrix solve
         VecM e = VecM::Zero();
         e[5 + k] = 1.0;
-        s.cov3.col(k) = sigma2 * llt.solve(e).template segment<4>(5);
+        s.cov3.col(k) = sigma2 * cholesky_solve(L, e).template segment<4>(5);
       }
     }
   }
@@ -423,47 +471,55 @@ double jet_noise_ratio(const Mesh& mesh, const MatX3d& Nmax) {
   constexpr double kExactFit = 1e-20;  // residual variance in units of the mean neighbour distance squared
   const int nv = mesh.topo.n_vertices;
   const int stride = std::max(1, nv / kSamples);
-  std::vector<double> v3, v4;
-  std::vector<int> ring, mark;
-  Eigen::MatrixXd A;
-  Eigen::VectorXd z;
-  for (int i = 0; i < nv; i += stride) {
-    const Vec3 n = Nmax.row(i);
-    if (n.squaredNorm() == 0.0) continue;
-    const Vec3 u = any_perpendicular(n), w = n.cross(u), p = mesh.V.row(i);
-    k_ring(mesh.topo, i, 2, ring, mark);
-    int count = 0;
-    double mean_dist = 0.0;
-    for (size_t j = 1; j < ring.size(); ++j)
-      if (Nmax.row(ring[j]).dot(n) > 0.0) mean_dist += (Vec3(mesh.V.row(ring[j])) - p).norm(), ++count;
-    if (count < jet_size(4) + 2 || mean_dist <= 0.0) continue;
-    const double scale = count / mean_dist;
-    A.resize(count, jet_size(4));
-    z.resize(count);
-    for (size_t j = 1, r = 0; j < ring.size(); ++j) {
-      const int v = ring[j];
-      if (Nmax.row(v).dot(n) <= 0.0) continue;
-      const Vec3 d = (Vec3(mesh.V.row(v)) - p) * scale;
-      double row[20];
-      jet_row(d.dot(u), d.dot(w), 4, 0, row);
-      for (int k = 0; k < jet_size(4); ++k) A(r, k) = row[k];
-      z[r++] = d.dot(n);
+  const int samples = (nv + stride - 1) / stride;
+  std::vector<double> var3(samples, -1.0), var4(samples, -1.0);  // -1: no estimate at this sample
+#pragma omp parallel
+  {
+    std::vector<int> ring, mark;
+    Eigen::MatrixXd A;
+    Eigen::VectorXd z;
+#pragma omp for schedule(dynamic, 64)
+    for (int si = 0; si < samples; ++si) {
+      const int i = si * stride;
+      const Vec3 n = Nmax.row(i);
+      if (n.squaredNorm() == 0.0) continue;
+      const Vec3 u = any_perpendicular(n), w = n.cross(u), p = mesh.V.row(i);
+      k_ring(mesh.topo, i, 2, ring, mark);
+      int count = 0;
+      double mean_dist = 0.0;
+      for (size_t j = 1; j < ring.size(); ++j)
+        if (Nmax.row(ring[j]).dot(n) > 0.0) mean_dist += (Vec3(mesh.V.row(ring[j])) - p).norm(), ++count;
+      if (count < jet_size(4) + 2 || mean_dist <= 0.0) continue;
+      const double scale = count / mean_dist;
+      A.resize(count, jet_size(4));
+      z.resize(count);
+      for (size_t j = 1, r = 0; j < ring.size(); ++j) {
+        const int v = ring[j];
+        if (Nmax.row(v).dot(n) <= 0.0) continue;
+        const Vec3 d = (Vec3(mesh.V.row(v)) - p) * scale;
+        double row[20];
+        jet_row(d.dot(u), d.dot(w), 4, 0, row);
+        for (int k = 0; k < jet_size(4); ++k) A(r, k) = row[k];
+        z[r++] = d.dot(n);
+      }
+      // The quartic's monomials extend the cubic's (same order), so the cubic is the first jet_size(3) columns.
+      double var[2];
+      for (int degree : {3, 4}) {
+        const int m = jet_size(degree);
+        const auto Ad = A.leftCols(m);
+        Eigen::MatrixXd M = Ad.transpose() * Ad;
+        M.diagonal().array() += 1e-9 * (M.trace() + 1.0);
+        const Eigen::VectorXd c = M.ldlt().solve(Ad.transpose() * z);
+        var[degree - 3] = (Ad * c - z).squaredNorm() / (count - m);
+      }
+      // A cubic that fits to round-off (planar or quadric patches of exact meshes) says nothing about noise.
+      if (!(var[0] > kExactFit)) continue;
+      var3[si] = var[0], var4[si] = var[1];
     }
-    // The quartic's monomials extend the cubic's (same order), so the cubic is the first jet_size(3) columns.
-    double var[2];
-    for (int degree : {3, 4}) {
-      const int m = jet_size(degree);
-      const auto Ad = A.leftCols(m);
-      Eigen::MatrixXd M = Ad.transpose() * Ad;
-      M.diagonal().array() += 1e-9 * (M.trace() + 1.0);
-      const Eigen::VectorXd c = M.ldlt().solve(Ad.transpose() * z);
-      var[degree - 3] = (Ad * c - z).squaredNorm() / (count - m);
-    }
-    // A cubic that fits to round-off (planar or quadric patches of exact meshes) says nothing about noise.
-    if (!(var[0] > kExactFit)) continue;
-    v3.push_back(var[0]);
-    v4.push_back(var[1]);
   }
+  std::vector<double> v3, v4;
+  for (int si = 0; si < samples; ++si)
+    if (var3[si] >= 0.0) v3.push_back(var3[si]), v4.push_back(var4[si]);
   if (v3.size() < 16) return 0.0;
   auto median = [](std::vector<double>& x) {
     std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
