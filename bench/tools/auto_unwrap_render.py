@@ -8,10 +8,14 @@ area) so the checker squares have the same size on all. The model is turned so t
 extent is horizontal and its smallest along the view. Cycles CPU, 16 samples, no denoising.
 """
 
+import pathlib
 import sys
 
 import bpy
 import numpy as np
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from checker_render import checker_material, layout, render_row  # noqa: E402
 
 
 def main():
@@ -21,21 +25,9 @@ def main():
     uvs = [data[f"uv{k}"] for k in range(sum(1 for key in data.files if key.startswith("uv")))]
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    X = V - V.mean(0)
-    _, _, R = np.linalg.svd(X, full_matrices=False)
-    if np.linalg.det(R) < 0:
-        R[2] *= -1
-    X = (X @ R.T)[:, [0, 2, 1]] * np.array([1, -1, 1])  # largest extent along x, viewed from -y
-    X /= np.abs(X).max()
+    X = layout(V)
     area_x = 0.5 * np.linalg.norm(np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1).sum()
-    mat = bpy.data.materials.new("Checker")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    tex = nt.nodes.new("ShaderNodeTexChecker")
-    tex.inputs["Scale"].default_value = 1.0
-    uvn = nt.nodes.new("ShaderNodeUVMap")
-    nt.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
-    nt.links.new(tex.outputs["Color"], nt.nodes["Principled BSDF"].inputs["Base Color"])
+    mat = checker_material(1.0)
     for k, uv in enumerate(uvs):
         mesh = bpy.data.meshes.new(f"panel{k}")
         mesh.vertices.add(len(X))
@@ -56,31 +48,7 @@ def main():
         obj = bpy.data.objects.new(f"panel{k}", mesh)
         obj.data.materials.append(mat)
         scene.collection.objects.link(obj)
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.data.type = "ORTHO"
-    cam.data.ortho_scale = 2.2 * len(uvs)
-    cam.location = (2.2 * (len(uvs) - 1) / 2, -10, 0)
-    cam.rotation_euler = (np.pi / 2, 0, 0)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (0.9, 0.2, 0.3)
-    scene.collection.objects.link(sun)
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.5
-    scene.world = world
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 16
-    scene.cycles.use_denoising = False
-    scene.render.resolution_x, scene.render.resolution_y = 400 * len(uvs), 420
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.image_settings.color_mode = "RGB"
-    scene.view_settings.view_transform = "Standard"
-    scene.render.filepath = args[1]
-    bpy.ops.render.render(write_still=True)
+    render_row(scene, len(uvs), args[1], 16, (400, 420))
 
 
 main()

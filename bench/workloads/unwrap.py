@@ -55,7 +55,9 @@ import bpy, numpy as np
 args = sys.argv[sys.argv.index("--") + 1:]
 job = json.load(open(args[0]))
 sys.path.insert(0, job["fixtures"])
+sys.path.insert(0, job["tools"])
 import make_fixtures
+from checker_render import checker_material, layout, render_row
 import dgmesh
 dgmesh.register()
 from dgmesh.blender import bridge
@@ -135,26 +137,8 @@ for name in job["render"]:
     V, F = load(job["models"][name])
     fresh()
     scene = bpy.context.scene
-    c = V.mean(0)
-    ext = (V.max(0) - V.min(0))
-    # Lay the model out along x, facing -y (the scans' main axis is their own; use PCA).
-    X = V - c
-    _, _, Wt = np.linalg.svd(X, full_matrices=False)
-    R = Wt.copy()
-    if np.linalg.det(R) < 0:
-        R[2] *= -1
-    Xr = X @ R.T  # largest extent along x, smallest along z (the view direction)
-    Xr = Xr[:, [0, 2, 1]] * np.array([1, -1, 1])  # view from -y
-    size = float(np.abs(Xr).max())
-    Xr /= size
-    mat = bpy.data.materials.new("Checker")
-    mat.use_nodes = True
-    nt = mat.node_tree
-    tex = nt.nodes.new("ShaderNodeTexChecker")
-    tex.inputs["Scale"].default_value = 24.0
-    uvn = nt.nodes.new("ShaderNodeUVMap")
-    nt.links.new(uvn.outputs["UV"], tex.inputs["Vector"])
-    nt.links.new(tex.outputs["Color"], nt.nodes["Principled BSDF"].inputs["Base Color"])
+    Xr = layout(V)  # the model along x, facing -y (the scans' main axis is their own: PCA)
+    mat = checker_material(24.0)
     labels = job["render"][name]
     for k, (label, uvs) in enumerate(labels.items()):
         obj = add(label, Xr + np.array([2.2 * k, 0, 0]), F)
@@ -177,31 +161,7 @@ for name in job["render"]:
         full = np.empty(2 * len(obj.data.loops), np.float32)
         layer.data.foreach_get("uv", full)
         layer.data.foreach_set("uv", (full * np.sqrt(a3 / auv) / 2.0).astype(np.float32))
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    cam.data.type = "ORTHO"
-    cam.data.ortho_scale = 2.2 * len(labels)
-    cam.location = (2.2 * (len(labels) - 1) / 2, -10, 0)
-    cam.rotation_euler = (np.pi / 2, 0, 0)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (0.9, 0.2, 0.3)
-    scene.collection.objects.link(sun)
-    world = bpy.data.worlds.new("World")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.5
-    scene.world = world
-    scene.render.engine = "CYCLES"
-    scene.cycles.device = "CPU"
-    scene.cycles.samples = 12
-    scene.cycles.use_denoising = False
-    scene.render.resolution_x, scene.render.resolution_y = 300 * len(labels), 320
-    scene.render.image_settings.file_format = "PNG"
-    scene.render.image_settings.color_mode = "RGB"
-    scene.view_settings.view_transform = "Standard"
-    scene.render.filepath = job["images"][name]
-    bpy.ops.render.render(write_still=True)
+    render_row(scene, len(labels), job["images"][name], 12, (300, 320))
     out["renders"][name] = job["images"][name]
 
 json.dump(out, open(os.environ["DGMESH_BENCH_OUT"], "w"))
@@ -494,6 +454,7 @@ def quality(quick=False):
         jobf = pathlib.Path(tmp) / "job.json"
         jobf.write_text(json.dumps({
             "fixtures": str(ROOT / "blend_fixtures"),
+            "tools": str(ROOT / "bench" / "tools"),
             "models": {key: path for key, _, _, _, path, _ in entries},
             "render": render, "images": images}))
         bl = run_blender(script, [jobf])
