@@ -165,6 +165,13 @@ double max_strength(const CrestLines& cl) {
 // cyclides (T <= 4.4 on a 5K-triangle icosphere).
 constexpr double kThreshold = 8.0;
 
+// Crest lines of `fit` with T >= kThreshold.
+CrestLines strong_lines(const Mesh& m, const DerivativeOptions& fit = {}) {
+  CrestOptions opt;
+  opt.threshold = kThreshold;
+  return crest_lines(m, fit, opt);
+}
+
 CrestOptions every_line() {
   CrestOptions o;
   o.threshold = 0.0;
@@ -215,9 +222,7 @@ TEST(CrestLines, CylinderAndTorusHaveNoStrongLines) {
 TEST(CrestLines, RoundedCubeHasRidgesAlongAllTwelveEdges) {
   const TriMesh rc = rounded_cube(40, 0.25);
   const Mesh m = make_mesh(rc.V, rc.F);
-  CrestOptions opt;
-  opt.threshold = kThreshold;
-  const CrestLines cl = crest_lines(m, DerivativeOptions{}, opt);
+  const CrestLines cl = strong_lines(m);
   ASSERT_GT(cl.n_lines(), 0);
   for (int k : cl.line_kind) EXPECT_EQ(k, kRidge);
   // Every kept point lies on the middle of a rounded edge or in a corner region.
@@ -252,11 +257,11 @@ TEST(CrestLines, RoundedCubeHasRidgesAlongAllTwelveEdges) {
   EXPECT_GT(blend_middle_share(cl, 0.25), 0.95);
   DerivativeOptions thesis, no_plateaus;
   thesis.jet = false;
-  const CrestLines tl = crest_lines(m, thesis, opt);
+  const CrestLines tl = strong_lines(m, thesis);
   EXPECT_GT(blend_middle_share(tl, 0.25), 0.95);
   EXPECT_GT(tl.n_lines(), 0);
   no_plateaus.plateaus = false;
-  const CrestLines raw = crest_lines(m, no_plateaus, opt);
+  const CrestLines raw = strong_lines(m, no_plateaus);
   EXPECT_LT(blend_middle_share(raw, 0.25), 0.8);
 }
 
@@ -266,9 +271,7 @@ TEST(CrestLines, CoarseBlendsKeepTheirLinesOnTheMiddleWithTheJetFit) {
   // on a middle or in a corner); at five (kPlateauErrors) 100%, as the thesis fit.
   const TriMesh rc = rounded_cube(24, 0.3);
   const Mesh m = make_mesh(rc.V, rc.F);
-  CrestOptions opt;
-  opt.threshold = kThreshold;
-  const CrestLines cl = crest_lines(m, DerivativeOptions{}, opt);
+  const CrestLines cl = strong_lines(m);
   ASSERT_GT(cl.n_lines(), 0);
   EXPECT_TRUE(crest_fields(m, DerivativeOptions{}).jet_used);
   EXPECT_GT(blend_middle_share(cl, 0.3), 0.95);
