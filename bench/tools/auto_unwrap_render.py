@@ -15,6 +15,7 @@ import bpy
 import numpy as np
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+from blender_uv_peer import add_object  # noqa: E402
 from checker_render import checker_material, layout, render_row  # noqa: E402
 
 
@@ -29,26 +30,16 @@ def main():
     area_x = 0.5 * np.linalg.norm(np.cross(X[F[:, 1]] - X[F[:, 0]], X[F[:, 2]] - X[F[:, 0]]), axis=1).sum()
     mat = checker_material(1.0)
     for k, uv in enumerate(uvs):
-        mesh = bpy.data.meshes.new(f"panel{k}")
-        mesh.vertices.add(len(X))
-        mesh.vertices.foreach_set("co", (X + np.array([2.2 * k, 0, 0])).astype(np.float32).ravel())
-        mesh.loops.add(3 * len(F))
-        mesh.loops.foreach_set("vertex_index", F.ravel())
-        mesh.polygons.add(len(F))
-        mesh.polygons.foreach_set("loop_start", np.arange(0, 3 * len(F), 3, dtype=np.int32))
-        mesh.polygons.foreach_set("loop_total", np.full(len(F), 3, np.int32))
-        mesh.update(calc_edges=True)
+        mesh = add_object(f"panel{k}", X + np.array([2.2 * k, 0, 0]), F).data
         mesh.polygons.foreach_set("use_smooth", np.ones(len(F), bool))
         e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
         area_uv = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
         # UV area = the panel's 3D area, times 20^2: about 20 checker squares per unit of the panel.
         scale = 20.0 * np.sqrt(area_x / area_uv)
-        layer = mesh.uv_layers.new(name="UVMap")
-        layer.data.foreach_set("uv", (uv.reshape(-1, 2) * scale).astype(np.float32).ravel())
-        obj = bpy.data.objects.new(f"panel{k}", mesh)
-        obj.data.materials.append(mat)
-        scene.collection.objects.link(obj)
+        mesh.uv_layers["UVMap"].data.foreach_set("uv", (uv.reshape(-1, 2) * scale).astype(np.float32).ravel())
+        mesh.materials.append(mat)
     render_row(scene, len(uvs), args[1], 16, (400, 420))
 
 
-main()
+if __name__ == "__main__":
+    main()

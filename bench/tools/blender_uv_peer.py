@@ -116,4 +116,5 @@ def main():
         json.dump(res, f, indent=1)
 
 
-main()
+if __name__ == "__main__":  # Blender runs --python scripts as __main__; auto_unwrap_render imports add_object
+    main()
