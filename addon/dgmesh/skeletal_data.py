@@ -53,7 +53,7 @@ INFO_FIELDS = {
     "skeleton_blend": (*_STR, False), "control_faces": (*_INT, False), "target": (*_STR, False),
     "modifier": (*_STR, False), "node_group": (*_STR, False), "helper": (*_STR, False),
     "modifiers_object": (*_STRS, False), "rest_hash": (*_STR, False), "space": (*_NUMBERS, False),
-    "created_basis": (_is_flag, "0 or 1", False),
+    "created_basis": (_is_flag, "0 or 1", False), "untangle_iterations": (*_INT, False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
 
@@ -88,6 +88,8 @@ def check_info(info, methods=()):
             raise BindDataError(f"its field {key!r} has {len(info[key])} numbers, not {size}")
     if info["fairing_steps"] < 0:
         raise BindDataError(f"its field 'fairing_steps' is negative ({info['fairing_steps']})")
+    if info.get("untangle_iterations", 0) < 0:
+        raise BindDataError(f"its field 'untangle_iterations' is negative ({info['untangle_iterations']})")
     if "control_faces" in info and info["control_faces"] < 1:
         raise BindDataError(f"its field 'control_faces' is {info['control_faces']}, not positive")
 

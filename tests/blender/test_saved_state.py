@@ -109,6 +109,8 @@ DAMAGE = {
     "id_missing": _delete("id"),
     "bones_is_an_int": _set("bones", 3),
     "fairing_steps_is_a_text": _set("fairing_steps", "many"),
+    "untangle_is_negative": _set("untangle_iterations", -2),
+    "untangle_is_a_text": _set("untangle_iterations", "3"),
     "method_unknown": _set("method", "MAGIC"),
     "modifiers_lengths_differ": _set("modifiers_viewport", [1, 1, 1]),
     "space_wrong_size": _set("space", [1.0, 2.0]),

@@ -164,6 +164,10 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                   description="Keep each vertex at least this fraction of its rest distance from "
                                   "the bones it follows (a joint's inner crease); 0 = off, 1 = every rest distance "
                                   "(costs thickness under twists)")
+    untangle: IntProperty(name="Untangle Creases", default=DEFORM_DEFAULTS.untangle_iterations, min=0, max=10,
+                          description="Where a bent joint's skin crosses itself, smooth it out and push it back to "
+                          "the bones' clearance, up to this many times per pose (thesis eq. 6.15's smoothing term; "
+                          "0 = off). Fewer folds in the crease, several times slower per pose")
     skeleton_blend: EnumProperty(
         name="Skeleton Blend", items=SKELETON_BLENDS,
         default='DUAL_QUATERNION' if DEFORM_DEFAULTS.dual_quaternion else 'LINEAR',
@@ -223,7 +227,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         return {'FINISHED'}
 
 
-SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "skeleton_blend")
+SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "skeleton_blend")
 
 
 class _BindFailure(Exception):
@@ -341,6 +345,7 @@ def _attach(context, obj, arm, binding, settings):
         "bones_local": [float(x) for n in names for x in np.array(arm.data.bones[n].matrix_local).ravel()],
         "fairing_steps": settings["fairing_steps"], "method": settings["method"],
         "bone_clearance": settings["bone_clearance"], "skeleton_blend": settings["skeleton_blend"],
+        "untangle_iterations": settings["untangle"],
         "control_faces": settings["control_faces"], "target": "HELPER",
         "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
         "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -397,6 +402,7 @@ painting its weights (the binding keeps what it read at bind)"""
             return {'CANCELLED'}
         settings = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]),
                         bone_clearance=float(info.get("bone_clearance", 0.95)),
+                        untangle=int(info.get("untangle_iterations", 0)),
                         skeleton_blend=str(info.get("skeleton_blend", "LINEAR")),
                         control_faces=int(info.get("control_faces", 5000)))
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.
