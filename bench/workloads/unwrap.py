@@ -903,7 +903,7 @@ def vs_blender(quick=False):
 
 
 CLOSED_MODELS = ("bunny00", "armadillo", "camel", "elephant", "cow", "hand", "fandisk")
-SMART_RENDER_MODELS = ("bunny00", "camel", "fandisk")
+SMART_RENDER_MODELS = CLOSED_MODELS
 SMART_RENDER_TOOL = ROOT / "bench" / "tools" / "auto_unwrap_render.py"
 
 
