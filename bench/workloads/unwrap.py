@@ -832,13 +832,23 @@ def _peer_lane(models):
         subprocess.run(cmd, check=True, capture_output=True, text=True, timeout=3600)
         out = LANE_ROOT / "src" / "dgmesh" / rel
         result = json.loads((out / "result.json").read_text())
-        metrics = _peer_metrics(out, result, models)
-        m = machine()
-        PEER_RECORD.write_text(json.dumps(dict(blender=result["blender"], date=m["date"], commit=m["commit"],
-                                               command=" ".join(["bash", "scripts/lanes.sh", *cmd[2:]]),
-                                               metrics=metrics), indent=1))
-        return result["blender"], metrics, "measured in this run"
-    rec = json.loads(PEER_RECORD.read_text())
+        return _save_lane_record(PEER_RECORD, result["blender"], cmd, _peer_metrics(out, result, models))
+    return _lane_record(PEER_RECORD)
+
+
+def _save_lane_record(path, blender, cmd, metrics):
+    """Writes a lane peer's figures measured in this run (for runs without the lane root); returns
+    (Blender version, metrics, provenance)."""
+    m = machine()
+    path.write_text(json.dumps(dict(blender=blender, date=m["date"], commit=m["commit"],
+                                    command=" ".join(["bash", "scripts/lanes.sh", *cmd[2:]]), metrics=metrics),
+                               indent=1))
+    return blender, metrics, "measured in this run"
+
+
+def _lane_record(path):
+    """The lane peer's recorded figures (the lane root is absent or DGMESH_BENCH_NO_LANE is set)."""
+    rec = json.loads(path.read_text())
     return rec["blender"], rec["metrics"], f"recorded {rec['date']} at commit {rec['commit']} (lane not run)"
 
 
@@ -952,13 +962,8 @@ def _smart_lane(models):
             n, seam, area = _islands(V, F, uv)
             metrics[name] = dict(charts=n, seam=seam, uv_area=area, seconds=result["runs"][name][SMART_LANE_METHOD],
                                  **dgmesh.core.fields(dgmesh.uv_metrics(V, F, uv)))
-        m = machine()
-        SMART_LANE_RECORD.write_text(json.dumps(dict(blender=result["blender"], date=m["date"], commit=m["commit"],
-                                                     command=" ".join(["bash", "scripts/lanes.sh", *cmd[2:]]),
-                                                     metrics=metrics), indent=1))
-        return result["blender"], metrics, "measured in this run"
-    rec = json.loads(SMART_LANE_RECORD.read_text())
-    return rec["blender"], rec["metrics"], f"recorded {rec['date']} at commit {rec['commit']} (lane not run)"
+        return _save_lane_record(SMART_LANE_RECORD, result["blender"], cmd, metrics)
+    return _lane_record(SMART_LANE_RECORD)
 
 
 def vs_smart_project(quick=False):

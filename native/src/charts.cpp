@@ -223,14 +223,11 @@ SubMesh submesh(const Surface& s, const MatX3d& V, const MatX3i& F, const std::v
 // Returns whether the cut-open chart is a disk (false: closed, of higher genus, or no such path).
 bool cut_to_disk(const Surface& s, const MatX3d& V, const MatX3i& F, const std::vector<int>& faces,
                  std::vector<int>& cuts) {
+  std::vector<int> local(faces.size());  // the submesh's faces, all of them
+  std::iota(local.begin(), local.end(), 0);
   for (;;) {
     const SubMesh m = submesh(s, V, F, faces, cuts);
-    if (chart_is_disk(m.F, [&] {
-          std::vector<int> all(faces.size());
-          std::iota(all.begin(), all.end(), 0);
-          return all;
-        }()))
-      return true;
+    if (chart_is_disk(m.F, local)) return true;
     // Half-edges of the cut-open chart: boundary ones have no twin.
     const int nv = static_cast<int>(m.verts.size());
     std::vector<std::tuple<int, int, int>> he;  // (a, b, mesh edge)
