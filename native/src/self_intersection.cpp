@@ -14,18 +14,24 @@ namespace {
 
 double orient(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) { return (b - a).dot((c - a).cross(d - a)); }
 
-// Whether the segment pq crosses the interior of the triangle abc (strictly).
-bool edge_crosses(const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
-  const double s1 = orient(p, a, b, c), s2 = orient(q, a, b, c);
+// Whether the segment pq crosses the interior of the triangle abc (strictly); s1, s2: orient(p, a,
+// b, c) and orient(q, a, b, c), the endpoints' sides of the triangle's plane.
+bool edge_crosses(double s1, double s2, const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
   if (!(s1 * s2 < 0)) return false;
   const double u = orient(p, q, a, b), v = orient(p, q, b, c), w = orient(p, q, c, a);
   return (u > 0 && v > 0 && w > 0) || (u < 0 && v < 0 && w < 0);
 }
 
+// Each vertex's side of the other triangle's plane once (six orientations; most pairs stop there).
 bool triangles_cross(const std::array<Vec3, 3>& s, const std::array<Vec3, 3>& t) {
-  for (int k = 0; k < 3; ++k)
-    if (edge_crosses(s[k], s[(k + 1) % 3], t[0], t[1], t[2]) || edge_crosses(t[k], t[(k + 1) % 3], s[0], s[1], s[2]))
+  std::array<double, 3> ds, dt;
+  for (int k = 0; k < 3; ++k) ds[k] = orient(s[k], t[0], t[1], t[2]), dt[k] = orient(t[k], s[0], s[1], s[2]);
+  for (int k = 0; k < 3; ++k) {
+    const int l = (k + 1) % 3;
+    if (edge_crosses(ds[k], ds[l], s[k], s[l], t[0], t[1], t[2]) ||
+        edge_crosses(dt[k], dt[l], t[k], t[l], s[0], s[1], s[2]))
       return true;
+  }
   return false;
 }
 
