@@ -1217,7 +1217,8 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
 
 // Untangling (SkeletalDeformOptions::untangle_iterations, issue 33): the thesis's remedy for folds,
 // a smoothing term in the flow eq. 6.15, applied only where the surface crosses itself. Each
-// iteration finds the self-intersecting triangle pairs among `faces` (self_intersection.h), takes
+// iteration finds the self-intersecting triangle pairs among `faces` (self_intersection.h; after the
+// first, only around the faces it moved: self_intersecting_pairs_touching, the same pairs), takes
 // their vertices and `rings` rings around them (vv: the mesh's one-ring CSR), moves each by
 // kUntangleSweeps Jacobi steps of the uniform umbrella operator (weight 1/2; tangential and normal,
 // which in a concave crease lifts the fold out of it); after each, `push` moves it back out to the
