@@ -367,13 +367,21 @@ def union_of_balls_distance(X: npt.ArrayLike, centers: npt.ArrayLike, radii: npt
                                            np.ascontiguousarray(radii, dtype=np.float64))
 
 
-def self_intersecting_pairs(V: npt.ArrayLike, F: npt.ArrayLike) -> np.ndarray:
+def self_intersecting_pairs(V: npt.ArrayLike, F: npt.ArrayLike, touching: npt.ArrayLike | None = None) -> np.ndarray:
     """Self-intersecting triangle pairs (k, 2), sorted, i < j: faces sharing no vertex where an
-    edge of one crosses the other's interior (native, through a uniform grid)."""
+    edge of one crosses the other's interior (native, through a uniform grid). ``touching`` (one
+    flag per face): only the pairs with a flagged face, searched over the faces near the flagged
+    ones (what the untangling does after moving a region)."""
     V = as_vertices(V)
     if not np.isfinite(V).all():
         raise MeshError("V has non-finite coordinates")
-    return _native.self_intersecting_pairs(V, as_faces(F, n=len(V)))
+    F = as_faces(F, n=len(V))
+    if touching is None:
+        return _native.self_intersecting_pairs(V, F)
+    t = np.asarray(touching)
+    if t.shape != (len(F),):
+        raise MeshError(f"touching needs one flag per face ({len(F)}), got shape {t.shape}")
+    return _native.self_intersecting_pairs(V, F, t.astype(bool).astype(np.int32).tolist())
 
 
 def gaussian_bone_weights(P: npt.ArrayLike, heads: npt.ArrayLike, tails: npt.ArrayLike, sigma: float) -> np.ndarray:

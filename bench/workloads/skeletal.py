@@ -17,7 +17,7 @@ import numpy as np
 
 import dgmesh
 from bench.common import IMAGES, cgal_mesh, loop_subdivide, median_time, run_blender, table
-from dgmesh.skeletal import capsule, gaussian_bone_weights, skeletal_subspace_deform
+from dgmesh.skeletal import capsule, gaussian_bone_weights, self_intersecting_pairs, skeletal_subspace_deform
 
 
 def _bone(head):
@@ -171,6 +171,11 @@ def speed(quick):
     t_buf, _ = median_time(lambda: rig.deform(pose, out=out), repeats=7)
     out32 = np.empty((rig.n_vertices, 3), dtype=np.float32)
     t_buf32, _ = median_time(lambda: rig.deform(pose, out=out32), repeats=7)
+    # With the untangling (issue 33, off by default): its cost at this size, and the crossing pairs
+    # over the whole dense mesh without / with it.
+    t_unt32, _ = median_time(lambda: rig.deform(pose, out=out32, untangle_iterations=20), repeats=3)
+    pairs_off = len(self_intersecting_pairs(rig.deform(pose), F))
+    pairs_on = len(self_intersecting_pairs(rig.deform(pose, untangle_iterations=20), F))
     # The dense part alone: reconstruct from a deformed control mesh into the float32 buffer.
     Xc, _ = rig.deform_control(pose)
     a = rig.to_arrays()
@@ -188,17 +193,20 @@ def speed(quick):
     cpu_ctrl = cpu_ms(lambda: rig.deform_control(pose))
     cpu_buf32 = cpu_ms(lambda: rig.deform(pose, out=out32))
     rows = [[len(V), len(F), rig.n_control, len(rig.control_faces), t_bind, 1e3 * t_ctrl, 1e3 * t_rec32, 1e3 * t_nof,
-             1e3 * t_full, 1e3 * t_buf, 1e3 * t_buf32, cpu_ctrl, cpu_buf32]]
+             1e3 * t_full, 1e3 * t_buf, 1e3 * t_buf32, cpu_ctrl, cpu_buf32, 1e3 * t_unt32, pairs_off, pairs_on]]
     live = run_blender(pathlib.Path(__file__).with_name("_skeletal_live.py"), [1 if quick else 2])
     md = ["### Skeletal deformation speed", "",
           table(["dense V", "dense F", "control V", "control F", "bind s", "control deform ms (2 fair)",
                  "dense reconstruct ms (float32)", "full deform ms (no fair)", "full deform ms (2 fair)",
                  "full deform ms (2 fair, float64 buffer)", "full deform ms (2 fair, float32 buffer)",
-                 "CPU ms control deform", "CPU ms full deform (float32 buffer)"], rows),
+                 "CPU ms control deform", "CPU ms full deform (float32 buffer)",
+                 "full deform ms (float32 buffer, untangle_iterations=20)", "crossing pairs (default)",
+                 "crossing pairs (untangle_iterations=20)"], rows),
           "", "Capsule Loop-subdivided; control mesh 5000 faces; wall-clock medians (7 runs, 15 for the reconstruct) "
           "and process CPU time per call (all threads, including OpenMP's spin-waiting; the control deform "
           "runs on the OpenMP threads). Targets: bind <= 10 s for 170K vertices, per pose (native deform + dense reconstruction) "
-          "<= 20 ms. The float32 buffer is what the live update hands to Blender "
+          "<= 20 ms. The untangling column: `untangle_iterations=20` (median of 3); the pairs: "
+          "`dgmesh.skeletal.self_intersecting_pairs` over the whole dense mesh. The float32 buffer is what the live update hands to Blender "
           "(`rig.deform(pose, out=np.empty((n, 3), np.float32))`).", "",
           "Live in Blender (`dgmesh.skeletal_bind` operator, then `scene.frame_set` over 20 keyframed frames, median): "
           "%d vertices, bind %.2f s, frame_set %.1f ms (%.1f frames per second), of which our deform %.1f ms "
@@ -207,7 +215,8 @@ def speed(quick):
              live["n_frames"]), "",
           "`/usr/bin/python3 bench/run.py skeletal_speed`"]
     data = dict(zip(["V", "F", "control_V", "control_F", "bind_s", "control_ms", "reconstruct_f32_ms", "full_nofair_ms",
-                     "full_ms", "full_buffer_ms", "full_buffer_f32_ms", "control_cpu_ms", "full_buffer_f32_cpu_ms"],
+                     "full_ms", "full_buffer_ms", "full_buffer_f32_ms", "control_cpu_ms", "full_buffer_f32_cpu_ms",
+                     "full_buffer_f32_untangle_ms", "pairs_default", "pairs_untangle"],
                     rows[0]))
     data["blender_live"] = live
     return {"markdown": "\n".join(md), "data": data}
@@ -262,16 +271,18 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
         _, Sd = rig.deform_control(pose)
         results = {"Blender Armature, linear blend": res[f"lbs{p}"],
                    "Blender Armature, Preserve Volume": res[f"dqs{p}"],
-                   "ours (2 fairing steps + projection)": rig.deform(pose)}
+                   "ours (2 fairing steps + projection)": rig.deform(pose),
+                   "ours with the untangling (untangle_iterations=20; issue 33)": rig.deform(pose, untangle_iterations=20)}
         panels = []
         for mname, X in results.items():
             f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)
+            n_pairs = len(self_intersecting_pairs(X, F))
             r = _bone_dist(X, rest, pose, heads, tails)[ok] / b0[ok]
             row = [model, pname, mname, float((f ** 2).sum()), float(((f - f_rest) ** 2).sum()), float(r.min()),
-                   float(r.mean()), float(_volume(X, F) / vol0)]
+                   float(r.mean()), float(_volume(X, F) / vol0), n_pairs]
             rows.append(row)
             data[f"{model}|{pname}|{mname}"] = dict(zip(["sum_f2", "sum_df2", "min_ratio", "mean_ratio",
-                                                         "volume_ratio"], row[3:]))
+                                                         "volume_ratio", "self_intersecting_pairs"], row[3:]))
             # Face colour: grey, red where the thickness changed (|f - f_rest| up to a fifth of the
             # median medial radius).
             t = np.clip(np.abs(f - f_rest)[F].mean(1) / (0.2 * np.median(rig.radii)), 0, 1)[:, None]
@@ -279,7 +290,7 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
             panels.append((X, F, C))
         name = "skeletal_%s_%s.png" % (model, pname.replace(" ", "_"))
         if not quick:
-            _render(name, panels, up=up, size=(900, 300), samples=16, view=view)
+            _render(name, panels[:3], up=up, size=(900, 300), samples=16, view=view)
             images.append(name)
     return rows, data, images, info.get("blender", "?"), collisions
 
@@ -307,7 +318,10 @@ def blender_quality(quick):
           "bones (-3.5,0,0)-(0,0,0)-(3.5,0,0), ramp over x in [-0.5, 0.5]; armadillo (CGAL data, 26002 vertices), "
           "bones (0,-54,0)-(0,10,0)-(0,97,0), ramp over y in [0, 20] (the waist). Metrics as in skeletal_quality, "
           "against our posed skeletal mesh." % version, "",
-          table(["mesh", "pose", "method", "sum f^2", "sum (f-f_rest)^2", "min ratio", "mean ratio", "volume"], rows),
+          table(["mesh", "pose", "method", "sum f^2", "sum (f-f_rest)^2", "min ratio", "mean ratio", "volume",
+                 "self-intersecting triangle pairs"], rows), "",
+          "Self-intersecting triangle pairs: `dgmesh.skeletal.self_intersecting_pairs` over the whole mesh "
+          "(pairs sharing no vertex, an edge of one through the other's interior).",
           "", "Does the pose drive the moved part into the still one? Vertices of the still part (all weight on "
           "the first bone) inside the medial balls of the moved part (all weight on the last bone) posed rigidly, "
           "which no deformer changes; depth over the median medial radius. A few vertices at a negligible depth "

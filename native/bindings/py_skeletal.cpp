@@ -1,4 +1,7 @@
 // Bindings of skeletal.h and delaunay.h: the options and the skeletal mesh as they are, the rig.
+#include <optional>
+#include <vector>
+
 #include "common.h"
 #include "dgmesh/delaunay.h"
 #include "dgmesh/errors.h"
@@ -140,16 +143,26 @@ void bind_skeletal(pb::module_& m) {
     if (!X.allFinite() || !C.allFinite() || !r.allFinite()) throw MeshError("union of balls: inputs must be finite");
     return union_of_balls_distance(X, C, r);
   });
-  m.def("self_intersecting_pairs", [](InV V, InF F) {
-    if (!V.allFinite()) throw MeshError("self_intersecting_pairs: V must be finite");
-    if (F.size() && (F.minCoeff() < 0 || F.maxCoeff() >= V.rows()))
-      throw MeshError("self_intersecting_pairs: F has a vertex index out of range");
-    NativeScope nogil;
-    const auto pairs = self_intersecting_pairs(V, F);
-    MatX2i out(static_cast<Eigen::Index>(pairs.size()), 2);
-    for (size_t k = 0; k < pairs.size(); ++k) out(k, 0) = pairs[k].first, out(k, 1) = pairs[k].second;
-    return out;
-  });
+  m.def(
+      "self_intersecting_pairs",
+      [](InV V, InF F, std::optional<std::vector<int>> touching) {
+        if (!V.allFinite()) throw MeshError("self_intersecting_pairs: V must be finite");
+        if (F.size() && (F.minCoeff() < 0 || F.maxCoeff() >= V.rows()))
+          throw MeshError("self_intersecting_pairs: F has a vertex index out of range");
+        if (touching && static_cast<Eigen::Index>(touching->size()) != F.rows())
+          throw MeshError("self_intersecting_pairs: touching needs one flag per face");
+        NativeScope nogil;
+        const MatX3d Vd = V;
+        const MatX3i Fd = F;
+        const std::vector<char> flags =
+            touching ? std::vector<char>(touching->begin(), touching->end()) : std::vector<char>();
+        const auto pairs =
+            touching ? self_intersecting_pairs_touching(Vd, Fd, nullptr, flags) : self_intersecting_pairs(Vd, Fd);
+        MatX2i out(static_cast<Eigen::Index>(pairs.size()), 2);
+        for (size_t k = 0; k < pairs.size(); ++k) out(k, 0) = pairs[k].first, out(k, 1) = pairs[k].second;
+        return out;
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("touching") = pb::none());
   m.def("gaussian_bone_weights", [](InV P, InV heads, InV tails, double sigma) {
     NativeScope nogil;
     return gaussian_bone_weights(P, heads, tails, sigma);

@@ -1217,7 +1217,8 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
 
 // Untangling (SkeletalDeformOptions::untangle_iterations, issue 33): the thesis's remedy for folds,
 // a smoothing term in the flow eq. 6.15, applied only where the surface crosses itself. Each
-// iteration finds the self-intersecting triangle pairs among `faces` (self_intersection.h), takes
+// iteration finds the self-intersecting triangle pairs among `faces` (self_intersection.h; after the
+// first, only around the faces it moved: self_intersecting_pairs_touching, the same pairs), takes
 // their vertices and `rings` rings around them (vv: the mesh's one-ring CSR), moves each by
 // kUntangleSweeps Jacobi steps of the uniform umbrella operator (weight 1/2; tangential and normal,
 // which in a concave crease lifts the fold out of it); after each, `push` moves it back out to the
@@ -1232,8 +1233,7 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
                     const std::vector<int>* faces, const std::vector<std::pair<int, int>>& at_rest, int iterations,
                     int rings, Push push, Clear clear) {
   // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
-  const auto detect = [&] {
-    auto p = self_intersecting_pairs(X, F, faces);
+  const auto new_only = [&](std::vector<std::pair<int, int>> p) {
     if (!at_rest.empty())
       p.erase(std::remove_if(p.begin(), p.end(),
                              [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
@@ -1245,9 +1245,10 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
   constexpr int kUntangleWiden = 3;
   int widen = 0;  // extra rings after an iteration that did not lower the count
   const int n = static_cast<int>(X.rows());
-  auto pairs = detect();
+  auto pairs = new_only(self_intersecting_pairs(X, F, faces));
   if (pairs.empty()) return;
   std::vector<int> stamp(n, -1), region, front, next;
+  std::vector<char> touched(F.rows(), 0);
   MatX3d before, Y;
   for (int it = 0; it < iterations && !pairs.empty(); ++it) {
     front.clear();
@@ -1285,12 +1286,22 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
         if (clear(region[k], y)) X.row(region[k]) = y.transpose();
       }
     }
-    auto now = detect();
+    // Only the pairs of the faces around the moved vertices can have changed: the others are kept
+    // and the faces around the region searched against the rest (self_intersecting_pairs_touching).
+    const int nf = faces ? static_cast<int>(faces->size()) : static_cast<int>(F.rows());
+    for (int k = 0; k < nf; ++k) {
+      const int f = faces ? (*faces)[k] : k;
+      touched[f] = stamp[F(f, 0)] == it || stamp[F(f, 1)] == it || stamp[F(f, 2)] == it;
+    }
+    auto now = new_only(self_intersecting_pairs_touching(X, F, faces, touched));
+    for (const auto& q : pairs)
+      if (!touched[q.first] && !touched[q.second]) now.push_back(q);
     if (now.size() >= pairs.size()) {
       for (int k = 0; k < nr; ++k) X.row(region[k]) = before.row(k);
       if (++widen > kUntangleWiden) break;
       continue;
     }
+    std::sort(now.begin(), now.end());
     pairs.swap(now);
   }
 }

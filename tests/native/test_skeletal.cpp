@@ -8,6 +8,7 @@
 #include <random>
 
 #include "dgmesh/errors.h"
+#include "dgmesh/self_intersection.h"
 #include "dgmesh/shapes.h"
 #include "dgmesh/skeletal.h"
 #include "dgmesh/validate.h"
@@ -451,4 +452,55 @@ TEST(Skeletal, DualQuaternionSsdKeepsDistanceToTheAxis) {
   EXPECT_LT((rig.deform(c2.rest, o) - c.V).cwiseAbs().maxCoeff(), 1e-9);
   const std::vector<Mat4> t2 = {c2.rest[0], rotation_about(Vec3::Zero(), Vec3::UnitX(), M_PI) * c2.rest[1]};
   EXPECT_GT(min_ratio(bone_distance(rig.deform(t2, o), c2, t2), bone_distance(c.V, c2, c2.rest)), 0.9);
+}
+
+// The grid search against the brute force over all pairs on a soup of random triangles (many
+// crossings), and the search restricted to the pairs of flagged faces against the brute force's
+// pairs with a flagged face (issue 33: what the untangling searches after its first iteration).
+TEST(SelfIntersection, GridAndTouchingSearchesMatchTheBruteForce) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(0, 1), d(-0.15, 0.15);
+  const int m = 400;
+  MatX3d V(3 * m, 3);
+  MatX3i F(m, 3);
+  for (int f = 0; f < m; ++f) {
+    const Vec3 c(u(rng), u(rng), u(rng));
+    for (int k = 0; k < 3; ++k) V.row(3 * f + k) = (c + Vec3(d(rng), d(rng), d(rng))).transpose(), F(f, k) = 3 * f + k;
+  }
+  const auto orient = [](const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& e) {
+    return (b - a).dot((c - a).cross(e - a));
+  };
+  const auto edge_hits = [&](const Vec3& p, const Vec3& q, const Vec3& a, const Vec3& b, const Vec3& c) {
+    if (!(orient(p, a, b, c) * orient(q, a, b, c) < 0)) return false;
+    const double x = orient(p, q, a, b), y = orient(p, q, b, c), z = orient(p, q, c, a);
+    return (x > 0 && y > 0 && z > 0) || (x < 0 && y < 0 && z < 0);
+  };
+  const auto P = [&](int f, int k) { return Vec3(V.row(F(f, k % 3)).transpose()); };
+  std::vector<std::pair<int, int>> brute;
+  for (int f = 0; f < m; ++f)
+    for (int g = f + 1; g < m; ++g) {
+      bool hit = false;
+      for (int k = 0; k < 3 && !hit; ++k)
+        hit = edge_hits(P(f, k), P(f, k + 1), P(g, 0), P(g, 1), P(g, 2)) ||
+              edge_hits(P(g, k), P(g, k + 1), P(f, 0), P(f, 1), P(f, 2));
+      if (hit) brute.emplace_back(f, g);
+    }
+  ASSERT_GT(brute.size(), 100u);
+  EXPECT_EQ(self_intersecting_pairs(V, F), brute);
+  // Flag the faces in one corner of the cube: far fewer pairs, but some.
+  std::vector<char> flag(m, 0);
+  for (int f = 0; f < m; ++f) flag[f] = V(F(f, 0), 0) < 0.3 && V(F(f, 0), 1) < 0.5;
+  std::vector<std::pair<int, int>> want;
+  for (const auto& q : brute)
+    if (flag[q.first] || flag[q.second]) want.push_back(q);
+  ASSERT_GT(want.size(), 0u);
+  ASSERT_LT(want.size(), brute.size());
+  EXPECT_EQ(self_intersecting_pairs_touching(V, F, nullptr, flag), want);
+  // Over a subset of the faces: the even ones.
+  std::vector<int> even;
+  for (int f = 0; f < m; f += 2) even.push_back(f);
+  want.clear();
+  for (const auto& q : brute)
+    if (q.first % 2 == 0 && q.second % 2 == 0 && (flag[q.first] || flag[q.second])) want.push_back(q);
+  EXPECT_EQ(self_intersecting_pairs_touching(V, F, &even, flag), want);
 }

@@ -673,6 +673,22 @@ def test_self_intersecting_pairs_match_the_brute_force_count(rig, mesh):
         dgmesh.skeletal.self_intersecting_pairs(T, [[0, 1, 6]])
 
 
+def test_restricted_searches_find_the_full_search_pairs(rig, mesh):
+    # The untangling's cheaper search after its first iteration (issue 33) against the full search on
+    # the bent capsule: the search of the faces around the moved ones (touching) returns exactly the
+    # full search's pairs with such a face, the rest being unchanged.
+    V, F = mesh
+    pairs = dgmesh.skeletal.self_intersecting_pairs
+    pose = np.array([REST[0], rot((0, 0, 1), np.radians(90)) @ REST[1]])
+    X = rig.deform(pose)
+    full = pairs(X, F)
+    assert len(full) > 0
+    for touching in (V[F].mean(1)[:, 0] > 0.1, np.arange(len(F)) % 7 == 0):  # the moved limb's side; a sample
+        want = [tuple(p) for p in full.tolist() if touching[p[0]] or touching[p[1]]]
+        assert 0 < len(want) < len(full)  # a real restriction with pairs on both sides
+        assert [tuple(p) for p in pairs(X, F, touching=touching).tolist()] == want
+
+
 def test_untangle_removes_the_crease_folds_of_a_90_degree_bend(rig, mesh):
     # Issue 33: with the untangling the bent capsule crosses itself less than DQS with the same weights
     # (counted by the numpy brute force, not by the native detector the step uses) and keeps at least
