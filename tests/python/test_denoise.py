@@ -276,8 +276,8 @@ CLEAN_SCANS = [n for n in ("cow", "bull", "ChineseDragon-10kv") if (CGAL / f"{n}
 @pytest.mark.parametrize("jitter,seed", [(0.0, 3), (0.15, 3), (0.3, 3), (0.15, 4)])
 def test_default_leaves_a_clean_coarse_feature_bearing_shape(jitter, seed):
     # Its sampling reads as noise (sigma 0.09-0.11 e, as the noise-free CGAL scans' 0.07-0.10) with
-    # much shape detail (0.19-0.22 e). The session-22 rule asked for a Taubin step, which moves it by
-    # 3.4-13.1 degrees; the rule's floor (sigma below min(0.9 detail, 0.1 e) is the shape's) leaves
+    # much shape detail (0.19-0.22 e). The session-22 rule asked for a Taubin step (one step moves it
+    # by 3.4-13.1 degrees); the rule's floor (sigma below min(0.9 detail, 0.1 e) is the shape's) leaves
     # it alone, and it still denoises the same shape with noise. Coarser still (x^10 + ...: sigma
     # 0.11-0.14 e) it is moved again (bench/notes/denoise.md).
     V, F = jittered_rounded_cube(jitter, seed)
