@@ -40,17 +40,23 @@ constexpr double kAutoKernelBilateral = 1.414;
 constexpr int kAutoIterationsSimilarity = 3;
 constexpr int kAutoIterationsBilateral = 3;
 constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed (2 per coefficient)
-// Taubin smoothing (DenoiseOptions::smoothing_steps) and its automatic rule: steps =
-// kAutoSmoothScale sigma^kAutoSmoothPower / max(detail, kAutoSmoothMinDetail)^kAutoSmoothDetailPower,
-// fitted (grid search minimising the mean log ratio of the error to the best step count's) on the
-// best counts of denoise_auto's six subset models (bench/notes/denoise.md); the feature test of the
-// automatic choice.
+// Taubin smoothing (DenoiseOptions::smoothing_steps) and its automatic rule: with d = max(detail,
+// kAutoSmoothMinDetail), the shape's own reading f = min(kAutoSmoothFloor d, kAutoSmoothFloorCap) and
+// the noise above it n = sqrt(max(0, sigma^2 - f^2)),
+//   steps = kAutoSmoothScale n^kAutoSmoothPower / d^kAutoSmoothDetailPower.
+// The floor: noise-free CGAL scans read sigma of 0.4-0.85 d and at most 0.104 e (femur, knot2 and
+// two rough scans excepted), their shape at the sampling scale; added noise raises sigma far more
+// than detail. The constants were fitted (grid search minimising the mean log ratio of the error to
+// the best step count's) on the best counts of 14 CGAL models at 0.05-0.3 e with noise-free scans
+// held to 0 steps (bench/notes/denoise.md, session 23); the feature test of the automatic choice.
 constexpr double kTaubinLambda = 0.6;
 constexpr double kTaubinMu = -0.62;
-constexpr double kAutoSmoothScale = 19.0;
-constexpr double kAutoSmoothPower = 2.4;
+constexpr double kAutoSmoothScale = 5.4;
+constexpr double kAutoSmoothPower = 1.6;
 constexpr double kAutoSmoothDetailPower = 1.5;
 constexpr double kAutoSmoothMinDetail = 0.03;
+constexpr double kAutoSmoothFloor = 0.9;
+constexpr double kAutoSmoothFloorCap = 0.1;
 constexpr double kAutoSmoothMinCurvature = 0.05;  // the feature test's floor
 constexpr int kAutoSmoothMaxSteps = 60;
 constexpr double kAutoFeatureRatio = 1.0;
@@ -918,7 +924,9 @@ DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& ba
 int auto_smoothing_steps(const NoiseEstimate& noise) {
   const double sigma = std::isfinite(noise.sigma) ? std::max(0.0, noise.sigma) : 0.0;
   const double detail = std::isfinite(noise.detail) ? std::max(kAutoSmoothMinDetail, noise.detail) : 1.0;
-  const double k = kAutoSmoothScale * std::pow(sigma, kAutoSmoothPower) / std::pow(detail, kAutoSmoothDetailPower);
+  const double shape = std::min(kAutoSmoothFloor * detail, kAutoSmoothFloorCap);  // the shape's own reading
+  const double excess = std::sqrt(std::max(0.0, sigma * sigma - shape * shape));
+  const double k = kAutoSmoothScale * std::pow(excess, kAutoSmoothPower) / std::pow(detail, kAutoSmoothDetailPower);
   return static_cast<int>(std::lround(std::min<double>(k, kAutoSmoothMaxSteps)));
 }
 

@@ -354,6 +354,18 @@ TEST(Denoise, AutomaticSmoothingRule) {
   EXPECT_GT(high, low);  // more noise, more steps
   e.detail = 0.3;
   EXPECT_LT(auto_smoothing_steps(e), high);  // more shape detail at the sampling scale, fewer steps
+  // Below the shape's own reading min(0.9 detail, 0.1 e) sigma is not noise: a noise-free coarse
+  // scan (elephant: sigma 0.090, detail 0.213; cow 0.091 / 0.136) gets no step, the same with 0.1 e
+  // of noise (elephant: 0.164 / 0.233) does.
+  e.sigma = 0.090;
+  e.detail = 0.213;
+  EXPECT_EQ(auto_smoothing_steps(e), 0);
+  e.sigma = 0.091;
+  e.detail = 0.136;
+  EXPECT_EQ(auto_smoothing_steps(e), 0);
+  e.sigma = 0.164;
+  e.detail = 0.233;
+  EXPECT_GT(auto_smoothing_steps(e), 0);
   e.detail = 0;
   e.sigma = 1.0;
   EXPECT_EQ(auto_smoothing_steps(e), 60);  // capped

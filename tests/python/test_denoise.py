@@ -249,13 +249,8 @@ def test_default_lowers_the_normal_error(auto_shape):
             assert after < before, f"{name} at {level} e {kind}: {before:.2f} -> {after:.2f} degrees"
 
 
-def test_default_leaves_noise_free_input_nearly_unchanged(auto_shape, request):
+def test_default_leaves_noise_free_input_nearly_unchanged(auto_shape):
     name, V, F = auto_shape
-    if name == "elephant":
-        # Known failure: on this coarse model (2775 vertices, e * kappa = 0.66) the local cubic fits
-        # leave 0.09 e of residual on the clean mesh, read as noise; the default then moves it by 3.0
-        # degrees. Strict: reported as a failure once it passes.
-        request.applymarker(pytest.mark.xfail(strict=True, reason="coarse mesh: model error read as noise"))
     r = dgmesh.denoise(V, F)
     assert normal_error_deg(r.vertices, V, F).mean() < 0.5, name
     if name in ("camel", "lion-head"):
@@ -263,6 +258,48 @@ def test_default_leaves_noise_free_input_nearly_unchanged(auto_shape, request):
         # asks for no smoothing step, so nothing runs.
         assert r.options.smoothing_steps == 0 and r.iterations == 0
         assert np.array_equal(r.vertices, V)
+
+
+def jittered_rounded_cube(jitter, seed):
+    """A clean, coarse, irregularly sampled shape with rounded edges: icosphere(2) (162 vertices)
+    jittered by `jitter` edge lengths, then put back on the superellipsoid x^8 + y^8 + z^8 = 1 by
+    radial projection (every vertex on the surface, none where a regular mesh would put it)."""
+    V, F = shapes.icosphere(2, 1.0)
+    V = V + np.random.default_rng(seed).normal(0.0, jitter * edge_length(V, F), V.shape)
+    V /= np.linalg.norm(V, axis=1)[:, None]
+    return V / ((V**8).sum(axis=1) ** 0.125)[:, None], np.asarray(F)
+
+
+CLEAN_SCANS = [n for n in ("cow", "bull", "ChineseDragon-10kv") if (CGAL / f"{n}.off").exists()]
+
+
+@pytest.mark.parametrize("jitter,seed", [(0.0, 3), (0.15, 3), (0.3, 3), (0.15, 4)])
+def test_default_leaves_a_clean_coarse_feature_bearing_shape(jitter, seed):
+    # Its sampling reads as noise (sigma 0.09-0.11 e, as the noise-free CGAL scans' 0.07-0.10) with
+    # much shape detail (0.19-0.22 e). The session-22 rule asked for a Taubin step (one step moves it
+    # by 3.4-13.1 degrees); the rule's floor (sigma below min(0.9 detail, 0.1 e) is the shape's) leaves
+    # it alone, and it still denoises the same shape with noise. Coarser still (x^10 + ...: sigma
+    # 0.11-0.14 e) it is moved again (bench/notes/denoise.md).
+    V, F = jittered_rounded_cube(jitter, seed)
+    r = dgmesh.denoise(V, F)
+    assert normal_error_deg(r.vertices, V, F).mean() < 0.5, (r.noise.sigma, r.noise.detail, r.options.smoothing_steps)
+    if jitter > 0.2:
+        # So irregular that no Taubin count helps much under 0.1 e of noise (measured: 16.39 degrees
+        # noisy, best 16.08 at 1 step, 18.04 at the rule's 4): only the noise-free case is checked.
+        return
+    for level in (0.1, 0.3):
+        Vn = noisy(V, F, level, seed=seed + 10)
+        before = normal_error_deg(Vn, V, F).mean()
+        after = normal_error_deg(dgmesh.denoise(Vn, F).vertices, V, F).mean()
+        assert after < before, f"{level} e: {before:.2f} -> {after:.2f} degrees"
+
+
+@pytest.mark.parametrize("name", CLEAN_SCANS)
+def test_default_leaves_noise_free_coarse_scans(name):
+    # Decimated CGAL scans (2904-10000 vertices) that the session-22 rule moved by 6.6-11.8 degrees.
+    V, F = dgmesh.read_mesh(CGAL / f"{name}.off")
+    r = dgmesh.denoise(V, F)
+    assert normal_error_deg(r.vertices, V, F).mean() < 0.5, (r.noise.sigma, r.noise.detail, r.options.smoothing_steps)
 
 
 def test_automatic_reports_its_estimate_and_options(sphere):
