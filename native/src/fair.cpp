@@ -178,6 +178,12 @@ double min_area_near(const Work& w, const Geo& g) {
   return std::isfinite(a) ? a : 0.0;
 }
 
+// CHOLMOD's threads cost more than they save on small systems under load (a 120-vertex patch:
+// 1.9 s, 0.2 s with one thread); the simplicial LDL^T has none.
+SparseSolver::Kind spd_kind(int unknowns) {
+  return unknowns < 3000 ? SparseSolver::Kind::Cholesky : SparseSolver::Kind::Supernodal;
+}
+
 // The uniform bi-umbrella U0^2 = W W of the thesis's section 3.2 (W = D^-1 G: G the graph Laplacian,
 // G_kk = -d_k and G_kj = 1 on k's ring, with zero rows at boundary vertices where U0 = 0; D the
 // valences) in symmetric form: S = G^T D^-1 G, returned with D. At an interior vertex i, S's row is
@@ -187,29 +193,32 @@ double min_area_near(const Work& w, const Geo& g) {
 // symmetric positive definite when every movable component meets a fixed vertex (the second for
 // any tau > 0): Cholesky instead of the sparse LU of the unsymmetric U0^2, whose factorisations
 // were 74% of the bilaplacian run and 41% of a 10-iteration Willmore run on a 6240-vertex region
-// (callgrind, bench/notes/fair.md). Same solutions up to rounding.
-// CHOLMOD's threads cost more than they save on small systems under load (a 120-vertex patch:
-// 1.9 s, 0.2 s with one thread); the simplicial LDL^T has none.
-SparseSolver::Kind spd_kind(int unknowns) {
-  return unknowns < 3000 ? SparseSolver::Kind::Cholesky : SparseSolver::Kind::Supernodal;
-}
-
-SpMat symmetric_bi_umbrella(const Topology& t, VecXd& valence) {
+// (callgrind, bench/notes/fair.md). Same solutions up to rounding. Only the rows and columns of
+// the vertices with idx[v] >= 0 are complete (the terms of a vertex k whose closed ring has none
+// are left out): the blocks S_mm and S_mf that the solves read.
+SpMat symmetric_bi_umbrella(const Topology& t, const std::vector<int>& idx, VecXd& valence) {
   const int n = t.n_vertices;
   valence.setOnes(n);
   std::vector<Eigen::Triplet<double>> trip;
-  trip.reserve(t.vv_index.size() + n);
-  for (int v = 0; v < n; ++v) {
-    const int d = t.valence(v);
-    if (d > 0) valence[v] = d;
-    if (t.on_boundary[v] || d == 0) continue;
-    for (int q = t.vv_offset[v]; q < t.vv_offset[v + 1]; ++q) trip.emplace_back(v, t.vv_index[q], 1.0);
-    trip.emplace_back(v, v, -static_cast<double>(d));
+  for (int k = 0; k < n; ++k) {
+    const int b = t.vv_offset[k], d = t.valence(k);
+    if (d > 0) valence[k] = d;
+    if (t.on_boundary[k] || d == 0) continue;
+    bool any = idx[k] >= 0;
+    for (int q = 0; q < d && !any; ++q) any = idx[t.vv_index[b + q]] >= 0;
+    if (!any) continue;
+    // G_k^T G_k / d_k: G_kk = -d_k, G_kj = 1 on the ring.
+    trip.emplace_back(k, k, static_cast<double>(d));
+    for (int qa = 0; qa < d; ++qa) {
+      const int a = t.vv_index[b + qa];
+      trip.emplace_back(k, a, -1.0);
+      trip.emplace_back(a, k, -1.0);
+      for (int qb = 0; qb < d; ++qb) trip.emplace_back(a, t.vv_index[b + qb], 1.0 / d);
+    }
   }
-  SpMat G(n, n);
-  G.setFromTriplets(trip.begin(), trip.end());
-  const SpMat DinvG = valence.cwiseInverse().asDiagonal() * G;
-  return SpMat(SpMat(G.transpose()) * DinvG);
+  SpMat S(n, n);
+  S.setFromTriplets(trip.begin(), trip.end());
+  return S;
 }
 
 // Willmore / Laplacian-of-H speed F at movable vertices (eq. 3.5 / 3.12), with the thesis's
@@ -673,7 +682,7 @@ class Driver {
         solver.factor(Bmm, SparseSolver::Kind::LU);
       } else {
         VecXd d;
-        split_fixed(symmetric_bi_umbrella(w.topo, d), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
+        split_fixed(symmetric_bi_umbrella(w.topo, movable_idx_, d), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
         solver.factor(Bmm, spd_kind(nm_));
       }
       x = solver.solve(-(Bmf * Xf));
@@ -1094,7 +1103,7 @@ class Driver {
     SpMat B;  // explicit: U0^2; semi-implicit: its symmetric form S (symmetric_bi_umbrella)
     VecXd valence;
     if (semi) {
-      B = symmetric_bi_umbrella(w.topo, valence);
+      B = symmetric_bi_umbrella(w.topo, movable_idx_, valence);
     } else {
       const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
       B = SpMat(W * W);
