@@ -178,6 +178,49 @@ double min_area_near(const Work& w, const Geo& g) {
   return std::isfinite(a) ? a : 0.0;
 }
 
+// CHOLMOD's threads cost more than they save on small systems under load (a 120-vertex patch:
+// 1.9 s, 0.2 s with one thread); the simplicial LDL^T has none.
+SparseSolver::Kind spd_kind(int unknowns) {
+  return unknowns < 3000 ? SparseSolver::Kind::Cholesky : SparseSolver::Kind::Supernodal;
+}
+
+// The uniform bi-umbrella U0^2 = W W of the thesis's section 3.2 (W = D^-1 G: G the graph Laplacian,
+// G_kk = -d_k and G_kj = 1 on k's ring, with zero rows at boundary vertices where U0 = 0; D the
+// valences) in symmetric form: S = G^T D^-1 G, returned with D. At an interior vertex i, S's row is
+// D U0^2's (sum_k G_ik G_kj / d_k; a term through a boundary vertex k vanishes in both, G_kj = 0),
+// so U0^2 P = 0 at the movable vertices (all interior) is S_mm x = -S_mf X_f, and the bilaplacian
+// flow's backward Euler step (I + tau U0^2) is (D_m + tau S_mm) x = D_m p - tau S_mf X_f, both
+// symmetric positive definite when every movable component meets a fixed vertex (the second for
+// any tau > 0): Cholesky instead of the sparse LU of the unsymmetric U0^2, whose factorisations
+// were 74% of the bilaplacian run and 41% of a 10-iteration Willmore run on a 6240-vertex region
+// (callgrind, bench/notes/fair.md). Same solutions up to rounding. Only the rows and columns of
+// the vertices with idx[v] >= 0 are complete (the terms of a vertex k whose closed ring has none
+// are left out): the blocks S_mm and S_mf that the solves read.
+SpMat symmetric_bi_umbrella(const Topology& t, const std::vector<int>& idx, VecXd& valence) {
+  const int n = t.n_vertices;
+  valence.setOnes(n);
+  std::vector<Eigen::Triplet<double>> trip;
+  for (int k = 0; k < n; ++k) {
+    const int b = t.vv_offset[k], d = t.valence(k);
+    if (d > 0) valence[k] = d;
+    if (t.on_boundary[k] || d == 0) continue;
+    bool any = idx[k] >= 0;
+    for (int q = 0; q < d && !any; ++q) any = idx[t.vv_index[b + q]] >= 0;
+    if (!any) continue;
+    // G_k^T G_k / d_k: G_kk = -d_k, G_kj = 1 on the ring.
+    trip.emplace_back(k, k, static_cast<double>(d));
+    for (int qa = 0; qa < d; ++qa) {
+      const int a = t.vv_index[b + qa];
+      trip.emplace_back(k, a, -1.0);
+      trip.emplace_back(a, k, -1.0);
+      for (int qb = 0; qb < d; ++qb) trip.emplace_back(a, t.vv_index[b + qb], 1.0 / d);
+    }
+  }
+  SpMat S(n, n);
+  S.setFromTriplets(trip.begin(), trip.end());
+  return S;
+}
+
 // Willmore / Laplacian-of-H speed F at movable vertices (eq. 3.5 / 3.12), with the thesis's
 // rescaling of H where the discrete H^2 - K < 0 (applied in the nonlinear term, so that
 // Laplace_S(H) stays a smooth function of the geometry). Returns lambda.
@@ -619,10 +662,34 @@ class Driver {
   // metric gave a nearly flat start on scanned holes; the uniform weights do not depend on it.)
   bool linear_start(Work& w) {
     if (nm_ == 0 || nm_ == w.topo.n_vertices) return false;
-    const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
-    // U0^2 is not symmetric. A failed solve (e.g. a movable component without fixed neighbours)
-    // starts from the input.
-    return take_held_minimiser(w, SpMat(W * W), movable_idx_, nm_, SparseSolver::Kind::LU);
+    // A failed solve (e.g. a movable component without fixed neighbours) starts from the input.
+    Eigen::MatrixXd x;
+    if (!uniform_held_minimiser(w, x)) return false;
+    return take_if_lower(w, movable_idx_, x);
+  }
+
+  // x: the movable vertices' rows of U0^2 P = 0 with the others held (see symmetric_bi_umbrella);
+  // false when the solve fails. A component without fixed vertices makes S_mm singular: the
+  // unsymmetric LU then, as before.
+  bool uniform_held_minimiser(const Work& w, Eigen::MatrixXd& x) const {
+    SpMat Bmm, Bmf;
+    MatX3d Xf;
+    try {
+      SparseSolver solver;
+      if (any_free_) {
+        const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
+        split_fixed(SpMat(W * W), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
+        solver.factor(Bmm, SparseSolver::Kind::LU);
+      } else {
+        VecXd d;
+        split_fixed(symmetric_bi_umbrella(w.topo, movable_idx_, d), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
+        solver.factor(Bmm, spd_kind(nm_));
+      }
+      x = solver.solve(-(Bmf * Xf));
+    } catch (const SolverError&) {
+      return false;
+    }
+    return x.allFinite();
   }
 
   // Solves B P = 0 for the vertices with idx[v] >= 0 (ns of them), the others held, and takes the
@@ -903,42 +970,41 @@ class Driver {
     int it = 0;
     if (opt_.linear_start && !tried_linear_ && nm_ > 0 && nm_ < w.topo.n_vertices && opt_.max_iterations > 0) {
       tried_linear_ = true;
-      const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
-      SpMat Bmm, Bmf;
-      MatX3d Xf;
-      split_fixed(SpMat(W * W), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
-      try {
-        SparseSolver solver;
-        solver.factor(Bmm, SparseSolver::Kind::LU);
-        const Eigen::MatrixXd x = solver.solve(-(Bmf * Xf));
-        if (x.allFinite()) {
-          MatX3d P = w.P;
-          for (int v = 0; v < w.topo.n_vertices; ++v)
-            if (movable_idx_[v] >= 0) P.row(v) = x.row(movable_idx_[v]);
-          const double e1 = hinge_energy(P, hs);
-          if (std::isfinite(e1)) {
-            w.P = P;
-            e = e1;
-            rep.linear_start = true;
-            energy_.push_back(e);
-            ++it;
-          }
+      Eigen::MatrixXd x;
+      if (uniform_held_minimiser(w, x)) {
+        MatX3d P = w.P;
+        for (int v = 0; v < w.topo.n_vertices; ++v)
+          if (movable_idx_[v] >= 0) P.row(v) = x.row(movable_idx_[v]);
+        const double e1 = hinge_energy(P, hs);
+        if (std::isfinite(e1)) {
+          w.P = P;
+          e = e1;
+          rep.linear_start = true;
+          energy_.push_back(e);
+          ++it;
         }
-      } catch (const SolverError&) {}
+      }
     }
     const int nm = nm_, n3 = 3 * nm;
     double mu = 1e-3;
     SparseSolver solver;  // JtJ keeps its pattern: one symbolic analysis per level
     bool analysed = false;
-    // CHOLMOD's threads cost more than they save on small systems under load (a 120-vertex patch:
-    // 1.9 s, 0.2 s with one thread); the simplicial LDL^T has none.
-    const SparseSolver::Kind kind = n3 < 3000 ? SparseSolver::Kind::Cholesky : SparseSolver::Kind::Supernodal;
+    const SparseSolver::Kind kind = spd_kind(n3);
+    // JtJ's pattern and, per term (in the hinges' order), the value it adds to are set up on the
+    // first iteration; later ones refill the values in the same order (the same sums as
+    // setFromTriplets', which took 4% of a step).
     std::vector<Eigen::Triplet<double>> trip;
+    std::vector<int> term_slot, diag_slot;
+    SpMat JtJ(n3, n3);
     Eigen::VectorXd grad(n3);
     while (!out_of_budget(it) && nm > 0) {
       report(it);
+      const bool first = term_slot.empty();
       trip.clear();
       grad.setZero();
+      double* val = JtJ.valuePtr();
+      if (!first) std::fill(val, val + JtJ.nonZeros(), 0.0);
+      size_t term = 0;
       for (const Hinge& h : hs) {
         double theta, c;
         Vec3 g[4];
@@ -955,19 +1021,35 @@ class Driver {
           for (int b = 0; b < 4; ++b) {
             if (id[b] < 0) continue;
             for (int da = 0; da < 3; ++da)
-              for (int db = 0; db < 3; ++db) trip.emplace_back(3 * id[a] + da, 3 * id[b] + db, c * g[a][da] * g[b][db]);
+              for (int db = 0; db < 3; ++db) {
+                const double x = c * g[a][da] * g[b][db];
+                if (first)
+                  trip.emplace_back(3 * id[a] + da, 3 * id[b] + db, x);
+                else
+                  val[term_slot[term++]] += x;
+              }
           }
         }
       }
-      for (int i = 0; i < n3; ++i) trip.emplace_back(i, i, 0.0);
-      SpMat JtJ(n3, n3);
-      JtJ.setFromTriplets(trip.begin(), trip.end());
+      if (first) {
+        for (int i = 0; i < n3; ++i) trip.emplace_back(i, i, 0.0);
+        JtJ.setFromTriplets(trip.begin(), trip.end());
+        auto slot = [&](int r, int col) {
+          const int* lo = JtJ.innerIndexPtr() + JtJ.outerIndexPtr()[col];
+          const int* hi = JtJ.innerIndexPtr() + JtJ.outerIndexPtr()[col + 1];
+          return static_cast<int>(std::lower_bound(lo, hi, r) - JtJ.innerIndexPtr());
+        };
+        term_slot.resize(trip.size() - n3);
+        for (size_t q = 0; q < term_slot.size(); ++q) term_slot[q] = slot(trip[q].row(), trip[q].col());
+        diag_slot.resize(n3);
+        for (int i = 0; i < n3; ++i) diag_slot[i] = slot(i, i);
+      }
       const double dmean = std::max(JtJ.diagonal().mean(), 1e-12);
       bool accepted = false;
       double e_new = e;
       while (mu <= 1e6) {
         SpMat A = JtJ;
-        for (int i = 0; i < n3; ++i) A.coeffRef(i, i) += mu * dmean;
+        for (int i = 0; i < n3; ++i) A.valuePtr()[diag_slot[i]] += mu * dmean;
         Eigen::MatrixXd step;
         try {
           if (analysed)
@@ -1017,8 +1099,15 @@ class Driver {
   LevelReport run_bilaplacian(Work& w) {
     LevelReport rep;
     const int n = w.topo.n_vertices;
-    const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
-    const SpMat B = SpMat(W * W);
+    const bool semi = opt_.scheme == FairScheme::SemiImplicit;
+    SpMat B;  // explicit: U0^2; semi-implicit: its symmetric form S (symmetric_bi_umbrella)
+    VecXd valence;
+    if (semi) {
+      B = symmetric_bi_umbrella(w.topo, movable_idx_, valence);
+    } else {
+      const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
+      B = SpMat(W * W);
+    }
     compute_geometry(w.P, w.F, w.topo, g_);
     double e = energy_of(w, g_);
     e_mark_ = e;
@@ -1033,7 +1122,6 @@ class Driver {
       e_best = e_start;
       P_best = w.P;
     }
-    const bool semi = opt_.scheme == FairScheme::SemiImplicit;
     double tau = semi ? 1.0 : 0.2 * opt_.step_scale;  // explicit: stable below 0.5
     SparseSolver solver;
     SpMat Bmm, Bmf;
@@ -1052,21 +1140,24 @@ class Driver {
         for (int v = 0; v < n; ++v)
           if (movable_idx_[v] >= 0) w.P.row(v) -= tau * BP.row(v);
       } else {
-        // I + tau B: B is fixed (uniform weights), so the matrix changes only with tau, which stops
-        // growing at its cap; refactoring it every step cost ~175 ms a step on an 8K-vertex scan.
+        // (I + tau U0^2) x = p, times the valences: (D_m + tau S_mm) x = D_m p - tau S_mf X_f. S is
+        // fixed (uniform weights), so the matrix changes only with tau, which stops growing at its
+        // cap; refactoring it every step cost ~175 ms a step on an 8K-vertex scan. Its pattern
+        // (S_mm's, with the diagonal) stays: one symbolic analysis per level.
         if (tau != tau_factored) {
           SpMat A = Bmm * tau;
-          for (int i = 0; i < nm_; ++i) A.coeffRef(i, i) += 1.0;
+          for (int v = 0; v < n; ++v)
+            if (movable_idx_[v] >= 0) A.coeffRef(movable_idx_[v], movable_idx_[v]) += valence[v];
           A.makeCompressed();
           if (tau_factored < 0)
-            solver.factor(A, SparseSolver::Kind::LU);
+            solver.factor(A, spd_kind(nm_));
           else
             solver.refactor(A);
           tau_factored = tau;
         }
         Eigen::MatrixXd rhs(nm_, 3);
         for (int v = 0; v < n; ++v)
-          if (movable_idx_[v] >= 0) rhs.row(movable_idx_[v]) = w.P.row(v);
+          if (movable_idx_[v] >= 0) rhs.row(movable_idx_[v]) = valence[v] * w.P.row(v);
         if (Bmf.cols() > 0) rhs -= tau * (Bmf * Eigen::MatrixXd(fixed_pos_));
         const Eigen::MatrixXd x = solver.solve(rhs);
         for (int v = 0; v < n; ++v)

@@ -693,3 +693,33 @@ def test_the_hinge_method_fairs_a_whole_mesh_by_the_willmore_flow():
     a = dgmesh.fair(V, F, method="hinge", max_iterations=20)
     b = dgmesh.fair(V, F, method="willmore", max_iterations=20)
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.energy, b.energy)
+
+
+
+def _bi_umbrella(V, F):
+    """U0^2 V, the uniform bi-umbrella of a closed mesh (thesis section 3.2), by edge sums."""
+    E = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+    deg = np.bincount(E.ravel(), minlength=len(V)).astype(float)[:, None]
+
+    def umbrella(X):
+        s = np.zeros_like(X)
+        np.add.at(s, E[:, 0], X[E[:, 1]])
+        np.add.at(s, E[:, 1], X[E[:, 0]])
+        return s / deg - X
+    return umbrella(umbrella(V))
+
+
+@pytest.mark.parametrize("level, z0", [(3, 0.3), (5, 0.2)])
+def test_the_linear_start_and_the_bilaplacian_steady_state_solve_the_bi_umbrella_system(level, z0):
+    """The symmetric form of U0^2 solved by Cholesky (fair.cpp, symmetric_bi_umbrella; CHOLMOD for the
+    4.1K-vertex cap) meets U0^2 P = 0 at the movable vertices to rounding: the hinge method's and the
+    Willmore flow's linear start (their first iteration) and the bilaplacian flow's steady state, on a
+    flattened sphere cap."""
+    W, F, movable, _cap = _cap_hole(level=level, z0=z0)
+    assert np.abs(_bi_umbrella(W, F)[movable]).max() > 1e-3  # the flat start is far from it
+    for method in ("hinge", "willmore"):
+        r = dgmesh.fair(W, F, mask=movable, method=method, max_iterations=1)
+        assert r.linear_start and r.iterations == 1
+        assert np.abs(_bi_umbrella(r.vertices, F)[movable]).max() < 1e-12, method
+    r = dgmesh.fair(W, F, mask=movable, method="bilaplacian", tolerance=0.0, max_iterations=60)
+    assert np.abs(_bi_umbrella(r.vertices, F)[movable]).max() < 1e-12
