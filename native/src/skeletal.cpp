@@ -1237,7 +1237,7 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
 // slid apart along their bones, the limbs meet on the bisector plane and the smoothing only has the
 // folds inside each limb left (capsule bent 135 degrees, bench/tools/skeletal_crease_probe.py's
 // set-up: 1241 pairs left without, 0 with; DQS 331). Where the slide adds pairs (armadillo knee at
-// 90 degrees: 270 -> 446) it is not kept.
+// 90 degrees with the option's kappa 3: 270 -> 446) it is not kept.
 // The untangling's joint contact: kappa 8, over the vertices within 1.5 times the shorter bone of
 // the joint. A thick, short leg's inner flesh crosses the bisector plane up to about 2.4 times its
 // radius from the knee, beyond the shin's length: with contact_slide's own 3 and 1 the armadillo's
