@@ -152,7 +152,11 @@ struct SkeletalDeformOptions {
   // armadillo's knee (see bench/notes/skeletal.md); 3 is the measured setting.
   double contact_slide = 0.0;
   // Untangling (variational method, fairing_steps > 0; issue 33), iterations, 0 = off: the
-  // thesis's smoothing term of eq. 6.15 applied where the surface folds. Each iteration finds the
+  // thesis's smoothing term of eq. 6.15 applied where the surface folds. First, when contact_slide
+  // is off, the joint contact's slide (kappa 8, over the vertices within 1.5 times the shorter bone
+  // of a joint) is tried and kept if it lowers the count of self-intersecting pairs: in a tight bend
+  // the limbs' flesh piles into the concave corner, which the smoothing cannot clear without sinking
+  // it onto the other limb's bone. Then each iteration finds the
   // self-intersecting triangle pairs (self_intersection.h), smooths their vertices and
   // untangle_rings rings around them (three Jacobi steps of the uniform umbrella operator, weight
   // 1/2) and pushes them back out to at least max(0.9, bone_clearance) of their rest distance to
