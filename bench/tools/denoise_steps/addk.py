@@ -4,15 +4,10 @@ import sys, json, pathlib
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np, dgmesh
-from bench.common import cgal_mesh
-from bench.workloads.denoise import add_noise, add_noise_isotropic
+from rows import sweep_rows
 f, seed0 = sys.argv[1], int(sys.argv[2])
-d = json.load(open(f)); cache = {}
-for key, v in d.items():
-    name, kind, lv = key.split(); lv = float(lv)
-    if name not in cache: cache[name] = [np.asarray(a) for a in cgal_mesh(name)]
-    V, F = cache[name]; V = V.astype(float)
-    Vn = (add_noise if kind == "normal" else add_noise_isotropic)(V, F, lv, seed0 + int(lv * 1000))
+d = json.load(open(f))
+for key, v, Vn, F in sweep_rows(d, seed0):
     for k in (12, 27, 36):
         e = dgmesh.estimate_noise(Vn, F, neighbours=k); v[f"s{k}"] = e.sigma; v[f"c{k}"] = e.curvature
     print(key, int(np.argmin(v["taubin"])), " ".join(f"{v[x]:.3f}" for x in ("s12", "sigma", "s27", "s36", "c36")), flush=True)

@@ -4,16 +4,11 @@ import sys, json, pathlib
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np, dgmesh
-from bench.common import cgal_mesh, cgal_dir
-from bench.workloads.denoise import add_noise, add_noise_isotropic
+from bench.common import cgal_dir
+from rows import sweep_rows
 out = {"sweep11": {}, "sweep31": {}, "clean": {}}
 for lab, f, seed0 in (("sweep11", sys.argv[2], 11), ("sweep31", sys.argv[3], 31)):
-    d = json.load(open(f)); cache = {}
-    for key, v in d.items():
-        name, kind, lv = key.split(); lv = float(lv)
-        if name not in cache: cache[name] = [np.asarray(a) for a in cgal_mesh(name)]
-        V, F = cache[name]; V = V.astype(float)
-        Vn = (add_noise if kind == "normal" else add_noise_isotropic)(V, F, lv, seed0 + int(lv * 1000))
+    for key, v, Vn, F in sweep_rows(json.load(open(f)), seed0):
         e = dgmesh.estimate_noise(Vn, F)
         out[lab][key] = dict(sigma=e.sigma, detail=e.detail, taubin=v["taubin"])
     print(lab, "done", flush=True)

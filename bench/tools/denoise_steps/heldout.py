@@ -3,15 +3,10 @@ import sys, json, pathlib
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np, dgmesh
-from bench.common import cgal_mesh
-from bench.workloads.denoise import add_noise, add_noise_isotropic
-d = json.load(open(sys.argv[1])); seed0 = int(sys.argv[2]); cache = {}
+from rows import sweep_rows
+d = json.load(open(sys.argv[1])); seed0 = int(sys.argv[2])
 old_r, new_r = [], []
-for key, v in d.items():
-    name, kind, lv = key.split(); lv = float(lv)
-    if name not in cache: cache[name] = [np.asarray(a) for a in cgal_mesh(name)]
-    V, F = cache[name]; V = V.astype(float)
-    Vn = (add_noise if kind == "normal" else add_noise_isotropic)(V, F, lv, seed0 + int(lv * 1000))
+for key, v, Vn, F in sweep_rows(d, seed0):
     e = dgmesh.estimate_noise(Vn, F)
     t = np.array(v["taubin"])
     new = dgmesh.denoising._native.auto_smoothing_steps(e)

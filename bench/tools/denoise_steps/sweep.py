@@ -6,7 +6,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np, dgmesh
 from bench.common import cgal_mesh
-from bench.workloads.denoise import add_noise, add_noise_isotropic, normal_error
+from bench.workloads.denoise import normal_error
+from rows import noisy
 
 def umbrella(F, n):
     E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
@@ -37,7 +38,7 @@ for name in models:
     V, F = cgal_mesh(name); V = np.asarray(V, float); F = np.asarray(F)
     for kind in ("normal", "isotropic"):
         for lv in levels:
-            Vn = (add_noise if kind == "normal" else add_noise_isotropic)(V, F, lv, seed0 + int(lv * 1000))
+            Vn = noisy(V, F, kind, lv, seed0)
             est = dgmesh.estimate_noise(Vn, F)
             t, sm = curves(V, F, Vn)
             key = f"{name} {kind} {lv}"
