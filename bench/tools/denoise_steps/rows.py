@@ -1,0 +1,22 @@
+"""The noisy meshes of the step-rule fit (bench/notes/denoise.md), shared by its scripts: sweep.py makes
+them, the others read sweep.py's rows back and make the same noisy mesh again."""
+import numpy as np
+from bench.common import cgal_mesh
+from bench.workloads.denoise import add_noise, add_noise_isotropic
+
+
+def noisy(V, F, kind, level, seed0):
+    """V with `kind` ("normal" or "isotropic") noise of `level` mean edge lengths, seeded as in sweep.py."""
+    return (add_noise if kind == "normal" else add_noise_isotropic)(V, F, level, seed0 + int(level * 1000))
+
+
+def sweep_rows(rows, seed0):
+    """(key, row, noisy vertices, faces) for every row of a sweep.py output made with seed0."""
+    meshes = {}
+    for key, row in rows.items():
+        name, kind, level = key.split()
+        if name not in meshes:
+            V, F = cgal_mesh(name)
+            meshes[name] = (np.asarray(V, float), np.asarray(F))
+        V, F = meshes[name]
+        yield key, row, noisy(V, F, kind, float(level), seed0), F
