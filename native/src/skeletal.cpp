@@ -384,6 +384,11 @@ struct SkeletalRig::Impl {
   template <class Out, class Weight>
   void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight,
                      double reach = 1) const;
+  // A dense vertex's weight to bone j (multiresolution layer): the mean over its base face's corners.
+  double dense_weight(int i, int j) const {
+    const int f = multires->base_face()[i];
+    return (W(control.F(f, 0), j) + W(control.F(f, 1), j) + W(control.F(f, 2), j)) / 3;
+  }
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   bool follows_or_adjacent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   void untangle(MatX3d& X, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
@@ -1389,12 +1394,7 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const std::vector<Mat4>& pose, 
       [&](MatX3d& Y) {
         if (opt.contact_slide != 0) return false;
         contact_slide(
-            Y, dense_rest, pose, kUntangleContact,
-            [&](int i, int j) {
-              const int f = face[i];
-              return (W(Fc(f, 0), j) + W(Fc(f, 1), j) + W(Fc(f, 2), j)) / 3;
-            },
-            kUntangleReach);
+            Y, dense_rest, pose, kUntangleContact, [&](int i, int j) { return dense_weight(i, j); }, kUntangleReach);
         return true;
       });
   out = X.template cast<typename Out::Scalar>();
@@ -1488,12 +1488,8 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     impl.multires->reconstruct(Xc, out);
     if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, edited, out);
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
-      const VecXi& face = impl.multires->base_face();
-      const MatX3i& F = impl.control.F;
-      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide, [&](int i, int j) {
-        const int f = face[i];
-        return (impl.W(F(f, 0), j) + impl.W(F(f, 1), j) + impl.W(F(f, 2), j)) / 3;
-      });
+      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
+                         [&](int i, int j) { return impl.dense_weight(i, j); });
       impl.untangle_dense(out, pose, opt, edited);
     }
   } else {
