@@ -41,23 +41,34 @@ bash scripts/build.sh
 step "native tests"; current="native tests"
 check ctest --test-dir build -j"$(nproc)" --output-on-failure
 
-if [ "$mode" != --lane ]; then
-  step "native tests under AddressSanitizer + UndefinedBehaviorSanitizer"
-  asan=$root/build-asan
+# The sanitizer build and its tests (bookworm only), the python tests and the Blender tests run side
+# by side: the test suites leave a core idle much of the time (one process, waits), so together they
+# take less time than one after the other. Each background job writes a log, shown when it is done.
+jobs_pids=(); jobs_names=(); jobs_logs=()
+background() {  # background NAME LOG CMD...: runs CMD with its output in LOG
+  local name=$1 log=$2; shift 2
+  "$@" >"$log" 2>&1 &
+  jobs_pids+=($!); jobs_names+=("$name"); jobs_logs+=("$log")
+}
+asan_tests() {  # the native tests built with AddressSanitizer + UndefinedBehaviorSanitizer
+  local asan=$root/build-asan
   [ -f "$asan/CMakeCache.txt" ] || cmake -S "$root" -B "$asan" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DDGMESH_SANITIZE=ON -DDGMESH_PYTHON=OFF >/dev/null
-  cmake --build "$asan" -j"$(nproc)"
+  cmake --build "$asan" -j"$(nproc)" || return
   # OpenMP's runtime keeps thread pools alive at exit: not our leak.
-  current="native tests under ASan+UBSan"
-  check env ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 \
-    ctest --test-dir "$asan" -j"$(nproc)" --output-on-failure
-fi
-
-step "python tests (numpy API, plain /usr/bin/python3)"; current="python tests"
-check /usr/bin/python3 -m pytest -q tests/python
+  ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=print_stacktrace=1 ctest --test-dir "$asan" -j"$(nproc)" --output-on-failure
+}
+[ "$mode" = --lane ] || background "native tests under ASan+UBSan" build/asan-tests.log asan_tests
+background "python tests" build/python-tests.log /usr/bin/python3 -m pytest -q tests/python
 
 step "blender tests ($(blender --version 2>/dev/null | head -n 1), --background)"; current="blender tests"
 check blender --background --factory-startup --python-exit-code 1 --python tests/blender/run.py -- -q tests/blender
+for i in "${!jobs_pids[@]}"; do
+  current=${jobs_names[$i]}
+  step "$current (ran beside the blender tests; its log: ${jobs_logs[$i]})"
+  check wait "${jobs_pids[$i]}"
+  cat "${jobs_logs[$i]}"
+done
 
 # The portable package (scripts/package.sh, built here; the lanes get a copy of dist/): installed
 # into fresh user folders of this lane's Blender, one operator of each capability.
