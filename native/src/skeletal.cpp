@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <string>
 
@@ -391,10 +392,10 @@ struct SkeletalRig::Impl {
   }
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   bool follows_or_adjacent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
-  void untangle(MatX3d& X, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+  void untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                 const std::vector<char>& edited) const;
   template <class Out>
-  void untangle_dense(Out& out, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+  void untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                       const std::vector<char>& edited) const;
   MatX3d solve(const MatX3d& b) const {
     Eigen::MatrixXd B = b;
@@ -1252,6 +1253,39 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
 // (bench/notes/skeletal.md).
 constexpr double kUntangleContact = 8, kUntangleReach = 1.5;
 
+// Whether the untangling's slide (X0 -> X) keeps the thickness of eq. 6.13: over the vertices it
+// moved, the root mean square of f - target (f the distance to the union of the posed medial balls
+// (Sd, radii), target the rest value) may grow by at most kSlideThickness times the median medial
+// radius. A slide along the bone keeps the distance to a tube's bone; flesh far from its bone (the
+// arms of bench skeletal_blender's armadillo bent 90 degrees at the waist) slides off its medial
+// distance: growth 2.66 median radii there (kept on the pair count alone it ended at sum
+// (f - f_rest)^2 3.51e6, volume 1.077; DQS 1.37e5), at most 0.86 on the slides that untangle the
+// capsules and the armadillo's knee at 135 degrees (bench/notes/skeletal.md).
+constexpr double kSlideThickness = 1.0;
+bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, const VecXd& radii,
+                           const VecXd& target) {
+  std::vector<int> moved;
+  for (int i = 0; i < X.rows(); ++i)
+    if (X.row(i) != X0.row(i)) moved.push_back(i);
+  if (moved.empty()) return true;
+  std::vector<int> ids(Sd.rows());
+  std::iota(ids.begin(), ids.end(), 0);
+  const BallTree tree(Sd, radii, ids);
+  double e0 = 0, e1 = 0;
+  for (int i : moved) {
+    double b0 = std::numeric_limits<double>::infinity(), b1 = b0;
+    int a0 = -1, a1 = -1;
+    tree.query(row3(X0, i), b0, a0);
+    tree.query(row3(X, i), b1, a1);
+    e0 += (b0 - target[i]) * (b0 - target[i]);
+    e1 += (b1 - target[i]) * (b1 - target[i]);
+  }
+  VecXd r = radii;
+  std::nth_element(r.data(), r.data() + r.size() / 2, r.data() + r.size());
+  const double med = r[r.size() / 2], m = static_cast<double>(moved.size());
+  return std::sqrt(e1 / m) - std::sqrt(e0 / m) <= kSlideThickness * med;
+}
+
 template <class Push, class Clear, class Contact>
 void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
                     const std::vector<int>* faces, const std::vector<std::pair<int, int>>& at_rest, int iterations,
@@ -1339,8 +1373,8 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
   }
 }
 
-void SkeletalRig::Impl::untangle(MatX3d& X, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                 const std::vector<char>& edited) const {
+void SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose,
+                                 const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
   if (opt.untangle_iterations <= 0 || rest.size() < 2) return;  // one bone moves everything rigidly
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
@@ -1357,9 +1391,12 @@ void SkeletalRig::Impl::untangle(MatX3d& X, const std::vector<Mat4>& pose, const
       },
       [&](MatX3d& Y) {
         if (opt.contact_slide != 0) return false;  // on: contact_slide has run already
+        const MatX3d Y0 = Y;
         contact_slide(
             Y, control.V, pose, kUntangleContact, [&](int i, int j) { return W(i, j); }, kUntangleReach);
-        return true;
+        if (slide_keeps_thickness(Y0, Y, Sd, radii, f_rest)) return true;
+        Y = Y0;
+        return false;
       });
 }
 
@@ -1367,8 +1404,8 @@ void SkeletalRig::Impl::untangle(MatX3d& X, const std::vector<Mat4>& pose, const
 // SkeletalRigData::dense_F), over the faces with a vertex that does not move rigidly with one bone,
 // against the dense vertices' bone clearance.
 template <class Out>
-void SkeletalRig::Impl::untangle_dense(Out& out, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                       const std::vector<char>& edited) const {
+void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose,
+                                       const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
   if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
@@ -1393,9 +1430,12 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const std::vector<Mat4>& pose, 
       },
       [&](MatX3d& Y) {
         if (opt.contact_slide != 0) return false;
+        const MatX3d Y0 = Y;
         contact_slide(
             Y, dense_rest, pose, kUntangleContact, [&](int i, int j) { return dense_weight(i, j); }, kUntangleReach);
-        return true;
+        if (slide_keeps_thickness(Y0, Y, Sd, radii, dense_f_rest)) return true;
+        Y = Y0;
+        return false;
       });
   out = X.template cast<typename Out::Scalar>();
 }
@@ -1452,7 +1492,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);
     contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
-    untangle(X, pose, opt, edited);
+    untangle(X, Sd, pose, opt, edited);
   }
   return X;
 }
@@ -1490,7 +1530,7 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
       impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
                          [&](int i, int j) { return impl.dense_weight(i, j); });
-      impl.untangle_dense(out, pose, opt, edited);
+      impl.untangle_dense(out, Sd, pose, opt, edited);
     }
   } else {
     out = Xc.template cast<typename Out::Scalar>();

@@ -154,7 +154,9 @@ struct SkeletalDeformOptions {
   // Untangling (variational method, fairing_steps > 0; issue 33), iterations, 0 = off: the
   // thesis's smoothing term of eq. 6.15 applied where the surface folds. First, when contact_slide
   // is off, the joint contact's slide (kappa 8, over the vertices within 1.5 times the shorter bone
-  // of a joint) is tried and kept if it lowers the count of self-intersecting pairs: in a tight bend
+  // of a joint) is tried and kept if it lowers the count of self-intersecting pairs and the root
+  // mean square thickness error (eq. 6.13) of the vertices it moved grows by at most one median
+  // medial radius (flesh far from its bone slides off its medial distance): in a tight bend
   // the limbs' flesh piles into the concave corner, which the smoothing cannot clear without sinking
   // it onto the other limb's bone. Then each iteration finds the
   // self-intersecting triangle pairs (self_intersection.h), smooths their vertices and
