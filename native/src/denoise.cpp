@@ -12,6 +12,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -43,25 +44,23 @@ constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed
 // Taubin smoothing (DenoiseOptions::smoothing_steps) and its automatic rule: with d = max(detail,
 // kAutoSmoothMinDetail), the shape's own reading f = min(kAutoSmoothFloor d, kAutoSmoothFloorCap) and
 // the noise above it n = sqrt(max(0, sigma^2 - f^2)),
-//   steps = kAutoSmoothScale n^kAutoSmoothPower / d^kAutoSmoothDetailPower, not rounded (a fractional
-//   step is a gentler one: what low noise needs), 0 below kAutoSmoothMinStep.
+//   steps = kAutoSmoothScale n^kAutoSmoothPower / d^kAutoSmoothDetailPower.
 // The floor: noise-free CGAL scans read sigma of 0.4-0.85 d and at most 0.104 e (femur, knot2 and
 // two rough scans excepted), their shape at the sampling scale; added noise raises sigma far more
 // than detail. The constants were fitted (grid search minimising the mean log ratio of the error to
 // the best step count's) on the best counts of 14 CGAL models at 0.05-0.3 e with noise-free scans
-// held to 0 steps (bench/notes/denoise.md, session 23); the cap 0.1 -> 0.09 and the fractional steps in
-// session 24 (the 0.05 e rows of four CGAL models: ChineseDragon-10kv was left unchanged under 0.05 e
-// of noise, the clean bull and cow move 0.28 and 0.12 degrees). The feature test of the automatic
-// choice.
+// held to 0 steps (bench/notes/denoise.md, session 23), with the uniform umbrella; the operator is
+// half cotangent since session 24 (taubin_smooth), the rule unchanged. The feature test of the
+// automatic choice.
 constexpr double kTaubinLambda = 0.6;
 constexpr double kTaubinMu = -0.62;
+constexpr double kTaubinCotangentShare = 0.5;  // measured: bench/notes/denoise.md, session 24
 constexpr double kAutoSmoothScale = 5.4;
 constexpr double kAutoSmoothPower = 1.6;
 constexpr double kAutoSmoothDetailPower = 1.5;
 constexpr double kAutoSmoothMinDetail = 0.03;
 constexpr double kAutoSmoothFloor = 0.9;
-constexpr double kAutoSmoothFloorCap = 0.09;
-constexpr double kAutoSmoothMinStep = 0.1;        // a smaller fraction moves under 1% of a full step's
+constexpr double kAutoSmoothFloorCap = 0.1;
 constexpr double kAutoSmoothMinCurvature = 0.05;  // the feature test's floor
 constexpr int kAutoSmoothMaxSteps = 60;
 constexpr double kAutoFeatureRatio = 1.0;
@@ -97,8 +96,7 @@ void check_options(const DenoiseOptions& opt, Eigen::Index n) {
   if (opt.eta2 > 20 || opt.eta3 > 20)
     throw MeshError("eta2 and eta3 must be at most 20 (neighbourhoods of 40 edge lengths)");
   if (opt.iterations < 0 || opt.iterations > 1000) throw MeshError("iterations must be in [0, 1000]");
-  if (!(std::isfinite(opt.smoothing_steps) && opt.smoothing_steps >= 0 && opt.smoothing_steps <= 1000))
-    throw MeshError("smoothing_steps must be a number in [0, 1000]");
+  if (opt.smoothing_steps < 0 || opt.smoothing_steps > 1000) throw MeshError("smoothing_steps must be in [0, 1000]");
   if (opt.max_patch != 0 && (opt.max_patch < 3 || opt.max_patch > kMaxPatch))
     throw MeshError("max_patch must be 0 (automatic) or in [3, " + std::to_string(kMaxPatch) + "]");
   if (opt.max_window != 0 && (opt.max_window < 1 || opt.max_window > 4096))
@@ -681,10 +679,15 @@ void prepare(State& st, const MatX3i* F, const DenoiseOptions& o, bool cloud, bo
   if (cloud && !first && o.reestimate_normals) pca_normals(st);
 }
 
-// Taubin's lambda|mu smoothing with the uniform umbrella operator over the edges of F (each edge
-// once, however many faces share it); fixed points keep their place but inform their neighbours.
-// ceil(steps) steps, the last one with lambda and mu scaled by the fractional part of steps.
-void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable, double steps) {
+// Taubin's lambda|mu smoothing over the edges of F (each edge once, however many faces share it)
+// with the umbrella operator L x_i = sum_j W_ij x_j - x_i, W_ij = (1 - c) / deg_i + c w_ij / sum_k w_ik:
+// half uniform (its tangential part evens out the tangential component of isotropic noise) and
+// half cotangent, w_ij = max(0, (cot alpha + cot beta) / 2) of the input positions (no tangential
+// drift on an irregular triangulation, which counts as error of the face normals), c =
+// kTaubinCotangentShare; a vertex without a positive cotangent weight uses the uniform part alone.
+// The weights are convex, so every step is a stable average. Fixed points keep their place but
+// inform their neighbours.
+void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable, int steps) {
   const int n = static_cast<int>(P.rows());
   std::vector<std::pair<int, int>> edges;
   edges.reserve(static_cast<size_t>(F.rows()) * 3);
@@ -695,25 +698,44 @@ void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable,
     }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  VecXd degree = VecXd::Zero(n);
-  for (const auto& [a, b] : edges) {
+  const size_t ne = edges.size();
+  std::vector<double> cot(ne, 0.0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3), o = F(f, (k + 2) % 3);
+      if (a == b) continue;
+      const Vec3 u = prow(P, a) - prow(P, o), v = prow(P, b) - prow(P, o);
+      const double area2 = u.cross(v).norm();
+      if (!(area2 > 0)) continue;
+      const auto it = std::lower_bound(edges.begin(), edges.end(), std::make_pair(std::min(a, b), std::max(a, b)));
+      cot[static_cast<size_t>(it - edges.begin())] += 0.5 * u.dot(v) / area2;
+    }
+  VecXd degree = VecXd::Zero(n), cot_sum = VecXd::Zero(n);
+  for (size_t e = 0; e < ne; ++e) {
+    const auto [a, b] = edges[e];
+    cot[e] = std::max(0.0, cot[e]);
     degree(a) += 1;
     degree(b) += 1;
+    cot_sum(a) += cot[e];
+    cot_sum(b) += cot[e];
   }
+  const auto weight = [&](int i, double w) {
+    return cot_sum(i) > 0 ? (1 - kTaubinCotangentShare) / degree(i) + kTaubinCotangentShare * w / cot_sum(i)
+                          : 1 / degree(i);
+  };
+  std::vector<std::array<double, 2>> W(ne);
+  for (size_t e = 0; e < ne; ++e) W[e] = {weight(edges[e].first, cot[e]), weight(edges[e].second, cot[e])};
   MatX3d L(n, 3);
-  const int full = static_cast<int>(std::floor(steps));
-  const double last = steps - full;
-  const int halves = 2 * (full + (last > 0 ? 1 : 0));
-  for (int s = 0; s < halves; ++s) {
-    const double scale = s / 2 < full ? 1.0 : last;
-    const double factor = scale * (s % 2 == 0 ? kTaubinLambda : kTaubinMu);
+  for (int s = 0; s < 2 * steps; ++s) {
+    const double factor = s % 2 == 0 ? kTaubinLambda : kTaubinMu;
     L.setZero();
-    for (const auto& [a, b] : edges) {
-      L.row(a) += P.row(b);
-      L.row(b) += P.row(a);
+    for (size_t e = 0; e < ne; ++e) {
+      const auto [a, b] = edges[e];
+      L.row(a) += W[e][0] * P.row(b);
+      L.row(b) += W[e][1] * P.row(a);
     }
     for (int i = 0; i < n; ++i)
-      if (movable[i] && degree(i) > 0) P.row(i) += factor * (L.row(i) / degree(i) - P.row(i));
+      if (movable[i] && degree(i) > 0) P.row(i) += factor * (L.row(i) - P.row(i));
   }
 }
 
@@ -932,13 +954,13 @@ DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& ba
   return o;
 }
 
-double auto_smoothing_steps(const NoiseEstimate& noise) {
+int auto_smoothing_steps(const NoiseEstimate& noise) {
   const double sigma = std::isfinite(noise.sigma) ? std::max(0.0, noise.sigma) : 0.0;
   const double detail = std::isfinite(noise.detail) ? std::max(kAutoSmoothMinDetail, noise.detail) : 1.0;
   const double shape = std::min(kAutoSmoothFloor * detail, kAutoSmoothFloorCap);  // the shape's own reading
   const double excess = std::sqrt(std::max(0.0, sigma * sigma - shape * shape));
   const double k = kAutoSmoothScale * std::pow(excess, kAutoSmoothPower) / std::pow(detail, kAutoSmoothDetailPower);
-  return k < kAutoSmoothMinStep ? 0.0 : std::min<double>(k, kAutoSmoothMaxSteps);
+  return static_cast<int>(std::lround(std::min<double>(k, kAutoSmoothMaxSteps)));
 }
 
 bool shows_features(const NoiseEstimate& noise) {
@@ -969,7 +991,7 @@ DenoiseResult run_auto(const MatX3d& V, const MatX3i* F, const MatX3d* N, const 
   }
   const DenoiseOptions o = auto_options(est, opt);
   const bool choose = F && o.method == DenoiseMethod::Similarity;
-  const double steps = choose ? auto_smoothing_steps(est) : 0.0;
+  const int steps = choose ? auto_smoothing_steps(est) : 0;
   if (choose && steps == 0) {
     // The noise is too small against the shape detail for a smoothing step to pay: leave the mesh
     // as it is (the filter would add its own bias: 3.0 degrees on the noise-free camel).

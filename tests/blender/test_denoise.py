@@ -68,7 +68,7 @@ def test_object_mode_several_objects_quads_and_ngons(dg, capsys):
     out = capsys.readouterr().out
     assert "Denoised 2 objects" in out
     # The report names what ran: the filter, or the automatic choice's smoothing (per object).
-    ran = r"(similarity, 3 iterations|Taubin smoothing, [\d.]+ steps?)"
+    ran = r"(similarity, 3 iterations|Taubin smoothing, \d+ steps?)"
     assert re.search(rf"with {ran}( / {ran})*( \(per object\))?, in ", out), out
     assert "residual entropy" in out and " s;" in out
     for n in names:

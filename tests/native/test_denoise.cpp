@@ -2,7 +2,6 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <limits>
 #include <map>
 #include <random>
 
@@ -341,8 +340,6 @@ TEST(Denoise, TaubinSmoothingStepsLowerTheNoiseAndKeepFixedVertices) {
   EXPECT_GT((m.vertices.row(6) - Vn.row(6)).norm(), 0.0);
   o.smoothing_steps = -1;
   EXPECT_THROW(denoise(Vn, s.F, o), MeshError);
-  o.smoothing_steps = std::numeric_limits<double>::quiet_NaN();
-  EXPECT_THROW(denoise(Vn, s.F, o), MeshError);
 }
 
 TEST(Denoise, AutomaticSmoothingRule) {
@@ -350,29 +347,22 @@ TEST(Denoise, AutomaticSmoothingRule) {
   EXPECT_EQ(auto_smoothing_steps(e), 0);  // noise-free: no smoothing
   e.detail = 0.1;
   e.sigma = 0.1;
-  const double low = auto_smoothing_steps(e);
+  const int low = auto_smoothing_steps(e);
   e.sigma = 0.3;
-  const double high = auto_smoothing_steps(e);
+  const int high = auto_smoothing_steps(e);
   EXPECT_GT(low, 0);
   EXPECT_GT(high, low);  // more noise, more steps
   e.detail = 0.3;
   EXPECT_LT(auto_smoothing_steps(e), high);  // more shape detail at the sampling scale, fewer steps
-  // Below the shape's own reading min(0.9 detail, 0.09 e) sigma is not noise: a noise-free coarse
-  // scan (elephant: sigma 0.090, detail 0.213; ChineseDragon-10kv 0.078 / 0.136) gets no step, cow
-  // (0.091 / 0.136) under a tenth of one, the same with 0.1 e of noise (elephant: 0.164 / 0.233) gets some.
+  // Below the shape's own reading min(0.9 detail, 0.1 e) sigma is not noise: a noise-free coarse
+  // scan (elephant: sigma 0.090, detail 0.213; cow 0.091 / 0.136) gets no step, the same with 0.1 e
+  // of noise (elephant: 0.164 / 0.233) does.
   e.sigma = 0.090;
   e.detail = 0.213;
   EXPECT_EQ(auto_smoothing_steps(e), 0);
-  e.sigma = 0.078;
+  e.sigma = 0.091;
   e.detail = 0.136;
   EXPECT_EQ(auto_smoothing_steps(e), 0);
-  e.sigma = 0.091;
-  EXPECT_LT(auto_smoothing_steps(e), 0.25);
-  // ChineseDragon-10kv with 0.05 e of normal noise (0.098 / 0.138): a fraction of a step, not none.
-  e.sigma = 0.098;
-  e.detail = 0.138;
-  EXPECT_GT(auto_smoothing_steps(e), 0.4);
-  EXPECT_LT(auto_smoothing_steps(e), 1.0);
   e.sigma = 0.164;
   e.detail = 0.233;
   EXPECT_GT(auto_smoothing_steps(e), 0);
@@ -409,7 +399,7 @@ TEST(Denoise, AutomaticKeepsTheFilterOnSharpFeatures) {
   const TriMesh c = cube(16);
   const MatX3d Vn = add_normal_noise(c.V, c.F, 0.1 * mean_edge(c.V, c.F), 47);
   const DenoiseResult r = denoise(Vn, c.F, DenoiseOptions{});
-  const double steps = auto_smoothing_steps(r.noise);
+  const int steps = auto_smoothing_steps(r.noise);
   EXPECT_GT(steps, 0);
   EXPECT_EQ(r.options.smoothing_steps, 0);
   EXPECT_EQ(r.iterations, 3);

@@ -281,8 +281,7 @@ class DGMESH_OT_denoise(NativeJobOperator, bpy.types.Operator):
         # What ran per object: the filter, or (automatic mode on meshes) Taubin smoothing instead, or nothing.
         def ran_on(r):
             if r.options.smoothing_steps and not r.iterations:
-                k = r.options.smoothing_steps
-                return f"Taubin smoothing, {_plural(int(k), 'step') if k == int(k) else f'{k:.2f} steps'}"
+                return f"Taubin smoothing, {_plural(r.options.smoothing_steps, 'step')}"
             if self.automatic and not r.iterations:
                 return "nothing (Auto found no noise to remove)"
             return f"{self.method.lower()}, {_plural(r.iterations, 'iteration')}"

@@ -44,13 +44,12 @@ struct DenoiseOptions {
   // coefficient ((sum W)^2 / sum W^2 < 12) or the fit is singular.
   bool quadratic_fit = false;
   // Meshes only: steps of Taubin's lambda|mu smoothing (Taubin 1995: x += lambda L x, then
-  // x += mu L x, L the uniform umbrella operator over the mesh edges, lambda = 0.6, mu = -0.62) run
+  // x += mu L x, lambda = 0.6, mu = -0.62; L the umbrella operator over the mesh edges with weights
+  // half uniform, half clamped cotangent of the input positions, normalised per vertex) run
   // before the filter. 0 (the thesis setting): none. Low-pass in 3D, so it also removes the
   // tangential part of isotropic noise, which a filter moving along the normals cannot; it rounds
-  // sharp features. A fractional part f runs one last step with lambda and mu scaled by f (a
-  // gentler step: about f^2 of a full step's bi-Laplacian smoothing). Automatic mode sets it (see
-  // auto_options and denoise()).
-  double smoothing_steps = 0;
+  // sharp features. Automatic mode sets it (see auto_options and denoise()).
+  int smoothing_steps = 0;
   // Vertices allowed to move (empty: all). Masked vertices still inform the filter. Welded copies
   // of one point move only if all of them may move.
   std::vector<char> movable;
@@ -72,11 +71,11 @@ struct DenoiseOptions {
 //               quadratic_fit = (noise.curvature > sigma): coarse sampling for the surface's bending;
 //   bilateral:  eta1 = k_b * sigma (k_b = sqrt(2));
 //   eta1 at least 0.001, iterations = 3,
-//   smoothing_steps = 5.4 n^1.6 / d^1.5 (not rounded; 0 below 0.1), at most 60, with d = max(detail,
-//               0.03) and n = sqrt(max(0, sigma^2 - min(0.9 d, 0.09)^2)) (meshes; the best Taubin step count
+//   smoothing_steps = round(5.4 n^1.6 / d^1.5), at most 60, with d = max(detail, 0.03) and
+//               n = sqrt(max(0, sigma^2 - min(0.9 d, 0.1)^2)) (meshes; the best Taubin step count
 //               grows with the noise and falls with the shape detail that the sampling carries,
 //               which smoothing destroys; a noise-free coarse scan's estimate reads sigma of
-//               0.4-0.85 d and mostly at most 0.09 e, its shape at the sampling scale, so only sigma
+//               0.4-0.85 d and at most about 0.1 e, its shape at the sampling scale, so only sigma
 //               above that floor counts as noise; fitted on the best counts of 14 CGAL models,
 //               bench/notes/denoise.md),
 // and every other field of `base` unchanged (auto_options itself sets smoothing_steps to 0: the
@@ -84,8 +83,8 @@ struct DenoiseOptions {
 // narrower than any difference between neighbourhoods, so the filter leaves it nearly unchanged.
 DenoiseOptions auto_options(const NoiseEstimate& noise, const DenoiseOptions& base);
 
-// The automatic Taubin step count of a noise estimate (the smoothing_steps rule above; fractional).
-double auto_smoothing_steps(const NoiseEstimate& noise);
+// The automatic Taubin step count of a noise estimate (the smoothing_steps rule above).
+int auto_smoothing_steps(const NoiseEstimate& noise);
 
 // The automatic choice's feature test: outliers > max(curvature, 0.05) in the estimate of the
 // filtered mesh (creases read as outliers of the smooth local fits).
