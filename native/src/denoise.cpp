@@ -706,9 +706,10 @@ void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable,
       if (a == b) continue;
       const Vec3 u = prow(P, a) - prow(P, o), v = prow(P, b) - prow(P, o);
       const double area2 = u.cross(v).norm();
-      if (!(area2 > 0)) continue;
+      const double c = 0.5 * u.dot(v) / area2;
+      if (!(area2 > 0) || !std::isfinite(c)) continue;  // a degenerate corner adds nothing
       const auto it = std::lower_bound(edges.begin(), edges.end(), std::make_pair(std::min(a, b), std::max(a, b)));
-      cot[static_cast<size_t>(it - edges.begin())] += 0.5 * u.dot(v) / area2;
+      cot[static_cast<size_t>(it - edges.begin())] += c;
     }
   VecXd degree = VecXd::Zero(n), cot_sum = VecXd::Zero(n);
   for (size_t e = 0; e < ne; ++e) {
@@ -720,8 +721,9 @@ void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable,
     cot_sum(b) += cot[e];
   }
   const auto weight = [&](int i, double w) {
-    return cot_sum(i) > 0 ? (1 - kTaubinCotangentShare) / degree(i) + kTaubinCotangentShare * w / cot_sum(i)
-                          : 1 / degree(i);
+    return cot_sum(i) > 0 && std::isfinite(cot_sum(i))
+               ? (1 - kTaubinCotangentShare) / degree(i) + kTaubinCotangentShare * w / cot_sum(i)
+               : 1 / degree(i);
   };
   std::vector<std::array<double, 2>> W(ne);
   for (size_t e = 0; e < ne; ++e) W[e] = {weight(edges[e].first, cot[e]), weight(edges[e].second, cot[e])};
