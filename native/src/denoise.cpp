@@ -12,6 +12,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -48,9 +49,12 @@ constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed
 // two rough scans excepted), their shape at the sampling scale; added noise raises sigma far more
 // than detail. The constants were fitted (grid search minimising the mean log ratio of the error to
 // the best step count's) on the best counts of 14 CGAL models at 0.05-0.3 e with noise-free scans
-// held to 0 steps (bench/notes/denoise.md, session 23); the feature test of the automatic choice.
+// held to 0 steps (bench/notes/denoise.md, session 23), with the uniform umbrella; the operator is
+// half cotangent since session 24 (taubin_smooth), the rule unchanged. The feature test of the
+// automatic choice.
 constexpr double kTaubinLambda = 0.6;
 constexpr double kTaubinMu = -0.62;
+constexpr double kTaubinCotangentShare = 0.5;  // measured: bench/notes/denoise.md, session 24
 constexpr double kAutoSmoothScale = 5.4;
 constexpr double kAutoSmoothPower = 1.6;
 constexpr double kAutoSmoothDetailPower = 1.5;
@@ -675,8 +679,14 @@ void prepare(State& st, const MatX3i* F, const DenoiseOptions& o, bool cloud, bo
   if (cloud && !first && o.reestimate_normals) pca_normals(st);
 }
 
-// Taubin's lambda|mu smoothing with the uniform umbrella operator over the edges of F (each edge
-// once, however many faces share it); fixed points keep their place but inform their neighbours.
+// Taubin's lambda|mu smoothing over the edges of F (each edge once, however many faces share it)
+// with the umbrella operator L x_i = sum_j W_ij x_j - x_i, W_ij = (1 - c) / deg_i + c w_ij / sum_k w_ik:
+// half uniform (its tangential part evens out the tangential component of isotropic noise) and
+// half cotangent, w_ij = max(0, (cot alpha + cot beta) / 2) of the input positions (no tangential
+// drift on an irregular triangulation, which counts as error of the face normals), c =
+// kTaubinCotangentShare; a vertex without a positive cotangent weight uses the uniform part alone.
+// The weights are convex, so every step is a stable average. Fixed points keep their place but
+// inform their neighbours.
 void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable, int steps) {
   const int n = static_cast<int>(P.rows());
   std::vector<std::pair<int, int>> edges;
@@ -688,21 +698,46 @@ void taubin_smooth(MatX3d& P, const MatX3i& F, const std::vector<char>& movable,
     }
   std::sort(edges.begin(), edges.end());
   edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  VecXd degree = VecXd::Zero(n);
-  for (const auto& [a, b] : edges) {
+  const size_t ne = edges.size();
+  std::vector<double> cot(ne, 0.0);
+  for (Eigen::Index f = 0; f < F.rows(); ++f)
+    for (int k = 0; k < 3; ++k) {
+      const int a = F(f, k), b = F(f, (k + 1) % 3), o = F(f, (k + 2) % 3);
+      if (a == b) continue;
+      const Vec3 u = prow(P, a) - prow(P, o), v = prow(P, b) - prow(P, o);
+      const double area2 = u.cross(v).norm();
+      const double c = 0.5 * u.dot(v) / area2;
+      if (!(area2 > 0) || !std::isfinite(c)) continue;  // a degenerate corner adds nothing
+      const auto it = std::lower_bound(edges.begin(), edges.end(), std::make_pair(std::min(a, b), std::max(a, b)));
+      cot[static_cast<size_t>(it - edges.begin())] += c;
+    }
+  VecXd degree = VecXd::Zero(n), cot_sum = VecXd::Zero(n);
+  for (size_t e = 0; e < ne; ++e) {
+    const auto [a, b] = edges[e];
+    cot[e] = std::max(0.0, cot[e]);
     degree(a) += 1;
     degree(b) += 1;
+    cot_sum(a) += cot[e];
+    cot_sum(b) += cot[e];
   }
+  const auto weight = [&](int i, double w) {
+    return cot_sum(i) > 0 && std::isfinite(cot_sum(i))
+               ? (1 - kTaubinCotangentShare) / degree(i) + kTaubinCotangentShare * w / cot_sum(i)
+               : 1 / degree(i);
+  };
+  std::vector<std::array<double, 2>> W(ne);
+  for (size_t e = 0; e < ne; ++e) W[e] = {weight(edges[e].first, cot[e]), weight(edges[e].second, cot[e])};
   MatX3d L(n, 3);
   for (int s = 0; s < 2 * steps; ++s) {
     const double factor = s % 2 == 0 ? kTaubinLambda : kTaubinMu;
     L.setZero();
-    for (const auto& [a, b] : edges) {
-      L.row(a) += P.row(b);
-      L.row(b) += P.row(a);
+    for (size_t e = 0; e < ne; ++e) {
+      const auto [a, b] = edges[e];
+      L.row(a) += W[e][0] * P.row(b);
+      L.row(b) += W[e][1] * P.row(a);
     }
     for (int i = 0; i < n; ++i)
-      if (movable[i] && degree(i) > 0) P.row(i) += factor * (L.row(i) / degree(i) - P.row(i));
+      if (movable[i] && degree(i) > 0) P.row(i) += factor * (L.row(i) - P.row(i));
   }
 }
 

@@ -302,6 +302,40 @@ def test_default_leaves_noise_free_coarse_scans(name):
     assert normal_error_deg(r.vertices, V, F).mean() < 0.5, (r.noise.sigma, r.noise.detail, r.options.smoothing_steps)
 
 
+def uniform_taubin(P, F, steps):
+    """Taubin lambda|mu smoothing (0.6, -0.62) with the uniform umbrella: the operator before session 24."""
+    E = np.unique(np.sort(np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]]), axis=1), axis=0)
+    deg = np.bincount(E.ravel(), minlength=len(P)).astype(float)[:, None]
+    for _ in range(steps):
+        for f in (0.6, -0.62):
+            S = np.zeros_like(P)
+            np.add.at(S, E[:, 0], P[E[:, 1]])
+            np.add.at(S, E[:, 1], P[E[:, 0]])
+            P = P + f * (S / deg - P)
+    return P
+
+
+DETAILED_SCANS = [c for c in (("cow", 0.05, 0.92), ("homer", 0.05, 0.9), ("ChineseDragon-10kv", 0.1, 0.93),
+                              ("bull", 0.2, 0.95)) if (CGAL / f"{c[0]}.off").exists()]
+
+
+@pytest.mark.parametrize("name,level,bound", DETAILED_SCANS)
+def test_default_smoothing_beats_the_uniform_umbrella_on_detailed_scans(name, level, bound):
+    # The automatic smoothing's operator is half cotangent: the uniform umbrella drifts vertices
+    # along an irregular triangulation, which tilts its faces. Measured with seeds 1-3 (default /
+    # uniform with the same step count): cow 0.05 e 0.888-0.895, homer 0.05 e 0.830-0.832,
+    # ChineseDragon-10kv 0.1 e 0.869-0.891, bull 0.2 e 0.922-0.926; and the default lowers the error
+    # (cow 8.41 -> 7.28, homer 7.46 -> 3.70, ChineseDragon-10kv 15.68 -> 8.98, bull 31.52 -> 18.72 degrees).
+    V, F = dgmesh.read_mesh(CGAL / f"{name}.off")
+    Vn = noisy(V, F, level, seed=1)
+    r = dgmesh.denoise(Vn, F)
+    assert r.options.smoothing_steps > 0 and r.iterations == 0
+    err = normal_error_deg(r.vertices, V, F).mean()
+    uniform = normal_error_deg(uniform_taubin(Vn, F, r.options.smoothing_steps), V, F).mean()
+    assert err < bound * uniform, (err, uniform)
+    assert err < 0.9 * normal_error_deg(Vn, V, F).mean()
+
+
 def test_automatic_reports_its_estimate_and_options(sphere):
     V, F, Vn = sphere
     r = dgmesh.denoise(Vn, F)

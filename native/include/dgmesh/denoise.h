@@ -44,7 +44,8 @@ struct DenoiseOptions {
   // coefficient ((sum W)^2 / sum W^2 < 12) or the fit is singular.
   bool quadratic_fit = false;
   // Meshes only: steps of Taubin's lambda|mu smoothing (Taubin 1995: x += lambda L x, then
-  // x += mu L x, L the uniform umbrella operator over the mesh edges, lambda = 0.6, mu = -0.62) run
+  // x += mu L x, lambda = 0.6, mu = -0.62; L the umbrella operator over the mesh edges with weights
+  // half uniform, half clamped cotangent of the input positions, normalised per vertex) run
   // before the filter. 0 (the thesis setting): none. Low-pass in 3D, so it also removes the
   // tangential part of isotropic noise, which a filter moving along the normals cannot; it rounds
   // sharp features. Automatic mode sets it (see auto_options and denoise()).
