@@ -76,6 +76,14 @@ class FairStall:
     value: int
     def __init__(self, value: int) -> None: ...
 
+class FairStartWeights:
+    """Weights of the linear start's bi-Laplacian"""
+    uniform: FairStartWeights
+    cotangent: FairStartWeights
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
 class RemeshBoundary:
     """The chart's boundary in remesh()"""
     keep: RemeshBoundary
@@ -331,6 +339,7 @@ class FairOptions:
     tangential: bool  # add the tangential drift eps T (eq. 3.8)
     step_scale: float  # multiplies the explicit scheme's tau = A_min^2/150
     linear_start: bool  # with fixed vertices, start from the linearised minimiser when that lowers the energy
+    start_weights: FairStartWeights  # weights of the linear start's bi-Laplacian
     refine: bool  # refine the region Liepa-style before the flow (hole fills)
     keep_size: bool  # Willmore, Laplacian of H: a component without fixed vertices keeps its centroid and area
     def __init__(self) -> None: ...

@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from .core import Progress, _native, as_choice, as_count, as_faces, as_mask, as_real, as_vertices, make_options
 
-__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "FairStall", "RegularizeOptions", "fair",
+__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "FairStall", "FairStartWeights", "RegularizeOptions", "fair",
            "defaults", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
 # The contract is the C++ one (dgmesh/fair.h), bound as it is: the options with their defaults,
@@ -23,6 +23,7 @@ FairMethod = _native.FairMethod
 FairScheme = _native.FairScheme
 FairBoundary = _native.FairBoundary
 FairStall = _native.FairStall
+FairStartWeights = _native.FairStartWeights
 RegularizeOptions = _native.RegularizeOptions
 _D = FairOptions()
 _R = RegularizeOptions()
@@ -39,7 +40,8 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
          boundary: str | FairBoundary = _D.boundary.name, subdivisions: int = _D.subdivisions,
          tolerance: float = _D.tolerance, max_iterations: int | None = None, tangential: bool = _D.tangential,
          scheme: str | FairScheme = _D.scheme.name, max_seconds: float = _D.max_seconds,
-         step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start, refine: bool = _D.refine,
+         step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start,
+         start_weights: str | FairStartWeights = _D.start_weights.name, refine: bool = _D.refine,
          keep_size: bool = _D.keep_size, progress: Progress | None = None) -> FairResult:
     """Fair a triangle mesh (or a region of it) by a curvature flow.
 
@@ -83,6 +85,10 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
         the Willmore energy, then flow from there. A flat hole fill has a crease along its rim
         that costs little discrete energy on a coarse mesh, and the flow alone stays near it.
         "hinge" always starts there (off: from the input).
+    start_weights: the weights of that linearised minimiser: "uniform" (U0^2, the connectivity
+        only) or "cotangent" (the cotangent bi-Laplacian L M^-1 L with the cotangent weights and
+        mixed areas of the input geometry, the system CGAL's PMP::fair solves: a dented region
+        keeps the metric of the surface it was pushed from).
     refine: region mode only: before the flow, refine the region's faces like Liepa's hole
         filling (split triangles larger than the mesh around the hole at their centroid, Delaunay
         edge flips inside the region, until the patch's triangles match the border's edge
@@ -118,7 +124,8 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     F = as_faces(F, n=len(V))
     o = defaults(scheme)
     make_options(o, method=method, boundary=boundary, tolerance=tolerance, tangential=tangential,
-                 max_seconds=max_seconds, step_scale=step_scale, linear_start=linear_start, refine=refine,
+                 max_seconds=max_seconds, step_scale=step_scale, linear_start=linear_start,
+                 start_weights=as_choice(start_weights, FairStartWeights, "start_weights"), refine=refine,
                  keep_size=keep_size, subdivisions=as_count(subdivisions, "subdivisions"),
                  max_iterations=None if max_iterations is None else as_count(max_iterations, "max_iterations"))
     vm = as_mask(mask, len(V), "mask")

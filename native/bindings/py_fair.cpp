@@ -40,6 +40,11 @@ void bind_fair(pb::module_& m) {
       .value("fixed", FairBoundary::Fixed, "do not move")
       .value("sliding", FairBoundary::Sliding, "slide along the (original) boundary polyline");
 
+  pb::enum_<FairStartWeights>(m, "FairStartWeights", "Weights of the linear start's bi-Laplacian")
+      .value("uniform", FairStartWeights::Uniform, "uniform bi-umbrella U0^2 (section 3.2), connectivity only")
+      .value("cotangent", FairStartWeights::Cotangent,
+             "cotangent bi-Laplacian L M^-1 L on the input geometry (as CGAL's PMP::fair)");
+
   Struct<FairOptions>(m, "FairOptions", "Options of fair() (the masks are separate arguments)")
       .field("method", &FairOptions::method, "the flow")
       .field("scheme", &FairOptions::scheme, "the time stepping")
@@ -52,6 +57,7 @@ void bind_fair(pb::module_& m) {
       .field("step_scale", &FairOptions::step_scale, "multiplies the explicit scheme's tau = A_min^2/150")
       .field("linear_start", &FairOptions::linear_start,
              "with fixed vertices, start from the linearised minimiser when that lowers the energy")
+      .field("start_weights", &FairOptions::start_weights, "weights of the linear start's bi-Laplacian")
       .field("refine", &FairOptions::refine, "refine the region Liepa-style before the flow (hole fills)")
       .field("keep_size", &FairOptions::keep_size,
              "Willmore, Laplacian of H: a component without fixed vertices keeps its centroid and area");

@@ -659,19 +659,23 @@ class Driver {
   // rim whose discrete energy is small on a coarse mesh (about theta^2/4 per rim vertex), so a
   // flow started there stays near it. The start is taken only when it lowers the discrete
   // energy, so the recorded energy stays monotone. (Cotangent weights on the flat fill's own
-  // metric gave a nearly flat start on scanned holes; the uniform weights do not depend on it.)
+  // metric gave a nearly flat start on scanned holes; the uniform weights do not depend on it.
+  // FairStartWeights::Cotangent uses the input's metric: better on some dented regions, worse on
+  // flattened ones, bench fair_repair.)
   bool linear_start(Work& w) {
     if (nm_ == 0 || nm_ == w.topo.n_vertices) return false;
     // A failed solve (e.g. a movable component without fixed neighbours) starts from the input.
     Eigen::MatrixXd x;
-    if (!uniform_held_minimiser(w, x)) return false;
+    if (!linear_minimiser(w, x)) return false;
     return take_if_lower(w, movable_idx_, x);
   }
 
-  // x: the movable vertices' rows of U0^2 P = 0 with the others held (see symmetric_bi_umbrella);
-  // false when the solve fails. A component without fixed vertices makes S_mm singular: the
-  // unsymmetric LU then, as before.
-  bool uniform_held_minimiser(const Work& w, Eigen::MatrixXd& x) const {
+  // x: the movable vertices' rows of U0^2 P = 0 with the others held (see symmetric_bi_umbrella), or
+  // with FairStartWeights::Cotangent of L M^-1 L P = 0 (cotangent_held_minimiser; U0^2 when that
+  // fails); false when the solve fails. A component without fixed vertices makes S_mm singular: the
+  // unsymmetric LU of U0^2 then, as before.
+  bool linear_minimiser(const Work& w, Eigen::MatrixXd& x) const {
+    if (opt_.start_weights == FairStartWeights::Cotangent && !any_free_ && cotangent_held_minimiser(w, x)) return true;
     SpMat Bmm, Bmf;
     MatX3d Xf;
     try {
@@ -685,6 +689,39 @@ class Driver {
         split_fixed(symmetric_bi_umbrella(w.topo, movable_idx_, d), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
         solver.factor(Bmm, spd_kind(nm_));
       }
+      x = solver.solve(-(Bmf * Xf));
+    } catch (const SolverError&) {
+      return false;
+    }
+    return x.allFinite();
+  }
+
+  // FairStartWeights::Cotangent: x solves L M^-1 L P = 0 at the movable vertices, L (eq. 3.11's
+  // cotangent weights) and M (mixed areas) of the current (input) geometry, the others held: the
+  // system CGAL's PMP::fair solves. Symmetric positive semi-definite (M > 0); false when a mixed
+  // area is not positive or the solve fails (the caller then takes the uniform start).
+  bool cotangent_held_minimiser(const Work& w, Eigen::MatrixXd& x) const {
+    const Topology& t = w.topo;
+    const VecXd M = mixed_areas(w.P, w.F, t);
+    // 1 / M_k enters the rows of k's closed ring only: a degenerate vertex away from the movable
+    // vertices' rings (a sliver of the scan two rings out) does not matter.
+    VecXd Minv = VecXd::Zero(t.n_vertices);
+    for (int k = 0; k < t.n_vertices; ++k) {
+      if (M[k] > 0) {
+        Minv[k] = 1.0 / M[k];
+        continue;
+      }
+      if (movable_idx_[k] >= 0) return false;
+      for (int q = t.vv_offset[k]; q < t.vv_offset[k] + t.valence(k); ++q)
+        if (movable_idx_[t.vv_index[q]] >= 0) return false;
+    }
+    const SpMat L = cotan_laplacian(w.P, w.F);
+    SpMat Bmm, Bmf;
+    MatX3d Xf;
+    split_fixed(SpMat(SpMat(L.transpose()) * Minv.asDiagonal() * L), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
+    try {
+      SparseSolver solver;
+      solver.factor(Bmm, spd_kind(nm_));
       x = solver.solve(-(Bmf * Xf));
     } catch (const SolverError&) {
       return false;
@@ -971,7 +1008,7 @@ class Driver {
     if (opt_.linear_start && !tried_linear_ && nm_ > 0 && nm_ < w.topo.n_vertices && opt_.max_iterations > 0) {
       tried_linear_ = true;
       Eigen::MatrixXd x;
-      if (uniform_held_minimiser(w, x)) {
+      if (linear_minimiser(w, x)) {
         MatX3d P = w.P;
         for (int v = 0; v < w.topo.n_vertices; ++v)
           if (movable_idx_[v] >= 0) P.row(v) = x.row(movable_idx_[v]);

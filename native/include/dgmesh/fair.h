@@ -38,6 +38,17 @@ enum class FairScheme {
   SemiImplicit,
 };
 
+// Weights of the linearised minimiser the curvature flows and the hinge method start from (region
+// mode, linear_start): B P = 0 at the movable vertices, the fixed rings as boundary data.
+enum class FairStartWeights {
+  // The uniform bi-umbrella U0^2 (thesis section 3.2): depends on the connectivity only.
+  Uniform,
+  // The cotangent bi-Laplacian L M^-1 L with the cotangent weights L (eq. 3.11) and mixed
+  // (Voronoi) areas M of the *input* geometry (what CGAL's PMP::fair solves): a dented region keeps
+  // the metric of the surface it was pushed from.
+  Cotangent,
+};
+
 struct FairOptions {
   // Willmore. Hinge is closer to the original on bench fair_repair's damaged regions but not on hole
   // fills (refined or grid fills: Blender hole-workflow tests, bench/notes/fair.md).
@@ -64,6 +75,7 @@ struct FairOptions {
   // energy (U0^2 P = 0, the bilaplacian flow's steady state, with the fixed rings as boundary
   // data) when that lowers the energy; see fair.cpp.
   bool linear_start = true;
+  FairStartWeights start_weights = FairStartWeights::Uniform;  // of the linear start, see above
   // Before the flow, refine the region like Liepa's hole filling (see refine_region): a coarse
   // fill (Blender's Fill, a fan, an n-gon) gets triangles sized like the mesh around the hole.
   // The new vertices move; the region's border edges are never split. A fill that gets no new
