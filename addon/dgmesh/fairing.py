@@ -88,7 +88,9 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     start_weights: the weights of that linearised minimiser: "uniform" (U0^2, the connectivity
         only) or "cotangent" (the cotangent bi-Laplacian L M^-1 L with the cotangent weights and
         mixed areas of the input geometry, the system CGAL's PMP::fair solves: a dented region
-        keeps the metric of the surface it was pushed from).
+        keeps the metric of the surface it was pushed from, a flattened one the projection's:
+        closer on some dents, farther on most flattened regions, bench/notes/fair.md; the
+        uniform start when a vertex next to the region has no area or the solve fails).
     refine: region mode only: before the flow, refine the region's faces like Liepa's hole
         filling (split triangles larger than the mesh around the hole at their centroid, Delaunay
         edge flips inside the region, until the patch's triangles match the border's edge

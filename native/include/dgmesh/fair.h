@@ -45,7 +45,10 @@ enum class FairStartWeights {
   Uniform,
   // The cotangent bi-Laplacian L M^-1 L with the cotangent weights L (eq. 3.11) and mixed
   // (Voronoi) areas M of the *input* geometry (what CGAL's PMP::fair solves): a dented region keeps
-  // the metric of the surface it was pushed from.
+  // the metric of the surface it was pushed from; a flattened one gets the projection's metric
+  // (bench fair_repair: closer on some dents, farther on most flattened and noisy regions). The
+  // uniform start is taken instead when a vertex within a ring of the movable ones has no mixed
+  // area, the solve fails, or a movable component has no fixed vertex.
   Cotangent,
 };
 
