@@ -334,6 +334,7 @@ class FairOptions:
     boundary: FairBoundary  # mesh-boundary vertices: fixed or sliding
     subdivisions: int  # coarse-to-fine levels, 0..6 (fig. 3.5)
     tolerance: float  # relative energy change per unit of flow time that stops a level
+    min_progress: float  # semi-implicit: stop a level when the energy fell over the last 8 accepted steps by less than this fraction of the smaller of its fall since the level's input and the energy left; 0 = off
     max_iterations: int  # iterations per level
     max_seconds: float  # wall-clock budget of the whole run; 0 = none
     tangential: bool  # add the tangential drift eps T (eq. 3.8)
@@ -362,6 +363,7 @@ class FairResult:
     energy_rose: bool  # some level ended above its start energy and returned its lowest-energy state
     restarted: bool  # the flow from the input stalled at a discrete minimum and was restarted from the linearised minimiser
     stall: FairStall  # none, or why the flow did not change the region (FairStall)
+    start_fallback: bool  # start_weights='cotangent' was asked for but the uniform start was used (a vertex near the region without area, a failed solve, or a part without fixed vertices)
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> FairResult: ...
 

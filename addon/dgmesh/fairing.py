@@ -38,7 +38,7 @@ def defaults(scheme: str | FairScheme = _D.scheme.name) -> FairOptions:
 def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.method.name,
          mask: npt.ArrayLike | None = None, faces: npt.ArrayLike | None = None,
          boundary: str | FairBoundary = _D.boundary.name, subdivisions: int = _D.subdivisions,
-         tolerance: float = _D.tolerance, max_iterations: int | None = None, tangential: bool = _D.tangential,
+         tolerance: float = _D.tolerance, min_progress: float = _D.min_progress, max_iterations: int | None = None, tangential: bool = _D.tangential,
          scheme: str | FairScheme = _D.scheme.name, max_seconds: float = _D.max_seconds,
          step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start,
          start_weights: str | FairStartWeights = _D.start_weights.name, refine: bool = _D.refine,
@@ -73,6 +73,10 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     tolerance: stop when the relative energy change over a window of flow time falls below it
         (semi-implicit: also when 16 accepted steps found no energy lower by this fraction than
         the lowest before them; ``converged`` is then False if the energy had crept up).
+    min_progress: semi-implicit "willmore" / "laplacian_of_h": a level also stops (converged) when
+        the energy fell over its last 8 accepted steps by less than this fraction of the smaller
+        of its fall since the level's input and the energy left (a flow creeping after its drop;
+        issue 30's speed case). 0: off.
     max_iterations: per level; None: the scheme's default (:func:`defaults`: 300 semi-implicit,
         5000 explicit).
     tangential: add the tangential drift that equalises triangles (eq. 3.8).
@@ -120,12 +124,14 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     little energy; the level was run again from the linearised minimiser and kept, even above the
     input's energy), ``stall`` (a :class:`FairStall`: "none", or "no_descent" when no vertex moved,
     "no_change" when no level lowered its energy by 10 x tolerance: the flow did not change the
-    region; a larger region, ``refine``/``subdivisions`` or another method may) and ``subdivided``.
+    region; a larger region, ``refine``/``subdivisions`` or another method may), ``start_fallback``
+    (``start_weights="cotangent"`` was asked for but the uniform start was used: a vertex next to
+    the region without area, a failed solve, or a part without fixed vertices) and ``subdivided``.
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
     o = defaults(scheme)
-    make_options(o, method=method, boundary=boundary, tolerance=tolerance, tangential=tangential,
+    make_options(o, method=method, boundary=boundary, tolerance=tolerance, min_progress=min_progress, tangential=tangential,
                  max_seconds=max_seconds, step_scale=step_scale, linear_start=linear_start,
                  start_weights=as_choice(start_weights, FairStartWeights, "start_weights"), refine=refine,
                  keep_size=keep_size, subdivisions=as_count(subdivisions, "subdivisions"),

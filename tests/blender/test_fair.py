@@ -838,3 +838,22 @@ def test_fair_in_edit_mode_keeps_a_dented_tip_with_cotangent_start_weights():
         assert np.abs(out[outside] - dented[outside]).max() < 1e-6
         got[weights] = patch_distances(V, F, region, out, F, region)[0] / diag
     assert got["COTANGENT"] < 0.01 and got["UNIFORM"] > 0.03, got
+
+
+def test_fair_reports_when_cotangent_start_weights_fall_back_to_uniform(capsys):
+    """Never a silent substitution: a mesh holding a closed sphere and an open grid (its border fixed)
+    faired whole with Start Weights Cotangent gets the uniform start (the sphere has no fixed vertex,
+    so its cotangent system is singular), and the report says so; with Uniform it says nothing."""
+    bpy.ops.object.select_all(action='DESELECT')
+    bpy.ops.mesh.primitive_ico_sphere_add(subdivisions=2, location=(0, 0, 0))
+    ball = bpy.context.active_object
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=8, y_subdivisions=8, size=2, location=(3, 0, 0))
+    ball.select_set(True)
+    bpy.ops.object.join()
+    obj = bpy.context.active_object
+    bpy.ops.object.transform_apply(location=True)
+    for weights, said in (("COTANGENT", True), ("UNIFORM", False)):
+        select(obj.name)
+        assert bpy.ops.dgmesh.fair('EXEC_DEFAULT', True, start_weights=weights, max_iterations=3) == {'FINISHED'}
+        out = capsys.readouterr().out
+        assert ("Start Weights Cotangent could not be used" in out) == said, out

@@ -71,9 +71,15 @@ struct FairOptions {
   int subdivisions = 0;
   double tolerance = 1e-4;   // relative energy change per unit of flow time (see fair.cpp)
   int max_iterations = 300;  // per level (the explicit scheme's small steps need more: fair_defaults)
-  double max_seconds = 0;    // wall-clock budget for the whole run; 0 = none
-  bool tangential = true;    // add the tangential drift eps T (eq. 3.8)
-  double step_scale = 1.0;   // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
+  // Semi-implicit curvature flows: a level also stops (converged) when the energy fell over the last
+  // 8 accepted steps by less than min_progress times the smaller of its fall since the level's input
+  // and the energy left (see fair.cpp, slow_progress); 0 = off (only the tolerance and the budget stop it).
+  // Not applied to a flow from the input whose linear start was declined (the restart judges how far
+  // that flow gets). Bench fair_repair and fair_speed, bench/notes/fair.md (issue 30).
+  double min_progress = 0.01;
+  double max_seconds = 0;   // wall-clock budget for the whole run; 0 = none
+  bool tangential = true;   // add the tangential drift eps T (eq. 3.8)
+  double step_scale = 1.0;  // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
   // Willmore / Laplacian-of-H with fixed vertices: start from the minimiser of the linearised
   // energy (U0^2 P = 0, the bilaplacian flow's steady state, with the fixed rings as boundary
   // data) when that lowers the energy; see fair.cpp.
@@ -124,6 +130,10 @@ struct FairResult {
   // energy ends above the input's. Only with linear_start (Willmore, Laplacian of H, fixed vertices).
   bool restarted = false;
   FairStall stall = FairStall::None;  // see FairStall; over independent parts: the worst part's
+  // start_weights was Cotangent but the uniform start U0^2 P = 0 was used: a vertex within a ring of
+  // the movable ones has no mixed area, the cotangent system's solve failed, or a movable component
+  // has no fixed vertex (see FairStartWeights::Cotangent). Over independent parts: any part's.
+  bool start_fallback = false;
 };
 
 /// Fairs V, F by the flow of `opt.method` (thesis eq. 3.5-3.12), the whole mesh or a region.
