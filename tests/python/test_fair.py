@@ -820,19 +820,23 @@ def test_the_cotangent_starts_fallback_is_reported():
 
 
 def test_a_creeping_flow_stops_on_its_progress():
-    """min_progress (default 0.01): a level stops when the energy fell over its last 8 accepted steps
-    by less than 1% of its fall so far. Blender's torus (R/r = 4) faired whole towards the Willmore
-    torus: 90 iterations to the tolerance without the rule (energy 18.806), 26 with it (18.862, 0.3%
-    above); with two subdivisions both end at 2 pi^2 within 0.4% (19.679 and 19.678)."""
-    V, F = shapes.torus(4.0, 1.0, 48, 12)
-    full = dgmesh.fair(V, F, min_progress=0)
-    r = dgmesh.fair(V, F)
-    assert full.converged and full.iterations > 60, full.iterations
-    assert r.converged and r.iterations < 0.5 * full.iterations, (r.iterations, full.iterations)
-    assert abs(r.energy[-1] - full.energy[-1]) < 0.01 * full.energy[-1]
-    # The rule stops on slow progress only: the drop from 40.2 is made.
-    assert r.energy[0] - r.energy[-1] > 0.98 * (full.energy[0] - full.energy[-1])
-    s = dgmesh.fair(V, F, subdivisions=2)
-    assert abs(s.energy[-1] - 2 * np.pi**2) < 0.005 * 2 * np.pi**2
+    """min_progress (default 0.01): a region's level stops when the energy fell over its last 8
+    accepted steps by less than 1% of the smaller of its fall so far and the energy left. Bench
+    fair_repair's hand tip 2% noise: 51 iterations without the rule (not converged, energy 4.509,
+    mean distance 0.01527 of the diagonal, 3 samples per face), 25 with it (4.482, 0.01536; measured).
+    A closed object faired whole keeps the full flow (its radius spread converges slowly)."""
+    V, F = _cgal_mesh("hand.off")
+    sys.path.insert(0, str(ROOT))
+    from bench.workloads.fair import damage, patch_distances, region_centre, vertex_ball
+    patch = vertex_ball(V, F, region_centre(V, F, "tip"), int(0.02 * len(V)))
+    W = damage(V, F, patch, "noise")
+    region = patch[F].any(axis=1)
+    full, r = dgmesh.fair(W, F, mask=patch, min_progress=0), dgmesh.fair(W, F, mask=patch)
+    assert r.converged and r.iterations < 0.6 * full.iterations, (r.iterations, full.iterations)
+    assert r.energy[-1] < 1.01 * full.energy[-1], (r.energy[-1], full.energy[-1])
+    d, d_full = (patch_distances(V, F, region, x.vertices, x.faces, region[x.face_origin])[0] for x in (r, full))
+    assert d < 1.03 * d_full, (d, d_full)
+    T, FT = shapes.torus(4.0, 1.0, 48, 12)
+    assert dgmesh.fair(T, FT).iterations == dgmesh.fair(T, FT, min_progress=0).iterations
     with pytest.raises(dgmesh.MeshError, match="min_progress"):
-        dgmesh.fair(V, F, min_progress=-1)
+        dgmesh.fair(T, FT, min_progress=-1)

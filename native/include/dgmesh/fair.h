@@ -74,8 +74,9 @@ struct FairOptions {
   // Semi-implicit curvature flows: a level also stops (converged) when the energy fell over the last
   // 8 accepted steps by less than min_progress times the smaller of its fall since the level's input
   // and the energy left (see fair.cpp, slow_progress); 0 = off (only the tolerance and the budget stop it).
-  // Not applied to a flow from the input whose linear start was declined (the restart judges how far
-  // that flow gets). Bench fair_repair and fair_speed, bench/notes/fair.md (issue 30).
+  // Regions only (not to a part without fixed vertices), and not to a flow from the input whose
+  // linear start was declined (the restart judges how far that flow gets). Bench fair_repair and fair_speed,
+  // bench/notes/fair.md (issue 30).
   double min_progress = 0.01;
   double max_seconds = 0;   // wall-clock budget for the whole run; 0 = none
   bool tangential = true;   // add the tangential drift eps T (eq. 3.8)
