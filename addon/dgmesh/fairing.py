@@ -76,7 +76,9 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     min_progress: semi-implicit "willmore" / "laplacian_of_h": a level also stops (converged) when
         the energy fell over its last 8 accepted steps by less than this fraction of the smaller
         of its fall since the level's input and the energy left (a flow creeping after its drop;
-        issue 30's speed case). 0: off.
+        issue 30's speed case). Regions only: not for a part without fixed vertices (a closed
+        object faired whole), nor for the flow from the input when the linear start was declined
+        (the restart judges how far it gets). 0: off.
     max_iterations: per level; None: the scheme's default (:func:`defaults`: 300 semi-implicit,
         5000 explicit).
     tangential: add the tangential drift that equalises triangles (eq. 3.8).

@@ -356,8 +356,9 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             if r.start_fallback:
                 # Never a silent substitution: the cotangent start was asked for and not used.
                 level = 'WARNING'
-                status += (" (Start Weights Cotangent could not be used: a vertex next to the selection has no area, "
-                           "or the cotangent system could not be solved; the Uniform start was used instead)")
+                status += (" (Start Weights Cotangent could not be used: a closed part is faired whole, a vertex next "
+                           "to the selection has no area, or the cotangent system could not be solved; the Uniform "
+                           "start was used instead)")
             if r.restarted:
                 status += (" (restarted from the linear start: the flow from the selection stalled at a minimum of "
                            "the discrete energy; the result may end above its energy)")
