@@ -61,7 +61,7 @@ from .crest import (  # noqa: E402
     segment,
     segment_feature_defaults,
 )
-from .fairing import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, FairStall, RegularizeOptions, fair,  # noqa: E402
+from .fairing import (FairBoundary, FairMethod, FairOptions, FairResult, FairScheme, FairStall, FairStartWeights, RegularizeOptions, fair,  # noqa: E402
                    regularize, willmore_energy)
 from .unwrapping import (AutoUnwrapOptions, AutoUnwrapResult, UnwrapChartError, UnwrapChartsResult,  # noqa: E402
                          UnwrapOptions, UnwrapResult, UnwrapStep, auto_unwrap,
@@ -92,7 +92,7 @@ __all__ = [
     "CrestKind", "CrestLines", "CrestOptions", "CurvatureDerivatives", "DecimateOptions", "DecimateResult",
     "DerivativeOptions", "FeatureOptions", "SegmentOptions", "SegmentResult", "crest_lines", "curvature_derivatives",
     "decimate", "decimate_feature_defaults", "segment", "segment_feature_defaults",
-    "FairBoundary", "FairMethod", "FairOptions", "FairResult", "FairScheme", "FairStall", "RegularizeOptions", "fair", "regularize",
+    "FairBoundary", "FairMethod", "FairOptions", "FairResult", "FairScheme", "FairStall", "FairStartWeights", "RegularizeOptions", "fair", "regularize",
     "willmore_energy",
     "UnwrapChartError", "UnwrapChartsResult", "UnwrapOptions", "UnwrapResult", "UnwrapStep", "UvBoundary",
     "UvMetrics", "UvSolver", "UvWeights", "unwrap", "unwrap_charts", "uv_metrics", "uv_stretch",

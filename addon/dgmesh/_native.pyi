@@ -76,6 +76,14 @@ class FairStall:
     value: int
     def __init__(self, value: int) -> None: ...
 
+class FairStartWeights:
+    """Weights of the linear start's bi-Laplacian"""
+    uniform: FairStartWeights
+    cotangent: FairStartWeights
+    name: str
+    value: int
+    def __init__(self, value: int) -> None: ...
+
 class RemeshBoundary:
     """The chart's boundary in remesh()"""
     keep: RemeshBoundary
@@ -326,11 +334,13 @@ class FairOptions:
     boundary: FairBoundary  # mesh-boundary vertices: fixed or sliding
     subdivisions: int  # coarse-to-fine levels, 0..6 (fig. 3.5)
     tolerance: float  # relative energy change per unit of flow time that stops a level
+    min_progress: float  # semi-implicit: stop a level when the energy fell over the last 8 accepted steps by less than this fraction of the smaller of its fall since the level's input and the energy left; 0 = off
     max_iterations: int  # iterations per level
     max_seconds: float  # wall-clock budget of the whole run; 0 = none
     tangential: bool  # add the tangential drift eps T (eq. 3.8)
     step_scale: float  # multiplies the explicit scheme's tau = A_min^2/150
     linear_start: bool  # with fixed vertices, start from the linearised minimiser when that lowers the energy
+    start_weights: FairStartWeights  # weights of the linear start's bi-Laplacian
     refine: bool  # refine the region Liepa-style before the flow (hole fills)
     keep_size: bool  # Willmore, Laplacian of H: a component without fixed vertices keeps its centroid and area
     def __init__(self) -> None: ...
@@ -353,6 +363,7 @@ class FairResult:
     energy_rose: bool  # some level ended above its start energy and returned its lowest-energy state
     restarted: bool  # the flow from the input stalled at a discrete minimum and was restarted from the linearised minimiser
     stall: FairStall  # none, or why the flow did not change the region (FairStall)
+    start_fallback: bool  # start_weights='cotangent' was asked for but the uniform start was used (a vertex near the region without area, a failed solve, or a part without fixed vertices)
     def __init__(self) -> None: ...
     def replace(self, **kwargs: Any) -> FairResult: ...
 

@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from .core import Progress, _native, as_choice, as_count, as_faces, as_mask, as_real, as_vertices, make_options
 
-__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "FairStall", "RegularizeOptions", "fair",
+__all__ = ["FairOptions", "FairResult", "FairMethod", "FairScheme", "FairBoundary", "FairStall", "FairStartWeights", "RegularizeOptions", "fair",
            "defaults", "regularize", "willmore_energy", "subdivide_region", "refine_region"]
 
 # The contract is the C++ one (dgmesh/fair.h), bound as it is: the options with their defaults,
@@ -23,6 +23,7 @@ FairMethod = _native.FairMethod
 FairScheme = _native.FairScheme
 FairBoundary = _native.FairBoundary
 FairStall = _native.FairStall
+FairStartWeights = _native.FairStartWeights
 RegularizeOptions = _native.RegularizeOptions
 _D = FairOptions()
 _R = RegularizeOptions()
@@ -37,9 +38,10 @@ def defaults(scheme: str | FairScheme = _D.scheme.name) -> FairOptions:
 def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.method.name,
          mask: npt.ArrayLike | None = None, faces: npt.ArrayLike | None = None,
          boundary: str | FairBoundary = _D.boundary.name, subdivisions: int = _D.subdivisions,
-         tolerance: float = _D.tolerance, max_iterations: int | None = None, tangential: bool = _D.tangential,
+         tolerance: float = _D.tolerance, min_progress: float = _D.min_progress, max_iterations: int | None = None, tangential: bool = _D.tangential,
          scheme: str | FairScheme = _D.scheme.name, max_seconds: float = _D.max_seconds,
-         step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start, refine: bool = _D.refine,
+         step_scale: float = _D.step_scale, linear_start: bool = _D.linear_start,
+         start_weights: str | FairStartWeights = _D.start_weights.name, refine: bool = _D.refine,
          keep_size: bool = _D.keep_size, progress: Progress | None = None) -> FairResult:
     """Fair a triangle mesh (or a region of it) by a curvature flow.
 
@@ -71,6 +73,12 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     tolerance: stop when the relative energy change over a window of flow time falls below it
         (semi-implicit: also when 16 accepted steps found no energy lower by this fraction than
         the lowest before them; ``converged`` is then False if the energy had crept up).
+    min_progress: semi-implicit "willmore" / "laplacian_of_h": a level also stops (converged) when
+        the energy fell over its last 8 accepted steps by less than this fraction of the smaller
+        of its fall since the level's input and the energy left (a flow creeping after its drop;
+        issue 30's speed case). Regions only: not for a part without fixed vertices (a closed
+        object faired whole), nor for the flow from the input when the linear start was declined
+        (the restart judges how far it gets). 0: off.
     max_iterations: per level; None: the scheme's default (:func:`defaults`: 300 semi-implicit,
         5000 explicit).
     tangential: add the tangential drift that equalises triangles (eq. 3.8).
@@ -83,6 +91,12 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
         the Willmore energy, then flow from there. A flat hole fill has a crease along its rim
         that costs little discrete energy on a coarse mesh, and the flow alone stays near it.
         "hinge" always starts there (off: from the input).
+    start_weights: the weights of that linearised minimiser: "uniform" (U0^2, the connectivity
+        only) or "cotangent" (the cotangent bi-Laplacian L M^-1 L with the cotangent weights and
+        mixed areas of the input geometry, the system CGAL's PMP::fair solves: a dented region
+        keeps the metric of the surface it was pushed from, a flattened one the projection's:
+        closer on some dents, farther on most flattened regions, bench/notes/fair.md; the
+        uniform start when a vertex next to the region has no area or the solve fails).
     refine: region mode only: before the flow, refine the region's faces like Liepa's hole
         filling (split triangles larger than the mesh around the hole at their centroid, Delaunay
         edge flips inside the region, until the patch's triangles match the border's edge
@@ -112,13 +126,16 @@ def fair(V: npt.ArrayLike, F: npt.ArrayLike, *, method: str | FairMethod = _D.me
     little energy; the level was run again from the linearised minimiser and kept, even above the
     input's energy), ``stall`` (a :class:`FairStall`: "none", or "no_descent" when no vertex moved,
     "no_change" when no level lowered its energy by 10 x tolerance: the flow did not change the
-    region; a larger region, ``refine``/``subdivisions`` or another method may) and ``subdivided``.
+    region; a larger region, ``refine``/``subdivisions`` or another method may), ``start_fallback``
+    (``start_weights="cotangent"`` was asked for but the uniform start was used: a vertex next to
+    the region without area, a failed solve, or a part without fixed vertices) and ``subdivided``.
     """
     V = as_vertices(V)
     F = as_faces(F, n=len(V))
     o = defaults(scheme)
-    make_options(o, method=method, boundary=boundary, tolerance=tolerance, tangential=tangential,
-                 max_seconds=max_seconds, step_scale=step_scale, linear_start=linear_start, refine=refine,
+    make_options(o, method=method, boundary=boundary, tolerance=tolerance, min_progress=min_progress, tangential=tangential,
+                 max_seconds=max_seconds, step_scale=step_scale, linear_start=linear_start,
+                 start_weights=as_choice(start_weights, FairStartWeights, "start_weights"), refine=refine,
                  keep_size=keep_size, subdivisions=as_count(subdivisions, "subdivisions"),
                  max_iterations=None if max_iterations is None else as_count(max_iterations, "max_iterations"))
     vm = as_mask(mask, len(V), "mask")

@@ -887,7 +887,8 @@ def _verdict(ours, peer, tie=0.05):
 def fair_repair(quick):
     """Issue 30: damaged regions that keep their vertices (flattened, dented, noise-filled) on CGAL
     scans, at 2/6/12% of the vertices around a tip, a saddle and a flat-ish area; restored by
-    method 'hinge' (the edge-based Willmore energy from the bilaplacian start), the Willmore flow
+    method 'hinge' (the edge-based Willmore energy from the bilaplacian start; also from the cotangent
+    start on the damaged input's metric, start_weights='cotangent'), the Willmore flow
     (the default: linear start and restart), the thesis's Willmore flow from the input (linear_start
     off), the bilaplacian flow, CGAL fair and Blender-like smoothing; mean distance to the original
     region (patch_distances) over the bbox diagonal; won/tied/lost of hinge per peer."""
@@ -896,12 +897,13 @@ def fair_repair(quick):
     wheres = ["tip"] if quick else ["tip", "saddle", "flat"]
     kinds = ["flat", "dent", "noise"]
     fracs = [0.06] if quick else [0.02, 0.06, 0.12]
-    methods = ["hinge", "willmore", "willmore:thesis", "bilaplacian"]
-    kw = {"willmore:thesis": {"method": "willmore", "linear_start": False}}
-    peers = ["damaged", "willmore", "willmore:thesis", "bilaplacian", "cgal_fair", "smooth"]
+    methods = ["hinge", "hinge:cot", "willmore", "willmore:thesis", "bilaplacian"]
+    kw = {"willmore:thesis": {"method": "willmore", "linear_start": False},
+          "hinge:cot": {"method": "hinge", "start_weights": "cotangent"}}
+    peers = ["damaged", "hinge:cot", "willmore", "willmore:thesis", "bilaplacian", "cgal_fair", "smooth"]
     use_cgal = cgal_tool(build=not quick) is not None
     rows, data, tally = [], {}, {p: {"won": 0, "tied": 0, "lost": 0} for p in peers}
-    by_kind = {}
+    by_kind, cot_vs = {}, {}
     restarted = stalled = h_stalled = 0
     skipped = []
     t_all = time.perf_counter()
@@ -931,18 +933,24 @@ def fair_repair(quick):
                             v = _verdict(h[0], res[p][0])
                             tally[p][v] += 1
                             by_kind.setdefault((kind, p), {"won": 0, "tied": 0, "lost": 0})[v] += 1
+                    for p in ["hinge", "cgal_fair", "bilaplacian"]:  # the cotangent start against its peers
+                        if p in res:
+                            v = _verdict(res["hinge:cot"][0], res[p][0])
+                            cot_vs.setdefault((kind, p), {"won": 0, "tied": 0, "lost": 0})[v] += 1
     secs = time.perf_counter() - t_all
-    names = {"hinge": "hinge", "willmore": "Willmore flow (default)", "damaged": "the damaged input",
+    names = {"hinge": "hinge", "hinge:cot": "hinge, cotangent start", "willmore": "Willmore flow (default)", "damaged": "the damaged input",
              "willmore:thesis": "Willmore, thesis flow from the input",
              "bilaplacian": "bilaplacian", "cgal_fair": "CGAL fair", "smooth": "Blender-like smoothing"}
     head = table(["peer", "won", "tied", "lost"],
                  [[names[p], tally[p]["won"], tally[p]["tied"], tally[p]["lost"]] for p in peers if sum(tally[p].values())])
     per_kind = table(["damage", "peer", "won", "tied", "lost"],
                      [[k, names[p], v["won"], v["tied"], v["lost"]] for (k, p), v in sorted(by_kind.items())])
+    cot_table = table(["damage", "peer", "won", "tied", "lost"],
+                      [[k, names[p], v["won"], v["tied"], v["lost"]] for (k, p), v in sorted(cot_vs.items())])
     mean = {m: float(np.mean([d[m] for d in data.values() if m in d])) for m in ["hinge"] + peers}
     by_where = {w: {m: float(np.mean([d[m] for k, d in data.items() if k.split("/")[1] == w and m in d]))
-                    for m in ["hinge", "willmore", "bilaplacian", "cgal_fair"]} for w in wheres}
-    data["summary"] = {"tally": tally, "mean": mean, "by_where": by_where, "cases": len(rows),
+                    for m in ["hinge", "hinge:cot", "willmore", "bilaplacian", "cgal_fair"]} for w in wheres}
+    data["summary"] = {"tally": tally, "cotangent_start_tally": {f"{k}/{p}": v for (k, p), v in cot_vs.items()}, "mean": mean, "by_where": by_where, "cases": len(rows),
                        "restarted": restarted, "stalled": stalled, "hinge_stalled": h_stalled, "seconds": secs,
                        "skipped": skipped}
     md = ("Damaged regions that keep their vertices (issue 30). On each CGAL scan, the vertices geodesically "
@@ -953,18 +961,21 @@ def fair_repair(quick):
           "plane's normal). The faces touching the region are faired, the rim fixed. Distance: mean distance "
           "restored region <-> original region (Metro-style, both ways, area-weighted, 1 sample per face) / "
           "bbox diagonal. Methods: `dgmesh.fair` with method='hinge' (the edge-based Willmore energy, "
-          "Levenberg-Marquardt from the bilaplacian start), method='willmore' (the default flow, linear start "
+          "Levenberg-Marquardt from the bilaplacian start U0^2 P = 0, uniform weights), 'hinge, cotangent start' "
+          "(the same from the cotangent bi-Laplacian L M^-1 L P = 0 with the damaged input's cotangent weights and "
+          "mixed areas, start_weights='cotangent': the system CGAL fair solves), method='willmore' (the default flow, linear start "
           "and restart), the same with linear_start=False (the thesis's flow from the input), method='bilaplacian'; CGAL 5.5 `Polygon_mesh_processing::fair` of "
           "the region's vertices (bench/tools/cgal_fair_hole.cpp); 'smooth': 500 x Smooth Vertices factor 0.5 "
           "(uniform umbrella, numpy). Verdict of hinge against each peer: 'tied' within 5%.\n\n"
           + head + "\n\nBy damage:\n\n" + per_kind
+          + "\n\nhinge, cotangent start against its peers, by damage:\n\n" + cot_table
           + "\n\nMean distance over all cases: " + ", ".join(f"{names.get(m, m)} {v:.4g}" for m, v in mean.items())
-          + ". By place (hinge / Willmore / bilaplacian / CGAL fair): "
+          + ". By place (hinge / hinge, cotangent start / Willmore / bilaplacian / CGAL fair): "
           + "; ".join(f"{w} " + " / ".join(f"{v:.4g}" for v in by_where[w].values()) for w in wheres)
           + f". Willmore restarted from the linear start on {restarted} of {len(rows)} cases; reported a stall on "
           f"{stalled} (hinge: {h_stalled}). Run time {secs:.0f} s (under load)."
           + (f" Skipped (dgmesh.fair refused the region): {'; '.join(skipped)}." if skipped else "") + "\n\n"
-          + table(["mesh", "where", "fraction", "damage", "region vertices", "hinge", "damaged",
+          + table(["mesh", "where", "fraction", "damage", "region vertices", "hinge", "damaged", "hinge, cotangent start",
                    "Willmore", "Willmore (thesis, from input)", "bilaplacian", "CGAL fair", "smooth", "hinge stall",
                    "W stall", "W restarted", "hinge s", "W s"], rows)
           + "\n\nReproduce: `/usr/bin/python3 bench/run.py fair_repair`" + (" (this run: --quick)" if quick else ""))

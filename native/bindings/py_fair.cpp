@@ -40,18 +40,27 @@ void bind_fair(pb::module_& m) {
       .value("fixed", FairBoundary::Fixed, "do not move")
       .value("sliding", FairBoundary::Sliding, "slide along the (original) boundary polyline");
 
+  pb::enum_<FairStartWeights>(m, "FairStartWeights", "Weights of the linear start's bi-Laplacian")
+      .value("uniform", FairStartWeights::Uniform, "uniform bi-umbrella U0^2 (section 3.2), connectivity only")
+      .value("cotangent", FairStartWeights::Cotangent,
+             "cotangent bi-Laplacian L M^-1 L on the input geometry (as CGAL's PMP::fair)");
+
   Struct<FairOptions>(m, "FairOptions", "Options of fair() (the masks are separate arguments)")
       .field("method", &FairOptions::method, "the flow")
       .field("scheme", &FairOptions::scheme, "the time stepping")
       .field("boundary", &FairOptions::boundary, "mesh-boundary vertices: fixed or sliding")
       .field("subdivisions", &FairOptions::subdivisions, "coarse-to-fine levels, 0..6 (fig. 3.5)")
       .field("tolerance", &FairOptions::tolerance, "relative energy change per unit of flow time that stops a level")
+      .field("min_progress", &FairOptions::min_progress,
+             "semi-implicit: stop a level when the energy fell over the last 8 accepted steps by less than this "
+             "fraction of the smaller of its fall since the level's input and the energy left; 0 = off")
       .field("max_iterations", &FairOptions::max_iterations, "iterations per level")
       .field("max_seconds", &FairOptions::max_seconds, "wall-clock budget of the whole run; 0 = none")
       .field("tangential", &FairOptions::tangential, "add the tangential drift eps T (eq. 3.8)")
       .field("step_scale", &FairOptions::step_scale, "multiplies the explicit scheme's tau = A_min^2/150")
       .field("linear_start", &FairOptions::linear_start,
              "with fixed vertices, start from the linearised minimiser when that lowers the energy")
+      .field("start_weights", &FairOptions::start_weights, "weights of the linear start's bi-Laplacian")
       .field("refine", &FairOptions::refine, "refine the region Liepa-style before the flow (hole fills)")
       .field("keep_size", &FairOptions::keep_size,
              "Willmore, Laplacian of H: a component without fixed vertices keeps its centroid and area");
@@ -74,6 +83,9 @@ void bind_fair(pb::module_& m) {
       .result("restarted", &FairResult::restarted,
               "the flow from the input stalled at a discrete minimum and was restarted from the linearised minimiser")
       .result("stall", &FairResult::stall, "none, or why the flow did not change the region (FairStall)")
+      .result("start_fallback", &FairResult::start_fallback,
+              "start_weights='cotangent' was asked for but the uniform start was used (a vertex near the region "
+              "without area, a failed solve, or a part without fixed vertices)")
       .cls()
       .def_property_readonly(
           "subdivided",

@@ -444,6 +444,8 @@ class Driver {
   Driver(const FairOptions& o, Progress& p, Stopwatch& c, std::vector<double>& e)
       : opt_(o), progress_(p), clock_(c), energy_(e) {}
 
+  bool start_fallback() const { return start_fallback_; }
+
   // first_new: the level's first vertex made by its subdivision (0 on the first level).
   LevelReport run(Work& w, int level, int levels, int first_new) {
     level_ = level;
@@ -464,6 +466,7 @@ class Driver {
     const MatX3d P_in = w.P;
     compute_geometry(w.P, w.F, w.topo, g_);
     const double e_in = energy_of(w, g_);
+    e_level_in_ = e_in;
     declined_.resize(0, 3);
     if (opt_.method == FairMethod::Bilaplacian) return finish_level(run_bilaplacian(w), w, P_in, e_in);
     if (opt_.method == FairMethod::Hinge) return run_hinge(w, P_in);
@@ -473,7 +476,16 @@ class Driver {
     tried_linear_ = tried_linear_ || try_lin;
     const bool lin = try_lin && linear_start(w);
     const bool sub = !lin && first_new > 0 && !out_of_budget(0) && subdivision_start(w, first_new);
+    // The slow-progress stop is for regions (every part has fixed vertices): a closed object faired
+    // whole creeps to its round shape with an energy excess quadratic in the deviation (Blender's
+    // mirrored 1:2:1 ellipsoid stopped at a radius spread of 1.2% against < 1% after the full flow).
+    // The restart below judges how far the flow from the input got, so that flow runs without it
+    // too (bench fair_repair's bull tip 12% dent: stopped at 126 iterations it had not moved a
+    // quarter of the way, and the restart from the linear start, 2.7e6, ended at 0.0253 of the
+    // diagonal from the original against 0.0124 after the full 300).
+    slow_stop_ = !any_free_ && !(try_lin && !lin && declined_.rows() == w.P.rows() && max_move(P_in, declined_) > 1.0);
     LevelReport r = finish_level(run_curvature_flow(w, lin || sub ? 1 : 0, sub), w, P_in, e_in);
+    slow_stop_ = true;
     r.linear_start = lin;
     // Restart from the declined linear start when the flow from the input stalled at a discrete
     // minimum near it (FairResult::restarted): a flattened region of a scan whose crease along the
@@ -541,6 +553,20 @@ class Driver {
     const double before = *std::min_element(accepted_.begin(), split);
     const double now = *std::min_element(split, accepted_.end());
     return before - now < opt_.tolerance * std::abs(before);
+  }
+  // Semi-implicit: the energy fell over the last kSlowWindow accepted steps by less than
+  // opt_.min_progress times the smaller of its fall since the level began (from the level's input
+  // energy, or from the flow's start when that is higher: a restart) and the energy left (sum H^2 A
+  // >= 0 bounds what more steps can gain). A flow creeping at that pace has made its drop (issue
+  // 30's 104K-vertex case: 90% of the drop by iteration 3, then 0.1-0.3% per step over the
+  // 300-iteration budget; bench/notes/fair.md); one still halving a small energy (a flattened
+  // catenoid disk going back to H = 0) goes on.
+  static constexpr size_t kSlowWindow = 8;
+  bool slow_progress(double e) const {
+    const size_t k = accepted_.size();
+    if (!slow_stop_ || opt_.min_progress <= 0 || k <= kSlowWindow) return false;
+    const double fall = std::max(e_level_in_, accepted_.front()) - e;
+    return fall > 0 && accepted_[k - 1 - kSlowWindow] - e < opt_.min_progress * std::min(fall, e);
   }
   void tangential_step(Work& w, const MatX3d& N, double eps) {
     tan_.field(w.P, N, w.topo);
@@ -659,19 +685,27 @@ class Driver {
   // rim whose discrete energy is small on a coarse mesh (about theta^2/4 per rim vertex), so a
   // flow started there stays near it. The start is taken only when it lowers the discrete
   // energy, so the recorded energy stays monotone. (Cotangent weights on the flat fill's own
-  // metric gave a nearly flat start on scanned holes; the uniform weights do not depend on it.)
+  // metric gave a nearly flat start on scanned holes; the uniform weights do not depend on it.
+  // FairStartWeights::Cotangent uses the input's metric: better on some dented regions, worse on
+  // flattened ones, bench fair_repair.)
   bool linear_start(Work& w) {
     if (nm_ == 0 || nm_ == w.topo.n_vertices) return false;
     // A failed solve (e.g. a movable component without fixed neighbours) starts from the input.
     Eigen::MatrixXd x;
-    if (!uniform_held_minimiser(w, x)) return false;
+    if (!linear_minimiser(w, x)) return false;
     return take_if_lower(w, movable_idx_, x);
   }
 
-  // x: the movable vertices' rows of U0^2 P = 0 with the others held (see symmetric_bi_umbrella);
-  // false when the solve fails. A component without fixed vertices makes S_mm singular: the
-  // unsymmetric LU then, as before.
-  bool uniform_held_minimiser(const Work& w, Eigen::MatrixXd& x) const {
+  // x: the movable vertices' rows of U0^2 P = 0 with the others held (see symmetric_bi_umbrella), or
+  // with FairStartWeights::Cotangent of L M^-1 L P = 0 (cotangent_held_minimiser; U0^2 when that
+  // fails); false when the solve fails. A component without fixed vertices makes S_mm singular: the
+  // unsymmetric LU of U0^2 then, as before.
+  // Sets start_fallback_ when the cotangent start was asked for and the uniform one is used.
+  bool linear_minimiser(const Work& w, Eigen::MatrixXd& x) {
+    if (opt_.start_weights == FairStartWeights::Cotangent) {
+      if (!any_free_ && cotangent_held_minimiser(w, x)) return true;
+      start_fallback_ = true;
+    }
     SpMat Bmm, Bmf;
     MatX3d Xf;
     try {
@@ -685,6 +719,39 @@ class Driver {
         split_fixed(symmetric_bi_umbrella(w.topo, movable_idx_, d), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
         solver.factor(Bmm, spd_kind(nm_));
       }
+      x = solver.solve(-(Bmf * Xf));
+    } catch (const SolverError&) {
+      return false;
+    }
+    return x.allFinite();
+  }
+
+  // FairStartWeights::Cotangent: x solves L M^-1 L P = 0 at the movable vertices, L (eq. 3.11's
+  // cotangent weights) and M (mixed areas) of the current (input) geometry, the others held: the
+  // system CGAL's PMP::fair solves. Symmetric positive semi-definite (M > 0); false when a mixed
+  // area is not positive or the solve fails (the caller then takes the uniform start).
+  bool cotangent_held_minimiser(const Work& w, Eigen::MatrixXd& x) const {
+    const Topology& t = w.topo;
+    const VecXd M = mixed_areas(w.P, w.F, t);
+    // 1 / M_k enters the rows of k's closed ring only: a degenerate vertex away from the movable
+    // vertices' rings (a sliver of the scan two rings out) does not matter.
+    VecXd Minv = VecXd::Zero(t.n_vertices);
+    for (int k = 0; k < t.n_vertices; ++k) {
+      if (M[k] > 0) {
+        Minv[k] = 1.0 / M[k];
+        continue;
+      }
+      if (movable_idx_[k] >= 0) return false;
+      for (int q = t.vv_offset[k]; q < t.vv_offset[k] + t.valence(k); ++q)
+        if (movable_idx_[t.vv_index[q]] >= 0) return false;
+    }
+    const SpMat L = cotan_laplacian(w.P, w.F);
+    SpMat Bmm, Bmf;
+    MatX3d Xf;
+    split_fixed(SpMat(SpMat(L.transpose()) * Minv.asDiagonal() * L), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
+    try {
+      SparseSolver solver;
+      solver.factor(Bmm, spd_kind(nm_));
       x = solver.solve(-(Bmf * Xf));
     } catch (const SolverError&) {
       return false;
@@ -942,6 +1009,10 @@ class Driver {
         rep.converged = true;
         break;
       }
+      if (semi && slow_progress(e)) {
+        rep.converged = true;
+        break;
+      }
       if (semi && no_progress()) {
         // Converged when the energy also settled over the window (not when it crept up).
         const double e_ref = accepted_[accepted_.size() - 1 - kProgressWindow];
@@ -971,7 +1042,7 @@ class Driver {
     if (opt_.linear_start && !tried_linear_ && nm_ > 0 && nm_ < w.topo.n_vertices && opt_.max_iterations > 0) {
       tried_linear_ = true;
       Eigen::MatrixXd x;
-      if (uniform_held_minimiser(w, x)) {
+      if (linear_minimiser(w, x)) {
         MatX3d P = w.P;
         for (int v = 0; v < w.topo.n_vertices; ++v)
           if (movable_idx_[v] >= 0) P.row(v) = x.row(movable_idx_[v]);
@@ -1222,7 +1293,10 @@ class Driver {
   int level_ = 0, levels_ = 0, nm_ = 0;
   std::vector<double> accepted_;
   bool tried_linear_ = false;
-  MatX3d declined_;  // a minimiser take_if_lower declined (higher energy, regular mesh), else empty
+  bool start_fallback_ = false;  // see FairResult::start_fallback
+  double e_level_in_ = 0;        // the current level's input energy (slow_progress)
+  bool slow_stop_ = true;        // slow_progress may stop the flow
+  MatX3d declined_;              // a minimiser take_if_lower declined (higher energy, regular mesh), else empty
   double h_ = 1, t_acc_ = 0, e_mark_ = 0;
   std::vector<int> movable_idx_;
   std::vector<char> free_comp_;  // components whose every vertex moves (see remove_translation)
@@ -1257,6 +1331,8 @@ namespace {
 FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, const ProgressFn& progress_fn) {
   if (opt.subdivisions < 0 || opt.subdivisions > 6) throw MeshError("subdivisions must be between 0 and 6");
   if (!(opt.tolerance >= 0 && std::isfinite(opt.tolerance))) throw MeshError("tolerance must be finite and >= 0");
+  if (!(opt.min_progress >= 0 && std::isfinite(opt.min_progress)))
+    throw MeshError("min_progress must be finite and >= 0");
   if (!(opt.max_seconds >= 0 && std::isfinite(opt.max_seconds)))
     throw MeshError("max_seconds must be finite and >= 0 (0: no limit)");
   if (opt.max_iterations < 0) throw MeshError("max_iterations must be >= 0");
@@ -1364,6 +1440,7 @@ FairResult fair_rows(const MatX3d& V, const MatX3i& F, const FairOptions& opt, c
         "nothing to fair: every selected vertex is on the border of the selection or the mesh boundary; "
         "select the region's interior or add subdivisions");
   if (any_flow && !any_lowered) res.stall = any_moved ? FairStall::NoChange : FairStall::NoDescent;
+  res.start_fallback = driver.start_fallback();
   if (res.energy.empty()) {  // a whole mesh with nothing to move (every vertex on a fixed boundary)
     Geo g;
     compute_geometry(w.P, w.F, w.topo, g);
@@ -1533,6 +1610,7 @@ FairResult fair_parts(const MatX3d& V, const MatX3i& F, const FairOptions& opt,
     out.linear_start = out.linear_start || r.linear_start;
     out.energy_rose = out.energy_rose || r.energy_rose;
     out.restarted = out.restarted || r.restarted;
+    out.start_fallback = out.start_fallback || r.start_fallback;
     if (r.stall == FairStall::NoDescent || (r.stall == FairStall::NoChange && out.stall == FairStall::None))
       out.stall = r.stall;
   }

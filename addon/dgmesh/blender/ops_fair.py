@@ -28,7 +28,7 @@ import numpy as np
 from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty
 
 from .. import polymesh
-from ..fairing import FairBoundary, FairMethod, FairOptions, FairScheme, RegularizeOptions, refine_region
+from ..fairing import FairBoundary, FairMethod, FairOptions, FairScheme, FairStartWeights, RegularizeOptions, refine_region
 from ..fairing import defaults as scheme_defaults
 from . import bridge
 from .common import enum_id, enum_items, poll_mesh_targets, read_only_reason, report_shown_shape, target_objects
@@ -53,6 +53,11 @@ SCHEMES = enum_items(FairScheme, {
 BOUNDARIES = enum_items(FairBoundary, {
     "fixed": ("Fixed", "Open mesh boundaries do not move"),
     "sliding": ("Sliding", "Open mesh boundary vertices slide along the boundary"),
+})
+START_WEIGHTS = enum_items(FairStartWeights, {
+    "uniform": ("Uniform", "The linear start's bi-Laplacian from the connectivity only (uniform bi-umbrella)"),
+    "cotangent": ("Cotangent", "The linear start's bi-Laplacian with the cotangent weights of the selection as it "
+                  "is (as CGAL's fair): can keep the shape of a dented region, worse on flattened ones"),
 })
 DEFAULTS = FairOptions()  # property defaults: the library's own (dgmesh/fair.h)
 REGULARIZE_DEFAULTS = RegularizeOptions()
@@ -265,6 +270,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         description="With fixed vertices, Willmore and Laplacian of H first jump to the bilaplacian "
         "solution (when that lowers the bending energy) and flow from there; a flat fill alone "
         "can keep a crease along the hole's rim")
+    start_weights: EnumProperty(name="Start Weights", items=START_WEIGHTS, default=enum_id(DEFAULTS.start_weights))
     # SKIP_SAVE: turned on by itself for a fill without inner vertices, it must not stay on for the
     # next Fair (a Grid Fill with inner vertices would be re-triangulated).
     refine: BoolProperty(
@@ -280,7 +286,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
         self.layout.use_property_split = True  # as the other operators' redo panels
         col = self.layout.column()
         for p in ("method", "scheme", "subdivisions", "tolerance", "max_iterations", "boundary", "tangential",
-                  "linear_start"):
+                  "linear_start", "start_weights"):
             col.prop(self, p)
         if self.method != 'BILAPLACIAN':
             col.prop(self, "keep_size")
@@ -293,7 +299,7 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
             V, F, method=self.method.lower(), mask=mask, faces=faces,
             boundary=self.boundary.lower(), subdivisions=max(self.subdivisions, levels or 0), tolerance=self.tolerance,
             max_iterations=self.max_iterations, tangential=self.tangential, scheme=self.scheme.lower(),
-            linear_start=self.linear_start, refine=refine, keep_size=self.keep_size, progress=progress)
+            linear_start=self.linear_start, start_weights=self.start_weights.lower(), refine=refine, keep_size=self.keep_size, progress=progress)
 
     def finish(self, context, targets):
         written, failures = [], []
@@ -347,6 +353,12 @@ class DGMESH_OT_fair(_FairBase, bpy.types.Operator):
                 status = " (iteration budget reached)"
             else:
                 status = " (stopped before the tolerance: the flow stalled)"
+            if r.start_fallback:
+                # Never a silent substitution: the cotangent start was asked for and not used.
+                level = 'WARNING'
+                status += (" (Start Weights Cotangent could not be used: a closed part is faired whole, a vertex next "
+                           "to the selection has no area, or the cotangent system could not be solved; the Uniform "
+                           "start was used instead)")
             if r.restarted:
                 status += (" (restarted from the linear start: the flow from the selection stalled at a minimum of "
                            "the discrete energy; the result may end above its energy)")

@@ -38,6 +38,20 @@ enum class FairScheme {
   SemiImplicit,
 };
 
+// Weights of the linearised minimiser the curvature flows and the hinge method start from (region
+// mode, linear_start): B P = 0 at the movable vertices, the fixed rings as boundary data.
+enum class FairStartWeights {
+  // The uniform bi-umbrella U0^2 (thesis section 3.2): depends on the connectivity only.
+  Uniform,
+  // The cotangent bi-Laplacian L M^-1 L with the cotangent weights L (eq. 3.11) and mixed
+  // (Voronoi) areas M of the *input* geometry (what CGAL's PMP::fair solves): a dented region keeps
+  // the metric of the surface it was pushed from; a flattened one gets the projection's metric
+  // (bench fair_repair: closer on some dents, farther on most flattened and noisy regions). The
+  // uniform start is taken instead when a vertex within a ring of the movable ones has no mixed
+  // area, the solve fails, or a movable component has no fixed vertex.
+  Cotangent,
+};
+
 struct FairOptions {
   // Willmore. Hinge is closer to the original on bench fair_repair's damaged regions but not on hole
   // fills (refined or grid fills: Blender hole-workflow tests, bench/notes/fair.md).
@@ -57,13 +71,21 @@ struct FairOptions {
   int subdivisions = 0;
   double tolerance = 1e-4;   // relative energy change per unit of flow time (see fair.cpp)
   int max_iterations = 300;  // per level (the explicit scheme's small steps need more: fair_defaults)
-  double max_seconds = 0;    // wall-clock budget for the whole run; 0 = none
-  bool tangential = true;    // add the tangential drift eps T (eq. 3.8)
-  double step_scale = 1.0;   // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
+  // Semi-implicit curvature flows: a level also stops (converged) when the energy fell over the last
+  // 8 accepted steps by less than min_progress times the smaller of its fall since the level's input
+  // and the energy left (see fair.cpp, slow_progress); 0 = off (only the tolerance and the budget stop it).
+  // Regions only (not to a part without fixed vertices), and not to a flow from the input whose
+  // linear start was declined (the restart judges how far that flow gets). Bench fair_repair and fair_speed,
+  // bench/notes/fair.md (issue 30).
+  double min_progress = 0.01;
+  double max_seconds = 0;   // wall-clock budget for the whole run; 0 = none
+  bool tangential = true;   // add the tangential drift eps T (eq. 3.8)
+  double step_scale = 1.0;  // multiplies the thesis's tau = A_min^2/150 (explicit scheme)
   // Willmore / Laplacian-of-H with fixed vertices: start from the minimiser of the linearised
   // energy (U0^2 P = 0, the bilaplacian flow's steady state, with the fixed rings as boundary
   // data) when that lowers the energy; see fair.cpp.
   bool linear_start = true;
+  FairStartWeights start_weights = FairStartWeights::Uniform;  // of the linear start, see above
   // Before the flow, refine the region like Liepa's hole filling (see refine_region): a coarse
   // fill (Blender's Fill, a fan, an n-gon) gets triangles sized like the mesh around the hole.
   // The new vertices move; the region's border edges are never split. A fill that gets no new
@@ -109,6 +131,10 @@ struct FairResult {
   // energy ends above the input's. Only with linear_start (Willmore, Laplacian of H, fixed vertices).
   bool restarted = false;
   FairStall stall = FairStall::None;  // see FairStall; over independent parts: the worst part's
+  // start_weights was Cotangent but the uniform start U0^2 P = 0 was used: a vertex within a ring of
+  // the movable ones has no mixed area, the cotangent system's solve failed, or a movable component
+  // has no fixed vertex (see FairStartWeights::Cotangent). Over independent parts: any part's.
+  bool start_fallback = false;
 };
 
 /// Fairs V, F by the flow of `opt.method` (thesis eq. 3.5-3.12), the whole mesh or a region.
