@@ -1,7 +1,9 @@
-import json, sys, numpy as np
-from pathlib import Path as _Path
-REPO = str(_Path(__file__).resolve().parents[3])  # the checkout this script lies in
-OUT = __import__("os").environ.get("OUT", "/tmp/dgmesh-fair-s24")  # where its data goes
+"""Summary of repair.py's output (argument: its json): means, verdicts against the old column and the peers."""
+import json
+import sys
+
+import numpy as np
+
 d = json.load(open(sys.argv[1]))
 def verdict(a, b, tie=0.05):
     if abs(a - b) <= tie * min(a, b): return "tied"

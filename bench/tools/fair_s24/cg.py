@@ -1,9 +1,9 @@
+"""One dgmesh.fair call on issue 30's case with min_progress and max_iterations from the arguments,
+for callgrind (--toggle-collect='dgmesh::fair(*' counts the call only, not the set-up)."""
 import sys
-from pathlib import Path as _Path
-REPO = str(_Path(__file__).resolve().parents[3])  # the checkout this script lies in
-OUT = __import__("os").environ.get("OUT", "/tmp/dgmesh-fair-s24")  # where its data goes
-sys.path.insert(0, REPO + '/addon')
-import numpy as np, dgmesh
-d = np.load(OUT + '/case.npz')
-r = dgmesh.fair(d['W'], d['F'], mask=d['patch'], min_progress=float(sys.argv[1]), max_iterations=int(sys.argv[2]))
+
+from _case import dgmesh, issue_case
+
+_, F, patch, W, _, _ = issue_case()
+r = dgmesh.fair(W, F, mask=patch, min_progress=float(sys.argv[1]), max_iterations=int(sys.argv[2]))
 print("iterations", r.iterations, "E", r.energy[-1])
