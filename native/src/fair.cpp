@@ -706,24 +706,12 @@ class Driver {
       if (!any_free_ && cotangent_held_minimiser(w, x)) return true;
       start_fallback_ = true;
     }
-    SpMat Bmm, Bmf;
-    MatX3d Xf;
-    try {
-      SparseSolver solver;
-      if (any_free_) {
-        const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
-        split_fixed(SpMat(W * W), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
-        solver.factor(Bmm, SparseSolver::Kind::LU);
-      } else {
-        VecXd d;
-        split_fixed(symmetric_bi_umbrella(w.topo, movable_idx_, d), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
-        solver.factor(Bmm, spd_kind(nm_));
-      }
-      x = solver.solve(-(Bmf * Xf));
-    } catch (const SolverError&) {
-      return false;
+    if (any_free_) {
+      const SpMatR W = umbrella_matrix(w.P, w.topo, Umbrella::Uniform);
+      return held_solve(SpMat(W * W), w.P, movable_idx_, nm_, SparseSolver::Kind::LU, x);
     }
-    return x.allFinite();
+    VecXd d;
+    return held_solve(symmetric_bi_umbrella(w.topo, movable_idx_, d), w.P, movable_idx_, nm_, spd_kind(nm_), x);
   }
 
   // FairStartWeights::Cotangent: x solves L M^-1 L P = 0 at the movable vertices, L (eq. 3.11's
@@ -746,26 +734,16 @@ class Driver {
         if (movable_idx_[t.vv_index[q]] >= 0) return false;
     }
     const SpMat L = cotan_laplacian(w.P, w.F);
-    SpMat Bmm, Bmf;
-    MatX3d Xf;
-    split_fixed(SpMat(SpMat(L.transpose()) * Minv.asDiagonal() * L), w.P, movable_idx_, nm_, Bmm, Bmf, Xf);
-    try {
-      SparseSolver solver;
-      solver.factor(Bmm, spd_kind(nm_));
-      x = solver.solve(-(Bmf * Xf));
-    } catch (const SolverError&) {
-      return false;
-    }
-    return x.allFinite();
+    return held_solve(SpMat(SpMat(L.transpose()) * Minv.asDiagonal() * L), w.P, movable_idx_, nm_, spd_kind(nm_), x);
   }
 
-  // Solves B P = 0 for the vertices with idx[v] >= 0 (ns of them), the others held, and takes the
-  // solution when it lowers the energy (take_if_lower); false when the solve fails.
-  bool take_held_minimiser(Work& w, const SpMat& B, const std::vector<int>& idx, int ns, SparseSolver::Kind kind) {
+  // x: the rows idx[v] of B P = 0 solved for the vertices with idx[v] >= 0 (ns of them), the others
+  // held at P (split_fixed); false when the factorisation or the solve fails or x is not finite.
+  static bool held_solve(const SpMat& B, const MatX3d& P, const std::vector<int>& idx, int ns, SparseSolver::Kind kind,
+                         Eigen::MatrixXd& x) {
     SpMat Bmm, Bmf;
     MatX3d Xf;
-    split_fixed(B, w.P, idx, ns, Bmm, Bmf, Xf);
-    Eigen::MatrixXd x;
+    split_fixed(B, P, idx, ns, Bmm, Bmf, Xf);
     try {
       SparseSolver solver;
       solver.factor(Bmm, kind);
@@ -773,7 +751,14 @@ class Driver {
     } catch (const SolverError&) {
       return false;
     }
-    return take_if_lower(w, idx, x);
+    return x.allFinite();
+  }
+
+  // Solves B P = 0 as held_solve and takes the solution when it lowers the energy (take_if_lower);
+  // false when the solve fails.
+  bool take_held_minimiser(Work& w, const SpMat& B, const std::vector<int>& idx, int ns, SparseSolver::Kind kind) {
+    Eigen::MatrixXd x;
+    return held_solve(B, w.P, idx, ns, kind, x) && take_if_lower(w, idx, x);
   }
 
   // A level after a subdivision. The linear 1-to-4 split leaves the coarse facets flat, and at the
