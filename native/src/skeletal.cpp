@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numeric>
 #include <optional>
 #include <string>
 
@@ -1268,22 +1267,14 @@ bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, 
   for (int i = 0; i < X.rows(); ++i)
     if (X.row(i) != X0.row(i)) moved.push_back(i);
   if (moved.empty()) return true;
-  std::vector<int> ids(Sd.rows());
-  std::iota(ids.begin(), ids.end(), 0);
-  const BallTree tree(Sd, radii, ids);
-  double e0 = 0, e1 = 0;
-  for (int i : moved) {
-    double b0 = std::numeric_limits<double>::infinity(), b1 = b0;
-    int a0 = -1, a1 = -1;
-    tree.query(row3(X0, i), b0, a0);
-    tree.query(row3(X, i), b1, a1);
-    e0 += (b0 - target[i]) * (b0 - target[i]);
-    e1 += (b1 - target[i]) * (b1 - target[i]);
-  }
-  VecXd r = radii;
-  std::nth_element(r.data(), r.data() + r.size() / 2, r.data() + r.size());
-  const double med = r[r.size() / 2], m = static_cast<double>(moved.size());
-  return std::sqrt(e1 / m) - std::sqrt(e0 / m) <= kSlideThickness * med;
+  MatX3d A(moved.size(), 3), B(moved.size(), 3);
+  VecXd t(moved.size());
+  for (size_t k = 0; k < moved.size(); ++k)
+    A.row(k) = X0.row(moved[k]), B.row(k) = X.row(moved[k]), t[k] = target[moved[k]];
+  const VecXd e0 = union_of_balls_distance(A, Sd, radii) - t, e1 = union_of_balls_distance(B, Sd, radii) - t;
+  const double m = static_cast<double>(moved.size());
+  return std::sqrt(e1.squaredNorm() / m) - std::sqrt(e0.squaredNorm() / m) <=
+         kSlideThickness * median(std::vector<double>(radii.data(), radii.data() + radii.size()));
 }
 
 template <class Push, class Clear, class Contact>
