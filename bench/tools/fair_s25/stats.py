@@ -21,6 +21,25 @@ def shape(V, F):
     return 4 * np.sqrt(3) * A / s, A, np.sqrt(s / 3)
 
 
+def crease(V, F, region, around):
+    """Mean dihedral angle (between face normals) over the edges between a region face and a face
+    outside, over the mean over the edges inside the faces around the region: > 1 where the region
+    meets its surroundings with a crease (a flattened patch, a flat fill)."""
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+    E = np.vstack([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
+    fid = np.tile(np.arange(len(F)), 3)
+    key = np.sort(E, axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    key, fid = key[order], fid[order]
+    same = np.all(key[1:] == key[:-1], axis=1)
+    f0, f1 = fid[:-1][same], fid[1:][same]
+    ang = np.arccos(np.clip(np.einsum("ij,ij->i", n[f0], n[f1]), -1, 1))
+    rim_e = region[f0] != region[f1]
+    out_e = around[f0] & around[f1]
+    return float(ang[rim_e].mean() / max(ang[out_e].mean(), 1e-300))
+
+
 out = {}
 for name, V, F, where, frac, patch, region in regions():
     rim = B._region_of(F, patch)[1]
@@ -40,5 +59,5 @@ for name, V, F, where, frac, patch, region in regions():
         out[key] = dict(p5q=float(np.percentile(qi, 5) / np.percentile(qo, 5)), meanq=float(qi.mean() / qo.mean()),
                         medq=float(np.median(qi) / np.median(qo)), area=float(Ai.mean() / Ao.mean()),
                         edge=float(li.mean() / lo.mean()), p5q_in=float(np.percentile(qi, 5)),
-                        planar=float(sv[2] / sv[0]), rimdev=rimdev)
+                        planar=float(sv[2] / sv[0]), rimdev=rimdev, crease=crease(W, F, region, around))
 json.dump(out, open(f"{OUT}/stats_seed{SEED}.json", "w"))
