@@ -891,7 +891,7 @@ def fair_repair(quick):
     start on the damaged input's metric, start_weights='cotangent'), the Willmore flow
     (the default: linear start and restart), the thesis's Willmore flow from the input (linear_start
     off), the bilaplacian flow, CGAL fair and Blender-like smoothing; mean distance to the original
-    region (patch_distances) over the bbox diagonal; won/tied/lost of hinge per peer."""
+    region (patch_distances) over the bbox diagonal; won/tied/lost of the default and of hinge per peer."""
     _PER_FACE[0] = 1
     meshes = ["elephant", "bull"] if quick else _REPAIR_MESHES
     wheres = ["tip"] if quick else ["tip", "saddle", "flat"]
@@ -901,9 +901,11 @@ def fair_repair(quick):
     kw = {"willmore:thesis": {"method": "willmore", "linear_start": False},
           "hinge:cot": {"method": "hinge", "start_weights": "cotangent"}}
     peers = ["damaged", "hinge:cot", "willmore", "willmore:thesis", "bilaplacian", "cgal_fair", "smooth"]
+    w_peers = ["damaged", "hinge", "bilaplacian", "cgal_fair", "smooth"]  # the default against these
     use_cgal = cgal_tool(build=not quick) is not None
     rows, data, tally = [], {}, {p: {"won": 0, "tied": 0, "lost": 0} for p in peers}
-    by_kind, cot_vs = {}, {}
+    w_tally = {p: {"won": 0, "tied": 0, "lost": 0} for p in w_peers}
+    by_kind, cot_vs, w_by_kind = {}, {}, {}
     restarted = stalled = h_stalled = 0
     skipped = []
     t_all = time.perf_counter()
@@ -933,6 +935,11 @@ def fair_repair(quick):
                             v = _verdict(h[0], res[p][0])
                             tally[p][v] += 1
                             by_kind.setdefault((kind, p), {"won": 0, "tied": 0, "lost": 0})[v] += 1
+                    for p in w_peers:
+                        if p in res:
+                            v = _verdict(w[0], res[p][0])
+                            w_tally[p][v] += 1
+                            w_by_kind.setdefault((kind, p), {"won": 0, "tied": 0, "lost": 0})[v] += 1
                     for p in ["hinge", "cgal_fair", "bilaplacian"]:  # the cotangent start against its peers
                         if p in res:
                             v = _verdict(res["hinge:cot"][0], res[p][0])
@@ -941,6 +948,10 @@ def fair_repair(quick):
     names = {"hinge": "hinge", "hinge:cot": "hinge, cotangent start", "willmore": "Willmore flow (default)", "damaged": "the damaged input",
              "willmore:thesis": "Willmore, thesis flow from the input",
              "bilaplacian": "bilaplacian", "cgal_fair": "CGAL fair", "smooth": "Blender-like smoothing"}
+    w_head = table(["peer", "won", "tied", "lost"],
+                   [[names[p], w_tally[p]["won"], w_tally[p]["tied"], w_tally[p]["lost"]] for p in w_peers if sum(w_tally[p].values())])
+    w_per_kind = table(["damage", "peer", "won", "tied", "lost"],
+                       [[k, names[p], v["won"], v["tied"], v["lost"]] for (k, p), v in sorted(w_by_kind.items())])
     head = table(["peer", "won", "tied", "lost"],
                  [[names[p], tally[p]["won"], tally[p]["tied"], tally[p]["lost"]] for p in peers if sum(tally[p].values())])
     per_kind = table(["damage", "peer", "won", "tied", "lost"],
@@ -950,14 +961,17 @@ def fair_repair(quick):
     mean = {m: float(np.mean([d[m] for d in data.values() if m in d])) for m in ["hinge"] + peers}
     by_where = {w: {m: float(np.mean([d[m] for k, d in data.items() if k.split("/")[1] == w and m in d]))
                     for m in ["hinge", "hinge:cot", "willmore", "bilaplacian", "cgal_fair"]} for w in wheres}
-    data["summary"] = {"tally": tally, "cotangent_start_tally": {f"{k}/{p}": v for (k, p), v in cot_vs.items()}, "mean": mean, "by_where": by_where, "cases": len(rows),
+    data["summary"] = {"tally": tally, "default_tally": w_tally, "default_by_kind": {f"{k}/{p}": v for (k, p), v in w_by_kind.items()},
+                       "cotangent_start_tally": {f"{k}/{p}": v for (k, p), v in cot_vs.items()}, "mean": mean, "by_where": by_where, "cases": len(rows),
                        "restarted": restarted, "stalled": stalled, "hinge_stalled": h_stalled, "seconds": secs,
                        "skipped": skipped}
     md = ("Damaged regions that keep their vertices (issue 30). On each CGAL scan, the vertices geodesically "
           "nearest to a tip (farthest from the centroid), a saddle (most negative Gaussian curvature, two-ring "
           "average) or a flat-ish area (smallest |k1|+|k2|), 2/6/12% of the vertices, are damaged: 'flat' "
-          "(projected onto the rim's least-squares plane), 'dent' (pushed inwards by a smooth bump 0.3 x the "
-          "region's radius deep), 'noise' (flattened, then +-0.5 mean edge lengths of uniform noise along the "
+          "(projected onto the rim's least-squares plane), 'dent' (each vertex pushed along its own inward normal by "
+          "0.5 x the local feature size, the region's median inner medial-ball radius capped by its geodesic radius, "
+          "times a smooth bump of the geodesic distance to the rim; session 25, before: a bump along the region's "
+          "mean normal, a near no-op at tips), 'noise' (flattened, then +-0.5 mean edge lengths of uniform noise along the "
           "plane's normal). The faces touching the region are faired, the rim fixed. Distance: mean distance "
           "restored region <-> original region (Metro-style, both ways, area-weighted, 1 sample per face) / "
           "bbox diagonal. Methods: `dgmesh.fair` with method='hinge' (the edge-based Willmore energy, "
@@ -966,7 +980,8 @@ def fair_repair(quick):
           "mixed areas, start_weights='cotangent': the system CGAL fair solves), method='willmore' (the default flow, linear start "
           "and restart), the same with linear_start=False (the thesis's flow from the input), method='bilaplacian'; CGAL 5.5 `Polygon_mesh_processing::fair` of "
           "the region's vertices (bench/tools/cgal_fair_hole.cpp); 'smooth': 500 x Smooth Vertices factor 0.5 "
-          "(uniform umbrella, numpy). Verdict of hinge against each peer: 'tied' within 5%.\n\n"
+          "(uniform umbrella, numpy). Verdicts: 'tied' within 5%.\n\nThe default (Willmore flow) against each peer:\n\n"
+          + w_head + "\n\nBy damage:\n\n" + w_per_kind + "\n\nhinge against each peer:\n\n"
           + head + "\n\nBy damage:\n\n" + per_kind
           + "\n\nhinge, cotangent start against its peers, by damage:\n\n" + cot_table
           + "\n\nMean distance over all cases: " + ", ".join(f"{names.get(m, m)} {v:.4g}" for m, v in mean.items())
@@ -976,8 +991,8 @@ def fair_repair(quick):
           f"{stalled} (hinge: {h_stalled}). Run time {secs:.0f} s (under load)."
           + (f" Skipped (dgmesh.fair refused the region): {'; '.join(skipped)}." if skipped else "") + "\n\n"
           + table(["mesh", "where", "fraction", "damage", "region vertices", "hinge", "damaged", "hinge, cotangent start",
-                   "Willmore", "Willmore (thesis, from input)", "bilaplacian", "CGAL fair", "smooth", "hinge stall",
-                   "W stall", "W restarted", "hinge s", "W s"], rows)
+                   "Willmore", "Willmore (thesis, from input)", "bilaplacian", "CGAL fair", "smooth",
+                   "hinge stall", "W stall", "W restarted", "hinge s", "W s"], rows)
           + "\n\nReproduce: `/usr/bin/python3 bench/run.py fair_repair`" + (" (this run: --quick)" if quick else ""))
     return {"markdown": md, "data": data}
 
@@ -1043,9 +1058,12 @@ def _vertex_normals(V, F):
 
 def damage(V, F, patch, kind, seed=0):
     """The patch's vertices damaged in place (same connectivity): "flat" (projected onto the
-    least-squares plane of the rim), "dent" (pushed inwards along the patch's mean normal by a smooth
-    bump, depth 0.3 of the patch's radius, the local feature size here) or "noise" (flattened, then
-    each vertex displaced along the plane's normal by a uniform amount within +-0.5 mean edge lengths).
+    least-squares plane of the rim), "dent" (each vertex pushed along its own inward normal by
+    DENT_DEPTH x the local feature size times a smooth bump of its geodesic distance to the rim,
+    see _dent), "noise" (flattened, then each vertex displaced along the plane's normal by a uniform
+    amount within +-0.5 mean edge lengths) or "dent_axis" (sessions 19-24's dent: along the patch's
+    mean normal by a bump of the straight distance to the rim's centroid, depth 0.3 of the rim's
+    radius; at tips it mostly slides the surface along itself, kept to reproduce those notes).
     Returns the damaged vertices."""
     _region, rim = _region_of(F, patch)
     W = V.copy()
@@ -1056,6 +1074,8 @@ def damage(V, F, patch, kind, seed=0):
             h = float(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean())
             W[patch] += np.outer(np.random.default_rng(seed).uniform(-0.5, 0.5, int(patch.sum())) * h, nrm)
     elif kind == "dent":
+        W[patch] -= _dent(V, F, patch, rim)
+    elif kind == "dent_axis":
         N = _vertex_normals(V, F)
         nrm = N[patch].mean(0)
         nrm /= np.linalg.norm(nrm)
@@ -1068,6 +1088,67 @@ def damage(V, F, patch, kind, seed=0):
         raise ValueError(kind)
     return W
 
+
+DENT_DEPTH = 0.5  # of the local feature size (_dent)
+
+
+def _distance_to(V, F, sources, allowed):
+    """Dijkstra distance over edges from the `sources` mask, walking only through `allowed` vertices."""
+    E = _edges(F)
+    n = len(V)
+    w = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
+    src = np.concatenate([E[:, 0], E[:, 1]])
+    order = np.argsort(src, kind="stable")
+    src, dst, ww = src[order], np.concatenate([E[:, 1], E[:, 0]])[order], np.concatenate([w, w])[order]
+    start = np.searchsorted(src, np.arange(n + 1))
+    dist = np.full(n, np.inf)
+    dist[sources] = 0.0
+    heap = [(0.0, int(v)) for v in np.flatnonzero(sources)]
+    heapq.heapify(heap)
+    while heap:
+        d, v = heapq.heappop(heap)
+        if d > dist[v]:
+            continue
+        for j in range(start[v], start[v + 1]):
+            u, nd = dst[j], d + ww[j]
+            if allowed[u] and nd < dist[u]:
+                dist[u] = nd
+                heapq.heappush(heap, (nd, u))
+    return dist
+
+
+def inner_feature_size(V, N, idx):
+    """Inner medial-ball radius at vertices `idx` (shrinking-ball estimate over the vertices as
+    samples): the largest ball tangent at p on the inward side (-N) with no vertex inside,
+    min over q with n.(q - p) > 0 of |q - p|^2 / (2 n.(q - p)), n = -N(p)."""
+    out = np.empty(len(idx))
+    for k, i in enumerate(idx):
+        d = V - V[i]
+        dot, l2 = d @ -N[i], (d * d).sum(1)
+        ok = dot > 1e-12 * np.sqrt(l2)
+        ok[i] = False
+        out[k] = np.min(l2[ok] / (2 * dot[ok])) if ok.any() else np.inf
+    return out
+
+
+def _dent(V, F, patch, rim, samples=200):
+    """Displacement of the patch's vertices for the "dent" damage (issue 30: pushed inwards by a
+    fraction of the local feature size): vertex v moves along its own inward normal by
+    DENT_DEPTH * lfs * b(s), s = g(v) / max g (g the geodesic distance to the rim inside the patch),
+    b(s) = (1 - (1 - s)^2)^2 (0 with zero slope at the rim, 1 with zero slope at the deepest vertex).
+    lfs: the median inner medial-ball radius (inner_feature_size) over up to `samples` patch vertices
+    of the original surface, capped by max g (a dent, not a pit); normals outward by the sign of the
+    enclosed volume."""
+    N = _vertex_normals(V, F)
+    vol = np.einsum("ij,ij->i", V[F[:, 0]], np.cross(V[F[:, 1]], V[F[:, 2]])).sum()
+    N = N if vol >= 0 else -N
+    g = _distance_to(V, F, rim, patch | rim)[patch]
+    gmax = float(g[np.isfinite(g)].max())
+    s = np.clip(np.where(np.isfinite(g), g, gmax) / gmax, 0, 1)
+    idx = np.flatnonzero(patch)
+    sub = np.random.default_rng(0).choice(idx, min(samples, len(idx)), replace=False)
+    lfs = min(float(np.median(inner_feature_size(V, N, sub))), gmax)
+    return (DENT_DEPTH * lfs * (1 - (1 - s) ** 2) ** 2)[:, None] * N[patch]
 
 def region_centre(V, F, where, seed=0):
     """A vertex on a "tip" (farthest from the centroid: ear, nose, limb ends), a "saddle" (most
