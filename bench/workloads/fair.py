@@ -1150,6 +1150,7 @@ def _dent(V, F, patch, rim, samples=200):
     lfs = min(float(np.median(inner_feature_size(V, N, sub))), gmax)
     return (DENT_DEPTH * lfs * (1 - (1 - s) ** 2) ** 2)[:, None] * N[patch]
 
+
 def region_centre(V, F, where, seed=0):
     """A vertex on a "tip" (farthest from the centroid: ear, nose, limb ends), a "saddle" (most
     negative Gaussian curvature, averaged over two rings) or a "flat" (smallest |k1|+|k2| averaged
