@@ -103,8 +103,9 @@ def test_detail_reads_shape_not_noise():
                    "(two- and three-width extrapolations, quadric and cubic fits) separates it from 0.05 e of noise")
 def test_detailed_scan_with_low_noise_reads_the_noise():
     # The defect behind the automatic denoise's 0 steps at 0.05 e on ChineseDragon-10kv: the estimate
-    # reads about sqrt(shape^2 + noise^2) (measured 1.96 times the true sigma). If an estimate learns to
-    # tell the two apart this passes, and the strict xfail fails: then drop the mark.
+    # reads about sqrt(shape^2 + noise^2) (measured 2.00 normal, 1.95 isotropic times the true sigma).
+    # If an estimate learns to tell the two apart this passes, and the strict xfail fails: then drop
+    # the mark.
     V, F = dgmesh.read_mesh(CGAL / "ChineseDragon-10kv.off")
     V, F = np.asarray(V, dtype=np.float64), np.asarray(F)
     for kind in ("normal", "isotropic"):
