@@ -49,14 +49,14 @@ constexpr double kMinEffective = 12;  // quadratic_fit: effective samples needed
 // two rough scans excepted), their shape at the sampling scale; added noise raises sigma far more
 // than detail. The constants were fitted (grid search minimising the mean log ratio of the error to
 // the best step count's) on the best counts of 14 CGAL models at 0.05-0.3 e with noise-free scans
-// held to 0 steps (bench/notes/denoise.md, session 23), with the uniform umbrella; the operator is
-// half cotangent since session 24 (taubin_smooth), the rule unchanged. The feature test of the
-// automatic choice.
+// held to 0 steps (bench/notes/denoise.md, session 23: floor, uniform umbrella); scale and powers
+// refitted in session 25 for the half-cotangent operator of taubin_smooth (session 24), the floor
+// kept. The feature test of the automatic choice.
 constexpr double kTaubinLambda = 0.6;
 constexpr double kTaubinMu = -0.62;
 constexpr double kTaubinCotangentShare = 0.5;  // measured: bench/notes/denoise.md, session 24
-constexpr double kAutoSmoothScale = 5.4;
-constexpr double kAutoSmoothPower = 1.6;
+constexpr double kAutoSmoothScale = 9.5;
+constexpr double kAutoSmoothPower = 1.8;
 constexpr double kAutoSmoothDetailPower = 1.5;
 constexpr double kAutoSmoothMinDetail = 0.03;
 constexpr double kAutoSmoothFloor = 0.9;

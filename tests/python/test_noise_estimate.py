@@ -97,6 +97,23 @@ def test_detail_reads_shape_not_noise():
         assert est.detail > 2 * est.sigma  # measured 0.213 against 0.090 e
 
 
+@pytest.mark.skipif(not (CGAL / "ChineseDragon-10kv.off").exists(), reason="CGAL data not unpacked")
+@pytest.mark.xfail(strict=True, reason="issue 32, open: a scan sampled at its own detail's scale reads that detail as "
+                   "noise (noise-free 0.078 e); no local-fit estimate measured in bench/notes/denoise.md session 25 "
+                   "(two- and three-width extrapolations, quadric and cubic fits) separates it from 0.05 e of noise")
+def test_detailed_scan_with_low_noise_reads_the_noise():
+    # The defect behind the automatic denoise's 0 steps at 0.05 e on ChineseDragon-10kv: the estimate
+    # reads about sqrt(shape^2 + noise^2) (measured 2.00 normal, 1.95 isotropic times the true sigma).
+    # If an estimate learns to tell the two apart this passes, and the strict xfail fails: then drop
+    # the mark.
+    V, F = dgmesh.read_mesh(CGAL / "ChineseDragon-10kv.off")
+    V, F = np.asarray(V, dtype=np.float64), np.asarray(F)
+    for kind in ("normal", "isotropic"):
+        est = dgmesh.estimate_noise(add_noise(V, F, 0.05, kind, seed=11), F)
+        ratio = est.sigma_abs / (0.05 * edge_length(V, F))
+        assert 0.8 < ratio < 1.2, f"{kind}: {ratio:.2f} times the true sigma"
+
+
 def test_point_cloud_and_soup_give_the_mesh_estimate():
     V, F = shapes.icosphere(4, 1.0)
     Vn = add_noise(V, F, 0.2, "normal", seed=3)

@@ -71,13 +71,13 @@ struct DenoiseOptions {
 //               quadratic_fit = (noise.curvature > sigma): coarse sampling for the surface's bending;
 //   bilateral:  eta1 = k_b * sigma (k_b = sqrt(2));
 //   eta1 at least 0.001, iterations = 3,
-//   smoothing_steps = round(5.4 n^1.6 / d^1.5), at most 60, with d = max(detail, 0.03) and
+//   smoothing_steps = round(9.5 n^1.8 / d^1.5), at most 60, with d = max(detail, 0.03) and
 //               n = sqrt(max(0, sigma^2 - min(0.9 d, 0.1)^2)) (meshes; the best Taubin step count
 //               grows with the noise and falls with the shape detail that the sampling carries,
 //               which smoothing destroys; a noise-free coarse scan's estimate reads sigma of
 //               0.4-0.85 d and at most about 0.1 e, its shape at the sampling scale, so only sigma
-//               above that floor counts as noise; fitted on the best counts of 14 CGAL models,
-//               bench/notes/denoise.md),
+//               above that floor counts as noise; fitted on the best counts of 14 CGAL models
+//               with the Taubin operator of denoise(), bench/notes/denoise.md, session 25),
 // and every other field of `base` unchanged (auto_options itself sets smoothing_steps to 0: the
 // choice between the two is made by denoise(), below). Noise-free input (sigma -> 0) gives a kernel
 // narrower than any difference between neighbourhoods, so the filter leaves it nearly unchanged.
