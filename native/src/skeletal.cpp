@@ -654,8 +654,11 @@ void SkeletalRig::Impl::setup() {
 
 std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const MatX9d& lin, const Twist* tw) const {
   // follow_twist: the frames are fitted in the twist-free pose (the skeletal vertices carried back by
-  // their own twist, whose blended rotations are R_i^T lin_i); variational() turns each corner's
-  // displacement by its vertex's own twist.
+  // their own twist, whose blended rotations are R_i^T lin_i) and turned by the triangle's twist, the
+  // rotation nearest its corners' mean. (Each corner's displacement turned by its own vertex's twist
+  // instead makes a pure twist exactly the dual quaternion skinning of the surface, DQS's folds
+  // included: the capsule of bench/tools/skeletal_twist_capsule.py twisted 180 degrees over its
+  // narrow Gaussian blend had 191 self-intersecting pairs, DQS 155, the triangle's twist 0.)
   const bool free = tw != nullptr;
   const MatX3i& F = control.F;
   const int m = static_cast<int>(F.rows());
@@ -681,6 +684,12 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
     // The first corner's frame rotation (exactly orthonormal) seeds Newton's method.
     const Mat3 G = frame(F(f, 0));
     if (!polar_near(A, G, R[f])) R[f] = nearest_rotation(A);
+    if (free) {
+      const Mat3 T = tw->R[F(f, 0)] + tw->R[F(f, 1)] + tw->R[F(f, 2)];
+      Mat3 Rt;
+      if (!polar_near(T, tw->R[F(f, 0)], Rt)) Rt = nearest_rotation(T);
+      R[f] = Rt * R[f];
+    }
   }
   return R;
 }
@@ -689,7 +698,6 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
                                       std::vector<int>* deep, const Twist* tw) const {
   const int n = static_cast<int>(S.rows());
   const std::vector<Mat3> R = triangle_rotations(Sd, lin, tw);
-  const bool turn = tw != nullptr;
   // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
   // (eq. 6.8), plus the s^d column moved over from L0 u (the skeleton is the fixed boundary).
   MatX3d b(n, 3);
@@ -702,14 +710,9 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
       const Corner& cr = corners.corners[c];
       const Mat3& Rf = R[cr.face];
       const int j = cr.next, k = cr.prev;
-      // follow_twist: the frame of the twist-free pose, then each corner's own twist (a face's corners
-      // can differ by tens of degrees in a sharp twist of a coarse control mesh).
-      auto disp = [&](int v) -> Vec3 {
-        return turn ? Vec3(tw->R[v] * (Rf * row3(dirs, v))) : Vec3(Rf * row3(dirs, v));
-      };
-      const Vec3 xi = row3(Sd, i) + radii[i] * disp(i);
-      const Vec3 xj = row3(Sd, j) + radii[j] * disp(j);
-      const Vec3 xk = row3(Sd, k) + radii[k] * disp(k);
+      const Vec3 xi = row3(Sd, i) + radii[i] * (Rf * row3(dirs, i));
+      const Vec3 xj = row3(Sd, j) + radii[j] * (Rf * row3(dirs, j));
+      const Vec3 xk = row3(Sd, k) + radii[k] * (Rf * row3(dirs, k));
       const double w1 = cot(cr.face, (cr.local + 2) % 3);  // angle at k, opposite edge (i, j)
       const double w2 = cot(cr.face, (cr.local + 1) % 3);  // angle at j, opposite edge (i, k)
       acc += w1 * (xi - xj) + w2 * (xi - xk) + inv_T * (xi - row3(Sd, i));
@@ -750,12 +753,13 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 // and each dense vertex is then turned by its own twist before the bone clearance: from its own bone
 // weights (dense_wj, dense_ww), else the dual quaternion blend of its base face's corners' twists
 // (barycentric weights). Armadillo waist twisted 180 degrees through a 5000-face control mesh
-// (bench/tools/skeletal_twist_probe.py), self-intersecting pairs: rebuilt in the pose and measured in
-// the twist-free pose 900 (the limit surface of the coarse control mesh, whose corners a sharp twist
-// turns by tens of degrees against each other, cuts the chords of the twisted control polygon);
-// rebuilt in the twist-free pose, corners' blend 707 (its twist angle is off the vertex's own by a
-// median 1.5, at most 18 degrees in the waist: a linear ramp's kinks inside coarse faces); own
-// weights 0, as DQS.
+// (bench/tools/skeletal_twist_probe.py, with the control frames turned per corner, a variant dropped
+// for the one of triangle_rotations), self-intersecting pairs: rebuilt in the pose and measured in the
+// twist-free pose 900 (the limit surface of the coarse control mesh, whose corners a sharp twist turns
+// by tens of degrees against each other, cuts the chords of the twisted control polygon); rebuilt in
+// the twist-free pose, corners' blend 707 (its twist angle is off the vertex's own by a median 1.5, at
+// most 18 degrees in the waist: a linear ramp's kinks inside coarse faces); own weights 0. With the
+// triangles' twist (kept): 72, untangled 0.
 template <class Out>
 void SkeletalRig::Impl::project_dense(const MatX3d& Sd_pose, const std::vector<int>& deep,
                                       const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,

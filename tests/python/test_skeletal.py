@@ -819,8 +819,10 @@ def test_follow_twist_keeps_a_waist_twist_untangled():
     # y in [0, 20], whole mesh): measured against the union of the posed medial balls, the twisted
     # flesh was pushed out onto balls of the torso's medial sheet twisted away from it (15098
     # self-intersecting pairs, volume 1.110; DQS 0, 0.999). With follow_twist the thickness is measured
-    # and the frames fitted in the twist-free pose (0 pairs, volume 0.999). Through the
-    # multiresolution layer (5000-face control mesh): 6331 -> 0 pairs, volume 1.147 -> 0.999.
+    # and the frames fitted in the twist-free pose: 7 pairs, volume 0.999, and with the untangling 0.
+    # Through the multiresolution layer (5000-face control mesh): 6331 -> 72 pairs, volume 1.147 ->
+    # 0.997, untangled 0. (Those with Blender's float32 matrices; these exact ones: whole 16599 -> 2,
+    # untangled 0; layer 8832 -> 50, untangled 8; numpy DQS 3.)
     V, F = (np.asarray(a) for a in _cgal("armadillo"))
     t = np.clip(V[:, 1] / 20.0, 0, 1)
     W = np.c_[1 - t, t]
@@ -845,12 +847,14 @@ def test_follow_twist_keeps_a_waist_twist_untangled():
 
     dqs = skeletal_subspace_deform(V, W, rest, twist, dual_quaternion=True)
     n_dqs = len(pairs(dqs, F))
-    for control_faces, factor in ((len(F) + 1, 0), (5000, 0.25)):
+    for control_faces in (len(F) + 1, 5000):
         rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=control_faces)
         X0, X1 = rig.deform(twist), rig.deform(twist, follow_twist=True)
         n0, n1 = len(pairs(X0, F)), len(pairs(X1, F))
         assert n0 > 1000  # the union of the posed balls tangles the twist
-        assert n1 <= max(n_dqs, factor * n0)
+        assert n1 < 0.02 * n0
+        n2 = len(pairs(rig.deform(twist, follow_twist=True, untangle_iterations=20), F))
+        assert n2 <= max(n_dqs, 0.002 * n0)
         assert abs(volume(X1) / volume(V) - 1) < 0.01 < abs(volume(X0) / volume(V) - 1)
         assert bone_ratio(X1) >= 0.9
         if rig.has_multires:  # the dense vertices' own bone weights are saved with the binding

@@ -178,19 +178,20 @@ struct SkeletalDeformOptions {
   // twist-free pose to its blend T_i of the pose (dual quaternions, or the linear blend's rotation).
   // The thickness of eq. 6.13 is then measured in the twist-free pose (vertex i at M_i^-1 x_i against
   // the balls (M_j^-1 s^d_j, r_j), its step turned back by M_i), and the frames of eq. 6.8 are fitted
-  // there, each corner's displacement turned by its vertex's own twist. Without it, a ball of a
+  // there and turned by the triangle's twist (its corners' mean). Without it, a ball of a
   // twisted medial sheet is posed with its centre's twist and the flesh around it with its own; off
   // the bone's axis the two part by about (distance from the axis) x (difference of the angles), the
   // union of the posed balls is larger than the twisted shape and the thickness steps push the flesh
   // out onto balls twisted away from it (bench skeletal_blender's armadillo twisted 180 degrees at
-  // the waist: 15098 self-intersecting pairs, volume 1.110; with it 0 and 0.999, as DQS). A pure twist
-  // makes the rest shape the target in the twist-free pose, so the result is each vertex's rest
-  // position turned by its own twist (dual quaternion skinning of the surface); a pose without twist
+  // the waist: 15098 self-intersecting pairs, volume 1.110; with it 7 and 0.999, untangled 0; DQS 0,
+  // 0.999). A pure twist makes the rest shape the target in the twist-free pose. A pose without twist
   // (every bone's below 1e-6 rad) gives exactly the result without the option. Through the
   // multiresolution layer the dense mesh is rebuilt from the control mesh carried back to the
   // twist-free pose, measured there, and turned by each dense vertex's twist (its own bone weights,
   // SkeletalRigData::dense_bones; the blend of its base face's corners' twists for data without
-  // them); the untangling of the control mesh runs there too. See bench/notes/skeletal.md.
+  // them); the untangling of the control mesh runs there too. Off by default: the armadillo's knee
+  // bent 135 degrees keeps more pairs after the untangling (1008 instead of 246); see
+  // bench/notes/skeletal.md.
   bool follow_twist = false;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
