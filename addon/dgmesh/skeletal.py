@@ -167,7 +167,7 @@ class SkeletalRig:
                dual_quaternion: bool = _DEFORM.dual_quaternion,
                bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                untangle_iterations: int = _DEFORM.untangle_iterations,
-               untangle_rings: int = _DEFORM.untangle_rings,
+               untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
                skeleton: npt.ArrayLike | None = None) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
@@ -210,6 +210,11 @@ class SkeletalRig:
         lower the count is undone and the next takes one ring more. Pairs that cross at rest are
         left alone. Through the multiresolution layer the dense mesh too. Off by default (each
         iteration is a self-intersection search); see bench/notes/skeletal.md for what it measured.
+        ``follow_twist`` (variational method): measure the thickness (eq. 6.13) and fit the frames
+        (eq. 6.8) in the twist-free pose (each bone's twist about its own axis relative to its parent
+        dropped), each vertex carried there by its own blended twist: a twisted medial sheet's balls
+        then stay where the twisted flesh is (see bench/notes/skeletal.md, issue 33). Same result as
+        without it for poses without twist.
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
@@ -220,7 +225,7 @@ class SkeletalRig:
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                                  dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
-                                 untangle_rings)
+                                 untangle_rings, follow_twist)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
@@ -261,12 +266,12 @@ class SkeletalRig:
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
                        bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                        untangle_iterations: int = _DEFORM.untangle_iterations,
-                       untangle_rings: int = _DEFORM.untangle_rings,
+                       untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
                        skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                                  dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
-                                 untangle_rings)
+                                 untangle_rings, follow_twist)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
@@ -275,7 +280,8 @@ class SkeletalRig:
 
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                        dual_quaternion, bone_clearance, contact_slide, untangle_iterations, untangle_rings):
+                        dual_quaternion, bone_clearance, contact_slide, untangle_iterations, untangle_rings,
+                        follow_twist):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
@@ -283,7 +289,8 @@ class SkeletalRig:
                             dual_quaternion=dual_quaternion, bone_clearance=bone_clearance,
                             contact_slide=contact_slide,
                             untangle_iterations=as_count(untangle_iterations, "untangle_iterations"),
-                            untangle_rings=as_count(untangle_rings, "untangle_rings"))
+                            untangle_rings=as_count(untangle_rings, "untangle_rings"),
+                            follow_twist=bool(follow_twist))
 
     # --- bind data ---------------------------------------------------------------------------
     def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:
@@ -312,9 +319,11 @@ class SkeletalRig:
                 if v.size != 1:
                     raise MeshError(f"bind data {k!r} must be a single value, got shape {v.shape}")
                 d[k] = kind(v.reshape(-1)[0], f"bind data {k!r}")
-        for k in ("control_F", "mr_control_F", "mr_face", "mr_dense_F"):
+        for k in ("control_F", "mr_control_F", "mr_face", "mr_dense_F", "mr_dense_bones"):
             if k in d:
                 d[k] = np.ascontiguousarray(d[k], dtype=np.int32)
+        if "mr_dense_weights" in d:
+            d["mr_dense_weights"] = np.ascontiguousarray(d["mr_dense_weights"], dtype=np.float32)
         return cls(_native.SkeletalRig.from_data(d))
 
     def save(self, path: str | bytes | os.PathLike) -> None:

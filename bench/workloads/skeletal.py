@@ -272,7 +272,10 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
         results = {"Blender Armature, linear blend": res[f"lbs{p}"],
                    "Blender Armature, Preserve Volume": res[f"dqs{p}"],
                    "ours (2 fairing steps + projection)": rig.deform(pose),
-                   "ours with the untangling (untangle_iterations=20; issue 33)": rig.deform(pose, untangle_iterations=20)}
+                   "ours with the untangling (untangle_iterations=20; issue 33)": rig.deform(pose, untangle_iterations=20),
+                   "ours, thickness following the twist (follow_twist; issue 33)": rig.deform(pose, follow_twist=True),
+                   "ours, follow_twist and the untangling": rig.deform(pose, follow_twist=True,
+                                                                         untangle_iterations=20)}
         panels = []
         for mname, X in results.items():
             f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)

@@ -128,6 +128,9 @@ void bind_skeletal(pb::module_& m) {
              "untangling: iterations of the local smoothing of the self-intersecting triangles' vertices (0: off)")
       .field("untangle_rings", &SkeletalDeformOptions::untangle_rings,
              "untangling: rings around the crossing triangles' vertices smoothed with them")
+      .field("follow_twist", &SkeletalDeformOptions::follow_twist,
+             "measure the thickness (eq. 6.13) and fit the frames (eq. 6.8) in the twist-free pose, each vertex "
+             "carried there by its own blended twist")
       .field("homotopy_steps", &SkeletalDeformOptions::homotopy_steps, "L of eq. 6.3 (basic)")
       .field("fold_iterations", &SkeletalDeformOptions::fold_iterations, "steps of eq. 6.5 (basic)");
 
@@ -264,6 +267,10 @@ void bind_skeletal(pb::module_& m) {
                o["mr_st"] = d.multires.st;
                o["mr_disp"] = d.multires.disp;
                o["mr_dense_F"] = d.dense_F;
+               if (d.dense_bones.rows() > 0) {
+                 o["mr_dense_bones"] = d.dense_bones;
+                 o["mr_dense_weights"] = d.dense_weights;
+               }
              }
              return o;
            })
@@ -284,6 +291,10 @@ void bind_skeletal(pb::module_& m) {
           d.multires.st = get<MatX2d>(o, "mr_st");
           d.multires.disp = get<MatX3d>(o, "mr_disp");
           if (o.contains("mr_dense_F")) d.dense_F = get<MatX3i>(o, "mr_dense_F");  // absent in older data
+          if (o.contains("mr_dense_bones")) {  // absent in older data and without weights
+            d.dense_bones = get<MatX4iDense>(o, "mr_dense_bones");
+            d.dense_weights = get<MatX4fDense>(o, "mr_dense_weights");
+          }
         }
         NativeScope nogil;
         return SkeletalRig::from_data(d);

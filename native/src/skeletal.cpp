@@ -324,6 +324,73 @@ double union_distance_local(const KdTree& tree, const std::vector<int>& reps, co
 
 }  // namespace
 
+namespace {
+
+// Each control vertex's own twist (SkeletalDeformOptions::follow_twist): the rigid motion
+// M_i(p) = R[i] p + t[i] from the vertex's blend of the twist-free pose to its blend of the pose, and
+// the posed skeletal vertices carried back by their own twist, Ss.row(j) = M_j^-1(s^d_j): the ball
+// centres of the thickness measured in the twist-free pose. qr, qd: M_i as a unit dual quaternion
+// (the dense vertices blend their base face's corners').
+struct Twist {
+  std::vector<Mat3> R;
+  std::vector<Vec3> t;
+  MatX3d Ss;
+  std::vector<Eigen::Quaterniond> qr, qd;
+  // Per bone, its motion in the pose (pq, pd) and in the twist-free pose (fq, fd) as dual quaternions
+  // (the dense vertices with their own weights, see project_dense).
+  std::vector<Eigen::Quaterniond> pq, pd, fq, fd;
+  std::vector<Mat4> free_pose;  // the twist-free pose's matrices
+  Vec3 to_free(int i, const Vec3& x) const { return R[i].transpose() * (x - t[i]); }
+  // A point's twist from weights b over the control vertices c (dual quaternion blend).
+  void blend(const int* c, const double* b, int k, Mat3& Rb, Vec3& tb) const {
+    Eigen::Vector4d r = Eigen::Vector4d::Zero(), d = Eigen::Vector4d::Zero();
+    for (int m = 0; m < k; ++m) {
+      const double sgn = qr[c[m]].coeffs().dot(qr[c[0]].coeffs()) < 0 ? -1.0 : 1.0;
+      r += sgn * b[m] * qr[c[m]].coeffs();
+      d += sgn * b[m] * qd[c[m]].coeffs();
+    }
+    const double len = r.norm();
+    if (!(len > 1e-12)) {
+      Rb = R[c[0]], tb = t[c[0]];
+      return;
+    }
+    const Eigen::Quaterniond q(r / len), qdn(d / len);
+    const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(q.coeffs()) * q.coeffs());
+    Rb = q.toRotationMatrix();
+    tb = 2.0 * (qdo * q.conjugate()).vec();
+  }
+  // The dual quaternion blend of the bone motions (q, d) with the weights w[k] of the bones j[k], as R, t.
+  static void bone_blend(const int* j, const float* w, int k, const std::vector<Eigen::Quaterniond>& q,
+                         const std::vector<Eigen::Quaterniond>& d, Mat3& Rb, Vec3& tb) {
+    Eigen::Vector4d r = Eigen::Vector4d::Zero(), dd = Eigen::Vector4d::Zero();
+    for (int m = 0; m < k && j[m] >= 0; ++m) {
+      const double sgn = q[j[m]].coeffs().dot(q[j[0]].coeffs()) < 0 ? -1.0 : 1.0;
+      r += sgn * w[m] * q[j[m]].coeffs();
+      dd += sgn * w[m] * d[j[m]].coeffs();
+    }
+    const double len = r.norm();
+    if (!(len > 1e-12)) {
+      Rb.setIdentity(), tb.setZero();
+      return;
+    }
+    const Eigen::Quaterniond qn(r / len), qdn(dd / len);
+    const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(qn.coeffs()) * qn.coeffs());
+    Rb = qn.toRotationMatrix();
+    tb = 2.0 * (qdo * qn.conjugate()).vec();
+  }
+  // A point's twist M = T U^-1 from its own bone weights (bones j, weights w, the largest first).
+  void own(const int* j, const float* w, int k, Mat3& Rb, Vec3& tb) const {
+    Mat3 RT, RU;
+    Vec3 tT, tU;
+    bone_blend(j, w, k, pq, pd, RT, tT);
+    bone_blend(j, w, k, fq, fd, RU, tU);
+    Rb = RT * RU.transpose();
+    tb = tT - Rb * tU;
+  }
+};
+
+}  // namespace
+
 // ---------------------------------------------------------------------------------------------
 // The rig
 
@@ -358,6 +425,11 @@ struct SkeletalRig::Impl {
   // and the contact plane's margin (a hundredth of the median medial radius).
   MatX3d dense_rest;
   double contact_margin = 0;
+  // follow_twist through the multiresolution layer: each dense vertex's kDenseWeights largest bone
+  // weights (bones, -1 padded; weights normalised), from bind (SkeletalRigData::dense_weights).
+  static constexpr int kDenseWeights = SkeletalRigData::kDenseWeights;
+  MatX4iDense dense_wj;
+  MatX4fDense dense_ww;
   // Untangling through the multiresolution layer (see untangle_dense): the dense faces (empty for
   // data saved without them), their one-ring CSR and the faces with a vertex not in dense_rigid.
   MatX3i dense_F;
@@ -374,10 +446,12 @@ struct SkeletalRig::Impl {
   // and each skeletal vertex's rest distance to the segments of the bones it has weight on (-1: none).
   std::vector<Vec3> bone_head, bone_vec;
   std::vector<std::vector<int>> children;  // per bone, the bones it is the parent of (see setup_clearance)
+  std::vector<int> parent;                 // per bone, its parent (-1: none)
   Eigen::MatrixXd clearance;
 
   void setup();
   void setup_clearance();
+  void set_dense_weights(const Eigen::MatrixXd& Wd);
   void posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h, std::vector<Vec3>& v) const;
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
@@ -401,21 +475,45 @@ struct SkeletalRig::Impl {
     Eigen::MatrixXd X = solver.solve(B);
     return X;
   }
-  std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const;
-  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt, std::vector<int>* deep) const;
+  std::vector<Mat3> triangle_rotations(const MatX3d& Sd, const MatX9d& lin, const Twist* tw) const;
+  void fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt, std::vector<int>* deep,
+                        const Twist* tw) const;
+  std::vector<Mat4> twist_free_pose(const std::vector<Mat4>& pose, double& max_twist) const;
+  bool make_twist(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, const MatX3d& Sd_blend,
+                  const MatX9d& lin, const MatX3d& Sd, Twist& tw) const;
   template <class Follows>
   BoneClearance union_clearance(const MatX3d& P, Follows follows) const;
   template <class Out>
   void project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
-                     const SkeletalDeformOptions& opt, const std::vector<char>& edited, Out& out) const;
-  // `edited` (when `skeleton` is given) receives, per control vertex, whether the edit moved it.
+                     const SkeletalDeformOptions& opt, const std::vector<char>& edited, const Twist* tw,
+                     Out& out) const;
+  // `edited` (when `skeleton` is given) receives, per control vertex, whether the edit moved it;
+  // `tw` the vertices' twists (follow_twist; left empty when the option is off or the pose has none).
   MatX3d control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX3d* Sd_out,
                       std::vector<int>* deep = nullptr, const MatX3d* skeleton = nullptr,
-                      std::vector<char>* edited = nullptr) const;
-  MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
-                     std::vector<int>* deep) const;
+                      std::vector<char>* edited = nullptr, Twist* tw = nullptr) const;
+  MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt, std::vector<int>* deep,
+                     const Twist* tw) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
 };
+
+// The kDenseWeights largest weights of each dense vertex (rows of Wd), normalised.
+void SkeletalRig::Impl::set_dense_weights(const Eigen::MatrixXd& Wd) {
+  const Eigen::Index n = Wd.rows();
+  const int B = static_cast<int>(Wd.cols());
+  dense_wj.setConstant(n, kDenseWeights, -1);
+  dense_ww.setZero(n, kDenseWeights);
+  std::vector<int> order(B);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (int j = 0; j < B; ++j) order[j] = j;
+    const int k = std::min(B, kDenseWeights);
+    std::partial_sort(order.begin(), order.begin() + k, order.end(), [&](int a, int b) { return Wd(i, a) > Wd(i, b); });
+    double sum = 0;
+    for (int m = 0; m < k; ++m) sum += Wd(i, order[m]);
+    for (int m = 0; m < k && sum > 0; ++m)
+      if (Wd(i, order[m]) > 0) dense_wj(i, m) = order[m], dense_ww(i, m) = static_cast<float>(Wd(i, order[m]) / sum);
+  }
+}
 
 void SkeletalRig::Impl::setup() {
   const MatX3d& X = control.V;
@@ -554,7 +652,14 @@ void SkeletalRig::Impl::setup() {
   }
 }
 
-std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const MatX9d& lin) const {
+std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const MatX9d& lin, const Twist* tw) const {
+  // follow_twist: the frames are fitted in the twist-free pose (the skeletal vertices carried back by
+  // their own twist, whose blended rotations are R_i^T lin_i) and turned by the triangle's twist, the
+  // rotation nearest its corners' mean. (Each corner's displacement turned by its own vertex's twist
+  // instead makes a pure twist exactly the dual quaternion skinning of the surface, DQS's folds
+  // included: the capsule of bench/tools/skeletal_twist_capsule.py twisted 180 degrees over its
+  // narrow Gaussian blend had 191 self-intersecting pairs, DQS 155, the triangle's twist 0.)
+  const bool free = tw != nullptr;
   const MatX3i& F = control.F;
   const int m = static_cast<int>(F.rows());
   std::vector<Mat3> R(m);
@@ -563,26 +668,36 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
     // Frame change B_d B_0^-1 of the skeletal triangle (eq. 6.8) as the rotation that best maps
     // its rest edges to its deformed edges; the blended bone rotation fills the directions a
     // degenerate (collinear or collapsed) triangle leaves undetermined.
+    const MatX3d& P = free ? tw->Ss : Sd;
+    auto frame = [&](int v) -> Mat3 {
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> L(lin.row(v).data());
+      return free ? Mat3(tw->R[v].transpose() * L) : Mat3(L);
+    };
     Mat3 C = Mat3::Zero();
     for (int k = 0; k < 3; ++k) {
       const int a = F(f, k), b = F(f, (k + 1) % 3);
-      C += (row3(Sd, b) - row3(Sd, a)) * (row3(S, b) - row3(S, a)).transpose();
+      C += (row3(P, b) - row3(P, a)) * (row3(S, b) - row3(S, a)).transpose();
     }
     Mat3 M = Mat3::Zero();
-    for (int k = 0; k < 3; ++k)
-      M += Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(lin.row(F(f, k)).data());
+    for (int k = 0; k < 3; ++k) M += frame(F(f, k));
     const Mat3 A = C + (mu / 3) * M;
     // The first corner's frame rotation (exactly orthonormal) seeds Newton's method.
-    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> G(lin.row(F(f, 0)).data());
+    const Mat3 G = frame(F(f, 0));
     if (!polar_near(A, G, R[f])) R[f] = nearest_rotation(A);
+    if (free) {
+      const Mat3 T = tw->R[F(f, 0)] + tw->R[F(f, 1)] + tw->R[F(f, 2)];
+      Mat3 Rt;
+      if (!polar_near(T, tw->R[F(f, 0)], Rt)) Rt = nearest_rotation(T);
+      R[f] = Rt * R[f];
+    }
   }
   return R;
 }
 
 MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
-                                      std::vector<int>* deep) const {
+                                      std::vector<int>* deep, const Twist* tw) const {
   const int n = static_cast<int>(S.rows());
-  const std::vector<Mat3> R = triangle_rotations(Sd, lin);
+  const std::vector<Mat3> R = triangle_rotations(Sd, lin, tw);
   // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
   // (eq. 6.8), plus the s^d column moved over from L0 u (the skeleton is the fixed boundary).
   MatX3d b(n, 3);
@@ -605,7 +720,7 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
     b.row(i) = acc.transpose();
   }
   MatX3d X = solve(b);
-  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, deep);
+  if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, deep, tw);
   return X;
 }
 
@@ -633,10 +748,24 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 // skeleton, sum (f - f_rest)^2 against the control skeleton over DQS's, without / with the corners'
 // balls: camel bend 0.16 / 0.019, twist 0.49 / 0.17; armadillo 0.25 / 0.034, 0.62 / 0.049. At rest
 // and under rigid motions f equals f_rest: a fixed point.
+// tw (follow_twist): `out` comes in the twist-free pose (the layer's reconstruction of the control
+// mesh carried back by its vertices' twists), the thickness is measured there as in fair_variational,
+// and each dense vertex is then turned by its own twist before the bone clearance: from its own bone
+// weights (dense_wj, dense_ww), else the dual quaternion blend of its base face's corners' twists
+// (barycentric weights). Armadillo waist twisted 180 degrees through a 5000-face control mesh
+// (bench/tools/skeletal_twist_probe.py, with the control frames turned per corner, a variant dropped
+// for the one of triangle_rotations), self-intersecting pairs: rebuilt in the pose and measured in the
+// twist-free pose 900 (the limit surface of the coarse control mesh, whose corners a sharp twist turns
+// by tens of degrees against each other, cuts the chords of the twisted control polygon); rebuilt in
+// the twist-free pose, corners' blend 707 (its twist angle is off the vertex's own by a median 1.5, at
+// most 18 degrees in the waist: a linear ramp's kinks inside coarse faces); own weights 0. With the
+// triangles' twist (kept): 72, untangled 0.
 template <class Out>
-void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& deep, const std::vector<Mat4>& pose,
-                                      const SkeletalDeformOptions& opt, const std::vector<char>& edited,
-                                      Out& out) const {
+void SkeletalRig::Impl::project_dense(const MatX3d& Sd_pose, const std::vector<int>& deep,
+                                      const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                      const std::vector<char>& edited, const Twist* tw, Out& out) const {
+  const MatX3d& Sd = tw ? tw->Ss : Sd_pose;
+  const MatX2d& st = multires->base_st();
   const int n = static_cast<int>(out.rows());
   const Topology& topo = control.topo;
   const VecXi& face = multires->base_face();
@@ -660,8 +789,8 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
     // A skeleton edit on the vertex's base face makes it move non-rigidly: no skip, no clearance.
     const bool on_edit = !edited.empty() && (edited[F(face[i], 0)] || edited[F(face[i], 1)] || edited[F(face[i], 2)]);
     const bool rigid = dense_rigid[i] && !on_edit;
-    if (rigid && !clear) continue;
-    Vec3 x = out.row(i).transpose().template cast<double>();
+    if (rigid && !clear && !tw) continue;
+    Vec3 x = out.row(i).transpose().template cast<double>();  // in the twist-free pose with tw
     int prev = -1;
     for (int pass = 0; pass < (rigid ? 0 : passes); ++pass) {
       int arg = dense_arg[i];
@@ -698,6 +827,17 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
       if (w == 1 && (arg == prev || arg == dense_arg[i]) && second - dense_f_rest[i] >= std::abs(f)) break;
       prev = arg;
     }
+    if (tw) {
+      const int c[3] = {F(face[i], 0), F(face[i], 1), F(face[i], 2)};
+      const double b[3] = {1 - st(i, 0) - st(i, 1), st(i, 0), st(i, 1)};
+      Mat3 Rt;
+      Vec3 tt;
+      if (dense_wj.rows() == n)
+        tw->own(dense_wj.row(i).data(), dense_ww.row(i).data(), kDenseWeights, Rt, tt);
+      else
+        tw->blend(c, b, 3, Rt, tt);
+      x = Rt * x + tt;
+    }
     if (clear && !on_edit) x = dense_clearance.push(i, x, opt.bone_clearance, h, v);
     out.row(i) = x.transpose().template cast<typename Out::Scalar>();
   }
@@ -705,9 +845,12 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd, const std::vector<int>& 
 
 // deep: when given, receives n x kDenseBalls deepest balls per vertex from the first projection
 // pass (padded with -1; for project_dense).
-void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const SkeletalDeformOptions& opt,
-                                         std::vector<int>* deep) const {
+// tw (follow_twist): the thickness is measured in the twist-free pose: vertex i at tw->to_free(i, x)
+// against the balls centred at tw->Ss, its step turned back by its twist.
+void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd_pose, const SkeletalDeformOptions& opt,
+                                         std::vector<int>* deep, const Twist* tw) const {
   const int n = static_cast<int>(X.rows());
+  const MatX3d& Sd = tw ? tw->Ss : Sd_pose;
   MatX3d C(static_cast<Eigen::Index>(reps.size()), 3);
   for (size_t r = 0; r < reps.size(); ++r) C.row(static_cast<Eigen::Index>(r)) = Sd.row(reps[r]);
   const KdTree tree(C, 8);
@@ -754,7 +897,7 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
         continue;
       }
       int p;
-      const Vec3 x = row3(X, i);
+      const Vec3 x = tw ? tw->to_free(i, row3(X, i)) : row3(X, i);
       const bool query = step == 0 || (x - row3(Xq, i)).squaredNorm() > kRequery2 * radii[i] * radii[i];
       if (query) Xq.row(i) = x.transpose();
       double f;
@@ -788,6 +931,7 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd, const Skel
       const Vec3 d = x - row3(Sd, p);
       const double len = d.norm();
       G.row(i) = len > 1e-300 ? Eigen::RowVector3d((f / len * d).transpose()) : Eigen::RowVector3d::Zero();
+      if (tw) G.row(i) = (tw->R[i] * row3(G, i)).transpose();
       moved |= !last || G.row(i).squaredNorm() > tol2;
     }
     if (last) {
@@ -938,6 +1082,7 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
       return true;
     });
     impl->dense_F = F;
+    if (have_w) impl->set_dense_weights(weights);
     impl->control =
         make_mesh(impl->multires->control_vertices(), impl->multires->control_faces(), kSurface | kNoLooseVertices);
   } else {
@@ -1009,6 +1154,13 @@ SkeletalRig SkeletalRig::from_data(const SkeletalRigData& d) {
         throw MeshError("skeletal data: dense faces index vertices out of range");
       impl->dense_F = d.dense_F;
     }
+    if (d.dense_bones.rows() > 0) {
+      if (d.dense_bones.rows() != impl->multires->n_dense() || d.dense_weights.rows() != d.dense_bones.rows() ||
+          d.dense_bones.minCoeff() < -1 || d.dense_bones.maxCoeff() >= B || !d.dense_weights.allFinite())
+        throw MeshError("skeletal data: dense bone weights do not match the dense mesh and bones");
+      impl->dense_wj = d.dense_bones;
+      impl->dense_ww = d.dense_weights;
+    }
   }
   impl->setup();
   return SkeletalRig(impl);
@@ -1024,6 +1176,8 @@ SkeletalRigData SkeletalRig::data() const {
   d.has_multires = impl_->multires.has_value();
   if (d.has_multires) d.multires = impl_->multires->data();
   d.dense_F = impl_->dense_F;
+  d.dense_bones = impl_->dense_wj;
+  d.dense_weights = impl_->dense_ww;
   d.frame_regularization = impl_->frame_regularization;
   return d;
 }
@@ -1066,6 +1220,7 @@ void SkeletalRig::Impl::setup_clearance() {
   // to the other bone).
   // A bone's parent: the bone whose tail its head starts from (within a tenth of the shorter).
   children.assign(B, {});
+  parent.assign(B, -1);
   for (int k = 0; k < B; ++k) {
     double best = std::numeric_limits<double>::infinity();
     int parent = -1;
@@ -1073,7 +1228,7 @@ void SkeletalRig::Impl::setup_clearance() {
       const double d = ((bone_head[j] + bone_vec[j]) - bone_head[k]).norm();
       if (j != k && d <= 0.1 * std::min(bone_vec[j].norm(), bone_vec[k].norm()) && d < best) best = d, parent = j;
     }
-    if (parent >= 0) children[parent].push_back(k);
+    if (parent >= 0) children[parent].push_back(k), this->parent[k] = parent;
   }
   surface_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_parent(W.row(i), j); });
   untangle_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_adjacent(W.row(i), j); });
@@ -1431,6 +1586,96 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::ve
   out = X.template cast<typename Out::Scalar>();
 }
 
+// The twist-free pose (SkeletalDeformOptions::follow_twist): each bone's motion relative to its
+// parent's, L = A_p^-1 A (A = pose rest^-1; a bone without a parent: its own motion, kept whole), has
+// its rotation split into swing x twist, the twist about the bone's rest axis through its rest head
+// (the quaternion's part along the axis), and the twist dropped: L'(p) = R_swing (p - h) + L(h);
+// A' = A'_p L'. Returns the pose matrices A' rest; max_twist receives the largest twist angle.
+std::vector<Mat4> SkeletalRig::Impl::twist_free_pose(const std::vector<Mat4>& pose, double& max_twist) const {
+  const int B = static_cast<int>(rest.size());
+  max_twist = 0;
+  std::vector<Mat4> A(B), Af(B);
+  for (int j = 0; j < B; ++j) A[j] = pose[j] * rest[j].inverse();
+  std::vector<char> done(B, 0);
+  for (int left = B; left > 0;) {
+    const int before = left;
+    for (int j = 0; j < B; ++j) {
+      const int p = parent.empty() ? -1 : parent[j];
+      if (done[j] || (p >= 0 && !done[p])) continue;
+      if (p < 0) {
+        Af[j] = A[j];
+      } else {
+        const Mat4 L = A[p].inverse() * A[j];
+        const Eigen::Quaterniond q(nearest_rotation(L.topLeftCorner<3, 3>()));
+        const Vec3 a = bone_vec[j].normalized();
+        Eigen::Quaterniond twist(q.w(), 0, 0, 0);
+        twist.vec() = q.vec().dot(a) * a;
+        Mat3 Rs = L.topLeftCorner<3, 3>();
+        if (twist.norm() > 1e-12) {
+          twist.normalize();
+          max_twist = std::max(max_twist, 2 * std::acos(std::min(1.0, std::abs(twist.w()))));
+          Rs = (q * twist.conjugate()).toRotationMatrix();
+        }
+        const Vec3 h = bone_head[j];
+        Mat4 Lf = Mat4::Identity();
+        Lf.topLeftCorner<3, 3>() = Rs;
+        Lf.block<3, 1>(0, 3) = L.topLeftCorner<3, 3>() * h + L.block<3, 1>(0, 3) - Rs * h;
+        Af[j] = Af[p] * Lf;
+      }
+      done[j] = 1, --left;
+    }
+    if (left == before) break;  // a cycle (not from setup_clearance's parents): keep the rest whole
+  }
+  for (int j = 0; j < B; ++j)
+    if (!done[j]) Af[j] = A[j];
+  std::vector<Mat4> out(B);
+  for (int j = 0; j < B; ++j) out[j] = Af[j] * rest[j];
+  return out;
+}
+
+// Each control vertex's twist (see Twist) for follow_twist: Sd_blend is the blend of the pose (before
+// the bone clearance and any skeleton edit), lin its rotations, Sd the posed skeletal vertices.
+// False (tw untouched) when the pose has no twist.
+bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                   const MatX3d& Sd_blend, const MatX9d& lin, const MatX3d& Sd, Twist& tw) const {
+  if (rest.size() < 2 || parent.size() != rest.size()) return false;
+  double max_twist = 0;
+  const std::vector<Mat4> free_pose = twist_free_pose(pose, max_twist);
+  if (!(max_twist > 1e-6)) return false;
+  MatX9d lin_f;
+  const MatX3d Sf = skeletal_subspace_deform(S, W, rest, free_pose, &lin_f, opt.dual_quaternion);
+  const int n = static_cast<int>(S.rows());
+  tw.R.resize(n);
+  tw.t.resize(n);
+  tw.qr.resize(n);
+  tw.qd.resize(n);
+  tw.Ss.resize(n, 3);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> T(lin.row(i).data()), U(lin_f.row(i).data());
+    // M_i = T_i U_i^-1, rigid, taking the twist-free blend of s_i onto the posed blend.
+    tw.R[i] = nearest_rotation(T * U.transpose());
+    tw.t[i] = row3(Sd_blend, i) - tw.R[i] * row3(Sf, i);
+    tw.Ss.row(i) = tw.to_free(i, row3(Sd, i)).transpose();
+    tw.qr[i] = Eigen::Quaterniond(tw.R[i]).normalized();
+    tw.qd[i] = Eigen::Quaterniond(0, tw.t[i].x(), tw.t[i].y(), tw.t[i].z()) * tw.qr[i];
+    tw.qd[i].coeffs() *= 0.5;
+  }
+  auto dq = [&](const std::vector<Mat4>& P, std::vector<Eigen::Quaterniond>& q, std::vector<Eigen::Quaterniond>& d) {
+    q.resize(P.size());
+    d.resize(P.size());
+    for (size_t j = 0; j < P.size(); ++j) {
+      const Mat4 A = P[j] * rest[j].inverse();
+      q[j] = Eigen::Quaterniond(nearest_rotation(A.topLeftCorner<3, 3>())).normalized();
+      d[j] = Eigen::Quaterniond(0, A(0, 3), A(1, 3), A(2, 3)) * q[j];
+      d[j].coeffs() *= 0.5;
+    }
+  };
+  dq(pose, tw.pq, tw.pd);
+  dq(free_pose, tw.fq, tw.fd);
+  tw.free_pose = free_pose;
+  return true;
+}
+
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
   MatX3d Sd =
       skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
@@ -1440,7 +1685,7 @@ MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
 
 MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                                        MatX3d* skeleton_out, std::vector<int>* deep, const MatX3d* skeleton,
-                                       std::vector<char>* edited_out) const {
+                                       std::vector<char>* edited_out, Twist* tw_out) const {
   if (pose.size() != rest.size())
     throw MeshError("skeletal deform: expected " + std::to_string(rest.size()) + " pose matrices, got " +
                     std::to_string(pose.size()));
@@ -1460,6 +1705,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
                     " finite rows (one per skeletal vertex), got " + std::to_string(skeleton->rows()));
   MatX9d lin;
   MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
+  const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
+  const MatX3d Sd_blend = twist ? Sd : MatX3d();
   clear_bones(Sd, pose);
   std::vector<char> edited;
   if (skeleton) {
@@ -1478,13 +1725,30 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (skeleton_out) *skeleton_out = Sd;
   if (edited_out) *edited_out = edited;
   if (opt.method != SkeletalMethod::Variational) return basic(Sd, opt);
-  MatX3d X = variational(Sd, lin, opt, deep);
+  Twist tw;
+  const bool has_twist = twist && make_twist(pose, opt, Sd_blend, lin, Sd, tw);
+  MatX3d X = variational(Sd, lin, opt, deep, has_twist ? &tw : nullptr);
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);
     contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
-    untangle(X, Sd, pose, opt, edited);
+    if (has_twist && multires && opt.untangle_iterations > 0) {
+      // follow_twist through the layer: the dense mesh is rebuilt from the control mesh in the
+      // twist-free pose (see deform_into), so the control mesh is untangled there. In the pose, the
+      // crossings of the coarse control mesh that the twist alone makes (armadillo waist twisted 180
+      // degrees through a 5000-face control mesh: 94, 11 at rest; the dense mesh then has none) were
+      // smoothed and the dense mesh rebuilt on the result crossed itself (76 pairs).
+      MatX3d Xf(X.rows(), 3);
+      for (Eigen::Index i = 0; i < X.rows(); ++i)
+        Xf.row(i) = tw.to_free(static_cast<int>(i), row3(X, static_cast<int>(i))).transpose();
+      untangle(Xf, tw.Ss, tw.free_pose, opt, edited);
+      for (Eigen::Index i = 0; i < X.rows(); ++i)
+        X.row(i) = (tw.R[i] * row3(Xf, static_cast<int>(i)) + tw.t[i]).transpose();
+    } else {
+      untangle(X, Sd, pose, opt, edited);
+    }
   }
+  if (tw_out && has_twist) *tw_out = std::move(tw);
   return X;
 }
 
@@ -1514,10 +1778,22 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   MatX3d Sd;
   std::vector<int> deep;
   std::vector<char> edited;
-  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited);
+  Twist tw;
+  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw);
   if (impl.multires) {
-    impl.multires->reconstruct(Xc, out);
-    if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, edited, out);
+    if (tw.R.empty()) {
+      impl.multires->reconstruct(Xc, out);
+      if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, edited, nullptr, out);
+    } else {
+      // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
+      MatX3d Xf(Xc.rows(), 3);
+      for (Eigen::Index i = 0; i < Xc.rows(); ++i)
+        Xf.row(i) = tw.to_free(static_cast<int>(i), row3(Xc, static_cast<int>(i))).transpose();
+      impl.multires->reconstruct(Xf, out);
+      SkeletalDeformOptions o = opt;
+      if (!dense_projection(opt)) o.projection = 0, o.bone_clearance = 0;  // the turn alone
+      impl.project_dense(Sd, deep, pose, o, edited, &tw, out);
+    }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
       impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
                          [&](int i, int j) { return impl.dense_weight(i, j); });

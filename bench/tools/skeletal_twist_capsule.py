@@ -1,0 +1,33 @@
+"""Issue 33, session 25: follow_twist on bench/tools/skeletal_untangle_probe.py's capsule (r 0.5, length 6,
+64 x 10 x 128, the rig's Gaussian weights; DQS = skeletal_subspace_deform with the same weights), whole
+mesh and 5000-face control mesh, default and untangle_iterations=20, without / with follow_twist:
+self-intersecting pairs (native count) and min ratio of the distance to the bones over all vertices.
+
+    /usr/bin/python3 bench/tools/skeletal_twist_capsule.py
+"""
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path[:0] = [str(Path(__file__).resolve().parents[2] / "addon"), str(Path(__file__).resolve().parent)]
+import dgmesh  # noqa: E402
+from dgmesh.skeletal import capsule, skeletal_subspace_deform, self_intersecting_pairs  # noqa: E402
+from skeletal_crease_probe import REST, HEADS, TAILS, rot, bone_ratio_min  # noqa: E402
+
+V, F = capsule(0.5, 6.0, 64, 10, 128)
+rigs = {path: dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS, control_faces=cf)
+        for path, cf in (("whole", len(F) + 1), ("multires", 5000))}
+poses = {f"bend {a}": rot((0, 0, 1), np.radians(a)) for a in (45, 90, 135)}
+poses.update({f"twist {a}": rot((1, 0, 0), np.radians(a)) for a in (90, 180)})
+for name, R in poses.items():
+    pose = np.array([REST[0], R @ REST[1]])
+    X = skeletal_subspace_deform(V, rigs["whole"].weights, REST, pose, dual_quaternion=True)
+    print("%-9s DQS %5d (%.3f)" % (name, len(self_intersecting_pairs(X, F)), bone_ratio_min(X, V, pose)), flush=True)
+    for path, rig in rigs.items():
+        for unt in (0, 20):
+            cells = []
+            for ft in (False, True):
+                X = rig.deform(pose, untangle_iterations=unt, follow_twist=ft)
+                cells.append("%5d (%.3f)" % (len(self_intersecting_pairs(X, F)), bone_ratio_min(X, V, pose)))
+            print("   %-8s untangle %2d  without / with follow_twist: %s / %s" % (path, unt, *cells), flush=True)
