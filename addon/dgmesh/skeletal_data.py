@@ -54,6 +54,7 @@ INFO_FIELDS = {
     "modifier": (*_STR, False), "node_group": (*_STR, False), "helper": (*_STR, False),
     "modifiers_object": (*_STRS, False), "rest_hash": (*_STR, False), "space": (*_NUMBERS, False),
     "created_basis": (_is_flag, "0 or 1", False), "untangle_iterations": (*_INT, False),
+    "follow_twist": (_is_flag, "0 or 1", False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
 

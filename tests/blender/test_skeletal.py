@@ -55,9 +55,11 @@ def _evaluated_co(obj):
         ev.to_mesh_clear()
 
 
-def _scene(groups=True, with_modifier=True):
+def _scene(groups=True, with_modifier=True, slab=False):
     bpy.ops.wm.read_homefile(use_empty=True)
     V, F = capsule(0.5, 6.0, 24, 5, 32)
+    if slab:  # flat across the bones: its medial sheet lies off their axis
+        V = V * np.array([1.0, 3.0, 0.4])
     obj = helpers.add_mesh_object("Capsule", V, F)
     arm = helpers.add_armature([("Upper", (-3.5, 0, 0), (0, 0, 0), None, False),
                                 ("Lower", (0, 0, 0), (3.5, 0, 0), "Upper", True)])
@@ -1349,3 +1351,28 @@ def test_untangle_creases_option():
     print(f"crossing pairs at 90 degrees: untangle 0 {off}, 3 {on}")
     assert off > 0  # not vacuous
     assert on < off / 2
+
+
+def test_follow_twist_option():
+    """The bind operator's Follow Twist is stored with the binding and drives the live update: a flat
+    slab twisted 180 degrees about its lower bone keeps its volume instead of swelling onto the
+    medial balls twisted away from its flesh (issue 33; this coarse slab: volume 1.172 without, 1.001
+    with, no crossings either way)."""
+    from dgmesh.skeletal import self_intersecting_pairs
+
+    def twisted(follow):
+        obj, arm, V = _scene(slab=True)
+        assert _bind(follow_twist=follow) == {'FINISHED'}
+        assert obj["dg_skeletal"]["follow_twist"] == int(follow)
+        _pose_lower(arm, math.pi, axis='Y')
+        bpy.context.view_layer.update()
+        F = np.array([p.vertices[:] for p in obj.data.polygons])
+        X = _evaluated_co(obj).astype(np.float64)
+        vol = lambda P: np.einsum("ij,ij->i", P[F[:, 0]], np.cross(P[F[:, 1]], P[F[:, 2]])).sum() / 6  # noqa: E731
+        return len(self_intersecting_pairs(X, F)), vol(X) / vol(V.astype(np.float64))
+
+    (n_off, v_off), (n_on, v_on) = twisted(False), twisted(True)
+    print(f"slab twisted 180 degrees: pairs {n_off} -> {n_on}, volume {v_off:.3f} -> {v_on:.3f}")
+    assert v_off > 1.05  # not vacuous: without it the slab swells
+    assert abs(v_on - 1) < 0.01
+    assert n_on <= n_off

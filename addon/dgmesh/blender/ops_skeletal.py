@@ -50,7 +50,7 @@ from typing import NamedTuple
 
 import bpy
 import numpy as np
-from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, StringProperty
 
 from ..core import MeshError
 from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
@@ -168,6 +168,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                           description="Where a bent joint's skin crosses itself, smooth it out and push it back to "
                           "the bones' clearance, up to this many times per pose (thesis eq. 6.15's smoothing term; "
                           "0 = off). Fewer folds in the crease, several times slower per pose")
+    follow_twist: BoolProperty(name="Follow Twist", default=DEFORM_DEFAULTS.follow_twist,
+                               description="Keep the thickness in the untwisted pose, each vertex turned by its "
+                               "own share of the bones' twist: a twisted flat or off-axis part (a waist, a wrist) "
+                               "keeps its volume instead of swelling and crossing itself. Poses without twist are "
+                               "unchanged")
     skeleton_blend: EnumProperty(
         name="Skeleton Blend", items=SKELETON_BLENDS,
         default='DUAL_QUATERNION' if DEFORM_DEFAULTS.dual_quaternion else 'LINEAR',
@@ -227,7 +232,8 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         return {'FINISHED'}
 
 
-SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "skeleton_blend")
+SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "follow_twist",
+            "skeleton_blend")
 
 
 class _BindFailure(Exception):
@@ -345,7 +351,7 @@ def _attach(context, obj, arm, binding, settings):
         "bones_local": [float(x) for n in names for x in np.array(arm.data.bones[n].matrix_local).ravel()],
         "fairing_steps": settings["fairing_steps"], "method": settings["method"],
         "bone_clearance": settings["bone_clearance"], "skeleton_blend": settings["skeleton_blend"],
-        "untangle_iterations": settings["untangle"],
+        "untangle_iterations": settings["untangle"], "follow_twist": int(settings["follow_twist"]),
         "control_faces": settings["control_faces"], "target": "HELPER",
         "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
         "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -403,6 +409,7 @@ painting its weights (the binding keeps what it read at bind)"""
         settings = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]),
                         bone_clearance=float(info.get("bone_clearance", 0.95)),
                         untangle=int(info.get("untangle_iterations", 0)),
+                        follow_twist=bool(info.get("follow_twist", 0)),
                         skeleton_blend=str(info.get("skeleton_blend", "LINEAR")),
                         control_faces=int(info.get("control_faces", 5000)))
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.

@@ -250,6 +250,7 @@ def deformed(obj, pose, skeleton=None):
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
               bone_clearance=float(info.get("bone_clearance", 0.95)),  # files bound before the option: 0.95
               untangle_iterations=int(info.get("untangle_iterations", 0)),  # files bound before the option: off
+              follow_twist=bool(info.get("follow_twist", 0)),  # files bound before the option: off
               # files bound before the option: the linear blend
               dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')
     try:
