@@ -1006,15 +1006,21 @@ WORKLOADS = {"fair_energy": fair_energy, "fair_restore": fair_restore, "fair_spe
 # Damaged regions (issue 30): the region keeps its vertices, their positions are damaged
 # ---------------------------------------------------------------------------------------------
 
-def vertex_ball(V, F, centre, count):
-    """Mask of the `count` vertices geodesically (Dijkstra over edges) nearest to `centre`."""
+def _edge_graph(V, F):
+    """The mesh's edges as a weighted graph: vertex v's neighbours are dst[start[v]:start[v + 1]], at
+    edge lengths ww[...]."""
     E = _edges(F)
-    n = len(V)
     w = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
     src = np.concatenate([E[:, 0], E[:, 1]])
     order = np.argsort(src, kind="stable")
     src, dst, ww = src[order], np.concatenate([E[:, 1], E[:, 0]])[order], np.concatenate([w, w])[order]
-    start = np.searchsorted(src, np.arange(n + 1))
+    return np.searchsorted(src, np.arange(len(V) + 1)), dst, ww
+
+
+def vertex_ball(V, F, centre, count):
+    """Mask of the `count` vertices geodesically (Dijkstra over edges) nearest to `centre`."""
+    n = len(V)
+    start, dst, ww = _edge_graph(V, F)
     dist = np.full(n, np.inf)
     dist[centre] = 0.0
     heap, done, got = [(0.0, centre)], np.zeros(n, dtype=bool), 0
@@ -1094,13 +1100,8 @@ DENT_DEPTH = 0.5  # of the local feature size (_dent)
 
 def _distance_to(V, F, sources, allowed):
     """Dijkstra distance over edges from the `sources` mask, walking only through `allowed` vertices."""
-    E = _edges(F)
     n = len(V)
-    w = np.linalg.norm(V[E[:, 0]] - V[E[:, 1]], axis=1)
-    src = np.concatenate([E[:, 0], E[:, 1]])
-    order = np.argsort(src, kind="stable")
-    src, dst, ww = src[order], np.concatenate([E[:, 1], E[:, 0]])[order], np.concatenate([w, w])[order]
-    start = np.searchsorted(src, np.arange(n + 1))
+    start, dst, ww = _edge_graph(V, F)
     dist = np.full(n, np.inf)
     dist[sources] = 0.0
     heap = [(0.0, int(v)) for v in np.flatnonzero(sources)]
