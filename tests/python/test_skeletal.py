@@ -782,6 +782,20 @@ def _cgal(name):
     return dgmesh.read_mesh(path)
 
 
+def _armadillo_waist():
+    """bench skeletal_blender's armadillo rig: two bones along y (torso from y = -54 to 10, chest to
+    97), linear-ramp weights over y in [0, 20] (V, F, W, rest)."""
+    V, F = (np.asarray(a) for a in _cgal("armadillo"))
+    t = np.clip(V[:, 1] / 20.0, 0, 1)
+    rest = np.array([np.eye(4), np.eye(4)])
+    rest[0][:3, 3], rest[1][:3, 3] = (0, -54, 0), (0, 10, 0)
+    return V, F, np.c_[1 - t, t], rest
+
+
+def _volume(F, Y):
+    return float(np.einsum("ij,ij->i", Y[F[:, 0]], np.cross(Y[F[:, 1]], Y[F[:, 2]])).sum() / 6)
+
+
 def test_untangle_slide_keeps_the_thickness_of_a_waist_bend():
     # Issue 33, bench skeletal_blender's armadillo bent 90 degrees sideways at the waist (linear ramp
     # over y in [0, 20], whole mesh): the torso and arms swing into the hip and thigh. The untangling's
@@ -790,11 +804,7 @@ def test_untangle_slide_keeps_the_thickness_of_a_waist_bend():
     # result had sum (f - f_rest)^2 3.51e6, volume 1.077 (DQS: 1.37e5, 0.973). The slide is now kept
     # only when that growth stays below one median radius (capsules and the armadillo's knee: at
     # most 0.86), so the smoothing alone untangles: 552 pairs (DQS 807), 4.97e4, volume 0.977.
-    V, F = (np.asarray(a) for a in _cgal("armadillo"))
-    t = np.clip(V[:, 1] / 20.0, 0, 1)
-    W = np.c_[1 - t, t]
-    rest = np.array([np.eye(4), np.eye(4)])
-    rest[0][:3, 3], rest[1][:3, 3] = (0, -54, 0), (0, 10, 0)
+    V, F, W, rest = _armadillo_waist()
     pose = np.array([rest[0], rot((0, 0, 1), np.pi / 2, (0, 10, 0)) @ rest[1]])
     rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=len(F) + 1)
     pairs = dgmesh.skeletal.self_intersecting_pairs
@@ -804,14 +814,11 @@ def test_untangle_slide_keeps_the_thickness_of_a_waist_bend():
     f_rest = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
     err = lambda Y: float(((dgmesh.union_of_balls_distance(Y, Sd, rig.radii) - f_rest) ** 2).sum())
 
-    def volume(Y):
-        return float(np.einsum("ij,ij->i", Y[F[:, 0]], np.cross(Y[F[:, 1]], Y[F[:, 2]])).sum() / 6)
-
     n_dqs = len(pairs(dqs, F))
     assert n_dqs > 300  # the pose crosses the surface under DQS too
     assert len(pairs(X, F)) < n_dqs
     assert err(X) < 0.5 * err(dqs)
-    assert abs(volume(X) / volume(V) - 1) < 0.03
+    assert abs(_volume(F, X) / _volume(F, V) - 1) < 0.03
 
 
 def test_follow_twist_keeps_a_waist_twist_untangled():
@@ -823,16 +830,9 @@ def test_follow_twist_keeps_a_waist_twist_untangled():
     # Through the multiresolution layer (5000-face control mesh): 6331 -> 72 pairs, volume 1.147 ->
     # 0.997, untangled 0. (Those with Blender's float32 matrices; these exact ones: whole 16599 -> 2,
     # untangled 0; layer 8832 -> 50, untangled 8; numpy DQS 3.)
-    V, F = (np.asarray(a) for a in _cgal("armadillo"))
-    t = np.clip(V[:, 1] / 20.0, 0, 1)
-    W = np.c_[1 - t, t]
-    rest = np.array([np.eye(4), np.eye(4)])
-    rest[0][:3, 3], rest[1][:3, 3] = (0, -54, 0), (0, 10, 0)
+    V, F, W, rest = _armadillo_waist()
     twist = np.array([rest[0], rot((0, 1, 0), np.pi, (0, 10, 0)) @ rest[1]])
     pairs = dgmesh.skeletal.self_intersecting_pairs
-
-    def volume(Y):
-        return float(np.einsum("ij,ij->i", Y[F[:, 0]], np.cross(Y[F[:, 1]], Y[F[:, 2]])).sum() / 6)
 
     def bone_ratio(Y):  # distance to the two posed bone segments, posed over rest
         def dist(P, pose):
@@ -855,7 +855,7 @@ def test_follow_twist_keeps_a_waist_twist_untangled():
         assert n1 < 0.02 * n0
         n2 = len(pairs(rig.deform(twist, follow_twist=True, untangle_iterations=20), F))
         assert n2 <= max(n_dqs, 0.002 * n0)
-        assert abs(volume(X1) / volume(V) - 1) < 0.01 < abs(volume(X0) / volume(V) - 1)
+        assert abs(_volume(F, X1) / _volume(F, V) - 1) < 0.01 < abs(_volume(F, X0) / _volume(F, V) - 1)
         assert bone_ratio(X1) >= 0.9
         if rig.has_multires:  # the dense vertices' own bone weights are saved with the binding
             a = rig.to_arrays()
