@@ -7,7 +7,7 @@ sum (f - f_rest)^2 against the whole-mesh rig's posed skeletal mesh (as bench sk
 ratio of the distance to the bones over the vertices with weight on the moving bone (bench
 skeletal_limb's bone_distance), volume ratio.
 
-    /usr/bin/python3 bench/tools/skeletal_twist_legs.py camel|armadillo [--poses "twist 180,bend 90"]
+    /usr/bin/python3 bench/tools/skeletal_twist_legs.py camel|armadillo [--poses "twist 180,bend 90"] [--untangle 0|1]
 """
 import argparse
 import os
@@ -27,7 +27,7 @@ from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("which", choices=["camel", "armadillo"])
-ap.add_argument("--poses", default="bend 45,bend 90,bend 135,twist 180")
+ap.add_argument("--poses", default="bend 45,bend 90,bend 135,twist 90,twist 180")
 ap.add_argument("--untangle", type=int, default=1)
 args = ap.parse_args()
 mesh, (heads, tails), bend_axis = {"camel": ("camel", CAMEL_BONES, (1, 0, 0)),
@@ -35,9 +35,10 @@ mesh, (heads, tails), bend_axis = {"camel": ("camel", CAMEL_BONES, (1, 0, 0)),
 V, F = cgal_mesh(mesh)
 axis = tails[2] - heads[2]
 poses = {"bend 45": (2, bend_axis, np.pi / 4), "bend 90": (2, bend_axis, np.pi / 2),
-         "bend 135": (2, bend_axis, 3 * np.pi / 4), "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
+         "bend 135": (2, bend_axis, 3 * np.pi / 4), "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi),
+         "twist 90": (2, tuple(axis / np.linalg.norm(axis)), np.pi / 2)}
 cache = pathlib.Path(os.environ.get("OUT", "/tmp")) / f"skeletal_twist_legs_{args.which}.npz"
-if not cache.exists():
+if not cache.exists() or f"pose{len(poses) - 1}" not in np.load(cache):  # (a cache from before twist 90)
     with tempfile.TemporaryDirectory() as tmp:
         inp = pathlib.Path(tmp) / "in.npz"
         np.savez(inp, V=V, F=F, heads=heads, tails=tails,
