@@ -213,8 +213,9 @@ class SkeletalRig:
         ``follow_twist`` (variational method): measure the thickness (eq. 6.13) and fit the frames
         (eq. 6.8) in the twist-free pose (each bone's twist about its own axis relative to its parent
         dropped), each vertex carried there by its own blended twist: a twisted medial sheet's balls
-        then stay where the twisted flesh is (see bench/notes/skeletal.md, issue 33). Same result as
-        without it for poses without twist.
+        then stay where the twisted flesh is (see bench/notes/skeletal.md, issue 33). Only a twist
+        that dominates its bone's swing is dropped (a bend that carries a twist keeps it). Same result
+        as without it for poses without such a twist.
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step

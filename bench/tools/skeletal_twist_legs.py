@@ -7,7 +7,8 @@ sum (f - f_rest)^2 against the whole-mesh rig's posed skeletal mesh (as bench sk
 ratio of the distance to the bones over the vertices with weight on the moving bone (bench
 skeletal_limb's bone_distance), volume ratio.
 
-    /usr/bin/python3 bench/tools/skeletal_twist_legs.py camel|armadillo [--poses "twist 180,bend 90"]
+    /usr/bin/python3 bench/tools/skeletal_twist_legs.py camel|armadillo [--poses "twist 180,bend 90"] [--untangle 0|1]
+        [--paths whole,multires] [--extra "projection=0"]  (extra: deform keyword arguments, floats)
 """
 import argparse
 import os
@@ -27,17 +28,21 @@ from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("which", choices=["camel", "armadillo"])
-ap.add_argument("--poses", default="bend 45,bend 90,bend 135,twist 180")
+ap.add_argument("--poses", default="bend 45,bend 90,bend 135,twist 90,twist 180")
 ap.add_argument("--untangle", type=int, default=1)
+ap.add_argument("--paths", default="whole,multires")
+ap.add_argument("--extra", default="")
 args = ap.parse_args()
+extra = {k: float(v) for k, v in (kv.split("=") for kv in args.extra.split(",") if kv)}
 mesh, (heads, tails), bend_axis = {"camel": ("camel", CAMEL_BONES, (1, 0, 0)),
                                    "armadillo": ("armadillo", ARMADILLO_BONES, (-1, 0, 0))}[args.which]
 V, F = cgal_mesh(mesh)
 axis = tails[2] - heads[2]
 poses = {"bend 45": (2, bend_axis, np.pi / 4), "bend 90": (2, bend_axis, np.pi / 2),
-         "bend 135": (2, bend_axis, 3 * np.pi / 4), "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
+         "bend 135": (2, bend_axis, 3 * np.pi / 4), "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi),
+         "twist 90": (2, tuple(axis / np.linalg.norm(axis)), np.pi / 2)}
 cache = pathlib.Path(os.environ.get("OUT", "/tmp")) / f"skeletal_twist_legs_{args.which}.npz"
-if not cache.exists():
+if not cache.exists() or f"pose{len(poses) - 1}" not in np.load(cache):  # (a cache from before twist 90)
     with tempfile.TemporaryDirectory() as tmp:
         inp = pathlib.Path(tmp) / "in.npz"
         np.savez(inp, V=V, F=F, heads=heads, tails=tails,
@@ -57,11 +62,11 @@ for pname in args.poses.split(","):
     pose = res[f"pose{p}"]
     _, Sd = rig.deform_control(pose)
     out = {"DQS (Blender)": lambda: res[f"dqs{p}"]}
-    for path, r in (("whole", rig), ("multires", rig_mr)):
+    for path, r in (p for p in (("whole", rig), ("multires", rig_mr)) if p[0] in args.paths.split(",")):
         for ft in (False, True):
             for unt in ((0, 20) if args.untangle else (0,)):
                 out["%s%s%s" % (path, " follow_twist" if ft else "", " untangle" if unt else "")] = (
-                    lambda r=r, ft=ft, unt=unt: r.deform(pose, follow_twist=ft, untangle_iterations=unt))
+                    lambda r=r, ft=ft, unt=unt: r.deform(pose, follow_twist=ft, untangle_iterations=unt, **extra))
     for k, fn in out.items():
         X = fn()
         f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)

@@ -478,6 +478,13 @@ TEST(Skeletal, FollowTwistKeepsATwistedSlabsThickness) {
   };
   const std::vector<Mat4> twist = {ch.rest[0], rotation_about(Vec3::Zero(), Vec3::UnitX(), M_PI) * ch.rest[1]};
   const std::vector<Mat4> bend = {ch.rest[0], rotation_about(Vec3::Zero(), Vec3::UnitZ(), M_PI / 3) * ch.rest[1]};
+  // A bend about an axis 20 degrees off the perpendicular to the bone carries a twist of 22 degrees
+  // under its 56 degree swing: the twist does not dominate, it is kept (as without the option).
+  const std::vector<Mat4> tilted = {
+      ch.rest[0], rotation_about(Vec3::Zero(), Vec3(std::sin(0.35), 0, std::cos(0.35)), M_PI / 3) * ch.rest[1]};
+  // The twist with a small swing (11 degrees): the twist dominates, it is dropped whole.
+  const std::vector<Mat4> swung = {ch.rest[0], rotation_about(Vec3::Zero(), Vec3::UnitZ(), 0.2) *
+                                                   rotation_about(Vec3::Zero(), Vec3::UnitX(), M_PI) * ch.rest[1]};
   const VecXd before = bone_distance(c.V, ch, ch.rest);
   SkeletalDeformOptions on;
   on.follow_twist = true;
@@ -492,12 +499,15 @@ TEST(Skeletal, FollowTwistKeepsATwistedSlabsThickness) {
     EXPECT_GT(min_ratio(bone_distance(X1, ch, twist), before), 0.9) << control_faces;
     if (!rig.has_multires()) {  // (through this coarse layer fewer pairs only)
       EXPECT_EQ(n1, 0u);
+      EXPECT_LT(self_intersecting_pairs(rig.deform(swung, on), c.F).size(),
+                self_intersecting_pairs(rig.deform(swung), c.F).size() / 2);
       EXPECT_LT(std::abs(volume(X1) / volume(c.V) - 1), 0.01);
     } else {
       EXPECT_LT(n1, n0);
     }
     EXPECT_EQ(SkeletalRig::from_data(rig.data()).deform(twist, on), X1) << control_faces;
     EXPECT_EQ(rig.deform(bend, on), rig.deform(bend)) << control_faces;
+    EXPECT_EQ(rig.deform(tilted, on), rig.deform(tilted)) << control_faces;
   }
 }
 

@@ -189,9 +189,13 @@ struct SkeletalDeformOptions {
   // multiresolution layer the dense mesh is rebuilt from the control mesh carried back to the
   // twist-free pose, measured there, and turned by each dense vertex's twist (its own bone weights,
   // SkeletalRigData::dense_bones; the blend of its base face's corners' twists for data without
-  // them); the untangling of the control mesh runs there too. Off by default: the armadillo's knee
-  // bent 135 degrees keeps more pairs after the untangling (1008 instead of 246); see
-  // bench/notes/skeletal.md.
+  // them); the untangling of the control mesh runs there too. Only a twist that dominates its bone's
+  // swing is dropped (whole where the swing is at most half the twist, none where it is at least the
+  // twist): a bend about an axis not perpendicular to the bone carries a twist, and dropping it let
+  // the armadillo's knee bent 135 degrees keep 1008 pairs after the untangling instead of 246; such
+  // bends now give the result without the option. Off by default: through the multiresolution
+  // layer a pure twist of a limb crosses more than without (camel leg twisted 180 degrees 6 -> 25
+  // pairs, the capsule of bench/tools/skeletal_twist_capsule.py 0 -> 69); see bench/notes/skeletal.md.
   bool follow_twist = false;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
