@@ -21,6 +21,7 @@
 
 namespace dgmesh {
 
+using detail::dual_quaternion_motion;
 using detail::Mat3;
 using detail::MatX9d;
 using detail::nearest_rotation;
@@ -349,15 +350,7 @@ struct Twist {
       r += sgn * b[m] * qr[c[m]].coeffs();
       d += sgn * b[m] * qd[c[m]].coeffs();
     }
-    const double len = r.norm();
-    if (!(len > 1e-12)) {
-      Rb = R[c[0]], tb = t[c[0]];
-      return;
-    }
-    const Eigen::Quaterniond q(r / len), qdn(d / len);
-    const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(q.coeffs()) * q.coeffs());
-    Rb = q.toRotationMatrix();
-    tb = 2.0 * (qdo * q.conjugate()).vec();
+    if (!dual_quaternion_motion(r, d, Rb, tb)) Rb = R[c[0]], tb = t[c[0]];
   }
   // The dual quaternion blend of the bone motions (q, d) with the weights w[k] of the bones j[k], as R, t.
   static void bone_blend(const int* j, const float* w, int k, const std::vector<Eigen::Quaterniond>& q,
@@ -368,15 +361,7 @@ struct Twist {
       r += sgn * w[m] * q[j[m]].coeffs();
       dd += sgn * w[m] * d[j[m]].coeffs();
     }
-    const double len = r.norm();
-    if (!(len > 1e-12)) {
-      Rb.setIdentity(), tb.setZero();
-      return;
-    }
-    const Eigen::Quaterniond qn(r / len), qdn(dd / len);
-    const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(qn.coeffs()) * qn.coeffs());
-    Rb = qn.toRotationMatrix();
-    tb = 2.0 * (qdo * qn.conjugate()).vec();
+    if (!dual_quaternion_motion(r, dd, Rb, tb)) Rb.setIdentity(), tb.setZero();
   }
   // A point's twist M = T U^-1 from its own bone weights (bones j, weights w, the largest first).
   void own(const int* j, const float* w, int k, Mat3& Rb, Vec3& tb) const {

@@ -20,6 +20,17 @@ namespace dgmesh {
 
 namespace detail {
 
+bool dual_quaternion_motion(const Eigen::Vector4d& r, const Eigen::Vector4d& d, Mat3& R, Vec3& t) {
+  const double len = r.norm();
+  if (!(len > 1e-12)) return false;
+  const Eigen::Quaterniond qr(r / len), qd(d / len);
+  // translation t = 2 (d - (d.r) r) r^*, the part of d orthogonal to r (normalisation).
+  const Eigen::Quaterniond qdo(qd.coeffs() - qd.coeffs().dot(qr.coeffs()) * qr.coeffs());
+  R = qr.toRotationMatrix();
+  t = 2.0 * (qdo * qr.conjugate()).vec();
+  return true;
+}
+
 Mat3 nearest_rotation(const Mat3& C) {
   if (!(C.squaredNorm() > 1e-300) || !C.allFinite()) return Mat3::Identity();
   {
@@ -58,6 +69,7 @@ double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
 
 }  // namespace detail
 
+using detail::dual_quaternion_motion;
 using detail::Mat3;
 using detail::MatX9d;
 using detail::nearest_rotation;
@@ -134,16 +146,12 @@ MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const
         r += sgn * w * q[j].coeffs();
         dd += sgn * w * qd[j];
       }
-      const double len = r.norm();
-      if (len > 1e-12) {
-        const Eigen::Quaterniond qr(r / len), qdn(dd / len);
-        // translation t = 2 (d - (d.r) r) r^*, the part of d orthogonal to r (normalisation).
-        const Eigen::Quaterniond qdo(qdn.coeffs() - qdn.coeffs().dot(qr.coeffs()) * qr.coeffs());
-        const Vec3 t = 2.0 * (qdo * qr.conjugate()).vec();
-        out.row(i) = (qr.toRotationMatrix() * row3(P, i) + t).transpose();
-      } else {
+      Mat3 R;
+      Vec3 t;
+      if (dual_quaternion_motion(r, dd, R, t))
+        out.row(i) = (R * row3(P, i) + t).transpose();
+      else
         out.row(i) = P.row(i);
-      }
     } else {
       Eigen::Matrix<double, 3, 4> M = Eigen::Matrix<double, 3, 4>::Zero();
       for (int j = 0; j < B; ++j) {

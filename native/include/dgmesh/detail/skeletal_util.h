@@ -18,6 +18,11 @@ using MatX9d = Eigen::Matrix<double, Eigen::Dynamic, 9, Eigen::RowMajor>;  // a 
 /// the fallback for (nearly) singular or reflecting input.
 Mat3 nearest_rotation(const Mat3& C);
 
+/// The rigid motion x -> R x + t of a blend of unit dual quaternions (Kavan et al. 2007): r and d the
+/// weighted sums of their real and dual parts (Eigen's coefficient order x, y, z, w), normalised here.
+/// False, R and t untouched, when the real part vanishes.
+bool dual_quaternion_motion(const Eigen::Vector4d& r, const Eigen::Vector4d& d, Mat3& R, Vec3& t);
+
 /// Signed volume enclosed by the closed triangle mesh (V, F) (positive for outward faces).
 double signed_volume(const MatX3d& V, const MatX3i& F);
 
