@@ -9,7 +9,7 @@ import sys, json, pathlib, itertools
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np, dgmesh
-from dgmesh import shapes
+from rows import cube
 
 rows = {}
 for f in sys.argv[1].split(","):
@@ -19,14 +19,6 @@ S = np.array([rows[k]["sigma"] for k in K]); D = np.array([rows[k]["detail"] for
 T = np.array([np.array(rows[k]["taubin"]) / min(rows[k]["taubin"]) for k in K])
 clean = json.load(open(sys.argv[2]))
 CN = list(clean); CS = np.array([clean[n]["sigma"] for n in CN]); CD = np.array([clean[n]["detail"] for n in CN])
-
-
-def cube(jitter, seed):  # tests/python/test_denoise.py jittered_rounded_cube
-    V, F = shapes.icosphere(2, 1.0)
-    e = np.linalg.norm(V[F[:, [1, 2, 0]]] - V[F], axis=2).mean()
-    V = V + np.random.default_rng(seed).normal(0.0, jitter * e, V.shape)
-    V /= np.linalg.norm(V, axis=1)[:, None]
-    return V / ((V**8).sum(axis=1) ** 0.125)[:, None], np.asarray(F)
 
 
 SE = [dgmesh.estimate_noise(*cube(j, s)) for j, s in ((0.0, 3), (0.15, 3), (0.3, 3), (0.15, 4))]

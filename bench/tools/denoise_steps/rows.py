@@ -2,6 +2,7 @@
 them, the others read sweep.py's rows back and make the same noisy mesh again."""
 import numpy as np
 from bench.common import cgal_mesh
+from dgmesh import shapes
 from bench.workloads.denoise import add_noise, add_noise_isotropic
 
 
@@ -20,3 +21,12 @@ def sweep_rows(rows, seed0):
             meshes[name] = (np.asarray(V, float), np.asarray(F))
         V, F = meshes[name]
         yield key, row, noisy(V, F, kind, float(level), seed0), F
+
+
+def cube(jitter, seed):
+    """tests/python/test_denoise.py's jittered_rounded_cube: the clean superellipsoids the rule must leave alone."""
+    V, F = shapes.icosphere(2, 1.0)
+    e = np.linalg.norm(V[F[:, [1, 2, 0]]] - V[F], axis=2).mean()
+    V = V + np.random.default_rng(seed).normal(0.0, jitter * e, V.shape)
+    V /= np.linalg.norm(V, axis=1)[:, None]
+    return V / ((V**8).sum(axis=1) ** 0.125)[:, None], np.asarray(F)

@@ -76,15 +76,7 @@ CLEAN = json.load(open(FD / "f_clean.json"))
 KNOWN = ("b9_mesh", "bones", "femur", "knot2")
 sys.path[:0] = [str(pathlib.Path(__file__).resolve().parents[3]), str(pathlib.Path(__file__).resolve().parents[3] / "addon"), str(pathlib.Path(__file__).parent)]
 from features import feats
-from dgmesh import shapes
-
-
-def cube(jitter, seed):  # tests/python/test_denoise.py jittered_rounded_cube
-    V, F = shapes.icosphere(2, 1.0)
-    e = np.linalg.norm(V[F[:, [1, 2, 0]]] - V[F], axis=2).mean()
-    V = V + np.random.default_rng(seed).normal(0.0, jitter * e, V.shape)
-    V /= np.linalg.norm(V, axis=1)[:, None]
-    return V / ((V**8).sum(axis=1) ** 0.125)[:, None], np.asarray(F)
+from rows import cube
 
 
 SUPER = [feats(*cube(j, s)) for j, s in ((0.0, 3), (0.15, 3), (0.3, 3), (0.15, 4))]

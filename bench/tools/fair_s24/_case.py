@@ -30,6 +30,15 @@ def regions(meshes=None, wheres=("tip", "saddle", "flat"), fracs=(0.02, 0.06, 0.
                 yield name, V, F, where, frac, patch, B._region_of(F, patch)[0]
 
 
+def damaged(wheres=("tip", "saddle", "flat"), kinds=("flat", "dent", "noise")):
+    """Each region of regions() under each damage: (name, V, F, where, frac, patch, region faces, kind,
+    damaged vertices, bbox diagonal)."""
+    for name, V, F, where, frac, patch, region in regions(wheres=wheres):
+        diag = B.bbox_diagonal(V)
+        for kind in kinds:
+            yield name, V, F, where, frac, patch, region, kind, B.damage(V, F, patch, kind), diag
+
+
 def issue_case():
     """Issue 30's speed case (bench fair_speed): armadillo 1-to-4, 6% around the most saddle-like
     vertex flattened. Returns V, F, patch, W (damaged), region faces, bbox diagonal."""

@@ -9,22 +9,19 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "fair_s24"))  # the shared _case
-from _case import B, dgmesh, distance, regions  # noqa: E402
+from _case import B, damaged, dgmesh, distance  # noqa: E402
 
 B._PER_FACE[0] = 1
 rows = []
-for name, V, F, where, frac, patch, region in regions():
-    diag = B.bbox_diagonal(V)
-    for kind in ("flat", "dent", "noise"):
-        W = B.damage(V, F, patch, kind)
-        try:
-            r = dgmesh.fair(W, F, mask=patch)
-            b = dgmesh.fair(W, F, mask=patch, method="bilaplacian")
-            f = dgmesh.fair(b.vertices, F, mask=patch, linear_start=False)
-        except dgmesh.MeshError:
-            continue
-        rows.append((kind, where, bool(r.linear_start), distance(V, F, region, r, diag),
-                     distance(V, F, region, f, diag), distance(V, F, region, b, diag)))
+for name, V, F, where, frac, patch, region, kind, W, diag in damaged():
+    try:
+        r = dgmesh.fair(W, F, mask=patch)
+        b = dgmesh.fair(W, F, mask=patch, method="bilaplacian")
+        f = dgmesh.fair(b.vertices, F, mask=patch, linear_start=False)
+    except dgmesh.MeshError:
+        continue
+    rows.append((kind, where, bool(r.linear_start), distance(V, F, region, r, diag),
+                 distance(V, F, region, f, diag), distance(V, F, region, b, diag)))
 for kind in ("flat", "dent", "noise", "all"):
     sub = [x for x in rows if kind in (x[0], "all")]
     for label, j in (("default", 3), ("forced", 4)):
