@@ -172,30 +172,19 @@ struct SkeletalDeformOptions {
   int untangle_iterations = 0;
   int untangle_rings = 4;
   // Thickness that follows the twist (variational method; issue 33), off by default: each bone's
-  // motion relative to its parent is split into a swing and a twist about the bone's own rest axis
-  // (swing-twist decomposition of the rotation); dropping the twists gives the twist-free pose, and
-  // each skeletal vertex its own twist, the rigid motion M_i = T_i U_i^-1 from its blend U_i of the
-  // twist-free pose to its blend T_i of the pose (dual quaternions, or the linear blend's rotation).
+  // motion relative to its parent is split into a swing and a twist about the bone's own rest axis;
+  // dropping the twists gives the twist-free pose, and each skeletal vertex its own twist, the rigid
+  // motion M_i = T_i U_i^-1 from its blend U_i of the twist-free pose to its blend T_i of the pose.
   // The thickness of eq. 6.13 is then measured in the twist-free pose (vertex i at M_i^-1 x_i against
   // the balls (M_j^-1 s^d_j, r_j), its step turned back by M_i), and the frames of eq. 6.8 are fitted
-  // there and turned by the triangle's twist (its corners' mean). Without it, a ball of a
-  // twisted medial sheet is posed with its centre's twist and the flesh around it with its own; off
-  // the bone's axis the two part by about (distance from the axis) x (difference of the angles), the
-  // union of the posed balls is larger than the twisted shape and the thickness steps push the flesh
-  // out onto balls twisted away from it (bench skeletal_blender's armadillo twisted 180 degrees at
-  // the waist: 15098 self-intersecting pairs, volume 1.110; with it 7 and 0.999, untangled 0; DQS 0,
-  // 0.999). A pure twist makes the rest shape the target in the twist-free pose. A pose without twist
-  // (every bone's below 1e-6 rad) gives exactly the result without the option. Through the
-  // multiresolution layer the dense mesh is rebuilt from the control mesh carried back to the
-  // twist-free pose, measured there, and turned by each dense vertex's twist (its own bone weights,
-  // SkeletalRigData::dense_bones; the blend of its base face's corners' twists for data without
-  // them); the untangling of the control mesh runs there too. Only a twist that dominates its bone's
-  // swing is dropped (whole where the swing is at most half the twist, none where it is at least the
-  // twist): a bend about an axis not perpendicular to the bone carries a twist, and dropping it let
-  // the armadillo's knee bent 135 degrees keep 1008 pairs after the untangling instead of 246; such
-  // bends now give the result without the option. Off by default: through the multiresolution
-  // layer a pure twist of a limb crosses more than without (camel leg twisted 180 degrees 6 -> 25
-  // pairs, the capsule of bench/tools/skeletal_twist_capsule.py 0 -> 69); see bench/notes/skeletal.md.
+  // there and turned by the triangle's twist (its corners' mean), so the balls of a twisted medial
+  // sheet off the bone's axis stay where the twisted flesh is. Through the multiresolution layer the
+  // dense mesh is rebuilt in the twist-free pose, measured there and turned by each dense vertex's
+  // twist (SkeletalRigData::dense_bones; its base face's corners' blend for data without them). Only a
+  // twist that dominates its bone's swing is dropped: all of it where the swing is at most half the
+  // twist, none where it is at least the twist. A pose without such a twist (every dropped twist below
+  // 1e-6 rad) gives exactly the result without the option. Measurements, and why it is off by default
+  // (pure twists through the layer): bench/notes/skeletal.md, session 25.
   bool follow_twist = false;
   int homotopy_steps = 3;    // L of eq. 6.3
   int fold_iterations = 10;  // steps of eq. 6.5 (basic)
