@@ -1641,10 +1641,16 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
                                    const MatX3d& Sd_blend, const MatX9d& lin, const MatX3d& Sd, Twist& tw) const {
   if (rest.size() < 2 || parent.size() != rest.size()) return false;
   double max_twist = 0;
-  const std::vector<Mat4> free_pose = twist_free_pose(pose, max_twist);
+  std::vector<Mat4> free_pose = twist_free_pose(pose, max_twist);
   if (!(max_twist > 1e-6)) return false;
   MatX9d lin_f;
   const MatX3d Sf = skeletal_subspace_deform(S, W, rest, free_pose, &lin_f, opt.dual_quaternion);
+  // The rigid motion x -> R x + t as the unit dual quaternion (q, d = t q / 2).
+  auto to_dual = [](const Mat3& R, const Vec3& t, Eigen::Quaterniond& q, Eigen::Quaterniond& d) {
+    q = Eigen::Quaterniond(R).normalized();
+    d = Eigen::Quaterniond(0, t.x(), t.y(), t.z()) * q;
+    d.coeffs() *= 0.5;
+  };
   const int n = static_cast<int>(S.rows());
   tw.R.resize(n);
   tw.t.resize(n);
@@ -1657,23 +1663,19 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
     tw.R[i] = nearest_rotation(T * U.transpose());
     tw.t[i] = row3(Sd_blend, i) - tw.R[i] * row3(Sf, i);
     tw.Ss.row(i) = tw.to_free(i, row3(Sd, i)).transpose();
-    tw.qr[i] = Eigen::Quaterniond(tw.R[i]).normalized();
-    tw.qd[i] = Eigen::Quaterniond(0, tw.t[i].x(), tw.t[i].y(), tw.t[i].z()) * tw.qr[i];
-    tw.qd[i].coeffs() *= 0.5;
+    to_dual(tw.R[i], tw.t[i], tw.qr[i], tw.qd[i]);
   }
   auto dq = [&](const std::vector<Mat4>& P, std::vector<Eigen::Quaterniond>& q, std::vector<Eigen::Quaterniond>& d) {
     q.resize(P.size());
     d.resize(P.size());
     for (size_t j = 0; j < P.size(); ++j) {
       const Mat4 A = P[j] * rest[j].inverse();
-      q[j] = Eigen::Quaterniond(nearest_rotation(A.topLeftCorner<3, 3>())).normalized();
-      d[j] = Eigen::Quaterniond(0, A(0, 3), A(1, 3), A(2, 3)) * q[j];
-      d[j].coeffs() *= 0.5;
+      to_dual(nearest_rotation(A.topLeftCorner<3, 3>()), A.topRightCorner<3, 1>(), q[j], d[j]);
     }
   };
   dq(pose, tw.pq, tw.pd);
   dq(free_pose, tw.fq, tw.fd);
-  tw.free_pose = free_pose;
+  tw.free_pose = std::move(free_pose);
   return true;
 }
 
