@@ -43,7 +43,7 @@ _FLAGS = (_list_of(_is_flag), "a list of 0/1 values")
 _NUMBERS = (_list_of(_is_number), "a list of numbers")
 
 # Field -> (check, what it must be, required). Optional fields are absent from bindings saved by
-# earlier versions (their readers supply the old defaults).
+# earlier versions (their readers supply the old defaults; the options' are OLD_OPTIONS).
 INFO_FIELDS = {
     "schema": (*_INT, False), "id": (*_STR, True), "armature": (*_STR, True), "bones": (*_STRS, True),
     "data": (*_STR, True), "fairing_steps": (*_INT, True), "method": (*_STR, True),
@@ -57,6 +57,22 @@ INFO_FIELDS = {
     "follow_twist": (_is_flag, "0 or 1", False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
+
+# Option field -> its value for bindings saved before the option existed: what those files were bound
+# and deformed with, fixed here (not the library's defaults, which may change). Read by saved_options.
+OLD_OPTIONS = {
+    "bone_clearance": 0.95,  # files bound before the option: the library's fixed 0.95 then (today's default too)
+    "untangle_iterations": 0,  # files bound before the option: no untangling existed (today's default too)
+    "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
+    "skeleton_blend": "LINEAR",  # files bound before the option: the linear blend (today's default: dual quaternion)
+    "control_faces": 5000,  # files bound before it was stored: the library's 5000 then (today's default too)
+}
+
+
+def saved_options(info):
+    """The options a binding was bound with, {field: value} for the fields of OLD_OPTIONS, each of
+    its table value's type; a field the binding lacks (saved before the option) reads as the table's."""
+    return {key: type(old)(info.get(key, old)) for key, old in OLD_OPTIONS.items()}
 
 
 def check_info(info, methods=()):

@@ -1135,6 +1135,44 @@ def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear(
     assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95)).max() > 1e-3  # not vacuous
 
 
+@pytest.mark.parametrize("swapped", [False, True])
+def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(swapped, monkeypatch):
+    """A binding saved before the options existed (no bone_clearance, untangle_iterations,
+    follow_twist, skeleton_blend, control_faces): the live update deforms with skeletal_data.OLD_OPTIONS'
+    values and Rebind binds (and stores) them. Run with the table and with every value swapped for
+    another, so a reader with a fallback of its own (today's default or a copy) fails one of them."""
+    from dgmesh import skeletal_data
+    from dgmesh.skeletal import SkeletalRig
+    if swapped:
+        for key, value in dict(bone_clearance=0.5, untangle_iterations=2, follow_twist=True,
+                               skeleton_blend="DUAL_QUATERNION", control_faces=4000).items():
+            assert value != skeletal_data.OLD_OPTIONS[key]
+            monkeypatch.setitem(skeletal_data.OLD_OPTIONS, key, value)
+    table = dict(skeletal_data.OLD_OPTIONS)
+    calls = []
+    deform = SkeletalRig.deform
+
+    def spy(self, pose, **kw):
+        calls.append(kw)
+        return deform(self, pose, **kw)
+
+    monkeypatch.setattr(SkeletalRig, "deform", spy)
+    obj, arm, V = _scene()
+    assert _bind() == {'FINISHED'}
+    for key in table:
+        del obj["dg_skeletal"][key]
+    calls.clear()
+    _pose_lower(arm, math.pi / 4)
+    bpy.context.view_layer.update()
+    assert calls, "the pose change did not deform"
+    kw = calls[-1]
+    assert (kw["bone_clearance"], kw["untangle_iterations"], kw["follow_twist"], kw["dual_quaternion"]) == (
+        table["bone_clearance"], table["untangle_iterations"], table["follow_twist"],
+        table["skeleton_blend"] == 'DUAL_QUATERNION')
+    assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
+    info = obj["dg_skeletal"].to_dict()
+    assert set(table) <= set(info) and skeletal_data.saved_options(info) == table  # stored, not read as missing
+
 def test_mesh_with_an_armature_modifier_duplicated_with_its_rig_follows_the_copy():
     """Not parented, only an Armature modifier (which bind clears): Shift+D of mesh and rig. The copy
     follows the copied rig, as Blender remaps the Armature modifier of such a copy; rebind and unbind

@@ -6,7 +6,8 @@ import struct
 
 import numpy as np
 
-from dgmesh.skeletal_data import decode_arrays, encode_arrays, write_pc2
+from dgmesh.skeletal_data import (INFO_FIELDS, OLD_OPTIONS, check_info, decode_arrays, encode_arrays,
+                                  saved_options, write_pc2)
 
 
 def test_bind_data_encoding_reads_earlier_compressed_files():
@@ -32,3 +33,29 @@ def test_pc2_header_and_frames(tmp_path):
     assert len(data) == 32 + frames.size * 4
     assert struct.unpack("<12siiffi", data[:32]) == (b"POINTCACHE2\0", 1, 4, 5.0, 0.5, 2)
     assert np.array_equal(np.frombuffer(data[32:], "<f4").reshape(2, 4, 3), frames.astype(np.float32))
+
+
+def _info(**fields):
+    """A binding's saved fields as the first versions stored them (no option fields), plus ``fields``."""
+    return dict(id="x", armature="Armature", bones=["Upper", "Lower"], data="", fairing_steps=2,
+                method="VARIATIONAL", modifiers=[], modifiers_viewport=[], modifiers_render=[], skeleton="s",
+                **fields)
+
+
+def test_options_of_bindings_saved_before_them_come_from_the_one_table():
+    """A binding saved before its options existed reads each missing one as OLD_OPTIONS' value (the
+    table the live update and Rebind read, tests/blender/test_skeletal.py), typed as the table's;
+    one that has them keeps its own. The table's values are valid saved state themselves."""
+    check_info(_info())
+    assert saved_options(_info()) == OLD_OPTIONS
+    assert all(type(v) is type(OLD_OPTIONS[k]) for k, v in saved_options(_info()).items())
+    own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), follow_twist=1,
+               skeleton_blend="DUAL_QUATERNION", control_faces=800)
+    assert set(own) == set(OLD_OPTIONS)
+    check_info(_info(**own))
+    got = saved_options(_info(**own))
+    assert got == own and got["follow_twist"] is True and type(got["untangle_iterations"]) is int
+    for key, old in OLD_OPTIONS.items():
+        check, what, required = INFO_FIELDS[key]
+        assert not required and check(old), key
+        assert saved_options(_info(**{k: v for k, v in own.items() if k != key})) == dict(own, **{key: old})

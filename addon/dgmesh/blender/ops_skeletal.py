@@ -54,7 +54,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 
 from ..core import MeshError
 from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
-from ..skeletal_data import SCHEMA_VERSION, encode_arrays, write_pc2
+from ..skeletal_data import SCHEMA_VERSION, encode_arrays, saved_options, write_pc2
 from . import bridge, compat
 from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 from .skeletal_live import (HANDLERS, edited, helper_node_group, helper_object, link_skeleton, move_first, unbind,
@@ -406,12 +406,11 @@ painting its weights (the binding keeps what it read at bind)"""
             self.report({'ERROR'}, f"The armature {str(info['armature'])!r} of {obj.name!r} is gone: select an "
                         "armature and use Skeletal Unbind, then Skeletal Bind")
             return {'CANCELLED'}
+        saved = saved_options(info)  # files bound before an option: the values they were bound with
         settings = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]),
-                        bone_clearance=float(info.get("bone_clearance", 0.95)),
-                        untangle=int(info.get("untangle_iterations", 0)),
-                        follow_twist=bool(info.get("follow_twist", 0)),
-                        skeleton_blend=str(info.get("skeleton_blend", "LINEAR")),
-                        control_faces=int(info.get("control_faces", 5000)))
+                        bone_clearance=saved["bone_clearance"], untangle=saved["untangle_iterations"],
+                        follow_twist=saved["follow_twist"], skeleton_blend=saved["skeleton_blend"],
+                        control_faces=saved["control_faces"])
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.
         try:
             binding = _compute_binding(context, obj, arm, settings)

@@ -26,6 +26,7 @@ import bpy
 import numpy as np
 
 from ..core import MeshError
+from ..skeletal_data import saved_options
 from . import compat
 from .common import editable_collections
 from .skeletal_space import inverse, pose_matrices, stored_space, transformed
@@ -247,12 +248,10 @@ def deformed(obj, pose, skeleton=None):
     if buf is None or buf[0].shape[0] != rig.n_vertices:
         buf = _buffers[key] = new_buffers(obj, rig)
     pos, out, rest = buf
+    saved = saved_options(info)  # files bound before an option: the values they were bound with
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
-              bone_clearance=float(info.get("bone_clearance", 0.95)),  # files bound before the option: 0.95
-              untangle_iterations=int(info.get("untangle_iterations", 0)),  # files bound before the option: off
-              follow_twist=bool(info.get("follow_twist", 0)),  # files bound before the option: off
-              # files bound before the option: the linear blend
-              dual_quaternion=str(info.get("skeleton_blend", "LINEAR")) == 'DUAL_QUATERNION')
+              bone_clearance=saved["bone_clearance"], untangle_iterations=saved["untangle_iterations"],
+              follow_twist=saved["follow_twist"], dual_quaternion=saved["skeleton_blend"] == 'DUAL_QUATERNION')
     try:
         rig.deform(pose, out=pos, skeleton=skeleton, **kw)
     except (MeshError, TypeError):

@@ -4,10 +4,9 @@ Usage: sweep.py MODELS LEVELS SEED OUT.json (from the repository root)."""
 import sys, json, pathlib
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
-import numpy as np, dgmesh
-from bench.common import cgal_mesh
+import numpy as np
 from bench.workloads.denoise import normal_error
-from rows import noisy
+from rows import sweep_inputs
 
 def umbrella(F, n):
     E = np.concatenate([F[:, [0, 1]], F[:, [1, 2]], F[:, [2, 0]]])
@@ -34,14 +33,8 @@ def curves(V, F, Vn, maxT=60, maxS=20):
 out = {}
 models = sys.argv[1].split(","); levels = [float(x) for x in sys.argv[2].split(",")]
 seed0 = int(sys.argv[3]) if len(sys.argv) > 3 else 11
-for name in models:
-    V, F = cgal_mesh(name); V = np.asarray(V, float); F = np.asarray(F)
-    for kind in ("normal", "isotropic"):
-        for lv in levels:
-            Vn = noisy(V, F, kind, lv, seed0)
-            est = dgmesh.estimate_noise(Vn, F)
-            t, sm = curves(V, F, Vn)
-            key = f"{name} {kind} {lv}"
-            out[key] = dict(sigma=est.sigma, curv=est.curvature, outl=est.outliers, taubin=t.tolist(), smooth=sm.tolist())
-            print(f"{key:35s} sig {est.sigma:.3f} curv {est.curvature:.2f} | taubin best {t.argmin():2d} {t.min():.3f} | smooth best {sm.argmin():2d} {sm.min():.3f}", flush=True)
+for key, V, F, Vn, est in sweep_inputs(models, levels, seed0):
+    t, sm = curves(V, F, Vn)
+    out[key] = dict(sigma=est.sigma, curv=est.curvature, outl=est.outliers, taubin=t.tolist(), smooth=sm.tolist())
+    print(f"{key:35s} sig {est.sigma:.3f} curv {est.curvature:.2f} | taubin best {t.argmin():2d} {t.min():.3f} | smooth best {sm.argmin():2d} {sm.min():.3f}", flush=True)
 json.dump(out, open(sys.argv[4] if len(sys.argv) > 4 else "/tmp/dn/sweep.json", "w"))

@@ -8,9 +8,8 @@ import sys, json, pathlib
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np, dgmesh
-from bench.common import cgal_mesh
 from bench.workloads.denoise import normal_error
-from rows import noisy
+from rows import sweep_inputs
 
 SHARE, LAM, MU = 0.5, 0.6, -0.62
 
@@ -58,21 +57,15 @@ if __name__ == "__main__":
     out = {}
     models = sys.argv[1].split(","); levels = [float(x) for x in sys.argv[2].split(",")]
     seed0 = int(sys.argv[3]); check = "--check" in sys.argv
-    for name in models:
-        V, F = cgal_mesh(name); V = np.asarray(V, float); F = np.asarray(F)
-        for kind in ("normal", "isotropic"):
-            for lv in levels:
-                Vn = noisy(V, F, kind, lv, seed0)
-                est = dgmesh.estimate_noise(Vn, F)
-                t, traj = curves(V, F, Vn)
-                key = f"{name} {kind} {lv}"
-                out[key] = dict(sigma=est.sigma, detail=est.detail, taubin=t.tolist())
-                rule = dgmesh.denoising._native.auto_smoothing_steps(est)
-                print(f"{key:35s} sig {est.sigma:.3f} det {est.detail:.3f} | best {t.argmin():2d} {t.min():.3f} | rule {rule:2d} {t[rule]:.3f}", flush=True)
-                if check:
-                    for k in (1, 7):
-                        o = dgmesh.denoising.defaults(); o.automatic = False; o.iterations = 0; o.smoothing_steps = k
-                        r = dgmesh.denoising._native.denoise_mesh(Vn, F.astype(np.int32), o, None, None)
-                        print(f"   check {k} steps: numpy {t[k]:.4f} C++ {normal_error(np.asarray(r.vertices), V, F):.4f} "
-                              f"max |dP| {np.abs(np.asarray(r.vertices) - traj[k]).max():.2e}", flush=True)
+    for key, V, F, Vn, est in sweep_inputs(models, levels, seed0):
+        t, traj = curves(V, F, Vn)
+        out[key] = dict(sigma=est.sigma, detail=est.detail, taubin=t.tolist())
+        rule = dgmesh.denoising._native.auto_smoothing_steps(est)
+        print(f"{key:35s} sig {est.sigma:.3f} det {est.detail:.3f} | best {t.argmin():2d} {t.min():.3f} | rule {rule:2d} {t[rule]:.3f}", flush=True)
+        if check:
+            for k in (1, 7):
+                o = dgmesh.denoising.defaults(); o.automatic = False; o.iterations = 0; o.smoothing_steps = k
+                r = dgmesh.denoising._native.denoise_mesh(Vn, F.astype(np.int32), o, None, None)
+                print(f"   check {k} steps: numpy {t[k]:.4f} C++ {normal_error(np.asarray(r.vertices), V, F):.4f} "
+                      f"max |dP| {np.abs(np.asarray(r.vertices) - traj[k]).max():.2e}", flush=True)
     json.dump(out, open(sys.argv[4], "w"))
