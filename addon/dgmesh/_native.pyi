@@ -537,6 +537,7 @@ class SkeletalDeformOptions:
     contact_slide: float  # joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa times its crossing depth (>= 1; 0: off)
     untangle_iterations: int  # untangling: iterations of the local smoothing of the self-intersecting triangles' vertices (0: off)
     untangle_rings: int  # untangling: rings around the crossing triangles' vertices smoothed with them
+    fold_guard: int  # fold guard: iterations of the smoothing of the displacement around faces the thickness steps turned over (0: off)
     follow_twist: bool  # measure the thickness (eq. 6.13) and fit the frames (eq. 6.8) in the twist-free pose, each vertex carried there by its own blended twist
     homotopy_steps: int  # L of eq. 6.3 (basic)
     fold_iterations: int  # steps of eq. 6.5 (basic)

@@ -168,7 +168,7 @@ class SkeletalRig:
                bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                untangle_iterations: int = _DEFORM.untangle_iterations,
                untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
-               skeleton: npt.ArrayLike | None = None) -> np.ndarray:
+               fold_guard: int = _DEFORM.fold_guard, skeleton: npt.ArrayLike | None = None) -> np.ndarray:
         """Deformed vertex positions (n, 3) for the pose frames (B, 4, 4).
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
@@ -216,6 +216,13 @@ class SkeletalRig:
         then stay where the twisted flesh is (see bench/notes/skeletal.md, issue 33). Only a twist
         that dominates its bone's swing is dropped (a bend that carries a twist keeps it). Same result
         as without it for poses without such a twist.
+        ``fold_guard`` (variational method, fairing on; iterations, 0 = off; on by default): after
+        the thickness steps, the faces they turned over (normal against the bare reconstruction's,
+        eq. 6.11; through the multiresolution layer, against the dense mesh's limit surface before
+        its own step) have their vertices' displacement averaged with their neighbours' until none is
+        turned, each smoothed vertex pushed back out to ``bone_clearance`` of its rest distance to its
+        bones (and their parents and children). No search: fewer crossings in a bent joint's crease at
+        a small cost (see bench/notes/skeletal.md).
         ``out``: a C-contiguous float64 or float32 (n, 3) array to write into (returned), for
         repeated poses: no allocation of the dense result, GIL released. float32 (computed in
         double, rounded on output; through the multiresolution layer the dense thickness step
@@ -226,7 +233,7 @@ class SkeletalRig:
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                                  dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
-                                 untangle_rings, follow_twist)
+                                 untangle_rings, follow_twist, fold_guard)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
@@ -268,11 +275,12 @@ class SkeletalRig:
                        bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                        untangle_iterations: int = _DEFORM.untangle_iterations,
                        untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
+                       fold_guard: int = _DEFORM.fold_guard,
                        skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                                  dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
-                                 untangle_rings, follow_twist)
+                                 untangle_rings, follow_twist, fold_guard)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
@@ -282,7 +290,7 @@ class SkeletalRig:
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                         dual_quaternion, bone_clearance, contact_slide, untangle_iterations, untangle_rings,
-                        follow_twist):
+                        follow_twist, fold_guard):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
@@ -291,7 +299,7 @@ class SkeletalRig:
                             contact_slide=contact_slide,
                             untangle_iterations=as_count(untangle_iterations, "untangle_iterations"),
                             untangle_rings=as_count(untangle_rings, "untangle_rings"),
-                            follow_twist=bool(follow_twist))
+                            follow_twist=bool(follow_twist), fold_guard=as_count(fold_guard, "fold_guard"))
 
     # --- bind data ---------------------------------------------------------------------------
     def __reduce__(self) -> tuple[Any, tuple[dict[str, np.ndarray]]]:

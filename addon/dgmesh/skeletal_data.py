@@ -54,6 +54,7 @@ INFO_FIELDS = {
     "modifier": (*_STR, False), "node_group": (*_STR, False), "helper": (*_STR, False),
     "modifiers_object": (*_STRS, False), "rest_hash": (*_STR, False), "space": (*_NUMBERS, False),
     "created_basis": (_is_flag, "0 or 1", False), "untangle_iterations": (*_INT, False),
+    "fold_guard": (*_INT, False),
     "follow_twist": (_is_flag, "0 or 1", False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
@@ -63,6 +64,7 @@ _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("
 OLD_OPTIONS = {
     "bone_clearance": 0.95,  # files bound before the option: the library's fixed 0.95 then (today's default too)
     "untangle_iterations": 0,  # files bound before the option: no untangling existed (today's default too)
+    "fold_guard": 0,  # files bound before the option: no fold guard existed (today's default: 50)
     "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
     "skeleton_blend": "LINEAR",  # files bound before the option: the linear blend (today's default: dual quaternion)
     "control_faces": 5000,  # files bound before it was stored: the library's 5000 then (today's default too)
@@ -105,8 +107,9 @@ def check_info(info, methods=()):
             raise BindDataError(f"its field {key!r} has {len(info[key])} numbers, not {size}")
     if info["fairing_steps"] < 0:
         raise BindDataError(f"its field 'fairing_steps' is negative ({info['fairing_steps']})")
-    if info.get("untangle_iterations", 0) < 0:
-        raise BindDataError(f"its field 'untangle_iterations' is negative ({info['untangle_iterations']})")
+    for key in ("untangle_iterations", "fold_guard"):
+        if info.get(key, 0) < 0:
+            raise BindDataError(f"its field {key!r} is negative ({info[key]})")
     if "control_faces" in info and info["control_faces"] < 1:
         raise BindDataError(f"its field 'control_faces' is {info['control_faces']}, not positive")
 

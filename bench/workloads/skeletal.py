@@ -176,6 +176,9 @@ def speed(quick):
     t_unt32, _ = median_time(lambda: rig.deform(pose, out=out32, untangle_iterations=20), repeats=3)
     pairs_off = len(self_intersecting_pairs(rig.deform(pose), F))
     pairs_on = len(self_intersecting_pairs(rig.deform(pose, untangle_iterations=20), F))
+    # Without the fold guard (issue 33, on by default from this run): its cost and its pairs.
+    t_noguard32, _ = median_time(lambda: rig.deform(pose, out=out32, fold_guard=0), repeats=7)
+    pairs_noguard = len(self_intersecting_pairs(rig.deform(pose, fold_guard=0), F))
     # The dense part alone: reconstruct from a deformed control mesh into the float32 buffer.
     Xc, _ = rig.deform_control(pose)
     a = rig.to_arrays()
@@ -193,19 +196,22 @@ def speed(quick):
     cpu_ctrl = cpu_ms(lambda: rig.deform_control(pose))
     cpu_buf32 = cpu_ms(lambda: rig.deform(pose, out=out32))
     rows = [[len(V), len(F), rig.n_control, len(rig.control_faces), t_bind, 1e3 * t_ctrl, 1e3 * t_rec32, 1e3 * t_nof,
-             1e3 * t_full, 1e3 * t_buf, 1e3 * t_buf32, cpu_ctrl, cpu_buf32, 1e3 * t_unt32, pairs_off, pairs_on]]
+             1e3 * t_full, 1e3 * t_buf, 1e3 * t_buf32, cpu_ctrl, cpu_buf32, 1e3 * t_noguard32, 1e3 * t_unt32,
+             pairs_off, pairs_noguard, pairs_on]]
     live = run_blender(pathlib.Path(__file__).with_name("_skeletal_live.py"), [1 if quick else 2])
     md = ["### Skeletal deformation speed", "",
           table(["dense V", "dense F", "control V", "control F", "bind s", "control deform ms (2 fair)",
                  "dense reconstruct ms (float32)", "full deform ms (no fair)", "full deform ms (2 fair)",
                  "full deform ms (2 fair, float64 buffer)", "full deform ms (2 fair, float32 buffer)",
                  "CPU ms control deform", "CPU ms full deform (float32 buffer)",
+                 "full deform ms (float32 buffer, fold_guard=0)",
                  "full deform ms (float32 buffer, untangle_iterations=20)", "crossing pairs (default)",
-                 "crossing pairs (untangle_iterations=20)"], rows),
+                 "crossing pairs (fold_guard=0)", "crossing pairs (untangle_iterations=20)"], rows),
           "", "Capsule Loop-subdivided; control mesh 5000 faces; wall-clock medians (7 runs, 15 for the reconstruct) "
           "and process CPU time per call (all threads, including OpenMP's spin-waiting; the control deform "
           "runs on the OpenMP threads). Targets: bind <= 10 s for 170K vertices, per pose (native deform + dense reconstruction) "
-          "<= 20 ms. The untangling column: `untangle_iterations=20` (median of 3); the pairs: "
+          "<= 20 ms. The defaults include the fold guard (issue 33; `fold_guard=0`: without it, the default "
+          "until this run). The untangling column: `untangle_iterations=20` (median of 3); the pairs: "
           "`dgmesh.skeletal.self_intersecting_pairs` over the whole dense mesh. The float32 buffer is what the live update hands to Blender "
           "(`rig.deform(pose, out=np.empty((n, 3), np.float32))`).", "",
           "Live in Blender (`dgmesh.skeletal_bind` operator, then `scene.frame_set` over 20 keyframed frames, median): "
@@ -216,7 +222,8 @@ def speed(quick):
           "`/usr/bin/python3 bench/run.py skeletal_speed`"]
     data = dict(zip(["V", "F", "control_V", "control_F", "bind_s", "control_ms", "reconstruct_f32_ms", "full_nofair_ms",
                      "full_ms", "full_buffer_ms", "full_buffer_f32_ms", "control_cpu_ms", "full_buffer_f32_cpu_ms",
-                     "full_buffer_f32_untangle_ms", "pairs_default", "pairs_untangle"],
+                     "full_buffer_f32_noguard_ms", "full_buffer_f32_untangle_ms", "pairs_default", "pairs_noguard",
+                     "pairs_untangle"],
                     rows[0]))
     data["blender_live"] = live
     return {"markdown": "\n".join(md), "data": data}
@@ -272,6 +279,8 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
         results = {"Blender Armature, linear blend": res[f"lbs{p}"],
                    "Blender Armature, Preserve Volume": res[f"dqs{p}"],
                    "ours (2 fairing steps + projection)": rig.deform(pose),
+                   "ours without the fold guard (fold_guard=0; the default until this run)": rig.deform(
+                       pose, fold_guard=0),
                    "ours with the untangling (untangle_iterations=20; issue 33)": rig.deform(pose, untangle_iterations=20),
                    "ours, thickness following the twist (follow_twist; issue 33)": rig.deform(pose, follow_twist=True),
                    "ours, follow_twist and the untangling": rig.deform(pose, follow_twist=True,

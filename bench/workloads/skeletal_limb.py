@@ -169,11 +169,13 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                    "Blender Armature, Preserve Volume (DQS)": res[f"dqs{p}"],
                    "ours (2 fairing steps + projection)": rig.deform(pose),
                    "ours without the surface bone clearance (bone_clearance=0)": rig.deform(pose, bone_clearance=0),
+                   NO_GUARD: rig.deform(pose, fold_guard=0),
                    CONTACT: rig.deform(pose, contact_slide=3),
                    UNTANGLE: rig.deform(pose, untangle_iterations=20),
                    LINEAR: rig.deform(pose, dual_quaternion=False)}
         if rig_mr is not None:
             results[MULTIRES] = rig_mr.deform(pose)
+            results[MULTIRES_NO_GUARD] = rig_mr.deform(pose, fold_guard=0)
             results[MULTIRES_UNTANGLE] = rig_mr.deform(pose, untangle_iterations=20)
         panels = []
         overlap_in[pname] = results
@@ -262,6 +264,8 @@ LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
 CONTACT = "ours with the joint contact (contact_slide=3; issue 33, off by default)"
 MULTIRES = "ours via multires (5000-face control)"
 UNTANGLE = "ours with the untangling (untangle_iterations=20; issue 33, off by default)"
+NO_GUARD = "ours without the fold guard (fold_guard=0; the default until this run)"
+MULTIRES_NO_GUARD = "ours via multires without the fold guard (fold_guard=0)"
 MULTIRES_UNTANGLE = "ours via multires with the untangling (untangle_iterations=20)"
 PANELS = ("Blender Armature, linear blend", "Blender Armature, Preserve Volume (DQS)", "ours (2 fairing steps + projection)")
 
@@ -313,8 +317,10 @@ def limb_quality(quick):
           "Blender %s. Each mesh is parented to its bone chain with Blender's Parent with Automatic Weights "
           "(bone heat); those vertex groups drive Blender's Armature modifier with linear blend skinning (LBS) "
           "and with Preserve Volume (dual quaternions, DQS) and ours (`SkeletalRig.bind` on the whole mesh, "
-          "2 fairing steps + projection + the surface bone clearance at its default 0.95, also without that "
-          "clearance, and through the multiresolution layer with a 5000-face control mesh). Capsule: r 0.5, length 6, %d vertices, bones (-3.5,0,0)-(0,0,0)-(3.5,0,0), "
+          "2 fairing steps + projection + the surface bone clearance at its default 0.95 + the fold guard at its "
+          "default 50 iterations (issue 33: the faces the thickness steps turn over are smoothed back), also "
+          "without that clearance, without the fold guard, and through the multiresolution layer with a "
+          "5000-face control mesh). Capsule: r 0.5, length 6, %d vertices, bones (-3.5,0,0)-(0,0,0)-(3.5,0,0), "
           "the second bone turned 90 degrees about z (bend) or 180 about its axis x (twist)."
           % (mc["blender"], mc["V"]), ""]
     if "camel leg" in metas:

@@ -128,6 +128,9 @@ void bind_skeletal(pb::module_& m) {
              "untangling: iterations of the local smoothing of the self-intersecting triangles' vertices (0: off)")
       .field("untangle_rings", &SkeletalDeformOptions::untangle_rings,
              "untangling: rings around the crossing triangles' vertices smoothed with them")
+      .field("fold_guard", &SkeletalDeformOptions::fold_guard,
+             "fold guard: iterations of the smoothing of the displacement around faces the thickness steps turned "
+             "over (0: off)")
       .field("follow_twist", &SkeletalDeformOptions::follow_twist,
              "measure the thickness (eq. 6.13) and fit the frames (eq. 6.8) in the twist-free pose, each vertex "
              "carried there by its own blended twist")

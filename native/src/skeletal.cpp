@@ -421,6 +421,8 @@ struct SkeletalRig::Impl {
   std::vector<int> dense_vv_offset, dense_vv_index, dense_faces;
   // Triangle pairs that cross at rest (the untangling leaves them alone), control and dense.
   std::vector<std::pair<int, int>> rest_pairs, dense_rest_pairs;
+  // Fold guard (SkeletalDeformOptions::fold_guard) over the control mesh and the dense one.
+  FoldGuard control_guard, dense_guard;
   MatX3d cot;           // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
   double mu = 0;        // frame regularisation weight (absolute)
@@ -440,6 +442,24 @@ struct SkeletalRig::Impl {
   void posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h, std::vector<Vec3>& v) const;
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
+  // The fold guard's constraint (SkeletalDeformOptions::fold_guard): a smoothed vertex is pushed back
+  // out to `fraction` of its rest distance to the bones of `c` (the untangling's clearance: its own
+  // bones, their parents and children; in a tight bend the smoothing pulls crease flesh towards the
+  // other limb's bone), and keeps its position where the push cannot clear it (deep in a bend's
+  // corner, away from one bone is towards the other) or where skip(i) (on a skeleton edit). None
+  // when the clearance is off.
+  template <class Skip>
+  FoldGuard::Constrain clearance_constraint(const BoneClearance& c, Eigen::Index n, const std::vector<Mat4>& pose,
+                                            double fraction, Skip skip) const {
+    if (!(fraction > 0) || rest.size() < 2 || c.rest.size() != n) return {};
+    auto hv = std::make_shared<std::pair<std::vector<Vec3>, std::vector<Vec3>>>();
+    posed_segments(pose, hv->first, hv->second);
+    return [&c, hv, fraction, skip](int i, Vec3& x) {
+      if (skip(i)) return false;
+      x = c.push(i, x, fraction, hv->first, hv->second);
+      return c.clear(i, x, fraction, hv->first, hv->second);
+    };
+  }
   template <class Out, class Weight>
   void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight,
                      double reach = 1) const;
@@ -478,7 +498,7 @@ struct SkeletalRig::Impl {
                       std::vector<int>* deep = nullptr, const MatX3d* skeleton = nullptr,
                       std::vector<char>* edited = nullptr, Twist* tw = nullptr) const;
   MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt, std::vector<int>* deep,
-                     const Twist* tw) const;
+                     const Twist* tw, MatX3d* bare = nullptr) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
 };
 
@@ -605,6 +625,7 @@ void SkeletalRig::Impl::setup() {
         ++dense_vv_offset[edges[k].first + 1], dense_vv_index[k] = edges[k].second;
       for (int i = 0; i < nd; ++i) dense_vv_offset[i + 1] += dense_vv_offset[i];
       dense_rest_pairs = self_intersecting_pairs(Xd, dense_F, &dense_faces);
+      dense_guard = FoldGuard(dense_F, nd);
     }
     dense_untangle_clearance = union_clearance(Xd, [&](int i, int j) {
       const int f = face[i];
@@ -679,8 +700,9 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
   return R;
 }
 
+// bare (optional): receives the reconstruction before the fairing (eq. 6.11).
 MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
-                                      std::vector<int>* deep, const Twist* tw) const {
+                                      std::vector<int>* deep, const Twist* tw, MatX3d* bare) const {
   const int n = static_cast<int>(S.rows());
   const std::vector<Mat3> R = triangle_rotations(Sd, lin, tw);
   // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
@@ -705,6 +727,7 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
     b.row(i) = acc.transpose();
   }
   MatX3d X = solve(b);
+  if (bare) *bare = X;
   if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, deep, tw);
   return X;
 }
@@ -1218,6 +1241,7 @@ void SkeletalRig::Impl::setup_clearance() {
   surface_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_parent(W.row(i), j); });
   untangle_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_adjacent(W.row(i), j); });
   rest_pairs = self_intersecting_pairs(control.V, control.F);
+  control_guard = FoldGuard(control.F, static_cast<int>(control.V.rows()));
 }
 
 // Whether a point with bone weights w keeps its distance to bone j: j is one of its bones or the
@@ -1700,8 +1724,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     throw MeshError("skeletal deform: fairing_step, projection and bone_clearance must be finite");
   if (!(opt.contact_slide == 0 || opt.contact_slide >= 1))
     throw MeshError("skeletal deform: contact_slide must be 0 (off) or at least 1");
-  if (opt.untangle_iterations < 0 || opt.untangle_rings < 0)
-    throw MeshError("skeletal deform: untangle_iterations and untangle_rings must be >= 0");
+  if (opt.untangle_iterations < 0 || opt.untangle_rings < 0 || opt.fold_guard < 0)
+    throw MeshError("skeletal deform: untangle_iterations, untangle_rings and fold_guard must be >= 0");
   const int n = static_cast<int>(S.rows());
   if (skeleton && (skeleton->rows() != n || !skeleton->allFinite()))
     throw MeshError("skeletal deform: the edited skeleton needs " + std::to_string(n) +
@@ -1730,10 +1754,17 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (opt.method != SkeletalMethod::Variational) return basic(Sd, opt);
   Twist tw;
   const bool has_twist = twist && make_twist(pose, opt, Sd_blend, lin, Sd, tw);
-  MatX3d X = variational(Sd, lin, opt, deep, has_twist ? &tw : nullptr);
+  const bool guard = opt.fold_guard > 0 && opt.fairing_steps > 0;
+  MatX3d bare;
+  MatX3d X = variational(Sd, lin, opt, deep, has_twist ? &tw : nullptr, guard ? &bare : nullptr);
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);
+    if (guard) {
+      const auto skip = [&](int i) { return !edited.empty() && edited[i]; };
+      control_guard.apply(X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited,
+                          clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip));
+    }
     contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
     if (has_twist && multires && opt.untangle_iterations > 0) {
       // follow_twist through the layer: the dense mesh is rebuilt from the control mesh in the
@@ -1784,18 +1815,38 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   Twist tw;
   const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw);
   if (impl.multires) {
-    if (tw.R.empty()) {
-      impl.multires->reconstruct(Xc, out);
-      if (dense_projection(opt)) impl.project_dense(Sd, deep, pose, opt, edited, nullptr, out);
-    } else {
-      // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
+    // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
+    const Twist* twist = tw.R.empty() ? nullptr : &tw;
+    if (twist) {
       MatX3d Xf(Xc.rows(), 3);
       for (Eigen::Index i = 0; i < Xc.rows(); ++i)
         Xf.row(i) = tw.to_free(static_cast<int>(i), row3(Xc, static_cast<int>(i))).transpose();
       impl.multires->reconstruct(Xf, out);
-      SkeletalDeformOptions o = opt;
-      if (!dense_projection(opt)) o.projection = 0, o.bone_clearance = 0;  // the turn alone
-      impl.project_dense(Sd, deep, pose, o, edited, &tw, out);
+    } else {
+      impl.multires->reconstruct(Xc, out);
+    }
+    SkeletalDeformOptions turn = opt;  // the turn alone (follow_twist)
+    turn.projection = 0, turn.bone_clearance = 0;
+    if (dense_projection(opt)) {
+      // The fold guard against the limit surface before the dense step (turned, under follow_twist).
+      const bool guard = opt.fold_guard > 0 && !impl.dense_guard.empty();
+      MatX3d ref = guard ? MatX3d(out.template cast<double>()) : MatX3d();
+      if (guard && twist) impl.project_dense(Sd, deep, pose, turn, edited, twist, ref);
+      impl.project_dense(Sd, deep, pose, opt, edited, twist, out);
+      if (guard) {
+        MatX3d X = out.template cast<double>();
+        const VecXi& face = impl.multires->base_face();
+        const MatX3i& Fc = impl.control.F;
+        const auto on_edit = [&](int i) {
+          return !edited.empty() && (edited[Fc(face[i], 0)] || edited[Fc(face[i], 1)] || edited[Fc(face[i], 2)]);
+        };
+        impl.dense_guard.apply(
+            X, ref, {opt.fold_guard}, nullptr,
+            impl.clearance_constraint(impl.dense_untangle_clearance, X.rows(), pose, opt.bone_clearance, on_edit));
+        out = X.template cast<typename Out::Scalar>();
+      }
+    } else if (twist) {
+      impl.project_dense(Sd, deep, pose, turn, edited, twist, out);
     }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
       impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,

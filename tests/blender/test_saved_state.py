@@ -111,6 +111,7 @@ DAMAGE = {
     "fairing_steps_is_a_text": _set("fairing_steps", "many"),
     "untangle_is_negative": _set("untangle_iterations", -2),
     "untangle_is_a_text": _set("untangle_iterations", "3"),
+    "fold_guard_is_negative": _set("fold_guard", -1),
     "follow_twist_is_a_text": _set("follow_twist", "yes"),
     "method_unknown": _set("method", "MAGIC"),
     "modifiers_lengths_differ": _set("modifiers_viewport", [1, 1, 1]),

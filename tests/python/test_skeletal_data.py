@@ -49,7 +49,7 @@ def test_options_of_bindings_saved_before_them_come_from_the_one_table():
     check_info(_info())
     assert saved_options(_info()) == OLD_OPTIONS
     assert all(type(v) is type(OLD_OPTIONS[k]) for k, v in saved_options(_info()).items())
-    own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), follow_twist=1,
+    own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), fold_guard=20, follow_twist=1,
                skeleton_blend="DUAL_QUATERNION", control_faces=800)
     assert set(own) == set(OLD_OPTIONS)
     check_info(_info(**own))

@@ -168,6 +168,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                           description="Where a bent joint's skin crosses itself, smooth it out and push it back to "
                           "the bones' clearance, up to this many times per pose (thesis eq. 6.15's smoothing term; "
                           "0 = off). Fewer folds in the crease, several times slower per pose")
+    fold_guard: IntProperty(name="Fold Guard", default=DEFORM_DEFAULTS.fold_guard, min=0, max=500,
+                            description="Where the thickness steps turn faces over (the inner crease of a bent "
+                            "joint), smooth their displacement with the neighbours' until none is turned, up to "
+                            "this many times per pose (0 = off). Fewer folds in the crease at a small cost; no "
+                            "search")
     follow_twist: BoolProperty(name="Follow Twist", default=DEFORM_DEFAULTS.follow_twist,
                                description="Keep the thickness in the untwisted pose, each vertex turned by its "
                                "own share of the bones' twist: a twisted flat or off-axis part (a waist, a wrist) "
@@ -232,7 +237,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
         return {'FINISHED'}
 
 
-SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "follow_twist",
+SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "fold_guard", "follow_twist",
             "skeleton_blend")
 
 
@@ -351,7 +356,8 @@ def _attach(context, obj, arm, binding, settings):
         "bones_local": [float(x) for n in names for x in np.array(arm.data.bones[n].matrix_local).ravel()],
         "fairing_steps": settings["fairing_steps"], "method": settings["method"],
         "bone_clearance": settings["bone_clearance"], "skeleton_blend": settings["skeleton_blend"],
-        "untangle_iterations": settings["untangle"], "follow_twist": int(settings["follow_twist"]),
+        "untangle_iterations": settings["untangle"], "fold_guard": settings["fold_guard"],
+        "follow_twist": int(settings["follow_twist"]),
         "control_faces": settings["control_faces"], "target": "HELPER",
         "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
         "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -409,6 +415,7 @@ painting its weights (the binding keeps what it read at bind)"""
         saved = saved_options(info)  # files bound before an option: the values they were bound with
         settings = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]),
                         bone_clearance=saved["bone_clearance"], untangle=saved["untangle_iterations"],
+                        fold_guard=saved["fold_guard"],
                         follow_twist=saved["follow_twist"], skeleton_blend=saved["skeleton_blend"],
                         control_faces=saved["control_faces"])
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.

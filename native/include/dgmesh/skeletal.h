@@ -14,6 +14,7 @@
 #include <memory>
 #include <vector>
 
+#include "dgmesh/fold_guard.h"
 #include "dgmesh/mesh.h"
 #include "dgmesh/multires.h"
 #include "dgmesh/progress.h"
@@ -171,6 +172,18 @@ struct SkeletalDeformOptions {
   // rings 4: capsule of bench skeletal_limb bent 90 degrees, 5 pairs left (2 rings: 49; DQS 46).
   int untangle_iterations = 0;
   int untangle_rings = 4;
+  // Fold guard (variational method, fairing_steps > 0; issue 33), iterations, 0 = off: the
+  // thickness steps (eq. 6.15, the explicit projection, the surface bone clearance) move each
+  // vertex on its own, and where neighbours head for different balls (the concave corner of a bent
+  // joint's union of balls) faces turn over and the surface folds through itself. After them, every
+  // face whose normal points against its normal in the bare reconstruction (eq. 6.11; through the
+  // multiresolution layer, the dense mesh's limit surface before its own step) has its vertices'
+  // and one ring's displacement averaged with their one-ring's (fold_guard.h), each smoothed vertex
+  // pushed back out to bone_clearance of its rest distance to the untangling's bones (its own,
+  // their parents and children; a vertex the push cannot clear keeps its position), until no face
+  // is turned or these iterations run out. No search: the cost follows the turned faces. Rest
+  // pose, rigid motions and poses that turn no face: no move. Measurements: bench/notes/skeletal.md.
+  int fold_guard = 50;
   // Thickness that follows the twist (variational method; issue 33), off by default: each bone's
   // motion relative to its parent is split into a swing and a twist about the bone's own rest axis;
   // dropping the twists gives the twist-free pose, and each skeletal vertex its own twist, the rigid

@@ -1,0 +1,45 @@
+// Fold guard: keeps a displacement of a surface from turning its faces over (issue 33: the
+// skeletal deformation's thickness steps move each vertex towards its own deepest medial ball, and
+// where neighbours head for different balls, in the concave corner of a bent joint's union of balls,
+// faces turn over and the surface folds through itself).
+#pragma once
+#include <functional>
+#include <vector>
+
+#include "dgmesh/types.h"
+
+namespace dgmesh {
+
+struct FoldGuardOptions {
+  int iterations = 20;  // smoothing iterations at most (0 = off)
+  int rings = 1;        // rings around a turned face's vertices that are smoothed with them
+  double weight = 0.5;  // Jacobi weight of the one-ring mean
+};
+
+// The adjacency of a triangle mesh that the guard walks, built once per mesh (a pose needs none).
+class FoldGuard {
+ public:
+  FoldGuard() = default;
+  FoldGuard(const MatX3i& F, int n_vertices);
+
+  // X comes in as X_ref + D, X_ref the surface before the displacement D. A face is turned when its
+  // normal in X points against its normal in X_ref. While some face is turned, the displacement of
+  // its vertices and opt.rings rings around them is averaged with their one-ring's (D_i <-
+  // (1 - weight) D_i + weight mean_j D_j, Jacobi), at most opt.iterations times; only the faces
+  // around the smoothed vertices are checked again. A vertex with `fixed` set (optional, one entry
+  // per vertex) is not moved. `constrain` (optional) gets each smoothed position (vertex i, x) and
+  // may move x (e.g. out to a clearance); when it returns false the vertex keeps its position.
+  // Returns the number of faces still turned (0 when D turns none: X is then unchanged). X and X_ref
+  // must have the mesh's vertex count.
+  using Constrain = std::function<bool(int, Vec3&)>;
+  int apply(MatX3d& X, const MatX3d& X_ref, const FoldGuardOptions& opt = {}, const std::vector<char>* fixed = nullptr,
+            const Constrain& constrain = {}) const;
+
+  bool empty() const { return F_.rows() == 0; }
+
+ private:
+  MatX3i F_;
+  std::vector<int> vv_offset_, vv_index_, vf_offset_, vf_index_;
+};
+
+}  // namespace dgmesh
