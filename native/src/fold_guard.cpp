@@ -8,13 +8,13 @@ namespace dgmesh {
 
 namespace {
 
-Vec3 face_normal(const MatX3d& X, const MatX3i& F, int f) {
-  const Vec3 a = row3(X, F(f, 0));
-  return (row3(X, F(f, 1)) - a).cross(row3(X, F(f, 2)) - a);
-}
+template <class Mat>
+using Vec3Of = Eigen::Matrix<typename Mat::Scalar, 3, 1>;
 
-bool turned(const MatX3d& X, const MatX3d& X_ref, const MatX3i& F, int f) {
-  return face_normal(X, F, f).dot(face_normal(X_ref, F, f)) < 0;
+template <class Mat>
+Vec3Of<Mat> face_normal(const Mat& X, const MatX3i& F, int f) {
+  const Vec3Of<Mat> a = X.row(F(f, 0)).transpose();
+  return (X.row(F(f, 1)).transpose() - a).cross(X.row(F(f, 2)).transpose() - a);
 }
 
 // CSR from (key, value) pairs, keys in [0, n).
@@ -26,6 +26,15 @@ void to_csr(std::vector<std::pair<int, int>>& pairs, int n, std::vector<int>& of
   for (size_t k = 0; k < pairs.size(); ++k) ++offset[pairs[k].first + 1], index[k] = pairs[k].second;
   for (int i = 0; i < n; ++i) offset[i + 1] += offset[i];
 }
+
+// Per-thread scratch of apply, kept between calls: a pose of a 178K-vertex mesh allocated (and
+// page-faulted) a few megabytes per call otherwise.
+template <class Scalar>
+struct Scratch {
+  std::vector<int> vstamp, fstamp, region, front, next, faces;
+  std::vector<char> flag;
+  Eigen::Matrix<Scalar, Eigen::Dynamic, 3, Eigen::RowMajor> D;
+};
 
 }  // namespace
 
@@ -42,20 +51,39 @@ FoldGuard::FoldGuard(const MatX3i& F, int n_vertices) : F_(F) {
   to_csr(vf, n_vertices, vf_offset_, vf_index_);
 }
 
-int FoldGuard::apply(MatX3d& X, const MatX3d& X_ref, const FoldGuardOptions& opt, const std::vector<char>* fixed,
-                     const Constrain& constrain) const {
-  const int nf = static_cast<int>(F_.rows());
-  std::vector<int> faces;
-  {
-    std::vector<char> flag(nf, 0);
-#pragma omp parallel for schedule(static) if (nf >= 20000)
-    for (int f = 0; f < nf; ++f) flag[f] = turned(X, X_ref, F_, f);
-    for (int f = 0; f < nf; ++f)
-      if (flag[f]) faces.push_back(f);
+int FoldGuard::apply(Eigen::Ref<MatX3d> X, const MatX3d& X_ref, const FoldGuardOptions& opt,
+                     const std::vector<char>* fixed, const Constrain& constrain, const std::vector<int>* faces) const {
+  return apply_<MatX3d>(X, X_ref, opt, fixed, constrain, faces);
+}
+
+int FoldGuard::apply(Eigen::Ref<MatX3f> X, const MatX3f& X_ref, const FoldGuardOptions& opt,
+                     const std::vector<char>* fixed, const Constrain& constrain, const std::vector<int>* faces) const {
+  return apply_<MatX3f>(X, X_ref, opt, fixed, constrain, faces);
+}
+
+template <class Mat>
+int FoldGuard::apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOptions& opt, const std::vector<char>* fixed,
+                      const Constrain& constrain, const std::vector<int>* first) const {
+  using Scalar = typename Mat::Scalar;
+  using V3 = Vec3Of<Mat>;
+  static thread_local Scratch<Scalar> s;
+  const int nf = static_cast<int>(F_.rows()), n = static_cast<int>(X.rows());
+  s.flag.assign(nf, 0);
+  char* flag = s.flag.data();  // (the OpenMP threads have scratch of their own)
+  const int m = first ? static_cast<int>(first->size()) : nf;
+#pragma omp parallel for schedule(static) if (m >= 20000)
+  for (int k = 0; k < m; ++k) {
+    const int f = first ? (*first)[k] : k;
+    flag[f] = face_normal(X, F_, f).dot(face_normal(X_ref, F_, f)) < 0;
   }
-  const int n = static_cast<int>(X.rows());
-  std::vector<int> vstamp(faces.empty() ? 0 : n, -1), fstamp(faces.empty() ? 0 : nf, -1), region, front, next;
-  MatX3d D;
+  auto& faces = s.faces;
+  faces.clear();
+  for (int f = 0; f < nf; ++f)
+    if (flag[f]) faces.push_back(f);
+  if (faces.empty() || opt.iterations <= 0) return static_cast<int>(faces.size());
+  s.vstamp.assign(n, -1), s.fstamp.assign(nf, -1);
+  auto &vstamp = s.vstamp, &fstamp = s.fstamp, &region = s.region, &front = s.front, &next = s.next;
+  auto& D = s.D;
   for (int it = 0; it < opt.iterations && !faces.empty(); ++it) {
     front.clear();
     for (int f : faces)
@@ -74,24 +102,24 @@ int FoldGuard::apply(MatX3d& X, const MatX3d& X_ref, const FoldGuardOptions& opt
     D.resize(nr, 3);
     for (int k = 0; k < nr; ++k) {
       const int i = region[k], k0 = vv_offset_[i], k1 = vv_offset_[i + 1];
-      Vec3 d = row3(X, i) - row3(X_ref, i);
+      V3 d = (X.row(i) - X_ref.row(i)).transpose();
       if (k1 > k0 && !(fixed && (*fixed)[i])) {
-        Vec3 mean = Vec3::Zero();
-        for (int q = k0; q < k1; ++q) mean += row3(X, vv_index_[q]) - row3(X_ref, vv_index_[q]);
-        d += opt.weight * (mean / double(k1 - k0) - d);
+        V3 mean = V3::Zero();
+        for (int q = k0; q < k1; ++q) mean += (X.row(vv_index_[q]) - X_ref.row(vv_index_[q])).transpose();
+        d += Scalar(opt.weight) * (mean / Scalar(k1 - k0) - d);
       }
       D.row(k) = d.transpose();
     }
     for (int k = 0; k < nr; ++k) {
-      Vec3 x = row3(X_ref, region[k]) + D.row(k).transpose();
-      if (!constrain || constrain(region[k], x)) X.row(region[k]) = x.transpose();
+      Vec3 x = (X_ref.row(region[k]) + D.row(k)).transpose().template cast<double>();
+      if (!constrain || constrain(region[k], x)) X.row(region[k]) = x.transpose().template cast<Scalar>();
     }
     faces.clear();
     for (int i : region)
       for (int k = vf_offset_[i]; k < vf_offset_[i + 1]; ++k)
         if (const int f = vf_index_[k]; fstamp[f] != it) {
           fstamp[f] = it;
-          if (turned(X, X_ref, F_, f)) faces.push_back(f);
+          if (face_normal(X, F_, f).dot(face_normal(X_ref, F_, f)) < 0) faces.push_back(f);
         }
   }
   return static_cast<int>(faces.size());

@@ -1830,20 +1830,20 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     if (dense_projection(opt)) {
       // The fold guard against the limit surface before the dense step (turned, under follow_twist).
       const bool guard = opt.fold_guard > 0 && !impl.dense_guard.empty();
-      MatX3d ref = guard ? MatX3d(out.template cast<double>()) : MatX3d();
+      using Plain = Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor>;
+      Plain ref = guard ? Plain(out) : Plain();
       if (guard && twist) impl.project_dense(Sd, deep, pose, turn, edited, twist, ref);
       impl.project_dense(Sd, deep, pose, opt, edited, twist, out);
       if (guard) {
-        MatX3d X = out.template cast<double>();
         const VecXi& face = impl.multires->base_face();
         const MatX3i& Fc = impl.control.F;
         const auto on_edit = [&](int i) {
           return !edited.empty() && (edited[Fc(face[i], 0)] || edited[Fc(face[i], 1)] || edited[Fc(face[i], 2)]);
         };
         impl.dense_guard.apply(
-            X, ref, {opt.fold_guard}, nullptr,
-            impl.clearance_constraint(impl.dense_untangle_clearance, X.rows(), pose, opt.bone_clearance, on_edit));
-        out = X.template cast<typename Out::Scalar>();
+            out, ref, {opt.fold_guard}, nullptr,
+            impl.clearance_constraint(impl.dense_untangle_clearance, out.rows(), pose, opt.bone_clearance, on_edit),
+            edited.empty() ? &impl.dense_faces : nullptr);  // (an edit moves "rigid" faces too)
       }
     } else if (twist) {
       impl.project_dense(Sd, deep, pose, turn, edited, twist, out);

@@ -27,17 +27,27 @@ class FoldGuard {
   // its vertices and opt.rings rings around them is averaged with their one-ring's (D_i <-
   // (1 - weight) D_i + weight mean_j D_j, Jacobi), at most opt.iterations times; only the faces
   // around the smoothed vertices are checked again. A vertex with `fixed` set (optional, one entry
-  // per vertex) is not moved. `constrain` (optional) gets each smoothed position (vertex i, x) and
+  // per vertex) is not moved. `faces` (optional): only these faces are checked first (the
+  // others count as not turned, e.g. where D is known to be a rigid motion); the faces around the
+  // smoothed vertices are all checked again. `constrain` (optional) gets each smoothed position (vertex i, x) and
   // may move x (e.g. out to a clearance); when it returns false the vertex keeps its position.
   // Returns the number of faces still turned (0 when D turns none: X is then unchanged). X and X_ref
-  // must have the mesh's vertex count.
+  // must have the mesh's vertex count; single precision (the live update's buffer) is computed in
+  // single precision. Safe to call from several threads at once.
   using Constrain = std::function<bool(int, Vec3&)>;
-  int apply(MatX3d& X, const MatX3d& X_ref, const FoldGuardOptions& opt = {}, const std::vector<char>* fixed = nullptr,
-            const Constrain& constrain = {}) const;
+  int apply(Eigen::Ref<MatX3d> X, const MatX3d& X_ref, const FoldGuardOptions& opt = {},
+            const std::vector<char>* fixed = nullptr, const Constrain& constrain = {},
+            const std::vector<int>* faces = nullptr) const;
+  int apply(Eigen::Ref<MatX3f> X, const MatX3f& X_ref, const FoldGuardOptions& opt = {},
+            const std::vector<char>* fixed = nullptr, const Constrain& constrain = {},
+            const std::vector<int>* faces = nullptr) const;
 
   bool empty() const { return F_.rows() == 0; }
 
  private:
+  template <class Mat>
+  int apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOptions& opt, const std::vector<char>* fixed,
+             const Constrain& constrain, const std::vector<int>* first) const;
   MatX3i F_;
   std::vector<int> vv_offset_, vv_index_, vf_offset_, vf_index_;
 };

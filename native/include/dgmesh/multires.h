@@ -29,7 +29,6 @@
 namespace dgmesh {
 
 using MatX2d = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
-using MatX3f = Eigen::Matrix<float, Eigen::Dynamic, 3, Eigen::RowMajor>;
 
 struct MultiresOptions {
   int control_faces = 5000;  // target face count of the decimated control mesh
