@@ -35,6 +35,21 @@ def median_time(fn, repeats=5, warmup=1):
     return statistics.median(times), result
 
 
+def interleaved_medians(fns, repeats=15, warmup=1):
+    """Median wall times (seconds) of each of `fns`, called in turn `repeats` times (A/B interleaved:
+    a shared machine's load changes alike for all of them)."""
+    for fn in fns:
+        for _ in range(warmup):
+            fn()
+    times = [[] for _ in fns]
+    for _ in range(repeats):
+        for fn, t in zip(fns, times):
+            t0 = time.perf_counter()
+            fn()
+            t.append(time.perf_counter() - t0)
+    return [statistics.median(t) for t in times]
+
+
 def cgal_dir():
     """Folder of Debian's CGAL data meshes, unpacked on first use (never committed)."""
     out = subprocess.run(["bash", str(ROOT / "scripts" / "cgal_data.sh")], check=True,
