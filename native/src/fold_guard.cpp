@@ -52,18 +52,20 @@ FoldGuard::FoldGuard(const MatX3i& F, int n_vertices) : F_(F) {
 }
 
 int FoldGuard::apply(Eigen::Ref<MatX3d> X, const MatX3d& X_ref, const FoldGuardOptions& opt,
-                     const std::vector<char>* fixed, const Constrain& constrain, const std::vector<int>* faces) const {
-  return apply_<MatX3d>(X, X_ref, opt, fixed, constrain, faces);
+                     const std::vector<char>* fixed, const Constrain& constrain, const std::vector<int>* faces,
+                     const Trusted& trusted) const {
+  return apply_<MatX3d>(X, X_ref, opt, fixed, constrain, faces, trusted);
 }
 
 int FoldGuard::apply(Eigen::Ref<MatX3f> X, const MatX3f& X_ref, const FoldGuardOptions& opt,
-                     const std::vector<char>* fixed, const Constrain& constrain, const std::vector<int>* faces) const {
-  return apply_<MatX3f>(X, X_ref, opt, fixed, constrain, faces);
+                     const std::vector<char>* fixed, const Constrain& constrain, const std::vector<int>* faces,
+                     const Trusted& trusted) const {
+  return apply_<MatX3f>(X, X_ref, opt, fixed, constrain, faces, trusted);
 }
 
 template <class Mat>
 int FoldGuard::apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOptions& opt, const std::vector<char>* fixed,
-                      const Constrain& constrain, const std::vector<int>* first) const {
+                      const Constrain& constrain, const std::vector<int>* first, const Trusted& trusted) const {
   using Scalar = typename Mat::Scalar;
   using V3 = Vec3Of<Mat>;
   static thread_local Scratch<Scalar> s;
@@ -79,7 +81,7 @@ int FoldGuard::apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOption
   auto& faces = s.faces;
   faces.clear();
   for (int f = 0; f < nf; ++f)
-    if (flag[f]) faces.push_back(f);
+    if (flag[f] && (!trusted || trusted(f))) faces.push_back(f);
   if (faces.empty() || opt.iterations <= 0) return static_cast<int>(faces.size());
   s.vstamp.assign(n, -1), s.fstamp.assign(nf, -1);
   auto &vstamp = s.vstamp, &fstamp = s.fstamp, &region = s.region, &front = s.front, &next = s.next;
@@ -119,7 +121,7 @@ int FoldGuard::apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOption
       for (int k = vf_offset_[i]; k < vf_offset_[i + 1]; ++k)
         if (const int f = vf_index_[k]; fstamp[f] != it) {
           fstamp[f] = it;
-          if (face_normal(X, F_, f).dot(face_normal(X_ref, F_, f)) < 0) faces.push_back(f);
+          if (face_normal(X, F_, f).dot(face_normal(X_ref, F_, f)) < 0 && (!trusted || trusted(f))) faces.push_back(f);
         }
   }
   return static_cast<int>(faces.size());

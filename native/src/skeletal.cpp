@@ -460,6 +460,34 @@ struct SkeletalRig::Impl {
       return c.clear(i, x, fraction, hv->first, hv->second);
     };
   }
+  // The fold guard's trust in its reference (SkeletalDeformOptions::fold_guard): face f (corners
+  // F.row(f) of the rest positions V0, the reference positions `ref`) is trusted when its normal in
+  // `ref` does not point against its rest normal turned by the pose's bone rotations blended with
+  // weights(f) (a bone weight row; normalised quaternions, signs aligned). Where the reference
+  // itself folds (a narrow blend's bare reconstruction in a tight bend) the thickness steps unfold
+  // it; smoothing their displacement there would fold it again.
+  template <class Ref, class Weights>
+  FoldGuard::Trusted reference_trust(const MatX3i& F, const MatX3d& V0, const Ref& ref, const std::vector<Mat4>& pose,
+                                     Weights weights) const {
+    auto q = std::make_shared<std::vector<Eigen::Quaterniond>>();
+    for (size_t j = 0; j < rest.size(); ++j)
+      q->emplace_back(nearest_rotation((pose[j] * rest[j].inverse()).topLeftCorner<3, 3>()));
+    return [&F, &V0, &ref, q, weights](int f) {
+      const Eigen::RowVectorXd w = weights(f);
+      Eigen::Index top = 0;
+      w.maxCoeff(&top);
+      Eigen::Vector4d b = Eigen::Vector4d::Zero();
+      for (Eigen::Index j = 0; j < w.size(); ++j)
+        b += w[j] * ((*q)[j].coeffs().dot((*q)[top].coeffs()) < 0 ? -1.0 : 1.0) * (*q)[j].coeffs();
+      const Eigen::Quaterniond r = Eigen::Quaterniond(b).normalized();
+      const auto normal = [&](const auto& P) {
+        const Vec3 a = P.row(F(f, 0)).transpose().template cast<double>();
+        return Vec3((Vec3(P.row(F(f, 1)).transpose().template cast<double>()) - a)
+                        .cross(Vec3(P.row(F(f, 2)).transpose().template cast<double>()) - a));
+      };
+      return !(normal(ref).dot(r * normal(V0)) < 0);
+    };
+  }
   template <class Out, class Weight>
   void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight,
                      double reach = 1) const;
@@ -1762,8 +1790,12 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     clear_surface(X, pose, opt.bone_clearance, edited);
     if (guard) {
       const auto skip = [&](int i) { return !edited.empty() && edited[i]; };
-      control_guard.apply(X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited,
-                          clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip));
+      control_guard.apply(
+          X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited,
+          clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip), nullptr,
+          reference_trust(control.F, control.V, bare, pose, [&](int f) {
+            return Eigen::RowVectorXd(W.row(control.F(f, 0)) + W.row(control.F(f, 1)) + W.row(control.F(f, 2)));
+          }));
     }
     contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
     if (has_twist && multires && opt.untangle_iterations > 0) {
@@ -1843,7 +1875,11 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
         impl.dense_guard.apply(
             out, ref, {opt.fold_guard}, nullptr,
             impl.clearance_constraint(impl.dense_untangle_clearance, out.rows(), pose, opt.bone_clearance, on_edit),
-            edited.empty() ? &impl.dense_faces : nullptr);  // (an edit moves "rigid" faces too)
+            edited.empty() ? &impl.dense_faces : nullptr,  // (an edit moves "rigid" faces too)
+            impl.reference_trust(impl.dense_F, impl.dense_rest, ref, pose, [&](int f) {
+              const int b = face[impl.dense_F(f, 0)];
+              return Eigen::RowVectorXd(impl.W.row(Fc(b, 0)) + impl.W.row(Fc(b, 1)) + impl.W.row(Fc(b, 2)));
+            }));
       }
     } else if (twist) {
       impl.project_dense(Sd, deep, pose, turn, edited, twist, out);

@@ -29,25 +29,28 @@ class FoldGuard {
   // around the smoothed vertices are checked again. A vertex with `fixed` set (optional, one entry
   // per vertex) is not moved. `faces` (optional): only these faces are checked first (the
   // others count as not turned, e.g. where D is known to be a rigid motion); the faces around the
-  // smoothed vertices are all checked again. `constrain` (optional) gets each smoothed position (vertex i, x) and
+  // smoothed vertices are all checked again. `trusted` (optional) is asked about each face found
+  // turned: when it returns false the face is left alone (its orientation in X_ref itself is wrong,
+  // e.g. X_ref folds there and D unfolds it). `constrain` (optional) gets each smoothed position (vertex i, x) and
   // may move x (e.g. out to a clearance); when it returns false the vertex keeps its position.
   // Returns the number of faces still turned (0 when D turns none: X is then unchanged). X and X_ref
   // must have the mesh's vertex count; single precision (the live update's buffer) is computed in
   // single precision. Safe to call from several threads at once.
   using Constrain = std::function<bool(int, Vec3&)>;
+  using Trusted = std::function<bool(int)>;
   int apply(Eigen::Ref<MatX3d> X, const MatX3d& X_ref, const FoldGuardOptions& opt = {},
             const std::vector<char>* fixed = nullptr, const Constrain& constrain = {},
-            const std::vector<int>* faces = nullptr) const;
+            const std::vector<int>* faces = nullptr, const Trusted& trusted = {}) const;
   int apply(Eigen::Ref<MatX3f> X, const MatX3f& X_ref, const FoldGuardOptions& opt = {},
             const std::vector<char>* fixed = nullptr, const Constrain& constrain = {},
-            const std::vector<int>* faces = nullptr) const;
+            const std::vector<int>* faces = nullptr, const Trusted& trusted = {}) const;
 
   bool empty() const { return F_.rows() == 0; }
 
  private:
   template <class Mat>
   int apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOptions& opt, const std::vector<char>* fixed,
-             const Constrain& constrain, const std::vector<int>* first) const;
+             const Constrain& constrain, const std::vector<int>* first, const Trusted& trusted) const;
   MatX3i F_;
   std::vector<int> vv_offset_, vv_index_, vf_offset_, vf_index_;
 };
