@@ -149,7 +149,8 @@ def quality(quick):
           "with the same weights (not Blender's modifier run). Ours binds the whole mesh (control_faces > F) "
           "except the 'via multires' row (decimated 5000-face control mesh, the speed benchmark's setting). DQS is "
           "exact for a pure twist of a straight tube (a rigid turn about the axis), so its twist error sits at the "
-          "rest floor.", "",
+          "rest floor. Every 'ours' row with fairing includes the fold guard (issue 33, `fold_guard` 50, the default "
+          "since session 26; it smooths the faces the thickness steps turn over).", "",
           table(["weights", "pose", "method", "sum f^2", "sum (f-f_rest)^2", "min ratio", "mean ratio", "volume"],
                 rows), "",
           "`/usr/bin/python3 bench/run.py skeletal_quality`"]
