@@ -76,6 +76,25 @@ TEST(FoldGuard, SmoothsAFoldAwayAndLeavesTheRestAlone) {
       EXPECT_GE(g.V(i, 0), 0.45);
     }
   EXPECT_GT(changed, 0);
+  // Faces whose reference is not trusted are left alone: none trusted, nothing moves; the left half
+  // trusted, only vertices near the left half's turned faces move.
+  MatX3d T = folded;
+  EXPECT_EQ(guard.apply(T, g.V, {200}, nullptr, {}, nullptr, [](int) { return false; }), 0);
+  EXPECT_EQ(T, folded);
+  const auto left = [&](int f) {
+    return g.V(g.F(f, 0), 0) < 0.5 && g.V(g.F(f, 1), 0) < 0.5 && g.V(g.F(f, 2), 0) < 0.5;
+  };
+  guard.apply(T, g.V, {200}, nullptr, {}, nullptr, left);
+  int turned_left = 0, turned_right = 0;
+  for (int f = 0; f < g.F.rows(); ++f) {
+    const auto n = [&](const MatX3d& P) {
+      const Vec3 a = row3(P, g.F(f, 0));
+      return Vec3((row3(P, g.F(f, 1)) - a).cross(row3(P, g.F(f, 2)) - a));
+    };
+    if (n(T).dot(n(g.V)) < 0) (left(f) ? turned_left : turned_right) += 1;
+  }
+  EXPECT_EQ(turned_left, 0);
+  EXPECT_GT(turned_right, 0);
   // Fixed vertices keep their displacement.
   std::vector<char> fixed(g.V.rows(), 1);
   MatX3d Z = folded;
