@@ -86,7 +86,8 @@ int FoldGuard::apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOption
   s.vstamp.assign(n, -1), s.fstamp.assign(nf, -1);
   auto &vstamp = s.vstamp, &fstamp = s.fstamp, &region = s.region, &front = s.front, &next = s.next;
   auto& D = s.D;
-  for (int it = 0; it < opt.iterations && !faces.empty(); ++it) {
+  long long visits = 0;
+  for (int it = 0; it < opt.iterations && !faces.empty() && visits < opt.max_visits; ++it) {
     front.clear();
     for (int f : faces)
       for (int c = 0; c < 3; ++c)
@@ -101,6 +102,7 @@ int FoldGuard::apply_(Eigen::Ref<Mat> X, const Mat& X_ref, const FoldGuardOption
       front.swap(next);
     }
     const int nr = static_cast<int>(region.size());
+    visits += nr;
     D.resize(nr, 3);
     for (int k = 0; k < nr; ++k) {
       const int i = region[k], k0 = vv_offset_[i], k1 = vv_offset_[i + 1];

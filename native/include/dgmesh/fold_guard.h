@@ -14,6 +14,10 @@ struct FoldGuardOptions {
   int iterations = 20;  // smoothing iterations at most (0 = off)
   int rings = 1;        // rings around a turned face's vertices that are smoothed with them
   double weight = 0.5;  // Jacobi weight of the one-ring mean
+  // Work bound: the iterations stop once this many vertices have been smoothed, counted over all
+  // iterations (a tight bend of a dense mesh turns thousands of faces: its cost is bounded, about
+  // 20 ms for a 178K-vertex mesh, see bench/notes/skeletal.md).
+  int max_visits = 100000;
 };
 
 // The adjacency of a triangle mesh that the guard walks, built once per mesh (a pose needs none).
