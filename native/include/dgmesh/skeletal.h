@@ -181,10 +181,11 @@ struct SkeletalDeformOptions {
   // and one ring's displacement averaged with their one-ring's (fold_guard.h), each smoothed vertex
   // pushed back out to bone_clearance of its rest distance to the untangling's bones (its own,
   // their parents and children; a vertex the push cannot clear keeps its position), until no face
-  // is turned or these iterations run out. A face whose reference normal itself points against its
-  // rest normal turned by its blended bone rotation (the reference folds there; the steps unfold
-  // it) is left alone. No search: the cost follows the turned faces. Rest
-  // pose, rigid motions and poses that turn no face: no move. Measurements: bench/notes/skeletal.md.
+  // is turned or these iterations (or fold_guard.h's work bound) run out. A face whose reference
+  // normal itself points against its rest normal turned by its blended bone rotation (the
+  // reference folds there; the steps unfold it) is left alone. No search: the cost follows the
+  // turned faces. Rest pose, rigid motions and poses that turn no face: no move. Measurements:
+  // bench/notes/skeletal.md.
   int fold_guard = 50;
   // Thickness that follows the twist (variational method; issue 33), off by default: each bone's
   // motion relative to its parent is split into a swing and a twist about the bone's own rest axis;
