@@ -746,8 +746,9 @@ def test_untangle_a_135_degree_bend_below_dqs(control_faces):
     dqs = len(_crossing_pairs(skeletal_subspace_deform(V, whole.weights, REST, pose, dual_quaternion=True), F)[0])
     X = rig.deform(pose, untangle_iterations=20)
     assert dqs > 100  # the crease crosses itself under DQS too
-    # The untangling alone, and after the fold guard (the default; Debian 12: 22 whole mesh, 0 through
-    # the layer: the guard's smoothing leaves the whole mesh's untangling a different start).
+    # The untangling alone, and after the fold guard (the default; Debian 12: 0 pairs both ways, whole
+    # mesh and through the layer; a version of the guard without its trust rule left 22 on the whole
+    # mesh, hence the looser bound for the default).
     assert len(_crossing_pairs(rig.deform(pose, untangle_iterations=20, fold_guard=0), F)[0]) < 0.1 * dqs
     assert len(_crossing_pairs(X, F)[0]) < 0.15 * dqs
     ok = bone_dist(V, REST) > 1e-9
