@@ -100,14 +100,30 @@ make_root() {
 
 # Copies the working tree (tracked and untracked files git does not ignore) into the root's
 # /src/dgmesh, keeping its build folder and data cache, and the portable package's zips (dist/,
-# built on this machine by scripts/package.sh) for the lane's install test.
+# built on this machine by scripts/package.sh) for the lane's install test. The copies keep their
+# modification times, so the build folder can hold an object newer than an edit made while an
+# earlier copy was building (a run stopped mid-build, or edits during a run) and skip it: the files
+# whose content differs from the last copy's (checksums kept in the build folder) get the current
+# time instead, and are rebuilt.
 copy_tree() {
-  local dest=$1/src/dgmesh
+  local dest=$1/src/dgmesh list sums
   mkdir -p "$dest"
   find "$dest" -mindepth 1 -maxdepth 1 ! -name build ! -name .cache -exec rm -rf {} +
+  list=$(mktemp)
   (cd "$root" && git ls-files -z --cached --others --exclude-standard |
-    xargs -0 -r sh -c 'for f; do [ -e "$f" ] && printf "%s\0" "$f"; done' sh |
-    tar --null -T - -cf -) | tar -xf - -C "$dest"
+    xargs -0 -r sh -c 'for f; do [ -e "$f" ] && printf "%s\0" "$f"; done' sh) >"$list"
+  (cd "$root" && tar --null -T "$list" -cf -) | tar -xf - -C "$dest"
+  if [ -d "$dest/build" ]; then
+    sums=$dest/build/.copied.sha1
+    (cd "$dest" && xargs -0 -r sha1sum -- <"$list") >"$sums.new"
+    if [ -f "$sums" ]; then
+      sort "$sums" | comm -13 - <(sort "$sums.new") | cut -c43- | (cd "$dest" && xargs -r -d '\n' touch --)
+    else
+      (cd "$dest" && xargs -0 -r touch -- <"$list")
+    fi
+    mv "$sums.new" "$sums"
+  fi
+  rm -f "$list"
   if compgen -G "$root/dist/*-linux-x64*.zip" >/dev/null; then
     mkdir -p "$dest/dist" && cp "$root"/dist/*-linux-x64*.zip "$dest/dist/"
   fi
