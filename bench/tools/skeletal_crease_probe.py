@@ -96,6 +96,20 @@ HEADS = np.array([[-3.5, 0, 0], [0, 0, 0.0]])
 TAILS = np.array([[0, 0, 0], [3.5, 0, 0.0]])
 
 
+def probe_rigs(V, F):
+    """The capsule bound with the rig's Gaussian weights, whole and through a 5000-face control mesh
+    (the untangle, twist and fold guard probes)."""
+    return {path: dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS, control_faces=cf)
+            for path, cf in (("whole", len(F) + 1), ("multires", 5000))}
+
+
+def probe_poses():
+    """Bends of 45 / 90 / 135 degrees and twists of 90 / 180 of the second bone: name -> rotation."""
+    poses = {f"bend {a}": rot((0, 0, 1), np.radians(a)) for a in (45, 90, 135)}
+    poses.update({f"twist {a}": rot((1, 0, 0), np.radians(a)) for a in (90, 180)})
+    return poses
+
+
 def bone_ratio_min(X, V, pose):
     def seg(P, a, b):
         ab = b - a

@@ -62,16 +62,11 @@ def dense():
 
 
 def capsule_probe():
-    from skeletal_crease_probe import HEADS, REST, TAILS, bone_ratio_min, rot
+    from skeletal_crease_probe import REST, bone_ratio_min, probe_poses, probe_rigs
     V, F = capsule(0.5, 6.0, 64, 10, 128)
-    rigs = {"whole": dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS,
-                                             control_faces=len(F) + 1),
-            "multires": dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS,
-                                                control_faces=5000)}
+    rigs = probe_rigs(V, F)
     f0 = dgmesh.union_of_balls_distance(V, rigs["whole"].skeleton_vertices, rigs["whole"].radii)
-    poses = {f"bend {a}": rot((0, 0, 1), np.radians(a)) for a in (45, 90, 135)}
-    poses.update({f"twist {a}": rot((1, 0, 0), np.radians(a)) for a in (90, 180)})
-    for name, R in poses.items():
+    for name, R in probe_poses().items():
         pose = np.array([REST[0], R @ REST[1]])
         Sd = rigs["whole"].skeleton_pose(pose)
         ratio = lambda X: bone_ratio_min(X, V, pose)  # noqa: E731

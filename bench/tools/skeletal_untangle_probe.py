@@ -13,20 +13,14 @@ from pathlib import Path
 import numpy as np
 
 sys.path[:0] = [str(Path(__file__).resolve().parents[2] / "addon"), str(Path(__file__).resolve().parent)]
-import dgmesh  # noqa: E402
 from dgmesh.skeletal import capsule, skeletal_subspace_deform, self_intersecting_pairs  # noqa: E402
-from skeletal_crease_probe import REST, HEADS, TAILS, rot, bone_ratio_min  # noqa: E402
+from skeletal_crease_probe import REST, bone_ratio_min, probe_poses, probe_rigs  # noqa: E402
 
 
 def main():
     V, F = capsule(0.5, 6.0, 64, 10, 128)
-    rigs = {"whole": dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS,
-                                             control_faces=len(F) + 1),
-            "multires": dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS,
-                                                control_faces=5000)}
-    poses = {f"bend {a}": rot((0, 0, 1), np.radians(a)) for a in (45, 90, 135)}
-    poses.update({f"twist {a}": rot((1, 0, 0), np.radians(a)) for a in (90, 180)})
-    for name, R in poses.items():
+    rigs = probe_rigs(V, F)
+    for name, R in probe_poses().items():
         pose = np.array([REST[0], R @ REST[1]])
         X = skeletal_subspace_deform(V, rigs["whole"].weights, REST, pose, dual_quaternion=True)
         print("%-9s DQS %5d (%.3f)" % (name, len(self_intersecting_pairs(X, F)), bone_ratio_min(X, V, pose)), end="")
