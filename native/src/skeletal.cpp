@@ -21,6 +21,7 @@
 
 namespace dgmesh {
 
+using detail::blended_rotation;
 using detail::dual_quaternion_motion;
 using detail::Mat3;
 using detail::MatX9d;
@@ -463,7 +464,7 @@ struct SkeletalRig::Impl {
   // The fold guard's trust in its reference (SkeletalDeformOptions::fold_guard): face f (corners
   // F.row(f) of the rest positions V0, the reference positions `ref`) is trusted when its normal in
   // `ref` does not point against its rest normal turned by the pose's bone rotations blended with
-  // weights(f) (a bone weight row; normalised quaternions, signs aligned). Where the reference
+  // weights(f) (a bone weight row, see detail::blended_rotation). Where the reference
   // itself folds (a narrow blend's bare reconstruction in a tight bend) the thickness steps unfold
   // it; smoothing their displacement there would fold it again.
   template <class Ref, class Weights>
@@ -473,13 +474,7 @@ struct SkeletalRig::Impl {
     for (size_t j = 0; j < rest.size(); ++j)
       q->emplace_back(nearest_rotation((pose[j] * rest[j].inverse()).topLeftCorner<3, 3>()));
     return [&F, &V0, &ref, q, weights](int f) {
-      const Eigen::RowVectorXd w = weights(f);
-      Eigen::Index top = 0;
-      w.maxCoeff(&top);
-      Eigen::Vector4d b = Eigen::Vector4d::Zero();
-      for (Eigen::Index j = 0; j < w.size(); ++j)
-        b += w[j] * ((*q)[j].coeffs().dot((*q)[top].coeffs()) < 0 ? -1.0 : 1.0) * (*q)[j].coeffs();
-      const Eigen::Quaterniond r = Eigen::Quaterniond(b).normalized();
+      const Mat3 r = blended_rotation(weights(f), *q);
       const auto normal = [&](const auto& P) {
         const Vec3 a = P.row(F(f, 0)).transpose().template cast<double>();
         return Vec3((Vec3(P.row(F(f, 1)).transpose().template cast<double>()) - a)

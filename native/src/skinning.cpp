@@ -31,6 +31,19 @@ bool dual_quaternion_motion(const Eigen::Vector4d& r, const Eigen::Vector4d& d, 
   return true;
 }
 
+Mat3 blended_rotation(const Eigen::Ref<const Eigen::RowVectorXd>& w, const std::vector<Eigen::Quaterniond>& q) {
+  Eigen::Vector4d acc = Eigen::Vector4d::Zero();
+  Eigen::Index ref = -1;
+  for (Eigen::Index j = 0; j < w.size(); ++j)
+    if (w[j] != 0 && (ref < 0 || w[j] > w[ref])) ref = j;
+  for (Eigen::Index j = 0; j < w.size(); ++j) {
+    if (w[j] == 0) continue;
+    const double sgn = q[j].coeffs().dot(q[ref].coeffs()) < 0 ? -1.0 : 1.0;
+    acc += sgn * w[j] * q[j].coeffs();
+  }
+  return acc.norm() > 1e-12 ? Eigen::Quaterniond(acc / acc.norm()).toRotationMatrix() : Mat3::Identity();
+}
+
 Mat3 nearest_rotation(const Mat3& C) {
   if (!(C.squaredNorm() > 1e-300) || !C.allFinite()) return Mat3::Identity();
   {
@@ -69,6 +82,7 @@ double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
 
 }  // namespace detail
 
+using detail::blended_rotation;
 using detail::dual_quaternion_motion;
 using detail::Mat3;
 using detail::MatX9d;
@@ -161,23 +175,8 @@ MatX3d skeletal_subspace_deform(const MatX3d& P, const Eigen::MatrixXd& W, const
       out.row(i) = (M.leftCols<3>() * row3(P, i) + M.col(3)).transpose();
     }
     if (linear) {
-      // The rotation of the point's local frame: the bone rotations blended as quaternions
-      // (normalised, hemisphere-aligned). A linear blend of rotation matrices loses rank under
-      // twists (0.5 I + 0.5 R_x(pi) has no y, z axes), the frames' candy wrapper.
-      Eigen::Vector4d acc = Eigen::Vector4d::Zero();
-      int ref = -1;
-      for (int j = 0; j < B; ++j) {
-        const double w = W(i, j);
-        if (w == 0) continue;
-        if (ref < 0 || w > W(i, ref)) ref = j;
-      }
-      for (int j = 0; j < B; ++j) {
-        const double w = W(i, j);
-        if (w == 0) continue;
-        const double sgn = q[j].coeffs().dot(q[ref].coeffs()) < 0 ? -1.0 : 1.0;
-        acc += sgn * w * q[j].coeffs();
-      }
-      const Mat3 R = acc.norm() > 1e-12 ? Eigen::Quaterniond(acc / acc.norm()).toRotationMatrix() : Mat3::Identity();
+      // The rotation of the point's local frame: the bone rotations blended as quaternions.
+      const Mat3 R = blended_rotation(W.row(i), q);
       for (int r = 0; r < 3; ++r)
         for (int c = 0; c < 3; ++c) (*linear)(i, 3 * r + c) = R(r, c);
     }

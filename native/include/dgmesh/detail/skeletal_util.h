@@ -23,6 +23,11 @@ Mat3 nearest_rotation(const Mat3& C);
 /// False, R and t untouched, when the real part vanishes.
 bool dual_quaternion_motion(const Eigen::Vector4d& r, const Eigen::Vector4d& d, Mat3& R, Vec3& t);
 
+/// The bone rotations q blended with the weights w (one per bone) as quaternions: each turned to the
+/// hemisphere of the one with the largest weight, the result normalised; the identity when the sum
+/// vanishes. (A linear blend of rotation matrices loses rank under twists.)
+Mat3 blended_rotation(const Eigen::Ref<const Eigen::RowVectorXd>& w, const std::vector<Eigen::Quaterniond>& q);
+
 /// Signed volume enclosed by the closed triangle mesh (V, F) (positive for outward faces).
 double signed_volume(const MatX3d& V, const MatX3i& F);
 
