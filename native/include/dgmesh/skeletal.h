@@ -145,12 +145,14 @@ struct SkeletalDeformOptions {
   // joint along that bone; where t_c > 0 the vertex's axial distance t in [0, kappa t_c] is mapped
   // linearly onto [t_c, kappa t_c] (a slide along its own bone, away from the joint): no vertex of
   // one limb stays on the other limb's side, the distance to the own bone's line is kept, and
-  // the map is monotone along each line (no new fold). Applied last, to the control vertices and,
-  // through the multiresolution layer, to the dense ones. No move in the rest pose, under rigid
-  // motions or pure twists. Not a thickness term: it leaves the folds of the thickness steps
-  // inside each limb. Off by default: it halves the self-intersecting pairs of a capsule's bends
-  // (none left limb against limb) and lowers the camel knee's at 135 degrees, but adds pairs on the
-  // armadillo's knee (see bench/notes/skeletal.md); 3 is the measured setting.
+  // the map is monotone along each line (neighbours with different t_c can still turn a face).
+  // Applied after the thickness steps and the surface bone clearance and before the fold guard,
+  // which smooths the faces the slide turns with the others; to the control vertices and, through
+  // the multiresolution layer, to the dense ones. No move in the rest pose, under rigid motions or
+  // pure twists. Not a thickness term. Off by default: it lowers the self-intersecting pairs of a
+  // capsule's bends (none left limb against limb) and the camel knee's at 135 degrees, but adds
+  // pairs on the armadillo's knee at 90 degrees (see bench/notes/skeletal.md); 3 is the measured
+  // setting.
   double contact_slide = 0.0;
   // Untangling (variational method, fairing_steps > 0; issue 33), iterations, 0 = off: the
   // thesis's smoothing term of eq. 6.15 applied where the surface folds. First, when contact_slide
