@@ -1407,7 +1407,7 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
 // overtakes another. Only the vertices within `reach` times the shorter bone's length of the joint at
 // rest slide.
 std::vector<SkeletalRig::Impl::ContactJoint> SkeletalRig::Impl::contact_joints(const std::vector<Mat4>& pose,
-                                                                             double reach) const {
+                                                                               double reach) const {
   std::vector<ContactJoint> out;
   const int B = static_cast<int>(rest.size());
   if (B < 2 || children.size() != static_cast<size_t>(B)) return out;
@@ -1420,12 +1420,14 @@ std::vector<SkeletalRig::Impl::ContactJoint> SkeletalRig::Impl::contact_joints(c
       ContactJoint j;
       j.p = p, j.c = c;
       j.a0 = bone_vec[p] / lp, j.b0 = bone_vec[c] / lc, j.a = v[p].normalized(), j.b = v[c].normalized();
-      // Rest pose, rigid motions of the pair and twists leave the bend unchanged: nothing to do.
-      if (std::abs(j.a.dot(j.b) - j.a0.dot(j.b0)) < 1e-9 || (j.a0 + j.b0).norm() < 1e-6 || (j.a + j.b).norm() < 1e-6)
+      // Rest pose, rigid motions of the pair and twists leave the bend unchanged: nothing to do (to
+      // 1e-6 in the cosine, about 0.1 degree at most: a twist posed through single-precision bone
+      // matrices, e.g. Blender's, changes it by about 1e-7).
+      if (std::abs(j.a.dot(j.b) - j.a0.dot(j.b0)) < 1e-6 || (j.a0 + j.b0).norm() < 1e-6 || (j.a + j.b).norm() < 1e-6)
         continue;
       j.m0 = (j.a0 + j.b0).normalized(), j.m = (j.a + j.b).normalized();
       j.co0 = j.a0.dot(j.m0), j.co = j.a.dot(j.m);  // cos of half the angle between the bones
-      if (j.co < 0.05 || j.co0 < 0.05) continue;     // folded flat (over ~174 degrees): no plane between
+      if (j.co < 0.05 || j.co0 < 0.05) continue;    // folded flat (over ~174 degrees): no plane between
       j.J0 = bone_head[c], j.J = h[c];
       const double L = reach * std::min(lp, lc);
       j.L2 = L * L;
@@ -1836,14 +1838,25 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
     if (guard) {
       const auto skip = [&](int i) { return !edited.empty() && edited[i]; };
+      const auto constrain = [&] {
+        return contact_constraint(clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip),
+                                  control.V, X, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
+      };
       control_guard.apply(
-          X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited,
-          contact_constraint(clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip),
-                             control.V, X, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); }),
-          nullptr,
+          X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited, constrain(), nullptr,
           reference_trust(control.F, control.V, bare, pose, [&](int f) {
             return Eigen::RowVectorXd(W.row(control.F(f, 0)) + W.row(control.F(f, 1)) + W.row(control.F(f, 2)));
           }));
+      // With the joint contact acting on the whole mesh (a bend changed; not under a skeleton edit,
+      // which skinning does not know), a second pass against the dual quaternion skinning of the
+      // rest mesh: the faces the trust rule left alone (the bare reconstruction folds in a tight
+      // bend's crease) and those the slide turned against the skinned surface. Measured on the
+      // whole-mesh path only and only with the contact (bench/notes/skeletal.md, session 27):
+      // without it the pass added pairs (tests/python's capsule bent 90 degrees: 63 -> 145), and
+      // through the multiresolution layer (on the control mesh) it did too.
+      if (!multires && edited.empty() && opt.contact_slide >= 1 && !contact_joints(pose, 1).empty())
+        control_guard.apply(X, skeletal_subspace_deform(control.V, W, rest, pose, nullptr, true), {opt.fold_guard},
+                            nullptr, constrain());
     }
     if (has_twist && multires && opt.untangle_iterations > 0) {
       // follow_twist through the layer: the dense mesh is rebuilt from the control mesh in the
@@ -1926,7 +1939,8 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
             impl.contact_constraint(
                 impl.clearance_constraint(impl.dense_untangle_clearance, out.rows(), pose, opt.bone_clearance, on_edit),
                 impl.dense_rest, out, pose, opt.contact_slide, [&](int i, int j) { return impl.dense_weight(i, j); }),
-            edited.empty() ? &impl.dense_faces : nullptr,  // (an edit moves "rigid" faces too)
+            // (an edit, and the joint contact's slide, move "rigid" faces too)
+            edited.empty() && !(opt.contact_slide >= 1) ? &impl.dense_faces : nullptr,
             impl.reference_trust(impl.dense_F, impl.dense_rest, ref, pose, [&](int f) {
               const int b = face[impl.dense_F(f, 0)];
               return Eigen::RowVectorXd(impl.W.row(Fc(b, 0)) + impl.W.row(Fc(b, 1)) + impl.W.row(Fc(b, 2)));
