@@ -200,8 +200,11 @@ class SkeletalRig:
         joint, the band up to kappa times its line's crossing depth compressed so that no vertex
         stays on the other limb's side (distance to its bone kept; none in the rest pose, under
         rigid motions or twists). It removes the limb-against-limb self-intersections of a bent
-        joint, not the folds of the thickness steps inside each limb; off by default (it adds pairs
-        on the armadillo's knee; 3 is the measured setting, see bench/notes/skeletal.md).
+        joint, not the folds inside each limb (it runs before ``fold_guard``, which smooths the faces
+        it turns with the others and keeps each slid vertex on its side; on the whole mesh it then also
+        smooths the faces turned against dual quaternion skinning); off by default (it adds pairs on
+        the armadillo's knee through the multiresolution layer; 3 is the measured setting, see
+        bench/notes/skeletal.md).
         ``untangle_iterations`` (variational method, fairing on; 0 = off): the thesis's smoothing
         term of eq. 6.15 where the surface folds: each iteration finds the self-intersecting triangle
         pairs of the control mesh, smooths their vertices and ``untangle_rings`` rings around them

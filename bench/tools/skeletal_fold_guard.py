@@ -8,6 +8,9 @@ to the bones (posed / rest), sum (f - f_rest)^2 of eq. 6.13 against the rig's po
     /usr/bin/python3 bench/tools/skeletal_fold_guard.py capsule    # the untangle probe's capsule
     /usr/bin/python3 bench/tools/skeletal_fold_guard.py camel      # skeletal_limb's legs, Blender's
     /usr/bin/python3 bench/tools/skeletal_fold_guard.py armadillo  # automatic weights and DQS
+
+With --contact (session 27) the variants are the default and the joint contact (contact_slide=3)
+instead, e.g. `skeletal_fold_guard.py capsule --contact`.
 """
 import pathlib
 import sys
@@ -111,6 +114,11 @@ def legs(which):
                 row(f"{path} {label}", rig.deform(pose, **o), F, ratio, thick)
 
 
+CONTACT_VARIANTS = {"default": {}, "contact_slide=3": dict(contact_slide=3.0)}
+
 if __name__ == "__main__":
+    if "--contact" in sys.argv:
+        sys.argv.remove("--contact")
+        VARIANTS = CONTACT_VARIANTS
     what = sys.argv[1] if len(sys.argv) > 1 else "capsule"
     {"dense": dense, "capsule": capsule_probe}.get(what, lambda: legs(what))()

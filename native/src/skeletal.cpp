@@ -483,9 +483,44 @@ struct SkeletalRig::Impl {
       return !(normal(ref).dot(r * normal(V0)) < 0);
     };
   }
+  // A joint whose bend the pose changes (contact_slide): parent p, child c, unit bone directions a,
+  // b, the bisector plane's normal m through the joint J (rest: the same with 0), cos of half the
+  // bend co, and the squared reach L2 from the joint at rest.
+  struct ContactJoint {
+    int p, c;
+    Vec3 a0, b0, a, b, m0, m, J0, J;
+    double co0 = 0, co = 0, L2 = 0;
+    // The limb of a vertex at rest position x0 with weight w on p and c together: +1 the child's,
+    // -1 the parent's, 0 none (out of reach, on the plane, or mostly on other bones).
+    double side(const Vec3& x0, double w) const {
+      const double d = (x0 - J0).dot(m0);
+      return d == 0 || (x0 - J0).squaredNorm() >= L2 || w <= 0.5 ? 0.0 : d > 0 ? 1.0 : -1.0;
+    }
+  };
+  std::vector<ContactJoint> contact_joints(const std::vector<Mat4>& pose, double reach) const;
   template <class Out, class Weight>
   void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight,
                      double reach = 1) const;
+  // The fold guard's constraint with the joint contact on (kappa >= 1; else `inner` alone): after
+  // `inner`, a smoothed vertex may not end deeper on the other limb's side of a joint's posed
+  // bisector plane than it is in X (the slide has put it on its own side; averaging displacements
+  // across the plane would pull it back over). X: the guard's positions, read before each write.
+  template <class Cur, class Weight>
+  FoldGuard::Constrain contact_constraint(FoldGuard::Constrain inner, const MatX3d& V0, const Cur& X,
+                                          const std::vector<Mat4>& pose, double kappa, Weight weight) const {
+    if (!(kappa >= 1)) return inner;
+    auto joints = std::make_shared<std::vector<ContactJoint>>(contact_joints(pose, 1));
+    if (joints->empty()) return inner;
+    return [inner = std::move(inner), joints, &V0, &X, weight](int i, Vec3& x) {
+      if (inner && !inner(i, x)) return false;
+      const Vec3 x0 = row3(V0, i), now = X.row(i).transpose().template cast<double>();
+      for (const ContactJoint& j : *joints) {
+        const double s = j.side(x0, weight(i, j.p) + weight(i, j.c));
+        if (s != 0 && s * (x - j.J).dot(j.m) < std::min(0.0, s * (now - j.J).dot(j.m))) return false;
+      }
+      return true;
+    };
+  }
   // A dense vertex's weight to bone j (multiresolution layer): the mean over its base face's corners.
   double dense_weight(int i, int j) const {
     const int f = multires->base_face()[i];
@@ -1371,42 +1406,59 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
 // bone's line is unchanged (a slide along it), and the shift is monotone along each line: no vertex
 // overtakes another. Only the vertices within `reach` times the shorter bone's length of the joint at
 // rest slide.
-template <class Out, class Weight>
-void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa,
-                                      Weight weight, double reach) const {
-  const int B = static_cast<int>(rest.size()), n = static_cast<int>(X.rows());
-  if (!(kappa >= 1) || B < 2 || children.size() != static_cast<size_t>(B) || V0.rows() != n) return;
+std::vector<SkeletalRig::Impl::ContactJoint> SkeletalRig::Impl::contact_joints(const std::vector<Mat4>& pose,
+                                                                               double reach) const {
+  std::vector<ContactJoint> out;
+  const int B = static_cast<int>(rest.size());
+  if (B < 2 || children.size() != static_cast<size_t>(B)) return out;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   for (int p = 0; p < B; ++p)
     for (int c : children[p]) {
       const double lp = bone_vec[p].norm(), lc = bone_vec[c].norm();
       if (!(lp > 1e-12 && lc > 1e-12) || !(v[p].norm() > 1e-12 && v[c].norm() > 1e-12)) continue;
-      const Vec3 a0 = bone_vec[p] / lp, b0 = bone_vec[c] / lc, a = v[p].normalized(), b = v[c].normalized();
-      // Rest pose, rigid motions of the pair and twists leave the bend unchanged: nothing to do.
-      if (std::abs(a.dot(b) - a0.dot(b0)) < 1e-9 || (a0 + b0).norm() < 1e-6 || (a + b).norm() < 1e-6) continue;
-      const Vec3 m0 = (a0 + b0).normalized(), m = (a + b).normalized();
-      const double co0 = a0.dot(m0), co = a.dot(m);  // cos of half the angle between the bones
-      if (co < 0.05 || co0 < 0.05) continue;         // folded flat (over ~174 degrees): no plane between
-      const Vec3 J0 = bone_head[c], J = h[c];
-      const double L = reach * std::min(lp, lc), L2 = L * L, margin = contact_margin;
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-      for (int i = 0; i < n; ++i) {
-        const Vec3 x0 = row3(V0, i);
-        const double side0 = (x0 - J0).dot(m0);
-        if (side0 == 0 || (x0 - J0).squaredNorm() >= L2 || weight(i, p) + weight(i, c) <= 0.5) continue;
-        const double s = side0 > 0 ? 1.0 : -1.0;
-        const Vec3 e = s > 0 ? b : Vec3(-a), e0 = s > 0 ? b0 : Vec3(-a0);
-        const Vec3 x = X.row(i).transpose().template cast<double>();
-        const double t = (x - J).dot(e), tc = t - s * (x - J).dot(m) / co;
-        if (!(tc > 0)) continue;
-        const double tc0 = std::max((x0 - J0).dot(e0) - s * (x0 - J0).dot(m0) / co0, 0.0);
-        const double te = std::max(t, 0.0), T = kappa * tc;
-        if (te >= T || !(tc > tc0)) continue;
-        const double shift = (tc - tc0 + std::min(margin, tc - tc0)) * (1 - te / T);
-        X.row(i) = (x + shift * e).transpose().template cast<typename Out::Scalar>();
-      }
+      ContactJoint j;
+      j.p = p, j.c = c;
+      j.a0 = bone_vec[p] / lp, j.b0 = bone_vec[c] / lc, j.a = v[p].normalized(), j.b = v[c].normalized();
+      // Rest pose, rigid motions of the pair and twists leave the bend unchanged: nothing to do (to
+      // 1e-6 in the cosine, about 0.1 degree at most: a twist posed through single-precision bone
+      // matrices, e.g. Blender's, changes it by about 1e-7).
+      if (std::abs(j.a.dot(j.b) - j.a0.dot(j.b0)) < 1e-6 || (j.a0 + j.b0).norm() < 1e-6 || (j.a + j.b).norm() < 1e-6)
+        continue;
+      j.m0 = (j.a0 + j.b0).normalized(), j.m = (j.a + j.b).normalized();
+      j.co0 = j.a0.dot(j.m0), j.co = j.a.dot(j.m);  // cos of half the angle between the bones
+      if (j.co < 0.05 || j.co0 < 0.05) continue;    // folded flat (over ~174 degrees): no plane between
+      j.J0 = bone_head[c], j.J = h[c];
+      const double L = reach * std::min(lp, lc);
+      j.L2 = L * L;
+      out.push_back(j);
     }
+  return out;
+}
+
+template <class Out, class Weight>
+void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa,
+                                      Weight weight, double reach) const {
+  const int n = static_cast<int>(X.rows());
+  if (!(kappa >= 1) || V0.rows() != n) return;
+  const double margin = contact_margin;
+  for (const ContactJoint& j : contact_joints(pose, reach)) {
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (int i = 0; i < n; ++i) {
+      const Vec3 x0 = row3(V0, i);
+      const double s = j.side(x0, weight(i, j.p) + weight(i, j.c));
+      if (s == 0) continue;
+      const Vec3 e = s > 0 ? j.b : Vec3(-j.a), e0 = s > 0 ? j.b0 : Vec3(-j.a0);
+      const Vec3 x = X.row(i).transpose().template cast<double>();
+      const double t = (x - j.J).dot(e), tc = t - s * (x - j.J).dot(j.m) / j.co;
+      if (!(tc > 0)) continue;
+      const double tc0 = std::max((x0 - j.J0).dot(e0) - s * (x0 - j.J0).dot(j.m0) / j.co0, 0.0);
+      const double te = std::max(t, 0.0), T = kappa * tc;
+      if (te >= T || !(tc > tc0)) continue;
+      const double shift = (tc - tc0 + std::min(margin, tc - tc0)) * (1 - te / T);
+      X.row(i) = (x + shift * e).transpose().template cast<typename Out::Scalar>();
+    }
+  }
 }
 
 // Untangling (SkeletalDeformOptions::untangle_iterations, issue 33): the thesis's remedy for folds,
@@ -1783,16 +1835,29 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);
+    contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
     if (guard) {
       const auto skip = [&](int i) { return !edited.empty() && edited[i]; };
+      const auto constrain = [&] {
+        return contact_constraint(clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip),
+                                  control.V, X, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
+      };
       control_guard.apply(
-          X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited,
-          clearance_constraint(untangle_clearance, X.rows(), pose, opt.bone_clearance, skip), nullptr,
+          X, bare, {opt.fold_guard}, edited.empty() ? nullptr : &edited, constrain(), nullptr,
           reference_trust(control.F, control.V, bare, pose, [&](int f) {
             return Eigen::RowVectorXd(W.row(control.F(f, 0)) + W.row(control.F(f, 1)) + W.row(control.F(f, 2)));
           }));
+      // With the joint contact acting on the whole mesh (a bend changed; not under a skeleton edit,
+      // which skinning does not know), a second pass against the dual quaternion skinning of the
+      // rest mesh: the faces the trust rule left alone (the bare reconstruction folds in a tight
+      // bend's crease) and those the slide turned against the skinned surface. Measured on the
+      // whole-mesh path only and only with the contact (bench/notes/skeletal.md, session 27):
+      // without it the pass added pairs (tests/python's capsule bent 90 degrees: 63 -> 145), and
+      // through the multiresolution layer (on the control mesh) it did too.
+      if (!multires && edited.empty() && opt.contact_slide >= 1 && !contact_joints(pose, 1).empty())
+        control_guard.apply(X, skeletal_subspace_deform(control.V, W, rest, pose, nullptr, true), {opt.fold_guard},
+                            nullptr, constrain());
     }
-    contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
     if (has_twist && multires && opt.untangle_iterations > 0) {
       // follow_twist through the layer: the dense mesh is rebuilt from the control mesh in the
       // twist-free pose (see deform_into), so the control mesh is untangled there. In the pose, the
@@ -1861,6 +1926,8 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
       Plain ref = guard ? Plain(out) : Plain();
       if (guard && twist) impl.project_dense(Sd, deep, pose, turn, edited, twist, ref);
       impl.project_dense(Sd, deep, pose, opt, edited, twist, out);
+      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
+                         [&](int i, int j) { return impl.dense_weight(i, j); });
       if (guard) {
         const VecXi& face = impl.multires->base_face();
         const MatX3i& Fc = impl.control.F;
@@ -1869,8 +1936,11 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
         };
         impl.dense_guard.apply(
             out, ref, {opt.fold_guard}, nullptr,
-            impl.clearance_constraint(impl.dense_untangle_clearance, out.rows(), pose, opt.bone_clearance, on_edit),
-            edited.empty() ? &impl.dense_faces : nullptr,  // (an edit moves "rigid" faces too)
+            impl.contact_constraint(
+                impl.clearance_constraint(impl.dense_untangle_clearance, out.rows(), pose, opt.bone_clearance, on_edit),
+                impl.dense_rest, out, pose, opt.contact_slide, [&](int i, int j) { return impl.dense_weight(i, j); }),
+            // (an edit, and the joint contact's slide, move "rigid" faces too)
+            edited.empty() && !(opt.contact_slide >= 1) ? &impl.dense_faces : nullptr,
             impl.reference_trust(impl.dense_F, impl.dense_rest, ref, pose, [&](int f) {
               const int b = face[impl.dense_F(f, 0)];
               return Eigen::RowVectorXd(impl.W.row(Fc(b, 0)) + impl.W.row(Fc(b, 1)) + impl.W.row(Fc(b, 2)));
@@ -1880,8 +1950,9 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
       impl.project_dense(Sd, deep, pose, turn, edited, twist, out);
     }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
-      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
-                         [&](int i, int j) { return impl.dense_weight(i, j); });
+      if (!dense_projection(opt))
+        impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
+                           [&](int i, int j) { return impl.dense_weight(i, j); });
       impl.untangle_dense(out, Sd, pose, opt, edited);
     }
   } else {

@@ -145,12 +145,14 @@ struct SkeletalDeformOptions {
   // joint along that bone; where t_c > 0 the vertex's axial distance t in [0, kappa t_c] is mapped
   // linearly onto [t_c, kappa t_c] (a slide along its own bone, away from the joint): no vertex of
   // one limb stays on the other limb's side, the distance to the own bone's line is kept, and
-  // the map is monotone along each line (no new fold). Applied last, to the control vertices and,
-  // through the multiresolution layer, to the dense ones. No move in the rest pose, under rigid
-  // motions or pure twists. Not a thickness term: it leaves the folds of the thickness steps
-  // inside each limb. Off by default: it halves the self-intersecting pairs of a capsule's bends
-  // (none left limb against limb) and lowers the camel knee's at 135 degrees, but adds pairs on the
-  // armadillo's knee (see bench/notes/skeletal.md); 3 is the measured setting.
+  // the map is monotone along each line (neighbours with different t_c can still turn a face).
+  // Applied after the thickness steps and the surface bone clearance and before the fold guard,
+  // which smooths the faces the slide turns with the others; to the control vertices and, through
+  // the multiresolution layer, to the dense ones. No move in the rest pose, under rigid motions or
+  // pure twists. Not a thickness term. Off by default: with it a capsule's bends are at or below
+  // dual quaternion skinning's pairs on both paths (none limb against limb) and the camel knee's
+  // at 135 degrees too, but through the multiresolution layer it adds pairs on the armadillo's knee
+  // at 90 degrees (see bench/notes/skeletal.md, session 27); 3 is the measured setting.
   double contact_slide = 0.0;
   // Untangling (variational method, fairing_steps > 0; issue 33), iterations, 0 = off: the
   // thesis's smoothing term of eq. 6.15 applied where the surface folds. First, when contact_slide
@@ -183,9 +185,11 @@ struct SkeletalDeformOptions {
   // their parents and children; a vertex the push cannot clear keeps its position), until no face
   // is turned or these iterations (or fold_guard.h's work bound) run out. A face whose reference
   // normal itself points against its rest normal turned by its blended bone rotation (the
-  // reference folds there; the steps unfold it) is left alone. No search: the cost follows the
-  // turned faces. Rest pose, rigid motions and poses that turn no face: no move. Measurements:
-  // bench/notes/skeletal.md.
+  // reference folds there; the steps unfold it) is left alone. With contact_slide acting on the
+  // whole mesh (no multiresolution layer, no skeleton edit), a second pass takes the dual
+  // quaternion skinning of the rest mesh as the reference, every face trusted. No search: the cost
+  // follows the turned faces. Rest pose, rigid motions and poses that turn no face: no move.
+  // Measurements: bench/notes/skeletal.md.
   int fold_guard = 50;
   // Thickness that follows the twist (variational method; issue 33), off by default: each bone's
   // motion relative to its parent is split into a swing and a twist about the bone's own rest axis;
