@@ -54,7 +54,7 @@ INFO_FIELDS = {
     "modifier": (*_STR, False), "node_group": (*_STR, False), "helper": (*_STR, False),
     "modifiers_object": (*_STRS, False), "rest_hash": (*_STR, False), "space": (*_NUMBERS, False),
     "created_basis": (_is_flag, "0 or 1", False), "untangle_iterations": (*_INT, False),
-    "fold_guard": (*_INT, False),
+    "fold_guard": (*_INT, False), "contact_slide": (*_NUMBER, False),
     "follow_twist": (_is_flag, "0 or 1", False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
@@ -65,6 +65,7 @@ OLD_OPTIONS = {
     "bone_clearance": 0.95,  # files bound before the option: the library's fixed 0.95 then (today's default too)
     "untangle_iterations": 0,  # files bound before the option: no untangling existed (today's default too)
     "fold_guard": 0,  # files bound before the option: no fold guard existed (today's default: 50)
+    "contact_slide": 0.0,  # files bound before the option: no joint contact (today's default too)
     "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
     "skeleton_blend": "LINEAR",  # files bound before the option: the linear blend (today's default: dual quaternion)
     "control_faces": 5000,  # files bound before it was stored: the library's 5000 then (today's default too)
@@ -110,6 +111,9 @@ def check_info(info, methods=()):
     for key in ("untangle_iterations", "fold_guard"):
         if info.get(key, 0) < 0:
             raise BindDataError(f"its field {key!r} is negative ({info[key]})")
+    contact = info.get("contact_slide", 0.0)
+    if not (contact == 0 or 1 <= contact <= 1e6):
+        raise BindDataError(f"its field 'contact_slide' is {contact!r:.40}: 0 (off) or at least 1")
     if "control_faces" in info and info["control_faces"] < 1:
         raise BindDataError(f"its field 'control_faces' is {info['control_faces']}, not positive")
 

@@ -1138,14 +1138,14 @@ def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear(
 @pytest.mark.parametrize("swapped", [False, True])
 def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(swapped, monkeypatch):
     """A binding saved before the options existed (no bone_clearance, untangle_iterations, fold_guard,
-    follow_twist, skeleton_blend, control_faces): the live update deforms with skeletal_data.OLD_OPTIONS'
+    contact_slide, follow_twist, skeleton_blend, control_faces): the live update deforms with skeletal_data.OLD_OPTIONS'
     values and Rebind binds (and stores) them. Run with the table and with every value swapped for
     another, so a reader with a fallback of its own (today's default or a copy) fails one of them."""
     from dgmesh import skeletal_data
     from dgmesh.skeletal import SkeletalRig
     if swapped:
-        for key, value in dict(bone_clearance=0.5, untangle_iterations=2, fold_guard=7, follow_twist=True,
-                               skeleton_blend="DUAL_QUATERNION", control_faces=4000).items():
+        for key, value in dict(bone_clearance=0.5, untangle_iterations=2, fold_guard=7, contact_slide=2.0,
+                               follow_twist=True, skeleton_blend="DUAL_QUATERNION", control_faces=4000).items():
             assert value != skeletal_data.OLD_OPTIONS[key]
             monkeypatch.setitem(skeletal_data.OLD_OPTIONS, key, value)
     table = dict(skeletal_data.OLD_OPTIONS)
@@ -1166,9 +1166,10 @@ def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(
     bpy.context.view_layer.update()
     assert calls, "the pose change did not deform"
     kw = calls[-1]
-    assert (kw["bone_clearance"], kw["untangle_iterations"], kw["fold_guard"], kw["follow_twist"],
+    assert (kw["bone_clearance"], kw["untangle_iterations"], kw["fold_guard"], kw["contact_slide"], kw["follow_twist"],
             kw["dual_quaternion"]) == (table["bone_clearance"], table["untangle_iterations"], table["fold_guard"],
-                                       table["follow_twist"], table["skeleton_blend"] == 'DUAL_QUATERNION')
+                                       table["contact_slide"], table["follow_twist"],
+                                       table["skeleton_blend"] == 'DUAL_QUATERNION')
     assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
     info = obj["dg_skeletal"].to_dict()
     assert set(table) <= set(info) and skeletal_data.saved_options(info) == table  # stored, not read as missing
@@ -1377,7 +1378,7 @@ def _bent_pairs(**settings):
     from dgmesh.skeletal import self_intersecting_pairs
     obj, arm, V = _scene()
     assert _bind(**settings) == {'FINISHED'}
-    stored = {"untangle": "untangle_iterations"}
+    stored = {"untangle": "untangle_iterations", "contact": "contact_slide"}
     for key, value in settings.items():
         assert obj["dg_skeletal"][stored.get(key, key)] == value
     _pose_lower(arm, math.pi / 2)
@@ -1407,6 +1408,23 @@ def test_fold_guard_option():
     print(f"crossing pairs at 90 degrees: fold guard off {off}, on {on}")
     assert off > 0  # not vacuous
     assert on < 0.75 * off
+
+
+def test_joint_contact_option():
+    """The bind operator's Joint Contact (off by default) is stored with the binding and drives the live
+    update: the 90-degree bend's crease vertices slide along their own bone out of the other limb, and
+    the crease crosses itself less (issue 33). A value between 0 and 1 is refused with a report and
+    binds nothing."""
+    from dgmesh.skeletal import SkeletalDeformOptions
+    assert SkeletalDeformOptions().contact_slide == 0
+    off, on = _bent_pairs(contact=0.0), _bent_pairs(contact=3.0)
+    print(f"crossing pairs at 90 degrees: joint contact off {off}, 3 {on}")
+    assert off > 0  # not vacuous
+    assert on < 0.5 * off
+    obj, arm, V = _scene()
+    with pytest.raises(RuntimeError, match="Joint Contact is 0.5"):
+        _bind(contact=0.5)
+    assert "dg_skeletal" not in obj
 
 
 def test_follow_twist_option():

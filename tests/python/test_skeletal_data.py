@@ -49,7 +49,7 @@ def test_options_of_bindings_saved_before_them_come_from_the_one_table():
     check_info(_info())
     assert saved_options(_info()) == OLD_OPTIONS
     assert all(type(v) is type(OLD_OPTIONS[k]) for k, v in saved_options(_info()).items())
-    own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), fold_guard=20, follow_twist=1,
+    own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), fold_guard=20, contact_slide=3.0, follow_twist=1,
                skeleton_blend="DUAL_QUATERNION", control_faces=800)
     assert set(own) == set(OLD_OPTIONS)
     check_info(_info(**own))
@@ -59,3 +59,14 @@ def test_options_of_bindings_saved_before_them_come_from_the_one_table():
         check, what, required = INFO_FIELDS[key]
         assert not required and check(old), key
         assert saved_options(_info(**{k: v for k, v in own.items() if k != key})) == dict(own, **{key: old})
+
+
+def test_joint_contact_must_be_off_or_at_least_one():
+    """contact_slide as the library takes it: 0 (off) or a finite kappa >= 1; anything else is named."""
+    import pytest
+    from dgmesh.skeletal_data import BindDataError
+    for ok in (0, 0.0, 1, 3.0):
+        check_info(_info(contact_slide=ok))
+    for bad in (0.5, -1.0, float("nan"), float("inf")):
+        with pytest.raises(BindDataError, match="contact_slide"):
+            check_info(_info(contact_slide=bad))

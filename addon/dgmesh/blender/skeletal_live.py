@@ -251,7 +251,7 @@ def deformed(obj, pose, skeleton=None):
     saved = saved_options(info)  # files bound before an option: the values they were bound with
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
               bone_clearance=saved["bone_clearance"], untangle_iterations=saved["untangle_iterations"],
-              fold_guard=saved["fold_guard"],
+              fold_guard=saved["fold_guard"], contact_slide=saved["contact_slide"],
               follow_twist=saved["follow_twist"], dual_quaternion=saved["skeleton_blend"] == 'DUAL_QUATERNION')
     try:
         rig.deform(pose, out=pos, skeleton=skeleton, **kw)
