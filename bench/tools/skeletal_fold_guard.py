@@ -10,7 +10,7 @@ to the bones (posed / rest), sum (f - f_rest)^2 of eq. 6.13 against the rig's po
     /usr/bin/python3 bench/tools/skeletal_fold_guard.py armadillo  # automatic weights and DQS
 
 With --contact (session 27) the variants are the default and the joint contact (contact_slide=3)
-instead, e.g. `skeletal_fold_guard.py capsule --contact`.
+instead, e.g. `skeletal_fold_guard.py capsule --contact`; --contact=K for contact_slide=K.
 """
 import pathlib
 import sys
@@ -114,11 +114,10 @@ def legs(which):
                 row(f"{path} {label}", rig.deform(pose, **o), F, ratio, thick)
 
 
-CONTACT_VARIANTS = {"default": {}, "contact_slide=3": dict(contact_slide=3.0)}
-
 if __name__ == "__main__":
-    if "--contact" in sys.argv:
-        sys.argv.remove("--contact")
-        VARIANTS = CONTACT_VARIANTS
+    for arg in [a for a in sys.argv if a.split("=")[0] == "--contact"]:
+        sys.argv.remove(arg)
+        kappa = float(arg.split("=")[1]) if "=" in arg else 3.0
+        VARIANTS = {"default": {}, f"contact_slide={kappa:g}": dict(contact_slide=kappa)}
     what = sys.argv[1] if len(sys.argv) > 1 else "capsule"
     {"dense": dense, "capsule": capsule_probe}.get(what, lambda: legs(what))()
