@@ -59,8 +59,9 @@ def dense():
             thick = lambda X: ((dgmesh.union_of_balls_distance(X, Sd, rig.radii) - f0) ** 2).sum()  # noqa: E731
             print("  bend", deg, flush=True)
             row("DQS", dqs(V, Wq, rest, pose), F, ratio, thick)
-            ms = interleaved_medians([lambda: rig.deform(pose, out=out, fold_guard=0), lambda: rig.deform(pose, out=out)])
-            for (label, o), m in zip(list(VARIANTS.items())[:2], ms):
+            first = list(VARIANTS.items())[:2]
+            ms = interleaved_medians([lambda o=o: rig.deform(pose, out=out, **o) for _, o in first])
+            for (label, o), m in zip(first, ms):
                 row(label, rig.deform(pose, **o), F, ratio, thick, 1e3 * m)
 
 
