@@ -177,7 +177,8 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                            description="At each bent joint the two limbs' flesh meets on the plane halfway between "
                            "the bones: crease vertices slide along their own bone, out of the other limb "
                            "(0 = off; 1 or more: how far along the bone the slide reaches, 3 measured best). "
-                           "Fewer folds in tube-like limbs' creases; on thick, short limbs it can add some")
+                           "Fewer folds in tube-like limbs' creases; on thick, short limbs it can add some, "
+                           "and in very tight bends of dense meshes it can thin the crease")
     follow_twist: BoolProperty(name="Follow Twist", default=DEFORM_DEFAULTS.follow_twist,
                                description="Keep the thickness in the untwisted pose, each vertex turned by its "
                                "own share of the bones' twist: a twisted flat or off-axis part (a waist, a wrist) "
