@@ -273,6 +273,9 @@ class BallTree {
 constexpr int kUnionNeighbours = 4;
 // Deepest balls kept per control vertex for the dense vertices' thickness step (see project_dense).
 constexpr int kDenseBalls = 4;
+// The joint contact moves a vertex past the joint onto the plane only where it keeps at least this
+// fraction of its rest distance to the joint's two bones (issue 33's thickness bar).
+constexpr double kContactClearance = 0.9;
 // `tree` holds the deformed centres `reps` (a subset of the skeletal vertices, see Impl::reps),
 // rebuilt per pose with small leaves; its queries are exact k nearest: an approximate search barely
 // prunes on a tube, whose collapsed skeleton puts hundreds of centres at almost the same distance
@@ -489,7 +492,13 @@ struct SkeletalRig::Impl {
   struct ContactJoint {
     int p, c;
     Vec3 a0, b0, a, b, m0, m, J0, J;
-    double co0 = 0, co = 0, L2 = 0;
+    double co0 = 0, co = 0, L2 = 0, lp = 0, lc = 0;  // (lp, lc: the bones' lengths)
+    // Distance from x to the two bones' segments, posed (J, a, b) or at rest (J0, a0, b0).
+    double bone_distance(const Vec3& x, bool posed) const {
+      const Vec3 &j = posed ? J : J0, &u = posed ? a : a0, &w = posed ? b : b0;
+      const double tp = std::clamp((x - j).dot(u), -lp, 0.0), tq = std::clamp((x - j).dot(w), 0.0, lc);
+      return std::min((x - j - tp * u).norm(), (x - j - tq * w).norm());
+    }
     // The limb of a vertex at rest position x0 with weight w on p and c together: +1 the child's,
     // -1 the parent's, 0 none (out of reach, on the plane, or mostly on other bones).
     double side(const Vec3& x0, double w) const {
@@ -1406,9 +1415,11 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
 // (t < 0) that this leaves on the other side, its line crossing the plane at t_c > 0, goes onto the
 // plane (plus the margin): the flesh of a line in a tight bend's corner meets there, pressed against
 // the other limb's (the trixie lane's thickness steps left one such vertex of tests/python's capsule
-// at 135 degrees across). Lines crossing behind the joint (t_c <= 0) are left alone: moved onto the
-// plane there, flesh came close to the other bone (the untangling's slide at 135 degrees through
-// the layer: min ratio 0.85).
+// at 135 degrees across), unless it would end closer to the two bones than kContactClearance of its
+// rest distance (skeletal_speed's 178K capsule with ramp weights bent 135 degrees: an outer vertex
+// the thickness steps had carried past the joint landed on the joint's axis, min ratio 0.017).
+// Lines crossing behind the joint (t_c <= 0) are left alone: moved onto the plane there, flesh came
+// close to the other bone (the untangling's slide at 135 degrees through the layer: min ratio 0.85).
 // The distance to the own bone's line is unchanged (a slide along it), and the map is monotone along
 // each line: no vertex overtakes another. Only the vertices within `reach` times the shorter bone's
 // length of the joint at rest slide.
@@ -1434,7 +1445,7 @@ std::vector<SkeletalRig::Impl::ContactJoint> SkeletalRig::Impl::contact_joints(c
       j.m0 = (j.a0 + j.b0).normalized(), j.m = (j.a + j.b).normalized();
       j.co0 = j.a0.dot(j.m0), j.co = j.a.dot(j.m);  // cos of half the angle between the bones
       if (j.co < 0.05 || j.co0 < 0.05) continue;    // folded flat (over ~174 degrees): no plane between
-      j.J0 = bone_head[c], j.J = h[c];
+      j.J0 = bone_head[c], j.J = h[c], j.lp = lp, j.lc = lc;
       const double L = reach * std::min(lp, lc);
       j.L2 = L * L;
       out.push_back(j);
@@ -1463,8 +1474,11 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
         const double te = std::max(t, 0.0), T = kappa * tc;
         if (te < T && tc > tc0) shift = (tc - tc0 + std::min(margin, tc - tc0)) * (1 - te / T);
       }
-      // A vertex past the joint (t < 0) whose line crosses the plane on its own side goes onto it.
-      if (tc > 0 && tc > t) shift = std::max(shift, tc - t + margin);
+      // A vertex past the joint (t < 0) whose line crosses the plane on its own side goes onto it,
+      // unless that takes it closer to the bones than kContactClearance of its rest distance.
+      if (tc > 0 && tc > t && tc - t + margin > shift &&
+          j.bone_distance(x + (tc - t + margin) * e, true) >= kContactClearance * j.bone_distance(x0, false))
+        shift = tc - t + margin;
       if (shift > 0) X.row(i) = (x + shift * e).transpose().template cast<typename Out::Scalar>();
     }
   }
