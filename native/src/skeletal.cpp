@@ -496,8 +496,7 @@ struct SkeletalRig::Impl {
     // Distance from x to the two bones' segments, posed (J, a, b) or at rest (J0, a0, b0).
     double bone_distance(const Vec3& x, bool posed) const {
       const Vec3 &j = posed ? J : J0, &u = posed ? a : a0, &w = posed ? b : b0;
-      const double tp = std::clamp((x - j).dot(u), -lp, 0.0), tq = std::clamp((x - j).dot(w), 0.0, lc);
-      return std::min((x - j - tp * u).norm(), (x - j - tq * w).norm());
+      return std::sqrt(std::min(segment_sq_dist(x, j - lp * u, j), segment_sq_dist(x, j, j + lc * w)));
     }
     // The limb of a vertex at rest position x0 with weight w on p and c together: +1 the child's,
     // -1 the parent's, 0 none (out of reach, on the plane, or mostly on other bones).
@@ -507,8 +506,9 @@ struct SkeletalRig::Impl {
     }
   };
   std::vector<ContactJoint> contact_joints(const std::vector<Mat4>& pose, double reach) const;
+  // Returns whether some joint's bend changed (the slide acted; false when kappa < 1).
   template <class Out, class Weight>
-  void contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight,
+  bool contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa, Weight weight,
                      double reach = 1) const;
   // The fold guard's constraint with the joint contact on (kappa >= 1; else `inner` alone): after
   // `inner`, a smoothed vertex may not end deeper on the other limb's side of a joint's posed
@@ -1454,12 +1454,13 @@ std::vector<SkeletalRig::Impl::ContactJoint> SkeletalRig::Impl::contact_joints(c
 }
 
 template <class Out, class Weight>
-void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa,
+bool SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vector<Mat4>& pose, double kappa,
                                       Weight weight, double reach) const {
   const int n = static_cast<int>(X.rows());
-  if (!(kappa >= 1) || V0.rows() != n) return;
+  if (!(kappa >= 1) || V0.rows() != n) return false;
   const double margin = contact_margin;
-  for (const ContactJoint& j : contact_joints(pose, reach)) {
+  const std::vector<ContactJoint> joints = contact_joints(pose, reach);
+  for (const ContactJoint& j : joints) {
 #pragma omp parallel for schedule(static) if (n >= kParallelMin)
     for (int i = 0; i < n; ++i) {
       const Vec3 x0 = row3(V0, i);
@@ -1482,6 +1483,7 @@ void SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
       if (shift > 0) X.row(i) = (x + shift * e).transpose().template cast<typename Out::Scalar>();
     }
   }
+  return !joints.empty();
 }
 
 // Untangling (SkeletalDeformOptions::untangle_iterations, issue 33): the thesis's remedy for folds,
@@ -1858,7 +1860,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);
-    contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
+    const bool contact = contact_slide(X, control.V, pose, opt.contact_slide, [&](int i, int j) { return W(i, j); });
     if (guard) {
       const auto skip = [&](int i) { return !edited.empty() && edited[i]; };
       const auto constrain = [&] {
@@ -1877,7 +1879,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
       // whole-mesh path only and only with the contact (bench/notes/skeletal.md, session 27):
       // without it the pass added pairs (tests/python's capsule bent 90 degrees: 63 -> 145), and
       // through the multiresolution layer (on the control mesh) it did too.
-      if (!multires && edited.empty() && opt.contact_slide >= 1 && !contact_joints(pose, 1).empty())
+      if (contact && !multires && edited.empty())
         control_guard.apply(X, skeletal_subspace_deform(control.V, W, rest, pose, nullptr, true), {opt.fold_guard},
                             nullptr, constrain());
     }
@@ -1942,6 +1944,10 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     }
     SkeletalDeformOptions turn = opt;  // the turn alone (follow_twist)
     turn.projection = 0, turn.bone_clearance = 0;
+    const auto slide = [&] {  // the joint contact, before the dense guard when there is one
+      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
+                         [&](int i, int j) { return impl.dense_weight(i, j); });
+    };
     if (dense_projection(opt)) {
       // The fold guard against the limit surface before the dense step (turned, under follow_twist).
       const bool guard = opt.fold_guard > 0 && !impl.dense_guard.empty();
@@ -1949,8 +1955,7 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
       Plain ref = guard ? Plain(out) : Plain();
       if (guard && twist) impl.project_dense(Sd, deep, pose, turn, edited, twist, ref);
       impl.project_dense(Sd, deep, pose, opt, edited, twist, out);
-      impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
-                         [&](int i, int j) { return impl.dense_weight(i, j); });
+      slide();
       if (guard) {
         const VecXi& face = impl.multires->base_face();
         const MatX3i& Fc = impl.control.F;
@@ -1973,9 +1978,7 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
       impl.project_dense(Sd, deep, pose, turn, edited, twist, out);
     }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
-      if (!dense_projection(opt))
-        impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
-                           [&](int i, int j) { return impl.dense_weight(i, j); });
+      if (!dense_projection(opt)) slide();
       impl.untangle_dense(out, Sd, pose, opt, edited);
     }
   } else {
