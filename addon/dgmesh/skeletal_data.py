@@ -72,6 +72,12 @@ OLD_OPTIONS = {
 }
 
 
+def contact_slide_ok(value):
+    """The joint contact's kappa as the library takes it (SkeletalDeformOptions::contact_slide): 0 (off)
+    or a finite value of at least 1. Read by check_info and by Skeletal Bind before it binds."""
+    return value == 0 or 1 <= value <= 1e6
+
+
 def saved_options(info):
     """The options a binding was bound with, {field: value} for the fields of OLD_OPTIONS, each of
     its table value's type; a field the binding lacks (saved before the option) reads as the table's."""
@@ -111,9 +117,8 @@ def check_info(info, methods=()):
     for key in ("untangle_iterations", "fold_guard"):
         if info.get(key, 0) < 0:
             raise BindDataError(f"its field {key!r} is negative ({info[key]})")
-    contact = info.get("contact_slide", 0.0)
-    if not (contact == 0 or 1 <= contact <= 1e6):
-        raise BindDataError(f"its field 'contact_slide' is {contact!r:.40}: 0 (off) or at least 1")
+    if not contact_slide_ok(info.get("contact_slide", 0.0)):
+        raise BindDataError(f"its field 'contact_slide' is {info['contact_slide']!r:.40}: 0 (off) or at least 1")
     if "control_faces" in info and info["control_faces"] < 1:
         raise BindDataError(f"its field 'control_faces' is {info['control_faces']}, not positive")
 

@@ -54,7 +54,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 
 from ..core import MeshError
 from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
-from ..skeletal_data import SCHEMA_VERSION, encode_arrays, saved_options, write_pc2
+from ..skeletal_data import SCHEMA_VERSION, contact_slide_ok, encode_arrays, saved_options, write_pc2
 from . import bridge, compat
 from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 from .skeletal_live import (HANDLERS, edited, helper_node_group, helper_object, link_skeleton, move_first, unbind,
@@ -226,7 +226,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             self.report({'ERROR'}, f"{obj.name!r} already has an attribute {ATTR!r} or a modifier {MOD!r} "
                         "(left from an earlier binding?); remove them first")
             return {'CANCELLED'}
-        if 0 < self.contact < 1:
+        if not contact_slide_ok(self.contact):
             self.report({'ERROR'}, f"Joint Contact is {self.contact:g}: set 0 (off) or at least 1 (the slide "
                         "reaches that many times its crossing depth along the bone)")
             return {'CANCELLED'}
