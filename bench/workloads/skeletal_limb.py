@@ -1,12 +1,14 @@
 """Skeletal deformation in Blender: the limb quality benchmark against Blender's Armature modifier
 with automatic weights, and the live-update speed inside Blender.
 
-    /usr/bin/python3 bench/run.py skeletal_limb skeletal_live
+    /usr/bin/python3 bench/run.py skeletal_limb skeletal_live skeletal_joints
 
 skeletal_limb: a capsule (r 0.5, length 6) on a two-bone chain and the camel's front leg (Debian's
 CGAL data) on a three-bone chain, weighted by Blender's Parent with Automatic Weights (the same
 weights for every method), bent 90 degrees and twisted 180 degrees; Blender's Armature modifier
 with linear blend skinning and with Preserve Volume (dual quaternions) against ours.
+skeletal_joints: issue 33's joint bar (fewer crossing pairs than Preserve Volume, bone ratio at
+least 0.9) on the same meshes and weights at every pose: bends of 45 / 90 / 135, twists of 90 / 180.
 skeletal_live: bench/workloads/_skeletal_live.py (frame_set over keyframed frames with the bound
 178K-vertex capsule, split into its parts, against Blender's own Armature modifier).
 """
@@ -20,7 +22,7 @@ import numpy as np
 
 import dgmesh
 from bench.common import IMAGES, cgal_mesh, run_blender, table
-from dgmesh.skeletal import capsule, skeletal_subspace_deform
+from dgmesh.skeletal import capsule, self_intersecting_pairs, skeletal_subspace_deform
 
 HERE = pathlib.Path(__file__).resolve().parent
 LIMB_SCRIPT = HERE / "_skeletal_limb.py"
@@ -586,6 +588,80 @@ def limb_quality(quick):
     return {"markdown": "\n".join(md), "data": data}
 
 
+JOINT_POSES = ("bend 45", "bend 90", "bend 135", "twist 90", "twist 180")
+JOINT_METHODS = ("ours whole mesh", "ours via multires (the operator's path)", "ours via multires, untangle 20")
+
+
+def joints(quick):
+    """Issue 33's joint bar on every pose: fewer self-intersecting pairs than Blender's Preserve Volume
+    (none where it has none) and a minimum bone ratio of at least 0.9, for skeletal_limb's meshes and
+    weights, bends of 45 / 90 / 135 degrees and twists of 90 / 180."""
+    cases = [("capsule", *capsule(0.5, 6.0, 48 if quick else 64, 8 if quick else 10, 64 if quick else 128),
+              (np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])), 1, (0, 0, 1))]
+    if not quick:
+        cases += [("camel leg", *cgal_mesh("camel"), CAMEL_BONES, 2, (1, 0, 0)),
+                  ("armadillo leg", *cgal_mesh("armadillo"), ARMADILLO_BONES, 2, (-1, 0, 0))]
+    rows, data, summary = [], {}, {m: [0, 0, 0] for m in JOINT_METHODS}
+    n_poses = 0
+    for model, V, F, (heads, tails), bone, bend_axis, in cases:
+        axis = tuple((tails[bone] - heads[bone]) / np.linalg.norm(tails[bone] - heads[bone]))
+        poses = [(bone, *(bend_axis if p.startswith("bend") else axis), np.radians(float(p.split()[1])))
+                 for p in JOINT_POSES]
+        with tempfile.TemporaryDirectory() as tmp:
+            inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
+            np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array(poses, dtype=float))
+            run_blender(LIMB_SCRIPT, [inp, outp])
+            res = dict(np.load(outp))
+        rest, W = res["rest"], res["W"]
+        bind = dict(bone_heads=heads, bone_tails=tails)
+        whole = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=len(F) + 1, **bind)
+        layered = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=min(5000, len(F) // 2), **bind)
+        b0 = bone_distance(V, rest, rest, heads, tails)
+        affected = (W[:, bone:].sum(1) > 0.01) & (b0 > 1e-9)  # weighted to the moving bone (or after it)
+        at_rest = len(self_intersecting_pairs(V, F))
+        for p, pname in enumerate(JOINT_POSES):
+            pose = res[f"pose{p}"]
+            results = {"LBS": res[f"lbs{p}"], "DQS": res[f"dqs{p}"], JOINT_METHODS[0]: whole.deform(pose),
+                       JOINT_METHODS[1]: layered.deform(pose), JOINT_METHODS[2]: layered.deform(pose, untangle_iterations=20)}
+            cell = {}
+            for mname, X in results.items():
+                ratio = float((bone_distance(X, rest, pose, heads, tails)[affected] / b0[affected]).min())
+                cell[mname] = (len(self_intersecting_pairs(X, F)), ratio)
+                data[f"{model}|{pname}|{mname}"] = dict(pairs=cell[mname][0], min_ratio=ratio)
+            dqs_pairs = cell["DQS"][0]
+            n_poses += 1
+            marks = []
+            for m in JOINT_METHODS:
+                pairs, ratio = cell[m]
+                fewer = pairs < max(dqs_pairs, 1)  # (none, where DQS has none)
+                thick = ratio >= 0.9
+                summary[m][0] += fewer
+                summary[m][1] += thick
+                summary[m][2] += fewer and thick
+                marks.append("%d (%.3f)%s" % (pairs, ratio, "" if fewer and thick else " *"))
+            rows.append([model, pname, "%d (%.3f)" % cell["LBS"], "%d (%.3f)" % cell["DQS"], *marks])
+        data[f"{model}|rest_pairs"] = at_rest
+    data["summary"] = {m: dict(zip(["fewer_pairs", "thickness", "both"], v)) for m, v in summary.items()}
+    md = ["### Issue 33's joint bar on every pose", "",
+          "skeletal_limb's capsule (%s) and legs, weighted by Blender's automatic weights; Blender's Armature "
+          "modifier (LBS, Preserve Volume = DQS) against ours with its defaults on the whole mesh, through the "
+          "multiresolution layer (5000-face control mesh, half the faces in quick mode: the Skeletal Bind operator's "
+          "path above 5000 faces) "
+          "and the same with Untangle Creases (untangle_iterations=20). The moving bone (the capsule's second, "
+          "the legs' lower bone) bent 45 / 90 / 135 degrees (as skeletal_limb's bend) or twisted 90 / 180 degrees "
+          "about its own axis. Each cell: self-intersecting triangle pairs over the whole mesh "
+          "(`dgmesh.skeletal.self_intersecting_pairs`) and, in brackets, the minimum ratio of the distance to the "
+          "nearest posed bone segment, posed / rest, over the vertices weighted to the moving bone. The bar (issue "
+          "33): fewer pairs than DQS, none where DQS has none, and a ratio of at least 0.9; * marks a cell that "
+          "misses it. (The camel's front legs touch at rest: its pairs at rest are counted too.)" % ("48 x 8 x 64" if quick else "64 x 10 x 128"), "",
+          table(["mesh", "pose", "LBS", "DQS", *JOINT_METHODS], rows), "",
+          table(["ours", "poses meeting the pairs bar", "poses with min ratio >= 0.9", "both"],
+                [[m, f"{a} of {n_poses}", f"{b} of {n_poses}", f"{c} of {n_poses}"] for m, (a, b, c) in summary.items()]),
+          "", "Pairs at rest: " + ", ".join("%s %d" % (c[0], data[f"{c[0]}|rest_pairs"]) for c in cases) + ".", "",
+          "`/usr/bin/python3 bench/run.py skeletal_joints`"]
+    return {"markdown": "\n".join(md), "data": data}
+
+
 def live(quick):
     levels = 1 if quick else 2
     d = run_blender(LIVE_SCRIPT, [levels, 10 if quick else 20])
@@ -689,4 +765,4 @@ def live(quick):
     return {"markdown": "\n".join(md), "data": d}
 
 
-WORKLOADS = {"skeletal_limb": limb_quality, "skeletal_live": live}
+WORKLOADS = {"skeletal_limb": limb_quality, "skeletal_live": live, "skeletal_joints": joints}
