@@ -8,13 +8,13 @@ over the vertices with weight on the moving bone.
 
     /usr/bin/python3 bench/tools/skeletal_crease_legs.py camel|armadillo [--slide]
 """
-import sys, pathlib, tempfile, time
+import sys, pathlib, time
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon"), str(ROOT / "bench" / "tools")]
 import numpy as np  # noqa: E402
 import dgmesh  # noqa: E402
-from bench.common import cgal_mesh, run_blender
-from bench.workloads.skeletal_limb import CAMEL_BONES, ARMADILLO_BONES, LIMB_SCRIPT, bone_distance
+from bench.common import cgal_mesh
+from bench.workloads.skeletal_limb import CAMEL_BONES, ARMADILLO_BONES, armature_poses, bone_distance
 from skeletal_crease_probe import self_intersecting_pairs
 which = sys.argv[1]
 model, mesh, (heads, tails), bend_axis = {"camel": ("camel leg", "camel", CAMEL_BONES, (1, 0, 0)),
@@ -23,11 +23,7 @@ V, F = cgal_mesh(mesh)
 axis = tails[2] - heads[2]
 poses = {"bend 45": (2, bend_axis, np.pi / 4), "bend 90": (2, bend_axis, np.pi / 2), "bend 135": (2, bend_axis, 3 * np.pi / 4),
          "twist 180": (2, tuple(axis / np.linalg.norm(axis)), np.pi)}
-with tempfile.TemporaryDirectory() as tmp:
-    inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
-    np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array([[b, *ax, ang] for b, ax, ang in poses.values()], dtype=float))
-    run_blender(LIMB_SCRIPT, [inp, outp])
-    res = dict(np.load(outp))
+res = armature_poses(V, F, heads, tails, poses)[0]
 rest, W = res["rest"], res["W"]
 t = time.time()
 rig = dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=len(F) + 1)

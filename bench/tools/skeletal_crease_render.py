@@ -17,16 +17,15 @@ Poses: the lower bone bent 45 / 90 / 135 degrees, twisted 90 / 180 degrees about
 """
 import pathlib
 import sys
-import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon"), str(ROOT / "bench" / "tools")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.common import cgal_mesh, run_blender  # noqa: E402
+from bench.common import cgal_mesh  # noqa: E402
 from bench.workloads.skeletal import _render  # noqa: E402
-from bench.workloads.skeletal_limb import ARMADILLO_BONES, CAMEL_BONES, LIMB_SCRIPT  # noqa: E402
+from bench.workloads.skeletal_limb import ARMADILLO_BONES, CAMEL_BONES, armature_poses  # noqa: E402
 from dgmesh.skeletal import capsule, self_intersecting_pairs, skeletal_subspace_deform  # noqa: E402
 from skeletal_crease_probe import REST, probe_poses, probe_rigs  # noqa: E402
 
@@ -78,12 +77,8 @@ def leg_renders(which):
                                                "armadillo": ("armadillo", ARMADILLO_BONES, (-1, 0, 0), 14.0)}[which]
     V, F = cgal_mesh(mesh)
     axis = tuple((tails[2] - heads[2]) / np.linalg.norm(tails[2] - heads[2]))
-    poses = [(2, *(bend_axis if name.startswith("bend") else axis), np.radians(angle)) for name, angle in ANGLES.items()]
-    with tempfile.TemporaryDirectory() as tmp:
-        inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
-        np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array(poses, dtype=float))
-        run_blender(LIMB_SCRIPT, [inp, outp])
-        res = dict(np.load(outp))
+    poses = [(2, bend_axis if name.startswith("bend") else axis, np.radians(angle)) for name, angle in ANGLES.items()]
+    res = armature_poses(V, F, heads, tails, poses)[0]
     rest, W = res["rest"], res["W"]
     bind = dict(bone_heads=heads, bone_tails=tails)
     whole = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=len(F) + 1, **bind)

@@ -14,7 +14,6 @@ instead, e.g. `skeletal_fold_guard.py capsule --contact`; --contact=K for contac
 """
 import pathlib
 import sys
-import tempfile
 
 import numpy as np
 
@@ -83,20 +82,15 @@ def capsule_probe():
 
 
 def legs(which):
-    from bench.common import cgal_mesh, run_blender
-    from bench.workloads.skeletal_limb import ARMADILLO_BONES, CAMEL_BONES, LIMB_SCRIPT, bone_distance
+    from bench.common import cgal_mesh
+    from bench.workloads.skeletal_limb import ARMADILLO_BONES, CAMEL_BONES, armature_poses, bone_distance
     mesh, (heads, tails), bend_axis = {"camel": ("camel", CAMEL_BONES, (1, 0, 0)),
                                        "armadillo": ("armadillo", ARMADILLO_BONES, (-1, 0, 0))}[which]
     V, F = cgal_mesh(mesh)
     axis = tuple((tails[2] - heads[2]) / np.linalg.norm(tails[2] - heads[2]))
     poses = {"bend 45": (2, bend_axis, np.pi / 4), "bend 90": (2, bend_axis, np.pi / 2),
              "bend 135": (2, bend_axis, 3 * np.pi / 4), "twist 90": (2, axis, np.pi / 2), "twist 180": (2, axis, np.pi)}
-    with tempfile.TemporaryDirectory() as tmp:
-        inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
-        np.savez(inp, V=V, F=F, heads=heads, tails=tails,
-                 poses=np.array([[b, *ax, ang] for b, ax, ang in poses.values()], dtype=float))
-        run_blender(LIMB_SCRIPT, [inp, outp])
-        res = dict(np.load(outp))
+    res = armature_poses(V, F, heads, tails, poses)[0]
     rest, W = res["rest"], res["W"]
     rigs = {"whole": dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=len(F) + 1),
             "multires": dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=5000)}

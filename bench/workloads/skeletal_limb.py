@@ -121,16 +121,23 @@ def _submesh(F, keep_face):
     return used, remap[Fk]
 
 
+def armature_poses(V, F, heads, tails, poses):
+    """Blender's automatic weights and Armature modifier on a mesh and bone chain (_skeletal_limb.py):
+    poses {name: (bone, axis (3,), angle)} or a list of such tuples. Returns (its OUT.npz as a dict,
+    run_blender's JSON)."""
+    rows = poses.values() if isinstance(poses, dict) else poses
+    with tempfile.TemporaryDirectory() as tmp:
+        inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
+        np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array([[b, *ax, ang] for b, ax, ang in rows], dtype=float))
+        info = run_blender(LIMB_SCRIPT, [inp, outp])
+        return dict(np.load(outp)), info
+
+
 def limb_case(model, V, F, heads, tails, poses, quick, render=None):
     """Blender's modifier (LBS, DQS) with automatic weights against ours on one mesh and chain.
     poses: {name: (bone, axis (3,), angle)}; render: dict(faces mask, meta) or None."""
     moving = {p[0] for p in poses.values()}
-    with tempfile.TemporaryDirectory() as tmp:
-        inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
-        np.savez(inp, V=V, F=F, heads=heads, tails=tails,
-                 poses=np.array([[b, *ax, ang] for b, ax, ang in poses.values()], dtype=float))
-        info = run_blender(LIMB_SCRIPT, [inp, outp])
-        res = dict(np.load(outp))
+    res, info = armature_poses(V, F, heads, tails, poses)
     rest, W = res["rest"], res["W"]
     t0 = time.perf_counter()
     rig = dgmesh.SkeletalRig.bind(V, F, rest, W, bone_heads=heads, bone_tails=tails, control_faces=len(F) + 1)
@@ -605,13 +612,8 @@ def joints(quick):
     n_poses = 0
     for model, V, F, (heads, tails), bone, bend_axis, in cases:
         axis = tuple((tails[bone] - heads[bone]) / np.linalg.norm(tails[bone] - heads[bone]))
-        poses = [(bone, *(bend_axis if p.startswith("bend") else axis), np.radians(float(p.split()[1])))
-                 for p in JOINT_POSES]
-        with tempfile.TemporaryDirectory() as tmp:
-            inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
-            np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array(poses, dtype=float))
-            run_blender(LIMB_SCRIPT, [inp, outp])
-            res = dict(np.load(outp))
+        poses = [(bone, bend_axis if p.startswith("bend") else axis, np.radians(float(p.split()[1]))) for p in JOINT_POSES]
+        res = armature_poses(V, F, heads, tails, poses)[0]
         rest, W = res["rest"], res["W"]
         bind = dict(bone_heads=heads, bone_tails=tails)
         whole = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=len(F) + 1, **bind)

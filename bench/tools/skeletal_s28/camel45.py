@@ -7,24 +7,19 @@ rest, and the first pairs' face centres and weights on the shin bone.
 """
 import pathlib
 import sys
-import tempfile
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.common import cgal_mesh, run_blender  # noqa: E402
-from bench.workloads.skeletal_limb import CAMEL_BONES, LIMB_SCRIPT  # noqa: E402
+from bench.common import cgal_mesh  # noqa: E402
+from bench.workloads.skeletal_limb import CAMEL_BONES, armature_poses  # noqa: E402
 from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
 V, F = cgal_mesh("camel")
 heads, tails = CAMEL_BONES
-with tempfile.TemporaryDirectory() as tmp:
-    inp, outp = pathlib.Path(tmp) / "in.npz", pathlib.Path(tmp) / "out.npz"
-    np.savez(inp, V=V, F=F, heads=heads, tails=tails, poses=np.array([[2, 1, 0, 0, np.pi / 4]]))
-    run_blender(LIMB_SCRIPT, [inp, outp])
-    res = dict(np.load(outp))
+res = armature_poses(V, F, heads, tails, [(2, (1, 0, 0), np.pi / 4)])[0]
 rest, W, pose = res["rest"], res["W"], res["pose0"]
 bind = dict(bone_heads=heads, bone_tails=tails)
 whole = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=len(F) + 1, **bind)
