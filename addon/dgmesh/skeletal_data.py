@@ -55,7 +55,7 @@ INFO_FIELDS = {
     "modifiers_object": (*_STRS, False), "rest_hash": (*_STR, False), "space": (*_NUMBERS, False),
     "created_basis": (_is_flag, "0 or 1", False), "untangle_iterations": (*_INT, False),
     "fold_guard": (*_INT, False), "contact_slide": (*_NUMBER, False),
-    "follow_twist": (_is_flag, "0 or 1", False),
+    "follow_twist": (_is_flag, "0 or 1", False), "untangle_render": (*_INT, False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
 
@@ -82,6 +82,13 @@ def saved_options(info):
     """The options a binding was bound with, {field: value} for the fields of OLD_OPTIONS, each of
     its table value's type; a field the binding lacks (saved before the option) reads as the table's."""
     return {key: type(old)(info.get(key, old)) for key, old in OLD_OPTIONS.items()}
+
+
+def render_untangle(info):
+    """The untangling iterations of a binding's renders and bakes (Skeletal Bind's Untangle Creases
+    Render): its stored ``untangle_render``; a binding saved before that field rendered with its one
+    untangling setting, so it reads as ``untangle_iterations`` (as saved_options reads that)."""
+    return int(info.get("untangle_render", saved_options(info)["untangle_iterations"]))
 
 
 def check_info(info, methods=()):
@@ -114,7 +121,7 @@ def check_info(info, methods=()):
             raise BindDataError(f"its field {key!r} has {len(info[key])} numbers, not {size}")
     if info["fairing_steps"] < 0:
         raise BindDataError(f"its field 'fairing_steps' is negative ({info['fairing_steps']})")
-    for key in ("untangle_iterations", "fold_guard"):
+    for key in ("untangle_iterations", "fold_guard", "untangle_render"):
         if info.get(key, 0) < 0:
             raise BindDataError(f"its field {key!r} is negative ({info[key]})")
     if not contact_slide_ok(info.get("contact_slide", 0.0)):

@@ -112,6 +112,8 @@ DAMAGE = {
     "untangle_is_negative": _set("untangle_iterations", -2),
     "untangle_is_a_text": _set("untangle_iterations", "3"),
     "fold_guard_is_negative": _set("fold_guard", -1),
+    "untangle_render_is_negative": _set("untangle_render", -1),
+    "untangle_render_is_a_text": _set("untangle_render", "10"),
     "contact_slide_below_one": _set("contact_slide", 0.5),
     "contact_slide_is_a_text": _set("contact_slide", "3"),
     "follow_twist_is_a_text": _set("follow_twist", "yes"),

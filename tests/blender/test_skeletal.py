@@ -404,7 +404,8 @@ def test_bake_then_unbind_plays_cache(tmp_path):
 def test_animation_render_deforms_every_frame(tmp_path):
     """Rendering an animation (Render Animation, ``blender -b file -a``) evaluates each frame in the
     render's own depsgraph and leaves the original armature at the frame it started from: every
-    rendered frame must still show its own pose."""
+    rendered frame must still show its own pose, deformed with the render settings."""
+    from dgmesh.blender.skeletal_live import render_settings
     obj, arm, V = _scene()
     assert _bind() == {'FINISHED'}
     _pose_lower(arm, 0.0, frame=1)
@@ -412,9 +413,10 @@ def test_animation_render_deforms_every_frame(tmp_path):
     sc = bpy.context.scene
     frames = (1, 3, 5)
     expected = {}
-    for fr in frames:
-        sc.frame_set(fr)
-        expected[fr] = _evaluated_co(obj)
+    with render_settings():
+        for fr in frames:
+            sc.frame_set(fr)
+            expected[fr] = _evaluated_co(obj)
     assert np.abs(expected[5] - expected[1]).max() > 1.0  # not vacuous: the pose moves the mesh
     seen = {}
 
@@ -450,6 +452,7 @@ def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path, capfd):
     Smooth before the Armature modifier): a shape key, that Smooth and a Subdivision Surface after
     it still show, before and after unbind, and the
     defaults (no file, no range) give a per-object file next to the .blend and the scene's range."""
+    from dgmesh.blender import skeletal_live
     obj, arm, V = _scene()
     obj.shape_key_add(name="Basis")
     kb = obj.shape_key_add(name="Fat")
@@ -466,9 +469,10 @@ def test_bake_keeps_shape_keys_and_later_modifiers(tmp_path, capfd):
     sc = bpy.context.scene
     sc.frame_start, sc.frame_end = 1, 5
     live = {}
-    for fr in (1, 3, 5):
-        sc.frame_set(fr)
-        live[fr] = _evaluated_co(obj)
+    with skeletal_live.render_settings():  # the bake's default: the render settings
+        for fr in (1, 3, 5):
+            sc.frame_set(fr)
+            live[fr] = _evaluated_co(obj)
     assert len(live[5]) > len(V)  # subdivided
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
     obj = bpy.data.objects["Capsule"]
@@ -682,9 +686,9 @@ def test_one_deform_per_pose_change():
     calls = []
     orig = skeletal_live.deformed
 
-    def counting(o, pose, skeleton=None):
+    def counting(o, pose, skeleton=None, render=False):
         calls.append(sc.frame_current)
-        return orig(o, pose, skeleton)
+        return orig(o, pose, skeleton, render)
 
     skeletal_live.deformed = counting
     try:
@@ -1395,6 +1399,87 @@ def test_untangle_creases_option():
     print(f"crossing pairs at 90 degrees: untangle 0 {off}, 3 {on}")
     assert off > 0  # not vacuous
     assert on < off / 2
+
+
+def _render_frame(obj, tmp_path):
+    """Renders the current frame (Workbench, 16 pixels, as an animation of one frame) and returns
+    the bound mesh's positions as the render's depsgraph evaluated them."""
+    sc = bpy.context.scene
+    seen = []
+
+    def capture(scene, depsgraph=None):  # runs after the add-on's own frame handler
+        if depsgraph is not None and depsgraph.mode == 'RENDER':
+            ev = obj.evaluated_get(depsgraph)
+            seen.append(_mesh_co(ev.to_mesh()).copy())
+            ev.to_mesh_clear()
+
+    if sc.camera is None:
+        cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+        sc.collection.objects.link(cam)
+        sc.camera = cam
+        cam.location = (0, 0, 20)
+    sc.render.engine = 'BLENDER_WORKBENCH'
+    sc.render.resolution_x = sc.render.resolution_y = 16
+    sc.render.filepath = str(tmp_path / "frame_")
+    sc.frame_start = sc.frame_end = sc.frame_current
+    bpy.app.handlers.frame_change_post.append(capture)
+    try:
+        assert bpy.ops.render.render(animation=True) == {'FINISHED'}
+    finally:
+        bpy.app.handlers.frame_change_post.remove(capture)
+    assert len(seen) == 1
+    return seen[0]
+
+
+def test_untangle_creases_render_acts_in_renders_and_bakes_only(tmp_path):
+    """Untangle Creases Render (stored with the binding, default RENDER_UNTANGLE) untangles what a
+    render and a bake for renders deform; the viewport keeps its own setting, and shows its own
+    result again after the render. (Without the fold guard, which lowers the count by itself.)"""
+    from dgmesh.blender import ops_skeletal
+    from dgmesh.blender.skeletal_live import render_settings
+    from dgmesh.skeletal import self_intersecting_pairs
+    obj, arm, V = _scene()
+    assert _bind(fold_guard=0) == {'FINISHED'}
+    assert obj["dg_skeletal"]["untangle_render"] == ops_skeletal.RENDER_UNTANGLE > 0
+    assert obj["dg_skeletal"]["untangle_iterations"] == 0
+    _pose_lower(arm, math.pi / 2, frame=1)
+    sc = bpy.context.scene
+    sc.frame_set(1)
+    F = np.array([p.vertices[:] for p in obj.data.polygons])
+    pairs = lambda X: len(self_intersecting_pairs(X.astype(np.float64), F))  # noqa: E731
+    viewport = _evaluated_co(obj)
+    rendered = _render_frame(obj, tmp_path)
+    print(f"crossing pairs at 90 degrees: viewport {pairs(viewport)}, render {pairs(rendered)}")
+    assert pairs(viewport) > 0  # not vacuous
+    assert pairs(rendered) < pairs(viewport) / 2
+    sc.frame_set(1)
+    assert np.array_equal(_evaluated_co(obj), viewport)  # the viewport's own result again
+    with render_settings():
+        sc.frame_set(1)
+        assert np.abs(_evaluated_co(obj) - rendered).max() < 1e-5
+    sc.frame_set(1)
+    # A bake uses the render settings unless asked for the viewport's.
+    for evaluation, expected in (('RENDER', rendered), ('VIEWPORT', viewport)):
+        path = str(tmp_path / f"{evaluation}.pc2")
+        assert bpy.ops.dgmesh.skeletal_bake('EXEC_DEFAULT', filepath=path, frame_start=1, frame_end=1,
+                                            evaluation=evaluation) == {'FINISHED'}
+        baked = np.fromfile(path, dtype=np.float32, offset=32).reshape(-1, 3)
+        assert np.abs(baked - expected).max() < 1e-5, evaluation
+
+
+def test_untangle_creases_render_is_stored_and_rebound():
+    """The binding stores Untangle Creases Render and Rebind keeps it; a binding saved before it
+    renders with its one untangling setting."""
+    from dgmesh.skeletal_data import render_untangle
+    obj, arm, V = _scene()
+    assert _bind(untangle=2, untangle_render=4) == {'FINISHED'}
+    info = obj["dg_skeletal"]
+    assert (info["untangle_iterations"], info["untangle_render"]) == (2, 4)
+    assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
+    info = obj["dg_skeletal"]
+    assert (info["untangle_iterations"], info["untangle_render"]) == (2, 4)
+    del info["untangle_render"]
+    assert render_untangle(info.to_dict()) == 2
 
 
 def test_fold_guard_option():

@@ -61,6 +61,21 @@ def test_options_of_bindings_saved_before_them_come_from_the_one_table():
         assert saved_options(_info(**{k: v for k, v in own.items() if k != key})) == dict(own, **{key: old})
 
 
+def test_render_untangling_is_its_own_field_or_the_one_setting_saved_before_it():
+    """Untangle Creases Render: a binding's own untangle_render; one saved before the field rendered
+    with its one untangling setting (saved_options' untangle_iterations, OLD_OPTIONS' when that is
+    missing too). Negative or non-integer values are named."""
+    import pytest
+    from dgmesh.skeletal_data import BindDataError, render_untangle
+    assert render_untangle(_info(untangle_iterations=3, untangle_render=7)) == 7
+    assert render_untangle(_info(untangle_iterations=3)) == 3
+    assert render_untangle(_info()) == OLD_OPTIONS["untangle_iterations"]
+    check_info(_info(untangle_render=0))
+    for bad in (-1, 2.5, "10"):
+        with pytest.raises(BindDataError, match="untangle_render"):
+            check_info(_info(untangle_render=bad))
+
+
 def test_joint_contact_must_be_off_or_at_least_one():
     """contact_slide as the library takes it: 0 (off) or a finite kappa >= 1; anything else is named."""
     import pytest

@@ -22,11 +22,13 @@ a node group of its own, since it follows its own armature (the copied rig, when
 duplicated with it) from its own place.
 """
 
+import contextlib
+
 import bpy
 import numpy as np
 
 from ..core import MeshError
-from ..skeletal_data import saved_options
+from ..skeletal_data import render_untangle, saved_options
 from . import compat
 from .common import editable_collections
 from .skeletal_space import inverse, pose_matrices, stored_space, transformed
@@ -43,6 +45,19 @@ _buffers = {}  # (bind id, object name) -> (positions (n, 3), float32 (n*3,) out
 _skeleton_rest = {}  # (bind id, object name) -> (the skeleton as its object holds it (float32), rig space)
 _failed = set()  # the console notes of failed updates printed (each once)
 _n_objects = 0  # len(bpy.data.objects) at the last update
+_for_render = False  # the render settings in every update (Skeletal Bake with its Render evaluation)
+
+
+@contextlib.contextmanager
+def render_settings(on=True):
+    """Within it every live update deforms with the bindings' render settings (Untangle Creases
+    Render), as a render's own depsgraph does: for a bake whose cache plays in renders."""
+    global _for_render
+    before, _for_render = _for_render, bool(on)
+    try:
+        yield
+    finally:
+        _for_render = before
 
 
 def writes_helper(obj, helper):
@@ -237,10 +252,11 @@ def _skeleton_co_of(me, n):
     return co.reshape(-1, 3)
 
 
-def deformed(obj, pose, skeleton=None):
+def deformed(obj, pose, skeleton=None, render=False):
     """Deforms into the object's reused buffers: (positions (n, 3), float32 (n*3,) ready for
     foreach_set: the positions for a legacy shape key, else the offsets from the rest positions).
-    ``skeleton``: an edited skeleton (skeleton_edit)."""
+    ``skeleton``: an edited skeleton (skeleton_edit). ``render``: with the binding's render settings
+    (its Untangle Creases Render iterations instead of the viewport's)."""
     info = obj[PROP]
     rig = bound_rig(obj)
     key = state_key(obj, info)
@@ -250,7 +266,8 @@ def deformed(obj, pose, skeleton=None):
     pos, out, rest = buf
     saved = saved_options(info)  # files bound before an option: the values they were bound with
     kw = dict(fairing_steps=int(info["fairing_steps"]), method=str(info["method"]).lower(),
-              bone_clearance=saved["bone_clearance"], untangle_iterations=saved["untangle_iterations"],
+              bone_clearance=saved["bone_clearance"],
+              untangle_iterations=render_untangle(info) if render else saved["untangle_iterations"],
               fold_guard=saved["fold_guard"], contact_slide=saved["contact_slide"],
               follow_twist=saved["follow_twist"], dual_quaternion=saved["skeleton_blend"] == 'DUAL_QUATERNION')
     try:
@@ -360,7 +377,10 @@ def update_object(obj, force=False, depsgraph=None):
     else:
         pose = pose_matrices(obj, arm, names, space=space, bind=bind)
     skeleton = skeleton_edit(obj, info, depsgraph)
-    sig = pose.tobytes() + (b"" if skeleton is None else skeleton.tobytes())
+    # A render's depsgraph (and a bake for renders) deforms with the render settings; the signature
+    # holds which, so the viewport's next update of the same pose writes its own result again.
+    render = _for_render or (depsgraph is not None and depsgraph.mode == 'RENDER')
+    sig = pose.tobytes() + (b"" if skeleton is None else skeleton.tobytes()) + (b"R" if render else b"")
     # Same pose and skeleton: nothing to write, unless the helper was deleted by hand (live_target
     # makes it again, with this pose's offsets).
     if not force and _last_pose.get(state_key(obj, info)) == sig and (
@@ -369,7 +389,7 @@ def update_object(obj, force=False, depsgraph=None):
     data, prop, tagged = live_target(obj, info, adopt=depsgraph is None or depsgraph.mode != 'RENDER')
     if data is None:
         return False
-    _, co, _ = deformed(obj, pose, skeleton)
+    _, co, _ = deformed(obj, pose, skeleton, render)
     data.foreach_set(prop, co)
     tagged.update()
     _last_pose[state_key(obj, info)] = sig
