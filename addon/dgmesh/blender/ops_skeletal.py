@@ -37,9 +37,12 @@ takes a local copy of its mesh (library data ignores writes); binding, unbinding
 are refused there (they belong to its own file). A plain collection instance cannot be posed, is not
 in the scene's objects and stays at rest: bake it in its own file (the cache plays when linked).
 
+Renders deform with the binding's render settings (Untangle Creases Render), the viewport with its
+own (Untangle Creases): the live update asks which depsgraph it serves.
+
 Bake writes a frame range to a .pc2 point cache played by a Mesh Cache modifier, so renders and
 exports need no add-on: each frame as the stack evaluates it up to the live deformation (shape keys
-included), the cache placed after the live and Armature modifiers and before the others (a
+included; with the render settings unless Use Settings for is Viewport), the cache placed after the live and Armature modifiers and before the others (a
 Subdivision Surface still applies). Unbind removes everything bind added and leaves the mesh as it
 was. Removing the live modifier unbinds as well; applying it does too, and keeps the pose it froze
 into the mesh (the Armature modifiers come back disabled).
