@@ -401,6 +401,35 @@ def test_bake_then_unbind_plays_cache(tmp_path):
     assert np.array_equal(_mesh_co(obj.data), V.astype(np.float32))
 
 
+def _rendered(obj, tmp_path, frames):
+    """Renders ``frames`` (a range: Render Animation, Workbench, 16 pixels) and returns {frame: the
+    bound mesh's positions as the render's own depsgraph evaluated them}."""
+    sc = bpy.context.scene
+    seen = {}
+
+    def capture(scene, depsgraph=None):  # runs after the add-on's own frame handler
+        if depsgraph is not None and depsgraph.mode == 'RENDER':
+            ev = obj.evaluated_get(depsgraph)
+            seen[scene.frame_current] = _mesh_co(ev.to_mesh()).copy()
+            ev.to_mesh_clear()
+
+    if sc.camera is None:
+        cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
+        sc.collection.objects.link(cam)
+        sc.camera = cam
+        cam.location = (0, 0, 20)
+    sc.render.engine = 'BLENDER_WORKBENCH'
+    sc.render.resolution_x = sc.render.resolution_y = 16
+    sc.render.filepath = str(tmp_path / "frame_")
+    sc.frame_start, sc.frame_end, sc.frame_step = frames.start, frames.stop - 1, frames.step
+    bpy.app.handlers.frame_change_post.append(capture)
+    try:
+        assert bpy.ops.render.render(animation=True) == {'FINISHED'}
+    finally:
+        bpy.app.handlers.frame_change_post.remove(capture)
+    return seen
+
+
 def test_animation_render_deforms_every_frame(tmp_path):
     """Rendering an animation (Render Animation, ``blender -b file -a``) evaluates each frame in the
     render's own depsgraph and leaves the original armature at the frame it started from: every
@@ -418,29 +447,8 @@ def test_animation_render_deforms_every_frame(tmp_path):
             sc.frame_set(fr)
             expected[fr] = _evaluated_co(obj)
     assert np.abs(expected[5] - expected[1]).max() > 1.0  # not vacuous: the pose moves the mesh
-    seen = {}
-
-    def capture(scene, depsgraph=None):  # runs after the add-on's own frame handler
-        if depsgraph is not None and depsgraph.mode == 'RENDER':
-            ev = obj.evaluated_get(depsgraph)
-            me = ev.to_mesh()
-            seen[scene.frame_current] = _mesh_co(me).copy()
-            ev.to_mesh_clear()
-
     sc.frame_set(1)
-    cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-    sc.collection.objects.link(cam)
-    sc.camera = cam
-    cam.location = (0, 0, 20)
-    sc.render.engine = 'BLENDER_WORKBENCH'
-    sc.render.resolution_x = sc.render.resolution_y = 16
-    sc.render.filepath = str(tmp_path / "frame_")
-    sc.frame_start, sc.frame_end, sc.frame_step = 1, 5, 2
-    bpy.app.handlers.frame_change_post.append(capture)
-    try:
-        assert bpy.ops.render.render(animation=True) == {'FINISHED'}
-    finally:
-        bpy.app.handlers.frame_change_post.remove(capture)
+    seen = _rendered(obj, tmp_path, range(1, 6, 2))
     assert sorted(seen) == list(frames)
     for fr in frames:
         assert np.abs(seen[fr] - expected[fr]).max() < 1e-4, fr
@@ -1401,36 +1409,6 @@ def test_untangle_creases_option():
     assert on < off / 2
 
 
-def _render_frame(obj, tmp_path):
-    """Renders the current frame (Workbench, 16 pixels, as an animation of one frame) and returns
-    the bound mesh's positions as the render's depsgraph evaluated them."""
-    sc = bpy.context.scene
-    seen = []
-
-    def capture(scene, depsgraph=None):  # runs after the add-on's own frame handler
-        if depsgraph is not None and depsgraph.mode == 'RENDER':
-            ev = obj.evaluated_get(depsgraph)
-            seen.append(_mesh_co(ev.to_mesh()).copy())
-            ev.to_mesh_clear()
-
-    if sc.camera is None:
-        cam = bpy.data.objects.new("Cam", bpy.data.cameras.new("Cam"))
-        sc.collection.objects.link(cam)
-        sc.camera = cam
-        cam.location = (0, 0, 20)
-    sc.render.engine = 'BLENDER_WORKBENCH'
-    sc.render.resolution_x = sc.render.resolution_y = 16
-    sc.render.filepath = str(tmp_path / "frame_")
-    sc.frame_start = sc.frame_end = sc.frame_current
-    bpy.app.handlers.frame_change_post.append(capture)
-    try:
-        assert bpy.ops.render.render(animation=True) == {'FINISHED'}
-    finally:
-        bpy.app.handlers.frame_change_post.remove(capture)
-    assert len(seen) == 1
-    return seen[0]
-
-
 def test_untangle_creases_render_acts_in_renders_and_bakes_only(tmp_path):
     """Untangle Creases Render (stored with the binding, default RENDER_UNTANGLE) untangles what a
     render and a bake for renders deform; the viewport keeps its own setting, and shows its own
@@ -1448,7 +1426,7 @@ def test_untangle_creases_render_acts_in_renders_and_bakes_only(tmp_path):
     F = np.array([p.vertices[:] for p in obj.data.polygons])
     pairs = lambda X: len(self_intersecting_pairs(X.astype(np.float64), F))  # noqa: E731
     viewport = _evaluated_co(obj)
-    rendered = _render_frame(obj, tmp_path)
+    rendered = _rendered(obj, tmp_path, range(1, 2))[1]
     print(f"crossing pairs at 90 degrees: viewport {pairs(viewport)}, render {pairs(rendered)}")
     assert pairs(viewport) > 0  # not vacuous
     assert pairs(rendered) < pairs(viewport) / 2
