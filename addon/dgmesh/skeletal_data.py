@@ -88,7 +88,7 @@ def render_untangle(info):
     """The untangling iterations of a binding's renders and bakes (Skeletal Bind's Untangle Creases
     Render): its stored ``untangle_render``; a binding saved before that field rendered with its one
     untangling setting, so it reads as ``untangle_iterations`` (as saved_options reads that)."""
-    return int(info.get("untangle_render", saved_options(info)["untangle_iterations"]))
+    return int(info["untangle_render"] if "untangle_render" in info else saved_options(info)["untangle_iterations"])
 
 
 def check_info(info, methods=()):

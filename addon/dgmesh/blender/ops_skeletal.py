@@ -42,10 +42,11 @@ own (Untangle Creases): the live update asks which depsgraph it serves.
 
 Bake writes a frame range to a .pc2 point cache played by a Mesh Cache modifier, so renders and
 exports need no add-on: each frame as the stack evaluates it up to the live deformation (shape keys
-included; with the render settings unless Use Settings for is Viewport), the cache placed after the live and Armature modifiers and before the others (a
-Subdivision Surface still applies). Unbind removes everything bind added and leaves the mesh as it
-was. Removing the live modifier unbinds as well; applying it does too, and keeps the pose it froze
-into the mesh (the Armature modifiers come back disabled).
+included; with the render settings unless Use Settings for is Viewport), the cache placed after
+the live and Armature modifiers and before the others (a Subdivision Surface still applies).
+Unbind removes everything bind added and leaves the mesh as it was. Removing the live modifier
+unbinds as well; applying it does too, and keeps the pose it froze into the mesh (the Armature
+modifiers come back disabled).
 """
 
 import uuid
