@@ -34,19 +34,15 @@ def row(label, X, F, ratio, thickness, ms=None):
 
 
 def dense():
-    from bench.common import interleaved_medians, loop_subdivide
-    from bench.workloads.skeletal import _bone, _bone_dist, _rot, dqs
-    V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-    V, F = loop_subdivide(V0, F0, 2)
-    rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
-    heads, tails = np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])
+    from bench.common import interleaved_medians
+    from bench.workloads.skeletal import _bone_dist, _rot, dqs, ramp_weights, speed_capsule
+    V, F, rest, heads, tails = speed_capsule()
     b0 = _bone_dist(V, rest, rest, heads, tails)
     ok = b0 > 1e-9
-    t = np.clip(V[:, 0] + 0.5, 0, 1)
     axis = V.copy()
     axis[:, 1:] = 0
     for wname, W, Wq in (("Gaussian (the rig's, skeletal_speed)", None, gaussian_bone_weights(axis, heads, tails, 0.1)),
-                         ("linear ramp over [-0.5, 0.5] (skeletal_live)", np.c_[1 - t, t], np.c_[1 - t, t])):
+                         ("linear ramp over [-0.5, 0.5] (skeletal_live)", ramp_weights(V), ramp_weights(V))):
         rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=5000)
         f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
         out = np.empty((len(V), 3), np.float32)

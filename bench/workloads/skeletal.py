@@ -157,10 +157,24 @@ def quality(quick):
     return {"markdown": "\n".join(md), "data": data}
 
 
-def speed(quick):
+def speed_capsule(levels=2):
+    """skeletal_speed's capsule (issue 33's 178K-vertex case at 2 levels): r 0.5, length 6, 80 x 10 x
+    120, Loop-subdivided `levels` times, on the bones (-3.5,0,0)-(0,0,0)-(3.5,0,0). Returns V, F, the
+    bones' rest frames, heads, tails."""
     V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-    V, F = loop_subdivide(V0, F0, 1 if quick else 2)
+    V, F = loop_subdivide(V0, F0, levels)
     rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
+    return V, F, rest, np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])
+
+
+def ramp_weights(V):
+    """The narrow blend of skeletal_live's capsule: linear over x in [-0.5, 0.5] between the two bones."""
+    t = np.clip(V[:, 0] + 0.5, 0, 1)
+    return np.c_[1 - t, t]
+
+
+def speed(quick):
+    V, F, rest, _, _ = speed_capsule(1 if quick else 2)
     t0 = time.perf_counter()
     rig = dgmesh.SkeletalRig.bind(V, F, rest, None, control_faces=5000)
     t_bind = time.perf_counter() - t0

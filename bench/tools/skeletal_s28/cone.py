@@ -17,15 +17,11 @@ sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.common import loop_subdivide  # noqa: E402
-from bench.workloads.skeletal import _bone, _rot  # noqa: E402
-from dgmesh.skeletal import capsule, self_intersecting_pairs  # noqa: E402
+from bench.workloads.skeletal import _rot, ramp_weights, speed_capsule  # noqa: E402
+from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
-V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-V, F = loop_subdivide(V0, F0, 2)
-rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
-t = np.clip(V[:, 0] + 0.5, 0, 1)
-for wname, W in (("Gaussian", None), ("ramp", np.c_[1 - t, t])):
+V, F, rest, _, _ = speed_capsule()
+for wname, W in (("Gaussian", None), ("ramp", ramp_weights(V))):
     rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=5000)
     a = rig.to_arrays()
     mr_face = np.asarray(a["mr_face"]); Fc = np.asarray(a["mr_control_F"]); Fd = np.asarray(a["mr_dense_F"]) if "mr_dense_F" in a else F

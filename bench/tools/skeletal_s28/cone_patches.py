@@ -14,15 +14,11 @@ sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.common import loop_subdivide  # noqa: E402
-from bench.workloads.skeletal import _bone, _rot  # noqa: E402
-from dgmesh.skeletal import capsule, self_intersecting_pairs  # noqa: E402
+from bench.workloads.skeletal import _rot, ramp_weights, speed_capsule  # noqa: E402
+from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
 LEAF = int(sys.argv[1]) if len(sys.argv) > 1 else 64
-V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-V, F = loop_subdivide(V0, F0, 2)
-rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
-t = np.clip(V[:, 0] + 0.5, 0, 1)
+V, F, rest, _, _ = speed_capsule()
 # rest-pose patches: median splits of face centroids
 C = V[F].mean(1)
 g = np.zeros(len(F), int); nxt = [0]
@@ -55,7 +51,7 @@ if RINGS >= 2:
                 if r != p: adj.add((min(p, r), max(p, r)))
 size = np.bincount(g, minlength=G)
 print("patches", G, "adjacent pairs", len(adj))
-for wname, W in (("Gaussian", None), ("ramp", np.c_[1 - t, t])):
+for wname, W in (("Gaussian", None), ("ramp", ramp_weights(V))):
     rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=5000)
     for deg in (60, 90, 135):
         pose = np.array([rest[0], _rot((0, 0, 1), np.radians(deg)) @ rest[1]])

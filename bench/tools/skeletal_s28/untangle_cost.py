@@ -14,20 +14,16 @@ sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.common import loop_subdivide, median_time  # noqa: E402
-from bench.workloads.skeletal import _bone, _bone_dist, _rot  # noqa: E402
-from dgmesh.skeletal import capsule, self_intersecting_pairs  # noqa: E402
+from bench.common import median_time  # noqa: E402
+from bench.workloads.skeletal import _bone_dist, _rot, ramp_weights, speed_capsule  # noqa: E402
+from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
-V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-V, F = loop_subdivide(V0, F0, 2)
-rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
-heads, tails = np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])
+V, F, rest, heads, tails = speed_capsule()
 b0 = _bone_dist(V, rest, rest, heads, tails)
 ok = b0 > 1e-9
-t = np.clip(V[:, 0] + 0.5, 0, 1)
 out = np.empty((len(V), 3), np.float32)
 print(len(V), "vertices", flush=True)
-for wname, W in (("Gaussian", None), ("ramp", np.c_[1 - t, t])):
+for wname, W in (("Gaussian", None), ("ramp", ramp_weights(V))):
     rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=5000)
     for deg in (45, 60, 90, 135):
         pose = np.array([rest[0], _rot((0, 0, 1), np.radians(deg)) @ rest[1]])
