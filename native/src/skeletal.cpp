@@ -425,6 +425,8 @@ struct SkeletalRig::Impl {
   std::vector<int> dense_vv_offset, dense_vv_index, dense_faces;
   // Triangle pairs that cross at rest (the untangling leaves them alone), control and dense.
   std::vector<std::pair<int, int>> rest_pairs, dense_rest_pairs;
+  // The untangling's searches (self_intersection.h), control mesh and dense faces, split at rest.
+  SelfIntersectionTree control_tree, dense_tree;
   // Fold guard (SkeletalDeformOptions::fold_guard) over the control mesh and the dense one.
   FoldGuard control_guard, dense_guard;
   MatX3d cot;           // per face corner: cot of the rest angle at that corner
@@ -691,7 +693,8 @@ void SkeletalRig::Impl::setup() {
       for (size_t k = 0; k < edges.size(); ++k)
         ++dense_vv_offset[edges[k].first + 1], dense_vv_index[k] = edges[k].second;
       for (int i = 0; i < nd; ++i) dense_vv_offset[i + 1] += dense_vv_offset[i];
-      dense_rest_pairs = self_intersecting_pairs(Xd, dense_F, &dense_faces);
+      dense_tree = SelfIntersectionTree(Xd, dense_F, &dense_faces);
+      dense_rest_pairs = dense_tree.pairs(Xd);
       dense_guard = FoldGuard(dense_F, nd);
     }
     dense_untangle_clearance = union_clearance(Xd, [&](int i, int j) {
@@ -1307,7 +1310,8 @@ void SkeletalRig::Impl::setup_clearance() {
   }
   surface_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_parent(W.row(i), j); });
   untangle_clearance = union_clearance(control.V, [&](int i, int j) { return follows_or_adjacent(W.row(i), j); });
-  rest_pairs = self_intersecting_pairs(control.V, control.F);
+  control_tree = SelfIntersectionTree(control.V, control.F);
+  rest_pairs = control_tree.pairs(control.V);
   control_guard = FoldGuard(control.F, static_cast<int>(control.V.rows()));
 }
 
@@ -1488,8 +1492,8 @@ bool SkeletalRig::Impl::contact_slide(Out& X, const MatX3d& V0, const std::vecto
 
 // Untangling (SkeletalDeformOptions::untangle_iterations, issue 33): the thesis's remedy for folds,
 // a smoothing term in the flow eq. 6.15, applied only where the surface crosses itself. Each
-// iteration finds the self-intersecting triangle pairs among `faces` (self_intersection.h; after the
-// first, only around the faces it moved: self_intersecting_pairs_touching, the same pairs), takes
+// iteration finds the self-intersecting triangle pairs among the faces of `tree` (self_intersection.h;
+// after the first, only around the faces it moved: pairs_touching, the same pairs), takes
 // their vertices and `rings` rings around them (vv: the mesh's one-ring CSR), moves each by
 // kUntangleSweeps Jacobi steps of the uniform umbrella operator (weight 1/2; tangential and normal,
 // which in a concave crease lifts the fold out of it); after each, `push` moves it back out to the
@@ -1543,7 +1547,7 @@ bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, 
 
 template <class Push, class Clear, class Contact>
 void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
-                    const std::vector<int>* faces, const std::vector<std::pair<int, int>>& at_rest, int iterations,
+                    const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
                     int rings, Push push, Clear clear, Contact contact) {
   // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
   const auto new_only = [&](std::vector<std::pair<int, int>> p) {
@@ -1558,10 +1562,10 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
   constexpr int kUntangleWiden = 3;
   int widen = 0;  // extra rings after an iteration that did not lower the count
   const int n = static_cast<int>(X.rows());
-  auto pairs = new_only(self_intersecting_pairs(X, F, faces));
+  auto pairs = new_only(tree.pairs(X));
   if (pairs.empty()) return;
   if (MatX3d X0 = X; contact(X)) {
-    auto slid = new_only(self_intersecting_pairs(X, F, faces));
+    auto slid = new_only(tree.pairs(X));
     if (slid.size() < pairs.size()) {
       pairs.swap(slid);
       if (pairs.empty()) return;
@@ -1609,13 +1613,9 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
       }
     }
     // Only the pairs of the faces around the moved vertices can have changed: the others are kept
-    // and the faces around the region searched against the rest (self_intersecting_pairs_touching).
-    const int nf = faces ? static_cast<int>(faces->size()) : static_cast<int>(F.rows());
-    for (int k = 0; k < nf; ++k) {
-      const int f = faces ? (*faces)[k] : k;
-      touched[f] = stamp[F(f, 0)] == it || stamp[F(f, 1)] == it || stamp[F(f, 2)] == it;
-    }
-    auto now = new_only(self_intersecting_pairs_touching(X, F, faces, touched));
+    // and the faces around the region searched against the rest (pairs_touching).
+    for (int f : tree.faces()) touched[f] = stamp[F(f, 0)] == it || stamp[F(f, 1)] == it || stamp[F(f, 2)] == it;
+    auto now = new_only(tree.pairs_touching(X, touched));
     for (const auto& q : pairs)
       if (!touched[q.first] && !touched[q.second]) now.push_back(q);
     if (now.size() >= pairs.size()) {
@@ -1636,7 +1636,7 @@ void SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<
   const bool clamp = rest.size() >= 2 && untangle_clearance.rest.size() == X.rows();
   const double fraction = std::max(opt.bone_clearance, 0.9);
   untangle_folds(
-      X, control.F, control.topo.vv_offset, control.topo.vv_index, nullptr, rest_pairs, opt.untangle_iterations,
+      X, control.F, control.topo.vv_offset, control.topo.vv_index, control_tree, rest_pairs, opt.untangle_iterations,
       opt.untangle_rings,
       [&](int i, const Vec3& x) {
         return clamp && (edited.empty() || !edited[i]) ? untangle_clearance.push(i, x, fraction, h, v) : x;
@@ -1671,7 +1671,7 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::ve
   const VecXi& face = multires->base_face();
   const MatX3i& Fc = control.F;
   untangle_folds(
-      X, dense_F, dense_vv_offset, dense_vv_index, &dense_faces, dense_rest_pairs, opt.untangle_iterations,
+      X, dense_F, dense_vv_offset, dense_vv_index, dense_tree, dense_rest_pairs, opt.untangle_iterations,
       opt.untangle_rings,
       [&](int i, const Vec3& x) {
         const int f = face[i];
