@@ -50,27 +50,32 @@ void face_box(const MatX3d& V, const MatX3i& F, int f, Vec3& lo, Vec3& hi) {
   }
 }
 
-constexpr int kLeafFaces = 8;
+constexpr int kLeafFaces = 16;
 constexpr double kHalfPi = 1.5707963267948966;
 
-// A cone of directions (unit axis, half-angle); wide (angle >= pi / 2, the axis unused) where it
-// vouches for nothing.
+// A cone of directions (unit axis, half-angle and its cosine and sine); wide (angle >= pi / 2, the
+// axis unused) where it vouches for nothing.
 struct Cone {
   Vec3 axis = Vec3::Zero();
-  double angle = 2 * kHalfPi;
+  double angle = 2 * kHalfPi, c = -1, s = 0;
+  Cone() = default;
+  Cone(const Vec3& axis, double angle) : axis(axis), angle(angle), c(std::cos(angle)), s(std::sin(angle)) {}
   bool narrow() const { return angle < kHalfPi - 1e-9; }
 };
 
 // The smallest cone holding both.
 Cone merge(const Cone& a, const Cone& b) {
   if (!a.narrow() || !b.narrow()) return {};
-  const double phi = std::atan2(a.axis.cross(b.axis).norm(), a.axis.dot(b.axis));
+  // Wide unless the axes are less than pi - a - b apart: cos(phi) > -cos(a + b), no trigonometry.
+  const double dot = a.axis.dot(b.axis);
+  if (!(dot > a.s * b.s - a.c * b.c)) return {};
+  const double phi = std::atan2(a.axis.cross(b.axis).norm(), dot);
   if (a.angle >= phi + b.angle) return a;
   if (b.angle >= phi + a.angle) return b;
   const double angle = 0.5 * (a.angle + phi + b.angle);
   if (!(angle < kHalfPi)) return {};
   const double t = (angle - a.angle) / phi, sp = std::sin(phi);  // phi > |a.angle - b.angle| >= 0 here
-  return {((std::sin((1 - t) * phi) / sp) * a.axis + (std::sin(t * phi) / sp) * b.axis).normalized(), angle};
+  return Cone(((std::sin((1 - t) * phi) / sp) * a.axis + (std::sin(t * phi) / sp) * b.axis).normalized(), angle);
 }
 
 }  // namespace
@@ -161,7 +166,8 @@ bool SelfIntersectionTree::contour_crosses(const MatX3d& V, const Vec3& axis, co
     Eigen::Vector2d p, q;
     int i, j;  // mesh vertices
   };
-  std::vector<Segment> seg;
+  thread_local std::vector<Segment> seg;  // (scratch: a search tests thousands of contours)
+  seg.clear();
   const auto collect = [&](const Node& n) {
     for (int r = n.rim_begin; r < n.rim_end; ++r)
       for (int c = 0, k = rim_[r]; c < 3; ++c) {
@@ -176,14 +182,18 @@ bool SelfIntersectionTree::contour_crosses(const MatX3d& V, const Vec3& axis, co
   if (b) collect(*b);
   for (auto& s : seg)
     if (s.q.x() < s.p.x()) std::swap(s.p, s.q), std::swap(s.i, s.j);
-  std::sort(seg.begin(), seg.end(), [](const Segment& s, const Segment& t) { return s.p.x() < t.p.x(); });
+  // Few segments (the boundary of a leaf or two): every pair; more: a sweep along x, each segment
+  // against those starting before it ends.
+  constexpr size_t kSweepFrom = 32;
+  const bool sweep = seg.size() > kSweepFrom;
+  if (sweep) std::sort(seg.begin(), seg.end(), [](const Segment& s, const Segment& t) { return s.p.x() < t.p.x(); });
   const auto orient = [](const Eigen::Vector2d& o, const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
     return (p - o).x() * (q - o).y() - (p - o).y() * (q - o).x();
   };
-  // Sweep along x: each segment against those starting before it ends.
   for (size_t s = 0; s < seg.size(); ++s)
-    for (size_t t = s + 1; t < seg.size() && seg[t].p.x() <= seg[s].q.x(); ++t) {
+    for (size_t t = s + 1; t < seg.size() && (!sweep || seg[t].p.x() <= seg[s].q.x()); ++t) {
       const Segment &S = seg[s], &T = seg[t];
+      if (T.p.x() > S.q.x() || S.p.x() > T.q.x()) continue;
       if (S.i == T.i || S.i == T.j || S.j == T.i || S.j == T.j) continue;  // consecutive on the boundary
       if (std::max(S.p.y(), S.q.y()) < std::min(T.p.y(), T.q.y()) ||
           std::max(T.p.y(), T.q.y()) < std::min(S.p.y(), S.q.y()))
@@ -263,17 +273,17 @@ std::vector<std::pair<int, int>> SelfIntersectionTree::search(const MatX3d& V,
     stack.pop_back();
     const Node &A = nodes_[a], &B = nodes_[b];
     if (a == b) {
-      if (!flagged[a] || (A.connected && cone[a].narrow() && !contour_crosses(V, cone[a].axis, A, nullptr))) continue;
-      if (A.left < 0) {
+      if (!flagged[a]) continue;
+      if (A.left < 0) {  // (a leaf's faces cost less to test than its contour)
         for (int k = A.begin; k < A.end; ++k)
           for (int l = k + 1; l < A.end; ++l) test(k, l);
-      } else {
+      } else if (!(A.connected && cone[a].narrow() && !contour_crosses(V, cone[a].axis, A, nullptr))) {
         stack.push_back({A.left, A.left}), stack.push_back({A.right, A.right}), stack.push_back({A.left, A.right});
       }
       continue;
     }
     if ((!flagged[a] && !flagged[b]) || !boxes_meet(nlo[a], nhi[a], nlo[b], nhi[b])) continue;
-    if (A.connected && B.connected) {
+    if (A.connected && B.connected && (A.left >= 0 || B.left >= 0)) {  // (two leaves: their faces)
       const Cone c = merge(cone[a], cone[b]);
       if (c.narrow() && adjacent(A, B) && !contour_crosses(V, c.axis, A, &B)) continue;
     }

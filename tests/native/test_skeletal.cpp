@@ -594,7 +594,7 @@ TEST(SelfIntersection, SearchesMatchTheBruteForceOnASoup) {
 
 // The tree's normal-cone culling on closed meshes that fold through themselves: a capsule bent by
 // linear blend skinning (from about 90 degrees the inner side of the joint collapses and its layers
-// overlap like shingles, all facing one way: without the boundary test 23 of 406 pairs were missed)
+// overlap like shingles, all facing one way: without the boundary test this fails)
 // and a sphere whose cap is pushed out through the far side. The hierarchy is split at rest, as
 // the untangling's; the pairs are the brute force's, flagged or not, and the rest pose has none.
 TEST(SelfIntersection, TreeFindsTheFoldsOfBentAndDentedMeshes) {

@@ -31,7 +31,7 @@ std::vector<std::pair<int, int>> self_intersecting_pairs_touching(const MatX3d& 
 
 // The hierarchy itself, for one mesh over many poses (the skeletal untangling searches every pose and
 // every iteration of it): built once, at rest positions (median splits of the face centroids into
-// compact patches of up to 8 faces), and refitted to each query's positions (boxes and normal cones,
+// compact patches of up to 16 faces), and refitted to each query's positions (boxes and normal cones,
 // linear in the faces). Searching positions far from those it was built at stays exact, only slower.
 class SelfIntersectionTree {
  public:
