@@ -1410,15 +1410,17 @@ def test_untangle_creases_option():
 
 
 def test_untangle_creases_render_acts_in_renders_and_bakes_only(tmp_path):
-    """Untangle Creases Render (stored with the binding, default RENDER_UNTANGLE) untangles what a
-    render and a bake for renders deform; the viewport keeps its own setting, and shows its own
-    result again after the render. (Without the fold guard, which lowers the count by itself.)"""
+    """Untangle Creases Render (stored with the binding; off by default, RENDER_UNTANGLE) untangles
+    what a render and a bake for renders deform; the viewport keeps its own setting, and shows its
+    own result again after the render. (Without the fold guard, which lowers the count by itself.)"""
     from dgmesh.blender import ops_skeletal
     from dgmesh.blender.skeletal_live import render_settings
     from dgmesh.skeletal import self_intersecting_pairs
+    props = bpy.ops.dgmesh.skeletal_bind.get_rna_type().properties
+    assert props["untangle_render"].default == ops_skeletal.RENDER_UNTANGLE == 0  # (animations: no jumps)
     obj, arm, V = _scene()
-    assert _bind(fold_guard=0) == {'FINISHED'}
-    assert obj["dg_skeletal"]["untangle_render"] == ops_skeletal.RENDER_UNTANGLE > 0
+    assert _bind(fold_guard=0, untangle_render=10) == {'FINISHED'}
+    assert obj["dg_skeletal"]["untangle_render"] == 10
     assert obj["dg_skeletal"]["untangle_iterations"] == 0
     _pose_lower(arm, math.pi / 2, frame=1)
     sc = bpy.context.scene

@@ -73,12 +73,13 @@ METHODS = enum_items(SkeletalMethod, {
 })
 BIND_DEFAULTS = SkeletalRigOptions()  # property defaults: the library's own (dgmesh/skeletal.h)
 DEFORM_DEFAULTS = SkeletalDeformOptions()
-# Untangle Creases Render's default: on bench skeletal_joints' meshes and poses (a capsule, the camel's
-# leg, the armadillo's knee; bends of 45 / 90 / 135 degrees, twists of 90 / 180; Blender's automatic
-# weights; through the layer) 3 to 20 iterations alike leave 0 crossing pairs on 14 of the 15 poses,
-# at 9-110 ms per pose on those 10K-26K-vertex meshes (bench/tools/skeletal_s28/untangle_joints.py);
-# the loop stops once the pairs stop falling, so a larger count costs only where it still helps.
-RENDER_UNTANGLE = 10
+# Untangle Creases Render's default: off, as the viewport. On bench skeletal_joints' meshes and poses
+# 3 to 20 iterations leave 0 crossing pairs on 14 of the 15 poses, but over an animation the
+# untangled crease jumps between frames: a capsule's bend swept one degree per frame has 1651
+# vertices move 5.3 edge lengths at once where the untangling starts, then tens by up to 4 edge
+# lengths per degree (the fold guard alone: under 0.7; bench/tools/skeletal_s29/coherence.py). So it
+# is for stills; 10 is the measured setting there.
+RENDER_UNTANGLE = 0
 SKELETON_BLENDS = (
     ('DUAL_QUATERNION', "Dual Quaternion", "Rigid per skeletal vertex, as Preserve Volume: a thick "
      "limb turned far about itself keeps its shape (the linear blend collapses its medial surface "
@@ -179,8 +180,9 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                           "the bones' clearance, up to this many times per pose (thesis eq. 6.15's smoothing term; "
                           "0 = off), in the viewport. Fewer folds in the crease, several times slower per pose")
     untangle_render: IntProperty(name="Untangle Creases Render", default=RENDER_UNTANGLE, min=0, max=10,
-                                 description="Untangle Creases in renders and in bakes for them (0 = off): the "
-                                 "viewport stays as fast as without it")
+                                 description="Untangle Creases in renders and in bakes for them (0 = off, the "
+                                 "default; 10 for stills): the viewport stays as fast as without it. Not for "
+                                 "animations: the untangled crease can jump from one frame to the next")
     fold_guard: IntProperty(name="Fold Guard", default=DEFORM_DEFAULTS.fold_guard, min=0, max=500,
                             description="Where the thickness steps turn faces over (the inner crease of a bent "
                             "joint), smooth their displacement with the neighbours' until none is turned, up to "
