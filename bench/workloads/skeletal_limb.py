@@ -599,15 +599,21 @@ JOINT_POSES = ("bend 45", "bend 90", "bend 135", "twist 90", "twist 180")
 JOINT_METHODS = ("ours whole mesh", "ours via multires (the operator's path)", "ours via multires, untangle 20")
 
 
-def joints(quick):
-    """Issue 33's joint bar on every pose: fewer self-intersecting pairs than Blender's Preserve Volume
-    (none where it has none) and a minimum bone ratio of at least 0.9, for skeletal_limb's meshes and
-    weights, bends of 45 / 90 / 135 degrees and twists of 90 / 180."""
+def _joint_cases(quick):
+    """skeletal_joints' meshes: (name, V, F, (heads, tails), moving bone, bend axis)."""
     cases = [("capsule", *capsule(0.5, 6.0, 48 if quick else 64, 8 if quick else 10, 64 if quick else 128),
               (np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])), 1, (0, 0, 1))]
     if not quick:
         cases += [("camel leg", *cgal_mesh("camel"), CAMEL_BONES, 2, (1, 0, 0)),
                   ("armadillo leg", *cgal_mesh("armadillo"), ARMADILLO_BONES, 2, (-1, 0, 0))]
+    return cases
+
+
+def joints(quick):
+    """Issue 33's joint bar on every pose: fewer self-intersecting pairs than Blender's Preserve Volume
+    (none where it has none) and a minimum bone ratio of at least 0.9, for skeletal_limb's meshes and
+    weights, bends of 45 / 90 / 135 degrees and twists of 90 / 180."""
+    cases = _joint_cases(quick)
     rows, data, summary = [], {}, {m: [0, 0, 0] for m in JOINT_METHODS}
     n_poses = 0
     for model, V, F, (heads, tails), bone, bend_axis, in cases:
@@ -665,16 +671,6 @@ def joints(quick):
 
 
 COHERENCE_METHODS = ("LBS", "DQS", "ours via multires (the operator's path)", "ours via multires, untangle 10")
-
-
-def _joint_cases(quick):
-    """skeletal_joints' meshes: (name, V, F, (heads, tails), moving bone, bend axis)."""
-    cases = [("capsule", *capsule(0.5, 6.0, 48 if quick else 64, 8 if quick else 10, 64 if quick else 128),
-              (np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])), 1, (0, 0, 1))]
-    if not quick:
-        cases += [("camel leg", *cgal_mesh("camel"), CAMEL_BONES, 2, (1, 0, 0)),
-                  ("armadillo leg", *cgal_mesh("armadillo"), ARMADILLO_BONES, 2, (-1, 0, 0))]
-    return cases
 
 
 def coherence(quick):
