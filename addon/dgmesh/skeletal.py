@@ -390,9 +390,9 @@ def union_of_balls_distance(X: npt.ArrayLike, centers: npt.ArrayLike, radii: npt
 
 def self_intersecting_pairs(V: npt.ArrayLike, F: npt.ArrayLike, touching: npt.ArrayLike | None = None) -> np.ndarray:
     """Self-intersecting triangle pairs (k, 2), sorted, i < j: faces sharing no vertex where an
-    edge of one crosses the other's interior (native, through a uniform grid). ``touching`` (one
-    flag per face): only the pairs with a flagged face, searched over the faces near the flagged
-    ones (what the untangling does after moving a region)."""
+    edge of one crosses the other's interior (native, through a bounding-volume hierarchy that skips
+    patches which cannot cross themselves). ``touching`` (one flag per face): only the pairs with a
+    flagged face (what the untangling searches after moving a region)."""
     V = as_vertices(V)
     if not np.isfinite(V).all():
         raise MeshError("V has non-finite coordinates")
