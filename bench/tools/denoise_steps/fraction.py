@@ -21,7 +21,7 @@ import dgmesh  # noqa: E402
 from bench.common import cgal_dir  # noqa: E402
 from bench.workloads.denoise import normal_error  # noqa: E402
 from rows import cube, sweep_inputs  # noqa: E402
-from sweep_op import LAM, MU, operator  # noqa: E402
+from sweep_op import taubin as sweep_op_taubin  # noqa: E402
 
 
 def rule_k(est):
@@ -33,18 +33,7 @@ def rule_k(est):
 
 def rows(models, levels, seed):
     for key, V, F, Vn, est in sweep_inputs(models, levels, seed):
-        a, b, wab, wba, mv = operator(Vn, F)
-        n = len(Vn)
-
-        def step(P, f):
-            L = np.empty_like(P)
-            for c in range(3):
-                L[:, c] = np.bincount(a, weights=wab * P[b, c], minlength=n) + np.bincount(b, weights=wba * P[a, c], minlength=n)
-            Q = P.copy()
-            Q[mv] += f * (L[mv] - P[mv])
-            return Q
-
-        taubin = lambda P, t=1.0: step(step(P, LAM * t), MU * t)  # noqa: E731
+        taubin = sweep_op_taubin(Vn, F)
         k = rule_k(est)
         whole = int(np.floor(k))
         P, steps = Vn.copy(), [Vn]

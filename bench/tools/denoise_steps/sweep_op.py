@@ -39,7 +39,8 @@ def operator(P, F):
     return a, b, w(a), w(b), deg > 0
 
 
-def curves(V, F, Vn, maxT=60):
+def taubin(Vn, F):
+    """taubin(P, scale=1): one Taubin step (lambda, mu times scale) of the operator of Vn's positions."""
     a, b, wab, wba, mv = operator(Vn, F)
     n = len(Vn)
     def step(P, f):
@@ -47,9 +48,14 @@ def curves(V, F, Vn, maxT=60):
         for k in range(3):
             L[:, k] = np.bincount(a, weights=wab * P[b, k], minlength=n) + np.bincount(b, weights=wba * P[a, k], minlength=n)
         Q = P.copy(); Q[mv] += f * (L[mv] - P[mv]); return Q
+    return lambda P, scale=1.0: step(step(P, LAM * scale), MU * scale)
+
+
+def curves(V, F, Vn, maxT=60):
+    step = taubin(Vn, F)
     P = Vn.copy(); t = [normal_error(P, V, F)]; traj = [P]
     for s in range(maxT):
-        P = step(step(P, LAM), MU); t.append(normal_error(P, V, F)); traj.append(P)
+        P = step(P); t.append(normal_error(P, V, F)); traj.append(P)
     return np.array(t), traj
 
 
