@@ -683,24 +683,28 @@ def coherence(quick):
     the second difference of each vertex's path over consecutive frames (zero for a rigid turn up to
     the step squared, about 0.02 edge lengths at the capsule's tip; a jump of the surface between two
     frames shows in it at full size)."""
-    sweeps = {"bend": (np.arange(30, 136, 1 if not quick else 3), None), "twist": (np.arange(0, 181, 2 if not quick else 6), None)}
+    sweeps = {"bend": np.arange(30, 136, 3 if quick else 1), "twist": np.arange(0, 181, 6 if quick else 2)}
     rows, data = [], {}
     for model, V, F, (heads, tails), bone, bend_axis in _joint_cases(quick):
         V, F = np.asarray(V, float), np.asarray(F)
         e = float(np.linalg.norm(V[F[:, 0]] - V[F[:, 1]], axis=1).mean())
         twist_axis = tuple((tails[bone] - heads[bone]) / np.linalg.norm(tails[bone] - heads[bone]))
-        for sweep, (angles, _) in sweeps.items():
-            axis = bend_axis if sweep == "bend" else twist_axis
-            res = armature_poses(V, F, heads, tails, [(bone, axis, np.radians(float(a))) for a in angles])[0]
-            layered = dgmesh.SkeletalRig.bind(V, F, res["rest"], res["W"], control_faces=min(5000, len(F) // 2),
-                                              bone_heads=heads, bone_tails=tails)
+        # Both sweeps' poses in one Blender run (one set of automatic weights) and one rig.
+        poses = [(bone, bend_axis if sweep == "bend" else twist_axis, np.radians(float(a)))
+                 for sweep, angles in sweeps.items() for a in angles]
+        res = armature_poses(V, F, heads, tails, poses)[0]
+        layered = dgmesh.SkeletalRig.bind(V, F, res["rest"], res["W"], control_faces=min(5000, len(F) // 2),
+                                          bone_heads=heads, bone_tails=tails)
+        first = 0
+        for sweep, angles in sweeps.items():
             paths = {m: [] for m in COHERENCE_METHODS}
-            for p in range(len(angles)):
+            for p in range(first, first + len(angles)):
                 pose = res[f"pose{p}"]
                 paths["LBS"].append(res[f"lbs{p}"])
                 paths["DQS"].append(res[f"dqs{p}"])
                 paths[COHERENCE_METHODS[2]].append(layered.deform(pose))
                 paths[COHERENCE_METHODS[3]].append(layered.deform(pose, untangle_iterations=10))
+            first += len(angles)
             cells = []
             for m, path in paths.items():
                 X = np.asarray(path)

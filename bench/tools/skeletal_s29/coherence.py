@@ -18,17 +18,8 @@ sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.common import cgal_mesh  # noqa: E402
-from bench.workloads.skeletal_limb import ARMADILLO_BONES, CAMEL_BONES, armature_poses  # noqa: E402
-from dgmesh.skeletal import capsule, self_intersecting_pairs  # noqa: E402
-
-CASES = {  # mesh, bones, moving bone, bend axis
-    "capsule": (lambda: capsule(0.5, 6.0, 64, 10, 128),
-                (np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])), 1, (0, 0, 1)),
-    "camel": (lambda: cgal_mesh("camel"), CAMEL_BONES, 2, (1, 0, 0)),
-    "armadillo": (lambda: cgal_mesh("armadillo"), ARMADILLO_BONES, 2, (-1, 0, 0)),
-}
-
+from bench.workloads.skeletal_limb import _joint_cases, armature_poses  # noqa: E402
+from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
 def rotation(axis, angle, pivot):
     a = np.asarray(axis, float) / np.linalg.norm(axis)
@@ -40,8 +31,8 @@ def rotation(axis, angle, pivot):
 
 
 def main(model, first, last):
-    make, (heads, tails), bone, axis = CASES[model]
-    V, F = make()
+    # skeletal_joints' meshes ("capsule", "camel leg", "armadillo leg"), chosen by their first word.
+    _, V, F, (heads, tails), bone, axis = next(c for c in _joint_cases(False) if c[0].split()[0] == model)
     V, F = np.asarray(V, float), np.asarray(F)
     res = armature_poses(V, F, heads, tails, [(bone, axis, 0.0)])[0]
     rest, W = res["rest"], res["W"]
