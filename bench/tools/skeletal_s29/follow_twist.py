@@ -1,7 +1,7 @@
 """follow_twist as a default? (issue 33, session 29). On bench skeletal_speed's 178K capsule with the
 rig's Gaussian weights (no weights given): pairs and wall ms per pose with and without follow_twist
-for bends and twists. skeletal_joints' meshes: bench/tools/skeletal_s29/coherence.py's set-up is not
-needed; `bench/run.py skeletal_joints` with follow_twist is in the notes.
+for bends and twists. (The skeletal_joints and armadillo-waist rows of the notes came from /tmp runs
+of that bench's set-up and from bench/tools/skeletal_twist_probe.py.)
 
     /usr/bin/python3 bench/tools/skeletal_s29/follow_twist.py
 """
