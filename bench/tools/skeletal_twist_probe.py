@@ -1,7 +1,7 @@
 """Issue 33, session 25: the armadillo-waist rows of bench skeletal_blender (bend 90, twist 180) only,
 with and without SkeletalDeformOptions::follow_twist, whole mesh and through the multiresolution layer
 (5000-face control mesh, the operator's path above 5000 faces), default and untangled
-(untangle_iterations=20). Same set-up as bench/workloads/skeletal.py's _blender_case: CGAL armadillo,
+(untangle_iterations=10 and 20). Same set-up as bench/workloads/skeletal.py's _blender_case: CGAL armadillo,
 bones (0,-54,0)-(0,10,0)-(0,97,0), weights a linear ramp over y in [0, 20], Blender's Armature
 modifier (Preserve Volume = DQS) and pose matrices, cached in $OUT (default /tmp) after the first
 run. Metrics as the bench: self-intersecting pairs (native count), sum (f - f_rest)^2 against the
@@ -75,10 +75,10 @@ def main():
         row("DQS (Blender Preserve Volume)", res[f"dqs{p}"])
         for path in args.paths.split(","):
             for twist in (False, True):
-                for unt in ((0, 20) if args.untangle else (0,)):
+                for unt in ((0, 10, 20) if args.untangle else (0,)):
                     t0 = time.perf_counter()
                     X = rigs[path].deform(pose, follow_twist=twist, untangle_iterations=unt)
-                    row("%s%s%s" % (path, " follow_twist" if twist else "", " untangle" if unt else ""), X,
+                    row("%s%s%s" % (path, " follow_twist" if twist else "", (" untangle %d" % unt) if unt else ""), X,
                         time.perf_counter() - t0)
 
 
