@@ -529,7 +529,7 @@ class SkeletalDeformOptions:
     method: SkeletalMethod  # the reconstruction
     fairing_steps: int  # steps of eq. 6.15 (variational) or eq. 6.6 (basic)
     fairing_step: float  # epsilon of eq. 6.15
-    projection: float  # weight of the explicit step towards each vertex's rest distance to the union of balls (0: off)
+    projection: float  # weight of the explicit step out to each vertex's rest distance to the union of balls, where it is nearer (one-sided; 0: off)
     projection_passes: int  # passes of that step, at most
     dense_projection_passes: int  # passes of the dense mesh's step (multiresolution layer)
     dual_quaternion: bool  # pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)

@@ -173,8 +173,10 @@ class SkeletalRig:
 
         method: "variational" (thesis 6.5, eq. 6.8-6.12, then ``fairing_steps`` steps of the
         shape-preserving self-intersection fairing eq. 6.15, then an explicit step of weight
-        ``projection`` towards each vertex's rest distance to the union of medial balls, repeated in
-        3 passes over the vertices it still moves, 0 = off) or
+        ``projection`` that moves each vertex nearer the union of medial balls than at rest out
+        towards its rest distance (one-sided: flesh a bend squeezes out of the union bulges), repeated
+        in up to 8 passes (3 on a dense mesh through the layer) over the vertices it still moves,
+        0 = off) or
         "basic" (thesis 6.3: homotopy with ``homotopy_steps`` steps, ``fold_iterations`` steps of
         eq. 6.5, 5 * ``fairing_steps`` of eq. 6.6). Through the multiresolution layer the dense
         vertices get the same explicit ``projection`` step against the control mesh's medial balls

@@ -113,7 +113,8 @@ void bind_skeletal(pb::module_& m) {
              "steps of eq. 6.15 (variational) or eq. 6.6 (basic)")
       .field("fairing_step", &SkeletalDeformOptions::fairing_step, "epsilon of eq. 6.15")
       .field("projection", &SkeletalDeformOptions::projection,
-             "weight of the explicit step towards each vertex's rest distance to the union of balls (0: off)")
+             "weight of the explicit step out to each vertex's rest distance to the union of balls, where "
+             "it is nearer (one-sided; 0: off)")
       .field("projection_passes", &SkeletalDeformOptions::projection_passes, "passes of that step, at most")
       .field("dense_projection_passes", &SkeletalDeformOptions::dense_projection_passes,
              "passes of the dense mesh's step (multiresolution layer)")

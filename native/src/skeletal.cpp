@@ -893,7 +893,7 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd_pose, const std::vector<i
           for (int m = 0; m < kDenseBalls && d[m] >= 0; ++m) consider(d[m]);
         }
       if (prev >= 0) consider(prev), ring(prev);
-      const double f = best - dense_f_rest[i];
+      const double f = std::min(best - dense_f_rest[i], 0.0);  // one-sided, as the control step
       if (std::abs(f) <= 1e-6 * r_max) break;
       const Vec3 d = x - row3(Sd, arg);
       const double len = d.norm();
@@ -932,7 +932,7 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd_pose, const
   MatX3d C(static_cast<Eigen::Index>(reps.size()), 3);
   for (size_t r = 0; r < reps.size(); ++r) C.row(static_cast<Eigen::Index>(r)) = Sd.row(reps[r]);
   const KdTree tree(C, 8);
-  // The explicit projection passes move each vertex onto its rest distance to the union of the
+  // The explicit projection passes move each vertex out to its rest distance to the union of the
   // balls, which needs the ball that minimises eq. 6.13, not a near one: the local candidates
   // (rest minimiser's ring, the k nearest centres) miss the large balls of the other limb that a
   // joint's crease runs into, and the vertex stays inside them. Armadillo knee bent 90 degrees (bench
@@ -1005,6 +1005,7 @@ void SkeletalRig::Impl::fair_variational(MatX3d& X, const MatX3d& Sd_pose, const
                                  query, cand.data() + static_cast<size_t>(i) * kUnionNeighbours);
       }
       f -= f_rest[i];
+      if (last) f = std::min(f, 0.0);  // one-sided (see SkeletalDeformOptions::projection)
       prev[i] = p;
       const Vec3 d = x - row3(Sd, p);
       const double len = d.norm();

