@@ -66,10 +66,12 @@ def capsule_renders():
         W = rigs["whole"].weights
         results = (skeletal_subspace_deform(V, W, REST, pose), skeletal_subspace_deform(V, W, REST, pose, dual_quaternion=True),
                    *ours(rigs["whole"], rigs["multires"], pose))
-        view = (-1.0, 1.0, 0.35) if name.startswith("bend") else (0.3, -1.0, 0.6)
+        # A bend's inner side, seen with the capsule turned half round (so that the panels, laid out
+        # along x, read left to right); a twist from the side.
+        view, spin = ((1.0, -1.0, 0.35), 180.0) if name.startswith("bend") else ((0.3, -1.0, 0.6), 0.0)
         name = name.replace(" ", "_")
         print(_render(f"skeletal_crease_capsule_{name}.png", panels(V, F, near, results, f"capsule {name}"),
-                      up="Z", size=(1500, 320), samples=16, view=view, gap=0.6))
+                      up="Z", spin=spin, size=(1500, 320), samples=16, view=view, gap=0.6))
 
 
 def leg_renders(which):
