@@ -1530,6 +1530,17 @@ constexpr double kUntangleContact = 8, kUntangleReach = 1.5;
 // (f - f_rest)^2 3.51e6, volume 1.077; DQS 1.37e5), at most 0.86 on the slides that untangle the
 // capsules and the armadillo's knee at 135 degrees (bench/notes/skeletal.md).
 constexpr double kSlideThickness = 1.0;
+// Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not
+// folds: p without them (at_rest sorted).
+std::vector<std::pair<int, int>> without_rest_pairs(std::vector<std::pair<int, int>> p,
+                                                    const std::vector<std::pair<int, int>>& at_rest) {
+  if (!at_rest.empty())
+    p.erase(std::remove_if(p.begin(), p.end(),
+                           [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
+            p.end());
+  return p;
+}
+
 bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, const VecXd& radii,
                            const VecXd& target) {
   std::vector<int> moved;
@@ -1550,14 +1561,7 @@ template <class Push, class Clear, class Contact>
 void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
                     const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
                     int rings, Push push, Clear clear, Contact contact) {
-  // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
-  const auto new_only = [&](std::vector<std::pair<int, int>> p) {
-    if (!at_rest.empty())
-      p.erase(std::remove_if(p.begin(), p.end(),
-                             [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
-              p.end());
-    return p;
-  };
+  const auto new_only = [&](std::vector<std::pair<int, int>> p) { return without_rest_pairs(std::move(p), at_rest); };
   constexpr int kUntangleSweeps = 3;
   constexpr double kUntangleWeight = 0.5;
   constexpr int kUntangleWiden = 3;
@@ -1904,11 +1908,6 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   return X;
 }
 
-MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                   MatX3d* skeleton_out, const MatX3d* skeleton) const {
-  return impl_->control_pose(pose, opt, skeleton_out, nullptr, skeleton);
-}
-
 namespace {
 // Whether the dense vertices get the explicit thickness step and the surface bone clearance (see
 // Impl::project_dense): with the variational method and its fairing on, as for the control mesh.
@@ -1920,10 +1919,10 @@ bool dense_projection(const SkeletalDeformOptions& opt) {
 
 namespace {
 // Control pose, then the dense mesh through the multiresolution layer (and its thickness step), into
-// `out` (float64 or float32 rows).
+// `out` (float64 or float32 rows); the posed skeletal vertices into Sd_out when given.
 template <class Impl, class Out>
-void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                 const MatX3d* skeleton, Out& out) {
+void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                 const MatX3d* skeleton, Out& out, MatX3d* Sd_out = nullptr) {
   if (out.rows() != n)
     throw MeshError("skeletal deform: the output needs " + std::to_string(n) + " rows, got " +
                     std::to_string(out.rows()));
@@ -1985,8 +1984,62 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }
+  if (Sd_out) *Sd_out = std::move(Sd);
+}
+
+// deform_once, and with the untangling on and the joint contact off (contact_trial), the same pose
+// again with the joint contact at the untangling's kappa (kUntangleContact, acting where
+// contact_slide acts: before the fold guard), kept where its untangled surface crosses itself in
+// fewer triangle pairs (pairs that cross at rest included) and keeps the thickness
+// (slide_keeps_thickness). The untangling's own trial slides the finished surface after the fold
+// guard, which then smooths none of the faces the slide turns. 178K-vertex capsule of bench
+// skeletal_speed, Gaussian weights, bent 90 degrees through the layer, untangle_iterations 20: 1618
+// pairs, 0 with the contact from the start (bench/notes/skeletal.md, session 30).
+template <class Impl>
+bool contact_trial(const Impl& impl, const SkeletalDeformOptions& opt) {
+  return opt.untangle_iterations > 0 && opt.contact_slide == 0 && opt.fairing_steps > 0 &&
+         opt.method == SkeletalMethod::Variational && impl.rest.size() >= 2 &&
+         (!impl.multires || impl.dense_F.rows() > 0);
+}
+
+template <class Impl, class Out>
+void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                 const MatX3d* skeleton, Out& out) {
+  const bool trial = contact_trial(impl, opt);
+  MatX3d Sd;
+  deform_once(impl, n, pose, opt, skeleton, out, trial ? &Sd : nullptr);
+  if (!trial) return;
+  SkeletalDeformOptions with = opt;
+  with.contact_slide = kUntangleContact;
+  Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor> alt(n, 3);
+  deform_once(impl, n, pose, with, skeleton, alt);
+  const MatX3d A = out.template cast<double>(), B = alt.template cast<double>();
+  // Over all faces: the slide moves faces that the dense search leaves out as rigid.
+  const auto crossings = [&](const MatX3d& X) {
+    return impl.multires ? self_intersecting_pairs(X, impl.dense_F).size() : impl.control_tree.pairs(X).size();
+  };
+  if (crossings(B) < crossings(A) &&
+      slide_keeps_thickness(A, B, Sd, impl.radii, impl.multires ? impl.dense_f_rest : impl.f_rest))
+    out = alt;
 }
 }  // namespace
+
+MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                   MatX3d* skeleton_out, const MatX3d* skeleton) const {
+  const Impl& impl = *impl_;
+  MatX3d Sd;
+  MatX3d X = impl.control_pose(pose, opt, &Sd, nullptr, skeleton);
+  if (contact_trial(impl, opt)) {  // as deform_into, judged on the control mesh's own pairs
+    SkeletalDeformOptions with = opt;
+    with.contact_slide = kUntangleContact;
+    MatX3d Y = impl.control_pose(pose, with, nullptr, nullptr, skeleton);
+    if (impl.control_tree.pairs(Y).size() < impl.control_tree.pairs(X).size() &&
+        slide_keeps_thickness(X, Y, Sd, impl.radii, impl.f_rest))
+      X.swap(Y);
+  }
+  if (skeleton_out) *skeleton_out = std::move(Sd);
+  return X;
+}
 
 MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                            const MatX3d* skeleton) const {
