@@ -1987,19 +1987,35 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   if (Sd_out) *Sd_out = std::move(Sd);
 }
 
-// deform_once, and with the untangling on and the joint contact off (contact_trial), the same pose
-// again with the joint contact at the untangling's kappa (kUntangleContact, acting where
-// contact_slide acts: before the fold guard), kept where its untangled surface crosses itself in
-// fewer triangle pairs (pairs that cross at rest included) and keeps the thickness
-// (slide_keeps_thickness). The untangling's own trial slides the finished surface after the fold
-// guard, which then smooths none of the faces the slide turns. 178K-vertex capsule of bench
-// skeletal_speed, Gaussian weights, bent 90 degrees through the layer, untangle_iterations 20: 1618
-// pairs, 0 with the contact from the start (bench/notes/skeletal.md, session 30).
+// Untangle Creases with the joint contact off (contact_trial): where the untangled pose still crosses
+// itself, the pose is deformed again with the joint contact at the untangling's kappa
+// (kUntangleContact, acting where contact_slide acts: before the fold guard) and untangled the same
+// way; that result is kept where it crosses itself in fewer triangle pairs over the whole mesh
+// (pairs that cross at rest included) and its thickness error, sum (f - f_rest)^2 of eq. 6.13, is at
+// most kContactTrialThickness times the first's. The untangling's own trial slides the finished
+// surface after the fold guard, which then smooths none of the faces the slide turns. 178K-vertex
+// capsule of bench skeletal_speed through the layer, untangle_iterations 20: Gaussian weights bent
+// 90 degrees 1618 -> 0 pairs (thickness error x0.28), the narrow ramp at 90 degrees 1011 -> 822
+// (x1.76). Not kept, for their thickness: the ramp at 60 degrees 162 -> 0 (x3.78), the capsule at
+// 135 degrees (x3.56-x5.87), the armadillo's knee at 90 degrees on the whole mesh 4 -> 0 (x10.2;
+// DQS 95). bench/notes/skeletal.md, session 30.
+constexpr double kContactTrialThickness = 2.0;
+
 template <class Impl>
 bool contact_trial(const Impl& impl, const SkeletalDeformOptions& opt) {
   return opt.untangle_iterations > 0 && opt.contact_slide == 0 && opt.fairing_steps > 0 &&
          opt.method == SkeletalMethod::Variational && impl.rest.size() >= 2 &&
          (!impl.multires || impl.dense_F.rows() > 0);
+}
+
+// Whether the contact trial's result Y replaces X (counted on faces F, thickness against the posed
+// skeletal vertices Sd and the rest values `target`).
+template <class Count>
+bool contact_trial_wins(const MatX3d& X, const MatX3d& Y, Count crossings, const MatX3d& Sd, const VecXd& radii,
+                        const VecXd& target) {
+  if (!(crossings(Y) < crossings(X))) return false;
+  const double ex = (union_of_balls_distance(X, Sd, radii) - target).squaredNorm();
+  return (union_of_balls_distance(Y, Sd, radii) - target).squaredNorm() <= kContactTrialThickness * ex;
 }
 
 template <class Impl, class Out>
@@ -2009,17 +2025,21 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   MatX3d Sd;
   deform_once(impl, n, pose, opt, skeleton, out, trial ? &Sd : nullptr);
   if (!trial) return;
+  const MatX3d A = out.template cast<double>();
+  // The untangling's own count first (its search, without the faces one bone moves rigidly).
+  if (impl.multires ? without_rest_pairs(impl.dense_tree.pairs(A), impl.dense_rest_pairs).empty()
+                    : without_rest_pairs(impl.control_tree.pairs(A), impl.rest_pairs).empty())
+    return;
   SkeletalDeformOptions with = opt;
   with.contact_slide = kUntangleContact;
   Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor> alt(n, 3);
   deform_once(impl, n, pose, with, skeleton, alt);
-  const MatX3d A = out.template cast<double>(), B = alt.template cast<double>();
   // Over all faces: the slide moves faces that the dense search leaves out as rigid.
   const auto crossings = [&](const MatX3d& X) {
     return impl.multires ? self_intersecting_pairs(X, impl.dense_F).size() : impl.control_tree.pairs(X).size();
   };
-  if (crossings(B) < crossings(A) &&
-      slide_keeps_thickness(A, B, Sd, impl.radii, impl.multires ? impl.dense_f_rest : impl.f_rest))
+  if (contact_trial_wins(A, alt.template cast<double>(), crossings, Sd, impl.radii,
+                         impl.multires ? impl.dense_f_rest : impl.f_rest))
     out = alt;
 }
 }  // namespace
@@ -2029,13 +2049,13 @@ MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const Skeletal
   const Impl& impl = *impl_;
   MatX3d Sd;
   MatX3d X = impl.control_pose(pose, opt, &Sd, nullptr, skeleton);
-  if (contact_trial(impl, opt)) {  // as deform_into, judged on the control mesh's own pairs
+  // As deform_into, judged on the control mesh's own pairs.
+  const auto crossings = [&](const MatX3d& Y) { return impl.control_tree.pairs(Y).size(); };
+  if (contact_trial(impl, opt) && !without_rest_pairs(impl.control_tree.pairs(X), impl.rest_pairs).empty()) {
     SkeletalDeformOptions with = opt;
     with.contact_slide = kUntangleContact;
     MatX3d Y = impl.control_pose(pose, with, nullptr, nullptr, skeleton);
-    if (impl.control_tree.pairs(Y).size() < impl.control_tree.pairs(X).size() &&
-        slide_keeps_thickness(X, Y, Sd, impl.radii, impl.f_rest))
-      X.swap(Y);
+    if (contact_trial_wins(X, Y, crossings, Sd, impl.radii, impl.f_rest)) X.swap(Y);
   }
   if (skeleton_out) *skeleton_out = std::move(Sd);
   return X;
