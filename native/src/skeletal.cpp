@@ -539,11 +539,12 @@ struct SkeletalRig::Impl {
   }
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   bool follows_or_adjacent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
-  void untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                const std::vector<char>& edited) const;
+  // Both return the crossing pairs their search leaves (see untangle_folds).
+  size_t untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                  const std::vector<char>& edited) const;
   template <class Out>
-  void untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                      const std::vector<char>& edited) const;
+  size_t untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                        const std::vector<char>& edited) const;
   MatX3d solve(const MatX3d& b) const {
     Eigen::MatrixXd B = b;
     Eigen::MatrixXd X = solver.solve(B);
@@ -562,10 +563,11 @@ struct SkeletalRig::Impl {
                      const SkeletalDeformOptions& opt, const std::vector<char>& edited, const Twist* tw,
                      Out& out) const;
   // `edited` (when `skeleton` is given) receives, per control vertex, whether the edit moved it;
-  // `tw` the vertices' twists (follow_twist; left empty when the option is off or the pose has none).
+  // `tw` the vertices' twists (follow_twist; left empty when the option is off or the pose has none);
+  // `untangled` the crossing pairs the control mesh's untangling leaves (0 without it).
   MatX3d control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX3d* Sd_out,
                       std::vector<int>* deep = nullptr, const MatX3d* skeleton = nullptr,
-                      std::vector<char>* edited = nullptr, Twist* tw = nullptr) const;
+                      std::vector<char>* edited = nullptr, Twist* tw = nullptr, size_t* untangled = nullptr) const;
   MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt, std::vector<int>* deep,
                      const Twist* tw, MatX3d* bare = nullptr) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
@@ -1558,7 +1560,7 @@ bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, 
 }
 
 template <class Push, class Clear, class Contact>
-void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
+size_t untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
                     const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
                     int rings, Push push, Clear clear, Contact contact) {
   const auto new_only = [&](std::vector<std::pair<int, int>> p) { return without_rest_pairs(std::move(p), at_rest); };
@@ -1568,12 +1570,12 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
   int widen = 0;  // extra rings after an iteration that did not lower the count
   const int n = static_cast<int>(X.rows());
   auto pairs = new_only(tree.pairs(X));
-  if (pairs.empty()) return;
+  if (pairs.empty()) return 0;
   if (MatX3d X0 = X; contact(X)) {
     auto slid = new_only(tree.pairs(X));
     if (slid.size() < pairs.size()) {
       pairs.swap(slid);
-      if (pairs.empty()) return;
+      if (pairs.empty()) return 0;
     } else {
       X.swap(X0);
     }
@@ -1631,16 +1633,17 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
     std::sort(now.begin(), now.end());
     pairs.swap(now);
   }
+  return pairs.size();
 }
 
-void SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose,
-                                 const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
-  if (opt.untangle_iterations <= 0 || rest.size() < 2) return;  // one bone moves everything rigidly
+size_t SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose,
+                                   const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
+  if (opt.untangle_iterations <= 0 || rest.size() < 2) return 0;  // one bone moves everything rigidly
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   const bool clamp = rest.size() >= 2 && untangle_clearance.rest.size() == X.rows();
   const double fraction = std::max(opt.bone_clearance, 0.9);
-  untangle_folds(
+  return untangle_folds(
       X, control.F, control.topo.vv_offset, control.topo.vv_index, control_tree, rest_pairs, opt.untangle_iterations,
       opt.untangle_rings,
       [&](int i, const Vec3& x) {
@@ -1664,9 +1667,9 @@ void SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<
 // SkeletalRigData::dense_F), over the faces with a vertex that does not move rigidly with one bone,
 // against the dense vertices' bone clearance.
 template <class Out>
-void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose,
-                                       const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
-  if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return;
+size_t SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose,
+                                         const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
+  if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return 0;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   const int n = static_cast<int>(out.rows());
@@ -1675,7 +1678,7 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::ve
   MatX3d X = out.template cast<double>();
   const VecXi& face = multires->base_face();
   const MatX3i& Fc = control.F;
-  untangle_folds(
+  const size_t left = untangle_folds(
       X, dense_F, dense_vv_offset, dense_vv_index, dense_tree, dense_rest_pairs, opt.untangle_iterations,
       opt.untangle_rings,
       [&](int i, const Vec3& x) {
@@ -1698,6 +1701,7 @@ void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::ve
         return false;
       });
   out = X.template cast<typename Out::Scalar>();
+  return left;
 }
 
 // The twist-free pose (SkeletalDeformOptions::follow_twist): each bone's motion relative to its
@@ -1817,7 +1821,7 @@ MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
 
 MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                                        MatX3d* skeleton_out, std::vector<int>* deep, const MatX3d* skeleton,
-                                       std::vector<char>* edited_out, Twist* tw_out) const {
+                                       std::vector<char>* edited_out, Twist* tw_out, size_t* untangled) const {
   if (pose.size() != rest.size())
     throw MeshError("skeletal deform: expected " + std::to_string(rest.size()) + " pose matrices, got " +
                     std::to_string(pose.size()));
@@ -1897,11 +1901,13 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
       MatX3d Xf(X.rows(), 3);
       for (Eigen::Index i = 0; i < X.rows(); ++i)
         Xf.row(i) = tw.to_free(static_cast<int>(i), row3(X, static_cast<int>(i))).transpose();
-      untangle(Xf, tw.Ss, tw.free_pose, opt, edited);
+      const size_t left = untangle(Xf, tw.Ss, tw.free_pose, opt, edited);
+      if (untangled) *untangled = left;
       for (Eigen::Index i = 0; i < X.rows(); ++i)
         X.row(i) = (tw.R[i] * row3(Xf, static_cast<int>(i)) + tw.t[i]).transpose();
     } else {
-      untangle(X, Sd, pose, opt, edited);
+      const size_t left = untangle(X, Sd, pose, opt, edited);
+      if (untangled) *untangled = left;
     }
   }
   if (tw_out && has_twist) *tw_out = std::move(tw);
@@ -1922,7 +1928,7 @@ namespace {
 // `out` (float64 or float32 rows); the posed skeletal vertices into Sd_out when given.
 template <class Impl, class Out>
 void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                 const MatX3d* skeleton, Out& out, MatX3d* Sd_out = nullptr) {
+                 const MatX3d* skeleton, Out& out, MatX3d* Sd_out = nullptr, size_t* untangled = nullptr) {
   if (out.rows() != n)
     throw MeshError("skeletal deform: the output needs " + std::to_string(n) + " rows, got " +
                     std::to_string(out.rows()));
@@ -1930,7 +1936,9 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   std::vector<int> deep;
   std::vector<char> edited;
   Twist tw;
-  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw);
+  size_t left = 0;  // crossing pairs the untangling leaves (its own search)
+  const MatX3d Xc =
+      impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw, &left);
   if (impl.multires) {
     // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
     const Twist* twist = tw.R.empty() ? nullptr : &tw;
@@ -1979,12 +1987,13 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
       if (!dense_projection(opt)) slide();
-      impl.untangle_dense(out, Sd, pose, opt, edited);
+      left = impl.untangle_dense(out, Sd, pose, opt, edited);
     }
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }
   if (Sd_out) *Sd_out = std::move(Sd);
+  if (untangled) *untangled = left;
 }
 
 // Untangle Creases with the joint contact off (contact_trial): where the untangled pose still crosses
@@ -2023,13 +2032,10 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
                  const MatX3d* skeleton, Out& out) {
   const bool trial = contact_trial(impl, opt);
   MatX3d Sd;
-  deform_once(impl, n, pose, opt, skeleton, out, trial ? &Sd : nullptr);
-  if (!trial) return;
+  size_t left = 0;  // the untangling's own count (its search, without the faces one bone moves rigidly)
+  deform_once(impl, n, pose, opt, skeleton, out, trial ? &Sd : nullptr, &left);
+  if (!trial || left == 0) return;
   const MatX3d A = out.template cast<double>();
-  // The untangling's own count first (its search, without the faces one bone moves rigidly).
-  if (impl.multires ? without_rest_pairs(impl.dense_tree.pairs(A), impl.dense_rest_pairs).empty()
-                    : without_rest_pairs(impl.control_tree.pairs(A), impl.rest_pairs).empty())
-    return;
   SkeletalDeformOptions with = opt;
   with.contact_slide = kUntangleContact;
   Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor> alt(n, 3);
@@ -2048,10 +2054,11 @@ MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const Skeletal
                                    MatX3d* skeleton_out, const MatX3d* skeleton) const {
   const Impl& impl = *impl_;
   MatX3d Sd;
-  MatX3d X = impl.control_pose(pose, opt, &Sd, nullptr, skeleton);
+  size_t left = 0;
+  MatX3d X = impl.control_pose(pose, opt, &Sd, nullptr, skeleton, nullptr, nullptr, &left);
   // As deform_into, judged on the control mesh's own pairs.
   const auto crossings = [&](const MatX3d& Y) { return impl.control_tree.pairs(Y).size(); };
-  if (contact_trial(impl, opt) && !without_rest_pairs(impl.control_tree.pairs(X), impl.rest_pairs).empty()) {
+  if (contact_trial(impl, opt) && left > 0) {
     SkeletalDeformOptions with = opt;
     with.contact_slide = kUntangleContact;
     MatX3d Y = impl.control_pose(pose, with, nullptr, nullptr, skeleton);
