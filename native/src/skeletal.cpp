@@ -2017,7 +2017,7 @@ bool contact_trial(const Impl& impl, const SkeletalDeformOptions& opt) {
          (!impl.multires || impl.dense_F.rows() > 0);
 }
 
-// Whether the contact trial's result Y replaces X (counted on faces F, thickness against the posed
+// Whether the contact trial's result Y replaces X (pairs counted by `crossings`, thickness against the posed
 // skeletal vertices Sd and the rest values `target`).
 template <class Count>
 bool contact_trial_wins(const MatX3d& X, const MatX3d& Y, Count crossings, const MatX3d& Sd, const VecXd& radii,
