@@ -1561,8 +1561,8 @@ bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, 
 
 template <class Push, class Clear, class Contact>
 size_t untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
-                    const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
-                    int rings, Push push, Clear clear, Contact contact) {
+                      const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
+                      int rings, Push push, Clear clear, Contact contact) {
   const auto new_only = [&](std::vector<std::pair<int, int>> p) { return without_rest_pairs(std::move(p), at_rest); };
   constexpr int kUntangleSweeps = 3;
   constexpr double kUntangleWeight = 0.5;
@@ -1937,8 +1937,7 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   std::vector<char> edited;
   Twist tw;
   size_t left = 0;  // crossing pairs the untangling leaves (its own search)
-  const MatX3d Xc =
-      impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw, &left);
+  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw, &left);
   if (impl.multires) {
     // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
     const Twist* twist = tw.R.empty() ? nullptr : &tw;
