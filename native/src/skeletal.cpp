@@ -1532,17 +1532,6 @@ constexpr double kUntangleContact = 8, kUntangleReach = 1.5;
 // (f - f_rest)^2 3.51e6, volume 1.077; DQS 1.37e5), at most 0.86 on the slides that untangle the
 // capsules and the armadillo's knee at 135 degrees (bench/notes/skeletal.md).
 constexpr double kSlideThickness = 1.0;
-// Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not
-// folds: p without them (at_rest sorted).
-std::vector<std::pair<int, int>> without_rest_pairs(std::vector<std::pair<int, int>> p,
-                                                    const std::vector<std::pair<int, int>>& at_rest) {
-  if (!at_rest.empty())
-    p.erase(std::remove_if(p.begin(), p.end(),
-                           [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
-            p.end());
-  return p;
-}
-
 bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, const VecXd& radii,
                            const VecXd& target) {
   std::vector<int> moved;
@@ -1563,7 +1552,14 @@ template <class Push, class Clear, class Contact>
 size_t untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
                       const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
                       int rings, Push push, Clear clear, Contact contact) {
-  const auto new_only = [&](std::vector<std::pair<int, int>> p) { return without_rest_pairs(std::move(p), at_rest); };
+  // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
+  const auto new_only = [&](std::vector<std::pair<int, int>> p) {
+    if (!at_rest.empty())
+      p.erase(std::remove_if(p.begin(), p.end(),
+                             [&](const auto& q) { return std::binary_search(at_rest.begin(), at_rest.end(), q); }),
+              p.end());
+    return p;
+  };
   constexpr int kUntangleSweeps = 3;
   constexpr double kUntangleWeight = 0.5;
   constexpr int kUntangleWiden = 3;
@@ -2009,11 +2005,16 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
 // DQS 95). bench/notes/skeletal.md, session 30.
 constexpr double kContactTrialThickness = 2.0;
 
+// The trial's options (the joint contact on), or none where the trial does not apply.
 template <class Impl>
-bool contact_trial(const Impl& impl, const SkeletalDeformOptions& opt) {
-  return opt.untangle_iterations > 0 && opt.contact_slide == 0 && opt.fairing_steps > 0 &&
-         opt.method == SkeletalMethod::Variational && impl.rest.size() >= 2 &&
-         (!impl.multires || impl.dense_F.rows() > 0);
+std::optional<SkeletalDeformOptions> contact_trial(const Impl& impl, const SkeletalDeformOptions& opt) {
+  if (!(opt.untangle_iterations > 0 && opt.contact_slide == 0 && opt.fairing_steps > 0 &&
+        opt.method == SkeletalMethod::Variational && impl.rest.size() >= 2 &&
+        (!impl.multires || impl.dense_F.rows() > 0)))
+    return std::nullopt;
+  SkeletalDeformOptions with = opt;
+  with.contact_slide = kUntangleContact;
+  return with;
 }
 
 // Whether the contact trial's result Y replaces X (pairs counted by `crossings`, thickness against the posed
@@ -2029,16 +2030,14 @@ bool contact_trial_wins(const MatX3d& X, const MatX3d& Y, Count crossings, const
 template <class Impl, class Out>
 void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                  const MatX3d* skeleton, Out& out) {
-  const bool trial = contact_trial(impl, opt);
+  const auto with = contact_trial(impl, opt);
   MatX3d Sd;
   size_t left = 0;  // the untangling's own count (its search, without the faces one bone moves rigidly)
-  deform_once(impl, n, pose, opt, skeleton, out, trial ? &Sd : nullptr, &left);
-  if (!trial || left == 0) return;
+  deform_once(impl, n, pose, opt, skeleton, out, with ? &Sd : nullptr, &left);
+  if (!with || left == 0) return;
   const MatX3d A = out.template cast<double>();
-  SkeletalDeformOptions with = opt;
-  with.contact_slide = kUntangleContact;
   Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor> alt(n, 3);
-  deform_once(impl, n, pose, with, skeleton, alt);
+  deform_once(impl, n, pose, *with, skeleton, alt);
   // Over all faces: the slide moves faces that the dense search leaves out as rigid.
   const auto crossings = [&](const MatX3d& X) {
     return impl.multires ? self_intersecting_pairs(X, impl.dense_F).size() : impl.control_tree.pairs(X).size();
@@ -2057,10 +2056,8 @@ MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const Skeletal
   MatX3d X = impl.control_pose(pose, opt, &Sd, nullptr, skeleton, nullptr, nullptr, &left);
   // As deform_into, judged on the control mesh's own pairs.
   const auto crossings = [&](const MatX3d& Y) { return impl.control_tree.pairs(Y).size(); };
-  if (contact_trial(impl, opt) && left > 0) {
-    SkeletalDeformOptions with = opt;
-    with.contact_slide = kUntangleContact;
-    MatX3d Y = impl.control_pose(pose, with, nullptr, nullptr, skeleton);
+  if (const auto with = contact_trial(impl, opt); with && left > 0) {
+    MatX3d Y = impl.control_pose(pose, *with, nullptr, nullptr, skeleton);
     if (contact_trial_wins(X, Y, crossings, Sd, impl.radii, impl.f_rest)) X.swap(Y);
   }
   if (skeleton_out) *skeleton_out = std::move(Sd);
