@@ -610,6 +610,26 @@ def _joint_cases(quick):
     return cases
 
 
+def moving_vertices(W, bone, b0):
+    """The vertices weighted to the moving bone (or a bone after it) and off the bones at rest (b0)."""
+    return (W[:, bone:].sum(1) > 0.01) & (b0 > 1e-9)
+
+
+def min_bone_ratio(X, rest, pose, heads, tails, b0, moving):
+    """Issue 33's thickness figure: the smallest distance to the nearest posed bone over the rest one."""
+    return float((bone_distance(X, rest, pose, heads, tails)[moving] / b0[moving]).min())
+
+
+def joint_bar(pairs, dqs_pairs, ratio):
+    """Issue 33's joint bar: (fewer crossing pairs than DQS, none where it has none; min bone ratio >= 0.9)."""
+    return pairs < max(dqs_pairs, 1), ratio >= 0.9
+
+
+def path_jumps(X, e):
+    """|X(t+1) - 2 X(t) + X(t-1)| / e per inner frame and vertex, for frames X (frames x n x 3)."""
+    return np.linalg.norm(X[2:] - 2 * X[1:-1] + X[:-2], axis=2) / e
+
+
 def joints(quick):
     """Issue 33's joint bar on every pose: fewer self-intersecting pairs than Blender's Preserve Volume
     (none where it has none) and a minimum bone ratio of at least 0.9, for skeletal_limb's meshes and
@@ -626,7 +646,7 @@ def joints(quick):
         whole = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=len(F) + 1, **bind)
         layered = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=min(5000, len(F) // 2), **bind)
         b0 = bone_distance(V, rest, rest, heads, tails)
-        affected = (W[:, bone:].sum(1) > 0.01) & (b0 > 1e-9)  # weighted to the moving bone (or after it)
+        affected = moving_vertices(W, bone, b0)
         at_rest = len(self_intersecting_pairs(V, F))
         for p, pname in enumerate(JOINT_POSES):
             pose = res[f"pose{p}"]
@@ -636,7 +656,7 @@ def joints(quick):
                        JOINT_METHODS[3]: layered.deform(pose, untangle_iterations=10)}
             cell = {}
             for mname, X in results.items():
-                ratio = float((bone_distance(X, rest, pose, heads, tails)[affected] / b0[affected]).min())
+                ratio = min_bone_ratio(X, rest, pose, heads, tails, b0, affected)
                 cell[mname] = (len(self_intersecting_pairs(X, F)), ratio)
                 data[f"{model}|{pname}|{mname}"] = dict(pairs=cell[mname][0], min_ratio=ratio)
             dqs_pairs = cell["DQS"][0]
@@ -644,8 +664,7 @@ def joints(quick):
             marks = []
             for m in JOINT_METHODS:
                 pairs, ratio = cell[m]
-                fewer = pairs < max(dqs_pairs, 1)  # (none, where DQS has none)
-                thick = ratio >= 0.9
+                fewer, thick = joint_bar(pairs, dqs_pairs, ratio)
                 summary[m][0] += fewer
                 summary[m][1] += thick
                 summary[m][2] += fewer and thick
@@ -708,7 +727,7 @@ def coherence(quick):
             cells = []
             for m, path in paths.items():
                 X = np.asarray(path)
-                acc = np.linalg.norm(X[2:] - 2 * X[1:-1] + X[:-2], axis=2) / e  # (frames - 2) x vertices
+                acc = path_jumps(X, e)
                 frames = int((acc.max(1) > 1).sum())
                 data[f"{model}|{sweep}|{m}"] = dict(max=float(acc.max()), frames_over_1e=frames,
                                                     vertex_frames_over_1e=int((acc > 1).sum()))

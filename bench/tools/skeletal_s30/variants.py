@@ -24,7 +24,8 @@ sys.path[:0] = [str(ROOT), str(ROOT / "addon")]
 import numpy as np  # noqa: E402
 
 import dgmesh  # noqa: E402
-from bench.workloads.skeletal_limb import _joint_cases, armature_poses, bone_distance  # noqa: E402
+from bench.workloads.skeletal_limb import (_joint_cases, armature_poses, bone_distance, joint_bar,  # noqa: E402
+                                           min_bone_ratio, moving_vertices, path_jumps)
 from dgmesh.skeletal import self_intersecting_pairs, union_of_balls_distance  # noqa: E402
 
 SWEEPS = {"bend": np.arange(30, 136, 1), "twist": np.arange(0, 181, 2)}
@@ -53,7 +54,7 @@ def main(tag, opts):
             cache.write_bytes(pickle.dumps(res))
         rest, W = res["rest"], res["W"]
         b0 = bone_distance(V, rest, rest, heads, tails)
-        affected = (W[:, bone:].sum(1) > 0.01) & (b0 > 1e-9)
+        affected = moving_vertices(W, bone, b0)
         for path in os.environ.get("PATHS", "layer").split(","):
             faces = min(5000, len(F) // 2) if path == "layer" else len(F) + 1
             rig = dgmesh.SkeletalRig.bind(V, F, rest, W, control_faces=faces, bone_heads=heads, bone_tails=tails)
@@ -62,7 +63,7 @@ def main(tag, opts):
             first = 0
             for sweep, angles in SWEEPS.items():
                 X = np.asarray([rig.deform(res[f"pose{p}"], **opts) for p in range(first, first + len(angles))])
-                acc = np.linalg.norm(X[2:] - 2 * X[1:-1] + X[:-2], axis=2) / e
+                acc = path_jumps(X, e)
                 if os.environ.get("VERBOSE"):
                     bad = np.where(acc.max(1) > 1)[0]
                     print(tag, name, sweep, " ".join(f"{angles[k + 1]}:{acc[k].max():.1f}/{int((acc[k] > 1).sum())}"
@@ -72,8 +73,8 @@ def main(tag, opts):
                     k = int(np.where(angles == a)[0][0])
                     pose, dqs = res[f"pose{first + k}"], res[f"dqs{first + k}"]
                     ours, n_dqs = len(self_intersecting_pairs(X[k], F)), len(self_intersecting_pairs(dqs, F))
-                    ratio = float((bone_distance(X[k], rest, pose, heads, tails)[affected] / b0[affected]).min())
-                    ok = ours < max(n_dqs, 1) and ratio >= 0.9
+                    ratio = min_bone_ratio(X[k], rest, pose, heads, tails, b0, affected)
+                    ok = all(joint_bar(ours, n_dqs, ratio))
                     Sp = rig.skeleton_pose(pose)
                     go = union_of_balls_distance(X[k], Sp, r) - f_rest
                     gd = union_of_balls_distance(dqs, Sp, r) - f_rest
