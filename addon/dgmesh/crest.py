@@ -273,7 +273,8 @@ def decimate(V: npt.ArrayLike, F: npt.ArrayLike, *, target_faces: int,
     go (e.g. UV seams). ``planes`` (int per vertex, bit k set: the vertex lies on plane k, e.g. a
     Mirror modifier's) forbids collapses that make a face with its three corners on one plane (it
     would lie in the plane, on its mirror twin). ``min_quality`` in [0, 1) rejects collapses that
-    create worse slivers.
+    leave the worst triangle around them below it and worse than before (a fan of slivers, e.g. at
+    a pole, may still collapse).
     By default collapses run in multiple-choice passes (every edge costed in parallel, the cheapest
     independent ones taken in order); ``greedy=True`` uses one global priority queue instead, the
     exact greedy order of Garland-Heckbert (slower on large meshes, same guards).

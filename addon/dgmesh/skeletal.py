@@ -15,6 +15,7 @@ bone), Z and the head. Dense meshes (more faces than ``control_faces``) go throu
 multiresolution layer: the skeletal machinery runs on a decimated control mesh.
 """
 
+import math
 import os
 from collections.abc import Mapping
 from typing import Any
@@ -441,22 +442,23 @@ def delaunay_2d(points: npt.ArrayLike) -> np.ndarray:
 def capsule(radius: float = 0.5, length: float = 6.0, around: int = 32, cap_rings: int = 6,
             cylinder_rings: int = 48) -> tuple[np.ndarray, np.ndarray]:
     """Closed capsule along x (cylinder of ``length`` plus two hemispherical caps), centred at the
-    origin, with alternating ring offsets so that triangles are near-equilateral: (V, F)."""
+    origin, with alternating ring offsets so that triangles are near-equilateral: (V, F).
+    The same bits on every machine: the sines and cosines are the C library's (numpy's own, with
+    AVX-512, differ from it by an ulp, and a symmetric mesh's decimation turns on such ties)."""
     prof = []
     for k in range(1, cap_rings + 1):
-        a = np.pi / 2 * k / cap_rings
-        prof.append((-length / 2 - radius * np.cos(a), radius * np.sin(a)))
+        a = math.pi / 2 * k / cap_rings
+        prof.append((-length / 2 - radius * math.cos(a), radius * math.sin(a)))
     for k in range(1, cylinder_rings):
         prof.append((-length / 2 + length * k / cylinder_rings, radius))
     for k in range(cap_rings, 0, -1):
-        a = np.pi / 2 * k / cap_rings
-        prof.append((length / 2 + radius * np.cos(a), radius * np.sin(a)))
+        a = math.pi / 2 * k / cap_rings
+        prof.append((length / 2 + radius * math.cos(a), radius * math.sin(a)))
     nr = len(prof)
     V = np.zeros((nr * around + 2, 3))
-    j = np.arange(around)
     for i, (x, rho) in enumerate(prof):
-        t = 2 * np.pi * (j + 0.5 * (i % 2)) / around
-        V[i * around:(i + 1) * around] = np.stack([np.full(around, x), rho * np.cos(t), rho * np.sin(t)], 1)
+        t = [2 * math.pi * (j + 0.5 * (i % 2)) / around for j in range(around)]
+        V[i * around:(i + 1) * around] = [(x, rho * math.cos(a), rho * math.sin(a)) for a in t]
     s, e = nr * around, nr * around + 1
     V[s] = (-length / 2 - radius, 0, 0)
     V[e] = (length / 2 + radius, 0, 0)

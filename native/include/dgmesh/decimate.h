@@ -34,8 +34,8 @@ struct DecimateOptions {
   // A collapse is rejected if a face normal turns by more than this angle (radians; < pi/2 also
   // rules out flips) ...
   double max_normal_angle = 1.3;
-  // ... or if it makes a triangle whose quality 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) (1 for
-  // equilateral) is below min_quality and below the quality of the face before the collapse.
+  // ... or if the worst triangle around it afterwards has a quality 4 sqrt(3) A / (l0^2 + l1^2 + l2^2)
+  // (1 for equilateral) below min_quality and below the worst one's before the collapse.
   double min_quality = 0.0;
   // true: multiple-choice passes (cost every edge in parallel, take the cheapest independent ones
   // in order); false: one global priority queue, the exact greedy order of GH97. Same guards.

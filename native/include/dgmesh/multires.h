@@ -35,8 +35,8 @@ struct MultiresOptions {
   // Adaptive isolation level of the limit patches around extraordinary vertices (1..5) and density
   // of the limit samples that seed the closest-point search (2^level + 1 per control edge).
   int level = 2;
-  // Decimation guard against slivers: no collapse may create a triangle of quality
-  // 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) below this (unless the face was already worse).
+  // Decimation guard against slivers: no collapse may leave the worst triangle around it with a
+  // quality 4 sqrt(3) A / (l0^2 + l1^2 + l2^2) below this (unless the worst was already lower).
   double min_quality = 0.2;
   // Least-squares fits of the control vertices so that the limit surface approximates the dense mesh
   // (the optimisation step of [LMH00] that the thesis skipped); each fit is followed by a re-bind.
