@@ -539,12 +539,11 @@ struct SkeletalRig::Impl {
   }
   bool follows_or_parent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
   bool follows_or_adjacent(const Eigen::Ref<const Eigen::RowVectorXd>& w, int j) const;
-  // Both return the crossing pairs their search leaves (see untangle_folds).
-  size_t untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                  const std::vector<char>& edited) const;
+  void untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                const std::vector<char>& edited) const;
   template <class Out>
-  size_t untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                        const std::vector<char>& edited) const;
+  void untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                      const std::vector<char>& edited) const;
   MatX3d solve(const MatX3d& b) const {
     Eigen::MatrixXd B = b;
     Eigen::MatrixXd X = solver.solve(B);
@@ -563,11 +562,10 @@ struct SkeletalRig::Impl {
                      const SkeletalDeformOptions& opt, const std::vector<char>& edited, const Twist* tw,
                      Out& out) const;
   // `edited` (when `skeleton` is given) receives, per control vertex, whether the edit moved it;
-  // `tw` the vertices' twists (follow_twist; left empty when the option is off or the pose has none);
-  // `untangled` the crossing pairs the control mesh's untangling leaves (0 without it).
+  // `tw` the vertices' twists (follow_twist; left empty when the option is off or the pose has none).
   MatX3d control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX3d* Sd_out,
                       std::vector<int>* deep = nullptr, const MatX3d* skeleton = nullptr,
-                      std::vector<char>* edited = nullptr, Twist* tw = nullptr, size_t* untangled = nullptr) const;
+                      std::vector<char>* edited = nullptr, Twist* tw = nullptr) const;
   MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt, std::vector<int>* deep,
                      const Twist* tw, MatX3d* bare = nullptr) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
@@ -1549,9 +1547,9 @@ bool slide_keeps_thickness(const MatX3d& X0, const MatX3d& X, const MatX3d& Sd, 
 }
 
 template <class Push, class Clear, class Contact>
-size_t untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
-                      const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
-                      int rings, Push push, Clear clear, Contact contact) {
+void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offset, const std::vector<int>& vv_index,
+                    const SelfIntersectionTree& tree, const std::vector<std::pair<int, int>>& at_rest, int iterations,
+                    int rings, Push push, Clear clear, Contact contact) {
   // Pairs that cross at rest (parts that touch, e.g. a camel's front legs) are the mesh's own, not folds.
   const auto new_only = [&](std::vector<std::pair<int, int>> p) {
     if (!at_rest.empty())
@@ -1566,12 +1564,12 @@ size_t untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_off
   int widen = 0;  // extra rings after an iteration that did not lower the count
   const int n = static_cast<int>(X.rows());
   auto pairs = new_only(tree.pairs(X));
-  if (pairs.empty()) return 0;
+  if (pairs.empty()) return;
   if (MatX3d X0 = X; contact(X)) {
     auto slid = new_only(tree.pairs(X));
     if (slid.size() < pairs.size()) {
       pairs.swap(slid);
-      if (pairs.empty()) return 0;
+      if (pairs.empty()) return;
     } else {
       X.swap(X0);
     }
@@ -1629,17 +1627,16 @@ size_t untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_off
     std::sort(now.begin(), now.end());
     pairs.swap(now);
   }
-  return pairs.size();
 }
 
-size_t SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose,
-                                   const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
-  if (opt.untangle_iterations <= 0 || rest.size() < 2) return 0;  // one bone moves everything rigidly
+void SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vector<Mat4>& pose,
+                                 const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
+  if (opt.untangle_iterations <= 0 || rest.size() < 2) return;  // one bone moves everything rigidly
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   const bool clamp = rest.size() >= 2 && untangle_clearance.rest.size() == X.rows();
   const double fraction = std::max(opt.bone_clearance, 0.9);
-  return untangle_folds(
+  untangle_folds(
       X, control.F, control.topo.vv_offset, control.topo.vv_index, control_tree, rest_pairs, opt.untangle_iterations,
       opt.untangle_rings,
       [&](int i, const Vec3& x) {
@@ -1663,9 +1660,9 @@ size_t SkeletalRig::Impl::untangle(MatX3d& X, const MatX3d& Sd, const std::vecto
 // SkeletalRigData::dense_F), over the faces with a vertex that does not move rigidly with one bone,
 // against the dense vertices' bone clearance.
 template <class Out>
-size_t SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose,
-                                         const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
-  if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return 0;
+void SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::vector<Mat4>& pose,
+                                       const SkeletalDeformOptions& opt, const std::vector<char>& edited) const {
+  if (opt.untangle_iterations <= 0 || rest.size() < 2 || dense_F.rows() == 0 || dense_faces.empty()) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
   const int n = static_cast<int>(out.rows());
@@ -1674,7 +1671,7 @@ size_t SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::
   MatX3d X = out.template cast<double>();
   const VecXi& face = multires->base_face();
   const MatX3i& Fc = control.F;
-  const size_t left = untangle_folds(
+  untangle_folds(
       X, dense_F, dense_vv_offset, dense_vv_index, dense_tree, dense_rest_pairs, opt.untangle_iterations,
       opt.untangle_rings,
       [&](int i, const Vec3& x) {
@@ -1697,7 +1694,6 @@ size_t SkeletalRig::Impl::untangle_dense(Out& out, const MatX3d& Sd, const std::
         return false;
       });
   out = X.template cast<typename Out::Scalar>();
-  return left;
 }
 
 // The twist-free pose (SkeletalDeformOptions::follow_twist): each bone's motion relative to its
@@ -1817,7 +1813,7 @@ MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
 
 MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                                        MatX3d* skeleton_out, std::vector<int>* deep, const MatX3d* skeleton,
-                                       std::vector<char>* edited_out, Twist* tw_out, size_t* untangled) const {
+                                       std::vector<char>* edited_out, Twist* tw_out) const {
   if (pose.size() != rest.size())
     throw MeshError("skeletal deform: expected " + std::to_string(rest.size()) + " pose matrices, got " +
                     std::to_string(pose.size()));
@@ -1897,17 +1893,20 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
       MatX3d Xf(X.rows(), 3);
       for (Eigen::Index i = 0; i < X.rows(); ++i)
         Xf.row(i) = tw.to_free(static_cast<int>(i), row3(X, static_cast<int>(i))).transpose();
-      const size_t left = untangle(Xf, tw.Ss, tw.free_pose, opt, edited);
-      if (untangled) *untangled = left;
+      untangle(Xf, tw.Ss, tw.free_pose, opt, edited);
       for (Eigen::Index i = 0; i < X.rows(); ++i)
         X.row(i) = (tw.R[i] * row3(Xf, static_cast<int>(i)) + tw.t[i]).transpose();
     } else {
-      const size_t left = untangle(X, Sd, pose, opt, edited);
-      if (untangled) *untangled = left;
+      untangle(X, Sd, pose, opt, edited);
     }
   }
   if (tw_out && has_twist) *tw_out = std::move(tw);
   return X;
+}
+
+MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                                   MatX3d* skeleton_out, const MatX3d* skeleton) const {
+  return impl_->control_pose(pose, opt, skeleton_out, nullptr, skeleton);
 }
 
 namespace {
@@ -1921,10 +1920,10 @@ bool dense_projection(const SkeletalDeformOptions& opt) {
 
 namespace {
 // Control pose, then the dense mesh through the multiresolution layer (and its thickness step), into
-// `out` (float64 or float32 rows); the posed skeletal vertices into Sd_out when given.
+// `out` (float64 or float32 rows).
 template <class Impl, class Out>
-void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                 const MatX3d* skeleton, Out& out, MatX3d* Sd_out = nullptr, size_t* untangled = nullptr) {
+void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
+                 const MatX3d* skeleton, Out& out) {
   if (out.rows() != n)
     throw MeshError("skeletal deform: the output needs " + std::to_string(n) + " rows, got " +
                     std::to_string(out.rows()));
@@ -1932,8 +1931,7 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   std::vector<int> deep;
   std::vector<char> edited;
   Twist tw;
-  size_t left = 0;  // crossing pairs the untangling leaves (its own search)
-  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw, &left);
+  const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw);
   if (impl.multires) {
     // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
     const Twist* twist = tw.R.empty() ? nullptr : &tw;
@@ -1982,87 +1980,13 @@ void deform_once(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
     }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
       if (!dense_projection(opt)) slide();
-      left = impl.untangle_dense(out, Sd, pose, opt, edited);
+      impl.untangle_dense(out, Sd, pose, opt, edited);
     }
   } else {
     out = Xc.template cast<typename Out::Scalar>();
   }
-  if (Sd_out) *Sd_out = std::move(Sd);
-  if (untangled) *untangled = left;
-}
-
-// Untangle Creases with the joint contact off (contact_trial): where the untangled pose still crosses
-// itself, the pose is deformed again with the joint contact at the untangling's kappa
-// (kUntangleContact, acting where contact_slide acts: before the fold guard) and untangled the same
-// way; that result is kept where it crosses itself in fewer triangle pairs over the whole mesh
-// (pairs that cross at rest included) and its thickness error, sum (f - f_rest)^2 of eq. 6.13, is at
-// most kContactTrialThickness times the first's. The untangling's own trial slides the finished
-// surface after the fold guard, which then smooths none of the faces the slide turns. 178K-vertex
-// capsule of bench skeletal_speed through the layer, untangle_iterations 20: Gaussian weights bent
-// 90 degrees 1618 -> 0 pairs (thickness error x0.28), the narrow ramp at 90 degrees 1011 -> 822
-// (x1.76). Not kept, for their thickness: the ramp at 60 degrees 162 -> 0 (x3.78), the capsule at
-// 135 degrees (x3.56-x5.87), the armadillo's knee at 90 degrees on the whole mesh 4 -> 0 (x10.2;
-// DQS 95). bench/notes/skeletal.md, session 30.
-constexpr double kContactTrialThickness = 2.0;
-
-// The trial's options (the joint contact on), or none where the trial does not apply.
-template <class Impl>
-std::optional<SkeletalDeformOptions> contact_trial(const Impl& impl, const SkeletalDeformOptions& opt) {
-  if (!(opt.untangle_iterations > 0 && opt.contact_slide == 0 && opt.fairing_steps > 0 &&
-        opt.method == SkeletalMethod::Variational && impl.rest.size() >= 2 &&
-        (!impl.multires || impl.dense_F.rows() > 0)))
-    return std::nullopt;
-  SkeletalDeformOptions with = opt;
-  with.contact_slide = kUntangleContact;
-  return with;
-}
-
-// Whether the contact trial's result Y replaces X (pairs counted by `crossings`, thickness against the posed
-// skeletal vertices Sd and the rest values `target`).
-template <class Count>
-bool contact_trial_wins(const MatX3d& X, const MatX3d& Y, Count crossings, const MatX3d& Sd, const VecXd& radii,
-                        const VecXd& target) {
-  if (!(crossings(Y) < crossings(X))) return false;
-  const double ex = (union_of_balls_distance(X, Sd, radii) - target).squaredNorm();
-  return (union_of_balls_distance(Y, Sd, radii) - target).squaredNorm() <= kContactTrialThickness * ex;
-}
-
-template <class Impl, class Out>
-void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                 const MatX3d* skeleton, Out& out) {
-  const auto with = contact_trial(impl, opt);
-  MatX3d Sd;
-  size_t left = 0;  // the untangling's own count (its search, without the faces one bone moves rigidly)
-  deform_once(impl, n, pose, opt, skeleton, out, with ? &Sd : nullptr, &left);
-  if (!with || left == 0) return;
-  const MatX3d A = out.template cast<double>();
-  Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor> alt(n, 3);
-  deform_once(impl, n, pose, *with, skeleton, alt);
-  // Over all faces: the slide moves faces that the dense search leaves out as rigid.
-  const auto crossings = [&](const MatX3d& X) {
-    return impl.multires ? self_intersecting_pairs(X, impl.dense_F).size() : impl.control_tree.pairs(X).size();
-  };
-  if (contact_trial_wins(A, alt.template cast<double>(), crossings, Sd, impl.radii,
-                         impl.multires ? impl.dense_f_rest : impl.f_rest))
-    out = alt;
 }
 }  // namespace
-
-MatX3d SkeletalRig::deform_control(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
-                                   MatX3d* skeleton_out, const MatX3d* skeleton) const {
-  const Impl& impl = *impl_;
-  MatX3d Sd;
-  size_t left = 0;
-  MatX3d X = impl.control_pose(pose, opt, &Sd, nullptr, skeleton, nullptr, nullptr, &left);
-  // As deform_into, judged on the control mesh's own pairs.
-  const auto crossings = [&](const MatX3d& Y) { return impl.control_tree.pairs(Y).size(); };
-  if (const auto with = contact_trial(impl, opt); with && left > 0) {
-    MatX3d Y = impl.control_pose(pose, *with, nullptr, nullptr, skeleton);
-    if (contact_trial_wins(X, Y, crossings, Sd, impl.radii, impl.f_rest)) X.swap(Y);
-  }
-  if (skeleton_out) *skeleton_out = std::move(Sd);
-  return X;
-}
 
 MatX3d SkeletalRig::deform(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
                            const MatX3d* skeleton) const {

@@ -173,13 +173,8 @@ struct SkeletalDeformOptions {
   // its position). An iteration that does not lower the count is undone and the next takes one ring
   // more (at most 3 more). Pairs that cross at rest are left alone. Applied last, to the control
   // mesh and, through the multiresolution layer, to the dense one (its faces with a vertex not moved
-  // rigidly by one bone; not for data saved without the dense faces). With contact_slide off, where
-  // the untangled pose still crosses itself, the pose is deformed a second time with contact_slide
-  // = 8 (the slide before the fold guard) and untangled the same way; that result is kept where it
-  // crosses itself in fewer pairs over the whole mesh and its thickness error (sum (f - f_rest)^2,
-  // eq. 6.13) is at most twice the first's (deform_control judges on the control mesh's pairs).
-  // Off by default: each iteration costs a self-intersection search, and a pose that stays tangled
-  // is deformed twice (see bench/notes/skeletal.md for what it measured).
+  // rigidly by one bone; not for data saved without the dense faces). Off by default: each
+  // iteration costs a self-intersection search (see bench/notes/skeletal.md for what it measured).
   // rings 4: capsule of bench skeletal_limb bent 90 degrees, 5 pairs left (2 rings: 49; DQS 46).
   int untangle_iterations = 0;
   int untangle_rings = 4;
