@@ -456,9 +456,12 @@ def capsule(radius: float = 0.5, length: float = 6.0, around: int = 32, cap_ring
         prof.append((length / 2 + radius * math.cos(a), radius * math.sin(a)))
     nr = len(prof)
     V = np.zeros((nr * around + 2, 3))
+    # Each ring's angles: the even rings' and the odd rings' (half a step on).
+    t = [[2 * math.pi * (j + 0.5 * odd) / around for j in range(around)] for odd in (0, 1)]
+    cos = [np.array([math.cos(a) for a in ts]) for ts in t]
+    sin = [np.array([math.sin(a) for a in ts]) for ts in t]
     for i, (x, rho) in enumerate(prof):
-        t = [2 * math.pi * (j + 0.5 * (i % 2)) / around for j in range(around)]
-        V[i * around:(i + 1) * around] = [(x, rho * math.cos(a), rho * math.sin(a)) for a in t]
+        V[i * around:(i + 1) * around] = np.stack([np.full(around, x), rho * cos[i % 2], rho * sin[i % 2]], 1)
     s, e = nr * around, nr * around + 1
     V[s] = (-length / 2 - radius, 0, 0)
     V[e] = (length / 2 + radius, 0, 0)

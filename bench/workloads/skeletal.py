@@ -17,6 +17,7 @@ import numpy as np
 
 import dgmesh
 from bench.common import IMAGES, cgal_mesh, interleaved_medians, loop_subdivide, median_time, run_blender, table
+from bench.workloads.skeletal_limb import part_overlap
 from dgmesh.skeletal import capsule, gaussian_bone_weights, self_intersecting_pairs, skeletal_subspace_deform
 
 
@@ -284,9 +285,7 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
     still, moved = W[:, 0] == 1, W[:, -1] == 1
     for p, pname in enumerate(poses):
         pose = res[f"pose{p}"]
-        A = pose[-1] @ np.linalg.inv(rest[-1])
-        Sm = rig.skeleton_vertices[moved] @ A[:3, :3].T + A[:3, 3]
-        fc = dgmesh.union_of_balls_distance(V[still], Sm, rig.radii[moved])
+        fc, _ = part_overlap(rig, V, still, moved, pose[-1] @ np.linalg.inv(rest[-1]))
         collisions.append((model, pname, int((fc < 0).sum()), int(still.sum()),
                            float(max(0.0, -fc.min()) / np.median(rig.radii))))
         data[f"{model}|{pname}|collision"] = dict(zip(["inside", "still_vertices", "depth_over_median_radius"],

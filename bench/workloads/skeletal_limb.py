@@ -625,17 +625,24 @@ def joint_bar(pairs, dqs_pairs, ratio):
     return pairs < max(dqs_pairs, 1), ratio >= 0.9
 
 
-def collision(rig, V, W, rest, pose, bone):
-    """Does the pose drive the moved part into the still one? The whole mesh's rig (skeletal vertex i
-    is vertex i's): the moved part (all weight on the moving bone or after it) posed rigidly, as no
-    blending can change. Returns (still vertices inside its medial balls, still vertices, moved
-    vertices inside the still part's balls, moved vertices, the deepest / median medial radius)."""
+def part_overlap(rig, V, still, moved, A):
+    """Does a pose drive one part into the other? With the whole mesh's rig (skeletal vertex i is
+    vertex i's) and the moved part posed rigidly by A (4 x 4), as no blending can change: the still
+    part's vertices against the moved part's medial balls, and the moved part's against the still
+    part's (eq. 6.13 values; negative inside)."""
     S, r = np.asarray(rig.skeleton_vertices), np.asarray(rig.radii)
-    still, moved = W[:, :bone].sum(1) > 0.999, W[:, bone:].sum(1) > 0.999
-    A = pose[bone] @ np.linalg.inv(rest[bone])
     fs = union_of_balls_distance(V[still], S[moved] @ A[:3, :3].T + A[:3, 3], r[moved])
     fm = union_of_balls_distance(V[moved] @ A[:3, :3].T + A[:3, 3], S[still], r[still])
-    depth = max(0.0, -float(fs.min()), -float(fm.min())) / float(np.median(r))
+    return fs, fm
+
+
+def collision(rig, V, W, rest, pose, bone):
+    """part_overlap for the parts before the moving bone and from it on (all weight on them): (still
+    vertices inside, still vertices, moved vertices inside, moved vertices, the deepest / median
+    medial radius)."""
+    still, moved = W[:, :bone].sum(1) > 0.999, W[:, bone:].sum(1) > 0.999
+    fs, fm = part_overlap(rig, V, still, moved, pose[bone] @ np.linalg.inv(rest[bone]))
+    depth = max(0.0, -float(fs.min()), -float(fm.min())) / float(np.median(rig.radii))
     return int((fs < 0).sum()), int(still.sum()), int((fm < 0).sum()), int(moved.sum()), depth
 
 
