@@ -115,8 +115,12 @@ class SkeletalRig:
 
         bones_rest: (B, 4, 4) rest frames in the mesh's object space.
         weights: (n, B) per-vertex bone weights (e.g. vertex groups), or None for normalised
-            Gaussian weights of the distance of the skeletal vertices to the bone segments
-            (bone_heads/bone_tails, (B, 3), default: from the frames, see ``_default_segments``).
+            Gaussian weights of the distance of the skeletal vertices to the bone segments.
+        bone_heads, bone_tails: (B, 3), the stick skeleton: the segments the bone clearances, the
+            joint contact and the twist axes measure against (kept in the bind data); the frames
+            give only the motion (pose @ inv(rest)). Default: from the frames, head = translation,
+            direction = Y axis (Blender's convention; see ``_default_segments``), which is wrong
+            for frames that do not follow it, e.g. identity rest frames: pass the segments then.
         control_faces: meshes with more faces go through the multiresolution layer with a control
             mesh of about this many faces.
         gaussian_sigma: width of the Gaussian weights (0: a fifth of the median medial radius).
@@ -143,14 +147,16 @@ class SkeletalRig:
                 W = W[:, None]
             if W.shape != (len(V), len(R)):
                 raise MeshError(f"weights must have shape ({len(V)}, {len(R)}), got {W.shape}")
-        if bone_heads is None or bone_tails is None:
-            h, t = _default_segments(R, V)
-            bone_heads = h if bone_heads is None else bone_heads
-            bone_tails = t if bone_tails is None else bone_tails
-        heads = as_vertices(bone_heads, "bone_heads")
-        tails = as_vertices(bone_tails, "bone_tails")
-        if len(heads) != len(R) or len(tails) != len(R):
-            raise MeshError("bone_heads and bone_tails must have one row per bone")
+        heads = tails = None  # with weights and no segments: the native rig takes them from the frames
+        if W is None or bone_heads is not None or bone_tails is not None:
+            if bone_heads is None or bone_tails is None:
+                h, t = _default_segments(R, V)
+                bone_heads = h if bone_heads is None else bone_heads
+                bone_tails = t if bone_tails is None else bone_tails
+            heads = as_vertices(bone_heads, "bone_heads")
+            tails = as_vertices(bone_tails, "bone_tails")
+            if len(heads) != len(R) or len(tails) != len(R):
+                raise MeshError("bone_heads and bone_tails must have one row per bone")
         o = make_options(
             SkeletalRigOptions(), control_faces=as_count(control_faces, "control_faces"),
             multires_level=as_count(multires_level, "multires_level"),

@@ -138,7 +138,8 @@ _ARRAYS = {"control_V": (2, (3,)), "control_F": (2, (3,)), "S": (2, (3,)), "weig
 def check_arrays(arrays, n_bones=None):
     """Checks decoded bind data before the rig is rebuilt from it: the arrays every binding has,
     numeric, of their dimensions, as many skeletal vertices as control vertices and weight rows,
-    one weight column and rest frame per bone (``n_bones``: the bones the binding names)."""
+    one weight column and rest frame per bone (``n_bones``: the bones the binding names), and the
+    stick skeleton (``bone_heads``, ``bone_tails``), when kept, one row of three per bone."""
     for key, (ndim, tail) in _ARRAYS.items():
         a = arrays.get(key)
         if a is None:
@@ -153,6 +154,14 @@ def check_arrays(arrays, n_bones=None):
     bones = {arrays["weights"].shape[1], len(arrays["bones_rest"])} | ({n_bones} if n_bones is not None else set())
     if len(bones) != 1:
         raise BindDataError(f"its bind data disagrees on the bone count ({sorted(bones)})")
+    segments = [arrays.get(k) for k in ("bone_heads", "bone_tails")]  # absent in older data
+    if any(a is not None for a in segments):
+        B = len(arrays["bones_rest"])
+        for key, a in zip(("bone_heads", "bone_tails"), segments):
+            if a is None or a.dtype.kind not in "biuf" or a.shape != (B, 3):
+                raise BindDataError(f"its bind data array {key!r} is "
+                                    + ("missing" if a is None else f"{a.dtype} of shape {a.shape}")
+                                    + f" (expected ({B}, 3), with the other)")
 
 
 def encode_arrays(arrays):

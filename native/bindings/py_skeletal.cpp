@@ -261,6 +261,10 @@ void bind_skeletal(pb::module_& m) {
              o["S"] = d.S;
              o["weights"] = d.weights;
              o["bones_rest"] = from_mats(d.bones_rest);
+             if (d.bone_heads.rows() > 0) {
+               o["bone_heads"] = d.bone_heads;
+               o["bone_tails"] = d.bone_tails;
+             }
              o["frame_regularization"] = d.frame_regularization;
              o["has_multires"] = d.has_multires;
              if (d.has_multires) {
@@ -285,6 +289,10 @@ void bind_skeletal(pb::module_& m) {
         d.S = get<MatX3d>(o, "S");
         d.weights = get<Eigen::MatrixXd>(o, "weights");
         d.bones_rest = to_mats(get<Mats>(o, "bones_rest"), "bones_rest");
+        if (o.contains("bone_heads") || o.contains("bone_tails")) {  // absent in older data
+          d.bone_heads = get<MatX3d>(o, "bone_heads");
+          d.bone_tails = get<MatX3d>(o, "bone_tails");
+        }
         d.frame_regularization = get<double>(o, "frame_regularization");
         d.has_multires = get<bool>(o, "has_multires");
         if (d.has_multires) {

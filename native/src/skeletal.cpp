@@ -438,6 +438,9 @@ struct SkeletalRig::Impl {
   // Bone clearance (see clear_bones): each bone's rest segment (head, axis scaled to its length)
   // and each skeletal vertex's rest distance to the segments of the bones it has weight on (-1: none).
   std::vector<Vec3> bone_head, bone_vec;
+  // The stick skeleton given at bind (SkeletalRigData::bone_heads / bone_tails), B x 3 each; empty:
+  // the segments come from the rest frames.
+  MatX3d seg_heads, seg_tails;
   std::vector<std::vector<int>> children;  // per bone, the bones it is the parent of (see setup_clearance)
   std::vector<int> parent;                 // per bone, its parent (-1: none)
   Eigen::MatrixXd clearance;
@@ -1111,6 +1114,22 @@ MatX3d SkeletalRig::Impl::basic(const MatX3d& Sd, const SkeletalDeformOptions& o
 
 // ---------------------------------------------------------------------------------------------
 
+namespace {
+// The stick skeleton (bone_heads, bone_tails) given at bind or in saved data: both empty, or B x 3,
+// finite, every bone of non-zero length.
+void check_segments(const MatX3d& heads, const MatX3d& tails, int B, const char* what) {
+  if (heads.rows() == 0 && tails.rows() == 0) return;
+  if (heads.rows() != B || tails.rows() != B)
+    throw MeshError(std::string(what) + ": bone heads and tails must have one row per bone (" + std::to_string(B) +
+                    "), got " + std::to_string(heads.rows()) + " and " + std::to_string(tails.rows()));
+  if (!heads.allFinite() || !tails.allFinite())
+    throw MeshError(std::string(what) + ": bone heads and tails must be finite");
+  for (int j = 0; j < B; ++j)
+    if (!((row3(tails, j) - row3(heads, j)).norm() > 0))
+      throw MeshError(std::string(what) + ": bone " + std::to_string(j) + " has its tail at its head (zero length)");
+}
+}  // namespace
+
 SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vector<Mat4>& bones_rest,
                               const Eigen::MatrixXd& weights, const MatX3d& bone_heads, const MatX3d& bone_tails,
                               const SkeletalRigOptions& opt, const ProgressFn& progress) {
@@ -1147,9 +1166,12 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
   } else if (bone_heads.rows() != B || bone_tails.rows() != B) {
     throw MeshError("skeletal bind: without weights, bone heads and tails (B x 3) are needed");
   }
+  check_segments(bone_heads, bone_tails, B, "skeletal bind");
 
   auto impl = std::make_shared<Impl>();
   impl->rest = bones_rest;
+  impl->seg_heads = bone_heads;
+  impl->seg_tails = bone_tails;
   impl->frame_regularization = opt.frame_regularization;
   if (F.rows() > opt.control_faces) {
     MultiresOptions mo;
@@ -1224,6 +1246,9 @@ SkeletalRig SkeletalRig::from_data(const SkeletalRigData& d) {
   impl->S = d.S;
   impl->W = d.weights;
   impl->rest = d.bones_rest;
+  check_segments(d.bone_heads, d.bone_tails, B, "skeletal data");
+  impl->seg_heads = d.bone_heads;
+  impl->seg_tails = d.bone_tails;
   impl->frame_regularization = d.frame_regularization;
   if (d.has_multires) {
     impl->multires = Multires::from_data(d.multires);
@@ -1252,6 +1277,8 @@ SkeletalRigData SkeletalRig::data() const {
   d.S = impl_->S;
   d.weights = impl_->W;
   d.bones_rest = impl_->rest;
+  d.bone_heads = impl_->seg_heads;
+  d.bone_tails = impl_->seg_tails;
   d.has_multires = impl_->multires.has_value();
   if (d.has_multires) d.multires = impl_->multires->data();
   d.dense_F = impl_->dense_F;
@@ -1261,34 +1288,38 @@ SkeletalRigData SkeletalRig::data() const {
   return d;
 }
 
-// Bone segments from the rest frames (the saved data has no tails): head = translation, direction =
-// Y axis, length to the next head along the axis, else the extent along it of the control vertices
-// weighted to the bone.
+// Bone segments: the stick skeleton given at bind (seg_heads, seg_tails), else from the rest frames
+// (data saved without it): head = translation, direction = Y axis, length to the next head along
+// the axis, else the extent along it of the control vertices weighted to the bone.
 void SkeletalRig::Impl::setup_clearance() {
   const int B = static_cast<int>(rest.size()), n = static_cast<int>(S.rows());
   bone_head.assign(B, Vec3::Zero());
   bone_vec.assign(B, Vec3::Zero());
   clearance.setConstant(n, B, -1.0);
+  if (seg_heads.rows() == B) {
+    for (int j = 0; j < B; ++j) bone_head[j] = row3(seg_heads, j), bone_vec[j] = row3(seg_tails, j) - bone_head[j];
+  } else {
+    std::vector<Vec3> axis(B);
+    for (int j = 0; j < B; ++j) {
+      bone_head[j] = rest[j].block<3, 1>(0, 3);
+      axis[j] = rest[j].block<3, 1>(0, 1).normalized();
+    }
+    for (int j = 0; j < B; ++j) {
+      double len = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < B; ++k) {
+        const Vec3 rel = bone_head[k] - bone_head[j];
+        const double along = rel.dot(axis[j]);
+        if (k != j && along > 1e-9 && (rel - along * axis[j]).norm() < 0.25 * along) len = std::min(len, along);
+      }
+      if (!std::isfinite(len)) {
+        len = 0;
+        for (int i = 0; i < n; ++i)
+          if (W(i, j) > 0) len = std::max(len, (row3(control.V, i) - bone_head[j]).dot(axis[j]));
+      }
+      bone_vec[j] = std::max(len, 1e-9) * axis[j];
+    }
+  }
   if (B < 2) return;  // one bone moves everything rigidly
-  std::vector<Vec3> axis(B);
-  for (int j = 0; j < B; ++j) {
-    bone_head[j] = rest[j].block<3, 1>(0, 3);
-    axis[j] = rest[j].block<3, 1>(0, 1).normalized();
-  }
-  for (int j = 0; j < B; ++j) {
-    double len = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < B; ++k) {
-      const Vec3 rel = bone_head[k] - bone_head[j];
-      const double along = rel.dot(axis[j]);
-      if (k != j && along > 1e-9 && (rel - along * axis[j]).norm() < 0.25 * along) len = std::min(len, along);
-    }
-    if (!std::isfinite(len)) {
-      len = 0;
-      for (int i = 0; i < n; ++i)
-        if (W(i, j) > 0) len = std::max(len, (row3(control.V, i) - bone_head[j]).dot(axis[j]));
-    }
-    bone_vec[j] = std::max(len, 1e-9) * axis[j];
-  }
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < B; ++j)
       if (W(i, j) > 1e-3)

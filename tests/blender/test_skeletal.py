@@ -259,6 +259,23 @@ def test_library_override_of_a_bound_character_deforms_live(tmp_path):
     assert "dg_skeletal" not in other.keys()
 
 
+def test_bind_keeps_the_bones_segments_as_the_stick_skeleton():
+    # The rig measures its bone clearances against the armature's own bones (head to tail, in the
+    # mesh's space), kept in the bind data, not against segments guessed from the frames (whose leaf
+    # bone ran to the end of the mesh along its axis).
+    from dgmesh.blender.skeletal_store import bound_rig
+    obj, arm, V = _scene()
+    bpy.context.view_layer.objects.active = arm
+    bpy.ops.object.mode_set(mode='EDIT')
+    arm.data.edit_bones["Lower"].tail = (2.0, 0, 0)  # shorter than the limb (to x = 3.5)
+    bpy.ops.object.mode_set(mode='OBJECT')
+    bpy.context.view_layer.objects.active = obj
+    assert _bind() == {'FINISHED'}
+    arrays = bound_rig(obj).to_arrays()
+    np.testing.assert_allclose(arrays["bone_heads"], [[-3.5, 0, 0], [0, 0, 0]], atol=1e-5)
+    np.testing.assert_allclose(arrays["bone_tails"], [[0, 0, 0], [2.0, 0, 0]], atol=1e-5)
+
+
 def _squash_group(sk, S):
     """A vertex group of the skeleton object over the stretch 0.5 < x < 2.5 of the lower limb."""
     g = sk.vertex_groups.new(name="squash")

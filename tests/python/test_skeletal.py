@@ -547,6 +547,40 @@ def test_multires_dense_step_finds_the_balls_a_pose_brings_close():
         assert e(rig.deform(pose, bone_clearance=0, contact_slide=0, fold_guard=0)) < share * without
 
 
+def test_bones_given_as_segments_make_the_rig_independent_of_the_frames_convention(mesh):
+    """bone_heads / bone_tails are the stick skeleton the bone clearances measure against; the frames
+    only move it. Identity rest frames with the segments given deform as Blender-convention frames
+    (Y along the bone) do. Before, the rig took the segments from the frames whatever was given:
+    identity frames put both bones at the origin along y, and the capsule bent 90 degrees came out at
+    0.67 of its rest distance to the bones, with pairs at 45 degrees where DQS has none."""
+    V, F = mesh
+    W = np.c_[1 - np.clip(V[:, 0] + 0.5, 0, 1), np.clip(V[:, 0] + 0.5, 0, 1)]
+    ident = np.repeat(np.eye(4)[None], 2, 0)
+    kw = dict(bone_heads=HEADS, bone_tails=TAILS, control_faces=len(F) + 1)
+    blender, plain = (dgmesh.SkeletalRig.bind(V, F, R, W, **kw) for R in (REST, ident))
+    for angle in (np.pi / 4, np.pi / 2):
+        A = np.array([np.eye(4), rot((0, 0, 1), angle)])  # the bones' motions
+        X = plain.deform(A)
+        assert np.abs(X - blender.deform(A @ REST)).max() < 1e-6
+        assert (bone_dist(X, A @ REST)[np.abs(V[:, 0]) < 3] / bone_dist(V, REST)[np.abs(V[:, 0]) < 3]).min() > 0.9
+    # The bind data keeps the segments; data saved without them takes them from the frames.
+    arrays = plain.to_arrays()
+    np.testing.assert_array_equal(arrays["bone_tails"], TAILS)
+    np.testing.assert_array_equal(dgmesh.SkeletalRig.from_arrays(arrays).deform(A), X)
+    older = {k: v for k, v in arrays.items() if k not in ("bone_heads", "bone_tails")}
+    assert np.abs(dgmesh.SkeletalRig.from_arrays(older).deform(A) - X).max() > 0.05
+    with pytest.raises(dgmesh.MeshError, match="bone_tails"):
+        dgmesh.SkeletalRig.from_arrays({k: v for k, v in arrays.items() if k != "bone_tails"})
+
+
+def test_bone_segments_of_zero_length_or_the_wrong_count_are_refused(mesh):
+    V, F = mesh
+    with pytest.raises(dgmesh.MeshError, match="bone 1 has its tail at its head"):
+        dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=np.array([[0, 0, 0], [0, 0, 0.0]]))
+    with pytest.raises(dgmesh.MeshError, match="one row per bone"):
+        dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS[:1], bone_tails=TAILS)
+
+
 def test_non_finite_deform_options_are_refused(tmp_path):
     V, F = capsule(around=16, cap_rings=4, cylinder_rings=12)
     R = np.repeat(np.eye(4)[None], 2, 0)

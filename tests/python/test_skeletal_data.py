@@ -85,3 +85,21 @@ def test_joint_contact_must_be_off_or_at_least_one():
     for bad in (0.5, -1.0, float("nan"), float("inf")):
         with pytest.raises(BindDataError, match="contact_slide"):
             check_info(_info(contact_slide=bad))
+
+
+def test_stored_stick_skeleton_is_checked_and_may_be_absent():
+    """Bind data keeps the bones' segments (bone_heads, bone_tails) since they define the stick
+    skeleton; data saved before has none and passes; a half-kept or misshapen pair is refused by
+    name before the rig is rebuilt."""
+    import pytest
+
+    from dgmesh.skeletal_data import BindDataError, check_arrays
+    base = {"control_V": np.zeros((4, 3)), "control_F": np.zeros((4, 3), np.int32), "S": np.zeros((4, 3)),
+            "weights": np.ones((4, 2)) / 2, "bones_rest": np.repeat(np.eye(4)[None], 2, 0)}
+    check_arrays(base, 2)
+    check_arrays(dict(base, bone_heads=np.zeros((2, 3)), bone_tails=np.ones((2, 3))), 2)
+    for bad, word in (({"bone_heads": np.zeros((2, 3))}, "'bone_tails' is missing"),
+                      ({"bone_heads": np.zeros((3, 3)), "bone_tails": np.ones((2, 3))}, r"'bone_heads' is float64 of shape \(3, 3\)"),
+                      ({"bone_heads": np.zeros((2, 3)), "bone_tails": np.array([["a"] * 3] * 2)}, "'bone_tails' is <U1")):
+        with pytest.raises(BindDataError, match=word):
+            check_arrays(dict(base, **bad), 2)

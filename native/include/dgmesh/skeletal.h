@@ -221,6 +221,10 @@ struct SkeletalRigData {
   MatX3d S;                 // skeletal vertices
   Eigen::MatrixXd weights;  // n_control x B, rows sum to 1
   std::vector<Mat4> bones_rest;
+  // The stick skeleton (B x 3 each): the segments the bone clearances, the joint contact and the
+  // twist axes measure against. Empty (data saved before it was kept): from the rest frames, head =
+  // translation, direction = Y axis (Blender's convention).
+  MatX3d bone_heads, bone_tails;
   bool has_multires = false;
   MultiresData multires;
   MatX3i dense_F;  // the dense mesh's faces (untangling through the layer); may be empty
@@ -240,6 +244,11 @@ class SkeletalRig {
   // Binds the mesh (V, F) to the bones (4x4 rest matrices in the mesh's object space).
   // `weights` is n x B (per vertex of V) or empty; when empty, Gaussian weights of the distance of
   // the skeletal vertices to the bone segments (bone_heads, bone_tails, B x 3) are used.
+  // bone_heads / bone_tails (B x 3, or both empty) are the stick skeleton: the segments the bone
+  // clearances, the joint contact and the twist axes measure against. Only the motion
+  // (pose * rest^-1) comes from the frames. Without them the segments come from the frames (head =
+  // translation, direction = Y axis, Blender's convention), which is wrong for frames that do not
+  // follow it (e.g. identity rest frames).
   // The mesh must be closed and manifold; throws MeshError (nothing bound) otherwise, and when
   // some vertex has no weight in any bone.
   static SkeletalRig bind(const MatX3d& V, const MatX3i& F, const std::vector<Mat4>& bones_rest,
