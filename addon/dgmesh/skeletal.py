@@ -172,6 +172,7 @@ class SkeletalRig:
                homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
+               integrate_skeleton: bool = _DEFORM.integrate_skeleton,
                bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                untangle_iterations: int = _DEFORM.untangle_iterations,
                untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
@@ -195,8 +196,18 @@ class SkeletalRig:
         surface is a sheet (most scanned limbs) the sheet collapses halfway through the joint's
         blend and the mesh rebuilt on it tears open there; about even in a bend (see
         bench/RESULTS.md). Either way the posed skeletal vertices are then pushed back out to their
-        rest distance from the posed bone segments they have weight on (segments from the rest
-        frames), which undoes most of the blend's pull towards the bones in a joint's inner crease.
+        rest distance from the posed bone segments they have weight on (the stick skeleton of
+        :meth:`bind`), which undoes most of the blend's pull towards the bones in a joint's inner
+        crease.
+        ``integrate_skeleton`` (default False): then rebuild the posed skeletal mesh from its rest
+        edges, each turned by its ends' mean blended rotation (least squares, as eq. 6.11 rebuilds
+        the surface), anchored to those positions where one bone dominates (largest weight above
+        0.9). The blend alone swings the skeletal vertices behind a joint backwards, and the posed
+        axis turns by up to twice the bend inside the blend; the union of balls then has a concave
+        corner in the crease that the thickness steps fold the surface into (e.g. skeletal_joints'
+        capsule bent 90 degrees through the layer: 218 crossing pairs without, 0 with; DQS 95).
+        The posed axis then cuts the joint's corner, so the bone clearance pushes more of the outer
+        side back out (bench/notes/skeletal.md, session 32).
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         and of their parent bones (their union) is at least this fraction of its rest distance to
@@ -244,8 +255,8 @@ class SkeletalRig:
         Defaults: ``SkeletalDeformOptions()``.
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
-                                 untangle_rings, follow_twist, fold_guard)
+                                 dual_quaternion, integrate_skeleton, bone_clearance, contact_slide,
+                                 untangle_iterations, untangle_rings, follow_twist, fold_guard)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
@@ -284,6 +295,7 @@ class SkeletalRig:
                        method: str | SkeletalMethod = _DEFORM.method.name, fairing_step: float = _DEFORM.fairing_step,
                        homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
+                       integrate_skeleton: bool = _DEFORM.integrate_skeleton,
                        bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                        untangle_iterations: int = _DEFORM.untangle_iterations,
                        untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
@@ -291,24 +303,26 @@ class SkeletalRig:
                        skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, bone_clearance, contact_slide, untangle_iterations,
-                                 untangle_rings, follow_twist, fold_guard)
+                                 dual_quaternion, integrate_skeleton, bone_clearance, contact_slide,
+                                 untangle_iterations, untangle_rings, follow_twist, fold_guard)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
-        """Skeletal vertices deformed by SSD (eq. 6.2), as :meth:`deform` poses them by default."""
+        """Skeletal vertices posed as :meth:`deform` poses them with its defaults (the blend of eq. 6.2
+        and the bone clearance; ``deform_control(pose, integrate_skeleton=True)[1]`` for the integrated
+        skeletal mesh)."""
         return self._rig.skeleton_pose(_mats(bones_pose, "bones_pose", self.n_bones))
 
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                        dual_quaternion, bone_clearance, contact_slide, untangle_iterations, untangle_rings,
-                        follow_twist, fold_guard):
+                        dual_quaternion, integrate_skeleton, bone_clearance, contact_slide, untangle_iterations,
+                        untangle_rings, follow_twist, fold_guard):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
                             fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=projection,
-                            dual_quaternion=dual_quaternion, bone_clearance=bone_clearance,
-                            contact_slide=contact_slide,
+                            dual_quaternion=dual_quaternion, integrate_skeleton=bool(integrate_skeleton),
+                            bone_clearance=bone_clearance, contact_slide=contact_slide,
                             untangle_iterations=as_count(untangle_iterations, "untangle_iterations"),
                             untangle_rings=as_count(untangle_rings, "untangle_rings"),
                             follow_twist=bool(follow_twist), fold_guard=as_count(fold_guard, "fold_guard"))

@@ -5,6 +5,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <string>
@@ -395,7 +396,8 @@ struct SkeletalRig::Impl {
   // ball are left out of the fairing's kd-tree (a tube's ring collapses to one skeletal point: tens
   // of coincident centres make every k-nearest query scan them all). Their balls are covered.
   std::vector<int> reps;
-  Eigen::MatrixXd W;  // n_control x B
+  std::vector<int> rep_of;  // per skeletal vertex, the index in reps of the one that covers it (itself)
+  Eigen::MatrixXd W;        // n_control x B
   std::vector<Mat4> rest;
   std::optional<Multires> multires;
   // Through the multiresolution layer: eq. 6.13 at rest for every dense vertex against the control
@@ -431,7 +433,12 @@ struct SkeletalRig::Impl {
   FoldGuard control_guard, dense_guard;
   MatX3d cot;           // per face corner: cot of the rest angle at that corner
   SparseSolver solver;  // I + L_M (the upper block of L0, eq. 6.10; the lower block is I)
-  double mu = 0;        // frame regularisation weight (absolute)
+  // Skeletal mesh integration (SkeletalDeformOptions::integrate_skeleton): per skeletal vertex its
+  // anchor weight, and the factorised system (graph Laplacian of the control mesh's edges + the
+  // anchors); see integrate_skeleton.
+  VecXd sk_anchor;
+  SparseSolver sk_solver;
+  double mu = 0;  // frame regularisation weight (absolute)
   double frame_regularization = 0.05;
   double r_max = 0;
   MatX3d rest_normals;  // vertex normals of the control mesh (basic method)
@@ -450,6 +457,8 @@ struct SkeletalRig::Impl {
   void set_dense_weights(const Eigen::MatrixXd& Wd);
   void posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h, std::vector<Vec3>& v) const;
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) const;
+  void setup_integration();
+  void integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const std::vector<Mat4>& pose) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
   // The fold guard's constraint (SkeletalDeformOptions::fold_guard): a smoothed vertex is pushed back
   // out to `fraction` of its rest distance to the bones of `c` (the untangling's clearance: its own
@@ -722,13 +731,16 @@ void SkeletalRig::Impl::setup() {
     const KdTree tree(S);
     std::vector<std::pair<int, double>> near;
     reps.clear();
+    rep_of.assign(n, -1);
     for (int i : order) {
       if (covered[i]) continue;
       reps.push_back(i);
       tree.radius(row3(S, i), eps, near);
-      for (const auto& [j, d2] : near) covered[j] = 1;
+      for (const auto& [j, d2] : near)
+        if (!covered[j]) covered[j] = 1, rep_of[j] = static_cast<int>(reps.size()) - 1;
     }
   }
+  setup_integration();
 }
 
 std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const MatX9d& lin, const Twist* tw) const {
@@ -1436,6 +1448,80 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) c
   for (int i = 0; i < n; ++i) Sd.row(i) = push_out(row3(Sd, i), clearance.row(i), h, v).transpose();
 }
 
+// Anchor weights of the skeletal mesh integration (SkeletalDeformOptions::integrate_skeleton),
+// relative to the unit weight of an edge: a vertex one bone moves alone is held where the bone puts
+// it (kRigidAnchor: the parts away from the joint do not drift); one dominated by a bone (largest
+// weight a in [0.9, 1)) softly, with kSkeletonAnchor a'^2, a' = (a - 0.9) / 0.09 clamped to 1.
+// A joint's blend rebuilt from turned edges does not end where the child bone's pivot puts its
+// rigid part; the soft anchors let the difference spread over the blend's ends instead of folding
+// them. (Soft anchors on the rigid parts as well moved them off their bones: 0.025 at the far end
+// of a 6-long capsule through the layer.)
+constexpr double kRigidAnchor = 1e6;
+constexpr double kSkeletonAnchor = 0.1;
+
+void SkeletalRig::Impl::setup_integration() {
+  const int n = static_cast<int>(S.rows()), g = static_cast<int>(reps.size());
+  const MatX2i& E = control.topo.edges;
+  sk_anchor = VecXd::Constant(g, 1e-6);  // the floor keeps the system definite where no bone dominates
+  std::vector<Eigen::Triplet<double>> trip;
+  trip.reserve(static_cast<size_t>(E.rows()) * 4 + g);
+  for (int e = 0; e < E.rows(); ++e) {
+    const int i = rep_of[E(e, 0)], j = rep_of[E(e, 1)];
+    if (i == j) continue;
+    trip.emplace_back(i, i, 1.0), trip.emplace_back(j, j, 1.0), trip.emplace_back(i, j, -1.0),
+        trip.emplace_back(j, i, -1.0);
+  }
+  for (int v = 0; v < n; ++v) {
+    const double w = W.row(v).maxCoeff(), a = std::clamp((w - 0.9) / 0.09, 0.0, 1.0);
+    sk_anchor[rep_of[v]] += w >= 1 - 1e-6 ? kRigidAnchor : kSkeletonAnchor * a * a;
+  }
+  for (int i = 0; i < g; ++i) trip.emplace_back(i, i, sk_anchor[i]);
+  SpMat A(g, g);
+  A.setFromTriplets(trip.begin(), trip.end());
+  sk_solver.factor(A, SparseSolver::Kind::Cholesky);
+}
+
+// Skeletal mesh integration (SkeletalDeformOptions::integrate_skeleton) over the coincident groups
+// of skeletal vertices (reps: a tube's ring collapses to one point): the groups' positions minimise
+// sum over edges ij |(s_j - s_i) - R_ij (s0_j - s0_i)|^2 + sum_i anchor_i |s_i - Sd_i|^2 (edges
+// between groups, once per control edge; s0 and Sd the representatives' rest and blended positions,
+// anchor_i the sum over the group), R_ij the normalised mean of the two ends' blended rotations
+// (lin, as quaternions); every vertex then moves as its group's representative does. (Solved per
+// vertex, the coincident centres of a capsule's ring drifted apart by 1.5 % of the radius and
+// uncovered the balls the fairing's tree leaves out.) A pose that moves every bone alike (the rest
+// pose, rigid motions) keeps Sd.
+void SkeletalRig::Impl::integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const std::vector<Mat4>& pose) const {
+  const int n = static_cast<int>(Sd.rows()), g = static_cast<int>(reps.size()), B = static_cast<int>(rest.size());
+  if (!sk_solver.factored() || sk_solver.rows() != g) return;
+  const Mat4 A0 = pose[0] * rest[0].inverse();
+  bool rigid = true;
+  for (int j = 1; j < B && rigid; ++j)
+    rigid = ((pose[j] * rest[j].inverse()) - A0).cwiseAbs().maxCoeff() <= 1e-12 * (1 + A0.cwiseAbs().maxCoeff());
+  if (rigid) return;
+  std::vector<Eigen::Quaterniond> q(g);
+  Eigen::MatrixXd rhs(g, 3);
+  for (int i = 0; i < g; ++i) {
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(lin.row(reps[i]).data());
+    q[i] = Eigen::Quaterniond(Mat3(R));
+    rhs.row(i) = sk_anchor[i] * Sd.row(reps[i]);
+  }
+  const MatX2i& E = control.topo.edges;
+  for (int e = 0; e < E.rows(); ++e) {
+    const int i = rep_of[E(e, 0)], j = rep_of[E(e, 1)];
+    if (i == j) continue;
+    Eigen::Vector4d c = q[j].coeffs();
+    if (q[i].coeffs().dot(c) < 0) c = -c;
+    Eigen::Quaterniond m;
+    m.coeffs() = (q[i].coeffs() + c).normalized();
+    const Vec3 t = m * (row3(S, reps[j]) - row3(S, reps[i]));
+    rhs.row(i) -= t.transpose(), rhs.row(j) += t.transpose();
+  }
+  const Eigen::MatrixXd X = sk_solver.solve(rhs);
+  MatX3d shift(g, 3);
+  for (int i = 0; i < g; ++i) shift.row(i) = X.row(i) - Sd.row(reps[i]);
+  for (int v = 0; v < n; ++v) Sd.row(v) += shift.row(rep_of[v]);
+}
+
 // Joint contact (SkeletalDeformOptions::contact_slide, issue 33). The thickness steps keep each
 // vertex at its rest distance to the union of the posed medial balls, but in a bend's inner crease
 // the flesh of one limb then lies inside the other's (capsule bent 90 degrees: a third of the
@@ -1836,9 +1922,11 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
 }
 
 MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
-  MatX3d Sd =
-      skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, nullptr, SkeletalDeformOptions{}.dual_quaternion);
+  const SkeletalDeformOptions o;
+  MatX9d lin;
+  MatX3d Sd = skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, &lin, o.dual_quaternion);
   impl_->clear_bones(Sd, pose);
+  if (o.integrate_skeleton) impl_->integrate_skeleton(Sd, lin, pose);
   return Sd;
 }
 
@@ -1867,6 +1955,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
   const MatX3d Sd_blend = twist ? Sd : MatX3d();
   clear_bones(Sd, pose);
+  if (opt.integrate_skeleton) integrate_skeleton(Sd, lin, pose);
   std::vector<char> edited;
   if (skeleton) {
     // The edit's offsets turn with each skeletal vertex's blended bone frame: for rigid blends

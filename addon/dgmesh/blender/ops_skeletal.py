@@ -199,6 +199,12 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                "own share of the bones' twist: a twisted flat or off-axis part (a waist, a wrist) "
                                "keeps its volume instead of swelling and crossing itself. Poses without twist are "
                                "unchanged")
+    integrate_skeleton: BoolProperty(name="Integrate Skeleton", default=DEFORM_DEFAULTS.integrate_skeleton,
+                                     description="Pose the skeletal mesh by rebuilding it from its rest edges "
+                                     "turned by the blended bone rotations, held where one bone moves it alone: "
+                                     "across a narrow blend the joint bends smoothly instead of swinging the flesh "
+                                     "behind the joint backwards, and the crease folds less. The outer side of a "
+                                     "tight bend is then pushed out by the bone clearance")
     skeleton_blend: EnumProperty(
         name="Skeleton Blend", items=SKELETON_BLENDS,
         default='DUAL_QUATERNION' if DEFORM_DEFAULTS.dual_quaternion else 'LINEAR',
@@ -263,7 +269,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
 
 SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "untangle_render", "fold_guard",
-            "contact", "follow_twist", "skeleton_blend")
+            "contact", "follow_twist", "integrate_skeleton", "skeleton_blend")
 
 
 class _BindFailure(Exception):
@@ -384,6 +390,7 @@ def _attach(context, obj, arm, binding, settings):
         "untangle_iterations": settings["untangle"], "untangle_render": settings["untangle_render"],
         "fold_guard": settings["fold_guard"],
         "contact_slide": settings["contact"], "follow_twist": int(settings["follow_twist"]),
+        "integrate_skeleton": int(settings["integrate_skeleton"]),
         "control_faces": settings["control_faces"], "target": "HELPER",
         "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
         "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -443,7 +450,8 @@ painting its weights (the binding keeps what it read at bind)"""
                         bone_clearance=saved["bone_clearance"], untangle=saved["untangle_iterations"],
                         untangle_render=render_untangle(info), fold_guard=saved["fold_guard"],
                         contact=saved["contact_slide"],
-                        follow_twist=saved["follow_twist"], skeleton_blend=saved["skeleton_blend"],
+                        follow_twist=saved["follow_twist"], integrate_skeleton=saved["integrate_skeleton"],
+                        skeleton_blend=saved["skeleton_blend"],
                         control_faces=saved["control_faces"])
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.
         try:

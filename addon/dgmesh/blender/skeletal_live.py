@@ -269,7 +269,8 @@ def deformed(obj, pose, skeleton=None, render=False):
               bone_clearance=saved["bone_clearance"],
               untangle_iterations=render_untangle(info) if render else saved["untangle_iterations"],
               fold_guard=saved["fold_guard"], contact_slide=saved["contact_slide"],
-              follow_twist=saved["follow_twist"], dual_quaternion=saved["skeleton_blend"] == 'DUAL_QUATERNION')
+              follow_twist=saved["follow_twist"], integrate_skeleton=saved["integrate_skeleton"],
+              dual_quaternion=saved["skeleton_blend"] == 'DUAL_QUATERNION')
     try:
         rig.deform(pose, out=pos, skeleton=skeleton, **kw)
     except (MeshError, TypeError):
