@@ -597,7 +597,8 @@ def limb_quality(quick):
 
 JOINT_POSES = ("bend 45", "bend 90", "bend 135", "twist 90", "twist 180")
 JOINT_METHODS = ("ours whole mesh", "ours whole mesh, untangle 10", "ours via multires (the operator's path)",
-                 "ours via multires, untangle 10")
+                 "ours via multires, untangle 10", "ours whole mesh, integrated skeleton",
+                 "ours via multires, integrated skeleton")
 
 
 def _joint_cases(quick):
@@ -679,7 +680,9 @@ def joints(quick):
             results = {"LBS": res[f"lbs{p}"], "DQS": res[f"dqs{p}"], JOINT_METHODS[0]: whole.deform(pose),
                        JOINT_METHODS[1]: whole.deform(pose, untangle_iterations=10),
                        JOINT_METHODS[2]: layered.deform(pose),
-                       JOINT_METHODS[3]: layered.deform(pose, untangle_iterations=10)}
+                       JOINT_METHODS[3]: layered.deform(pose, untangle_iterations=10),
+                       JOINT_METHODS[4]: whole.deform(pose, integrate_skeleton=True),
+                       JOINT_METHODS[5]: layered.deform(pose, integrate_skeleton=True)}
             cell = {}
             for mname, X in results.items():
                 ratio = min_bone_ratio(X, rest, pose, heads, tails, b0, affected)
@@ -704,7 +707,9 @@ def joints(quick):
           "multiresolution layer (5000-face control mesh, half the faces in quick mode: the Skeletal Bind operator's "
           "path above 5000 faces), "
           "each also with Untangle Creases (untangle_iterations=10, the setting for stills; it is off by default "
-          "because the untangled crease jumps between frames, bench skeletal_coherence). The moving bone (the capsule's second, "
+          "because the untangled crease jumps between frames, bench skeletal_coherence), and with the skeletal mesh "
+          "integrated (integrate_skeleton=True, off by default: the posed skeletal mesh rebuilt from its rest edges "
+          "turned by the blended rotations). The moving bone (the capsule's second, "
           "the legs' lower bone) bent 45 / 90 / 135 degrees (as skeletal_limb's bend) or twisted 90 / 180 degrees "
           "about its own axis. Each cell: self-intersecting triangle pairs over the whole mesh "
           "(`dgmesh.skeletal.self_intersecting_pairs`) and, in brackets, the minimum ratio of the distance to the "
@@ -728,7 +733,8 @@ def joints(quick):
     return {"markdown": "\n".join(md), "data": data}
 
 
-COHERENCE_METHODS = ("LBS", "DQS", "ours via multires (the operator's path)", "ours via multires, untangle 10")
+COHERENCE_METHODS = ("LBS", "DQS", "ours via multires (the operator's path)", "ours via multires, untangle 10",
+                     "ours via multires, integrated skeleton")
 
 
 def coherence(quick):
@@ -758,6 +764,7 @@ def coherence(quick):
                 paths["DQS"].append(res[f"dqs{p}"])
                 paths[COHERENCE_METHODS[2]].append(layered.deform(pose))
                 paths[COHERENCE_METHODS[3]].append(layered.deform(pose, untangle_iterations=10))
+                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, integrate_skeleton=True))
             first += len(angles)
             cells = []
             for m, path in paths.items():
@@ -776,8 +783,8 @@ def coherence(quick):
           "X(t-1)|, in mean edge lengths, and in brackets the frames where some vertex's exceeds one edge "
           "length. A rigid turn by the step gives about 0.02 at the capsule's tip; a jump of the surface "
           "between two frames shows at its full size. Blender's Armature modifier (LBS, Preserve Volume = DQS) "
-          "against ours through the multiresolution layer with its defaults and with Untangle Creases "
-          "(untangle_iterations=10)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
+          "against ours through the multiresolution layer with its defaults, with Untangle Creases "
+          "(untangle_iterations=10) and with the skeletal mesh integrated (integrate_skeleton=True)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
                                           "armadillo legs", "quick: steps of 3 and 6" if quick else "all frames"), "",
           table(["mesh", "sweep", "frames (with two neighbours)", *COHERENCE_METHODS], rows), "",
           "`/usr/bin/python3 bench/run.py skeletal_coherence`"]
