@@ -207,7 +207,7 @@ class SkeletalRig:
         corner in the crease that the thickness steps fold the surface into (e.g. skeletal_joints'
         capsule bent 90 degrees through the layer: 218 crossing pairs without, 0 with; DQS 95).
         The posed axis then cuts the joint's corner, so the bone clearance pushes more of the outer
-        side back out (bench/notes/skeletal.md, session 32).
+        side back out (bench/notes/skeletal.md, session 32). Not applied where ``follow_twist`` acts.
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         and of their parent bones (their union) is at least this fraction of its rest distance to

@@ -134,18 +134,20 @@ struct SkeletalDeformOptions {
   bool dual_quaternion = true;
   // Skeletal mesh integration (issue 33's crease), off by default: the blend above moves each
   // skeletal vertex about the joint by its blended motion, so across a joint's blend the vertices
-  // behind the joint swing backwards and the posed axis turns by up to twice the bend inside the
-  // blend (a linear blend over [-r, r] bent 60 degrees: 115 degrees, with kinks at the blend's ends).
+  // behind the joint swing backwards and the posed axis turns by about twice the bend inside the
+  // blend (a linear blend over [-r, r] bent 75 degrees: 149 degrees, with kinks at the blend's ends).
   // The union of balls then has a concave corner in the crease, and the thickness steps fold the
   // surface into it. With this on, the posed skeletal mesh is rebuilt after the bone clearance as the
   // surface is in eq. 6.11: least squares over its edges, each its rest vector turned by its two
-  // ends' mean blended rotation, anchored to the blend's positions with weight kSkeletonAnchor a^2
-  // per vertex, a = clamp((w_max - 0.9) / 0.09, 0, 1) of its largest bone weight (coincident
-  // skeletal vertices move as one): the axis turns as the weights do (by the bend over the blend),
-  // and the parts one bone moves stay where it puts them. Factorised at bind; a pose costs one solve.
-  // Rest pose and rigid motions: no move. The axis then cuts the joint's corner, so the surface bone
-  // clearance pushes more of the outer side back out, and the skeleton's own clearance is no longer
-  // kept exactly. Measurements, and why it is not the default yet: bench/notes/skeletal.md, session 32.
+  // ends' mean blended rotation, held where one bone moves a vertex alone and anchored softly to the
+  // blend's position where a bone dominates (largest weight 0.9-0.99); coincident skeletal vertices
+  // move as one. The axis turns as the weights do (by the bend over the blend), and the parts one
+  // bone moves stay where it puts them. Factorised at bind; a pose costs one solve. Rest pose and
+  // rigid motions: no move; nor where follow_twist acts (it carries each skeletal vertex back by its
+  // own twist, which the integration mixes). The axis cuts the joint's corner, so the surface bone
+  // clearance pushes more of a bend's outer side back out, and the skeleton's own clearance is no
+  // longer kept exactly. Measurements, and why it is not the default yet: bench/notes/skeletal.md,
+  // session 32.
   bool integrate_skeleton = false;
   // Surface bone clearance (variational method, fairing_steps > 0), in [0, 1]: after the thickness
   // steps, each control vertex is pushed radially out until its distance to the union of the posed
