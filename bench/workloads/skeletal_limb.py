@@ -657,7 +657,7 @@ def joints(quick):
     (none where it has none) and a minimum bone ratio of at least 0.9, for skeletal_limb's meshes and
     weights, bends of 45 / 90 / 135 degrees and twists of 90 / 180."""
     cases = _joint_cases(quick)
-    rows, data, summary, collisions = [], {}, {m: [0, 0, 0] for m in JOINT_METHODS}, []
+    rows, data, summary, collisions, thickness = [], {}, {m: [0, 0, 0] for m in JOINT_METHODS}, [], []
     n_poses = 0
     for model, V, F, (heads, tails), bone, bend_axis, in cases:
         axis = tuple((tails[bone] - heads[bone]) / np.linalg.norm(tails[bone] - heads[bone]))
@@ -670,6 +670,7 @@ def joints(quick):
         b0 = bone_distance(V, rest, rest, heads, tails)
         affected = moving_vertices(W, bone, b0)
         at_rest = len(self_intersecting_pairs(V, F))
+        f_rest = union_of_balls_distance(V, whole.skeleton_vertices, whole.radii)
         for p, pname in enumerate(JOINT_POSES):
             pose = res[f"pose{p}"]
             if pname.startswith("bend"):
@@ -690,6 +691,16 @@ def joints(quick):
                 data[f"{model}|{pname}|{mname}"] = dict(pairs=cell[mname][0], min_ratio=ratio)
             dqs_pairs = cell["DQS"][0]
             n_poses += 1
+            # eq. 6.13's thickness error (whole mesh) against each posed skeleton: the blend's (the
+            # default's) and the integrated one, over DQS's against the same skeleton.
+            err = {}
+            for sk_name, integrate in (("blend", False), ("integrated", True)):
+                Sk = whole.deform_control(pose, integrate_skeleton=integrate)[1]
+                e = {m: float(((union_of_balls_distance(results[m], Sk, whole.radii) - f_rest) ** 2).sum())
+                     for m in ("DQS", JOINT_METHODS[0], JOINT_METHODS[4])}
+                err[sk_name] = [e[JOINT_METHODS[0]] / max(e["DQS"], 1e-30), e[JOINT_METHODS[4]] / max(e["DQS"], 1e-30)]
+            data[f"{model}|{pname}|thickness_over_dqs"] = err
+            thickness.append([model, pname, *err["blend"], *err["integrated"]])
             marks = []
             for m in JOINT_METHODS:
                 pairs, ratio = cell[m]
@@ -720,6 +731,11 @@ def joints(quick):
           table(["ours", "poses meeting the pairs bar", "poses with min ratio >= 0.9", "both"],
                 [[m, f"{a} of {n_poses}", f"{b} of {n_poses}", f"{c} of {n_poses}"] for m, (a, b, c) in summary.items()]),
           "", "Pairs at rest: " + ", ".join("%s %d" % (c[0], data[f"{c[0]}|rest_pairs"]) for c in cases) + ".", "",
+          "Thickness kept (whole mesh): eq. 6.13's sum (f - f_rest)^2 over the vertices against a posed skeleton, "
+          "over DQS's against the same skeleton, for the defaults and with the integrated skeleton; each skeleton as "
+          "the reference (a surface rebuilt on one skeleton is measured against the other too):", "",
+          table(["mesh", "pose", "defaults, blend's skeleton", "integrated, blend's skeleton",
+                 "defaults, integrated skeleton", "integrated, integrated skeleton"], thickness), "",
           "Does a bend drive the moved part into the still one? With the whole mesh's rig, the vertices of "
           "each part (all weight on the bones before the moving one / on it and after) inside the other "
           "part's medial balls, the moved part posed rigidly (no deformer changes that); the deepest over the "
