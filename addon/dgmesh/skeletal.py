@@ -201,11 +201,11 @@ class SkeletalRig:
         crease.
         ``integrate_skeleton`` (default False): then rebuild the posed skeletal mesh from its rest
         edges, each turned by its ends' mean blended rotation (least squares, as eq. 6.11 rebuilds
-        the surface), anchored to those positions where one bone dominates (largest weight above
-        0.9). The blend alone swings the skeletal vertices behind a joint backwards, and the posed
+        the surface), held where one bone moves a vertex alone and anchored softly to those
+        positions where one bone dominates (largest weight above 0.9). The blend alone swings the skeletal vertices behind a joint backwards, and the posed
         axis turns by up to twice the bend inside the blend; the union of balls then has a concave
         corner in the crease that the thickness steps fold the surface into (e.g. skeletal_joints'
-        capsule bent 90 degrees through the layer: 218 crossing pairs without, 0 with; DQS 95).
+        capsule bent 90 degrees through the layer: 218 crossing pairs without, 83 with; DQS 95).
         The posed axis then cuts the joint's corner, so the bone clearance pushes more of the outer
         side back out (bench/notes/skeletal.md, session 32). Not applied where ``follow_twist`` acts.
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
