@@ -5,7 +5,6 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
 #include <optional>
 #include <string>
