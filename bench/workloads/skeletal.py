@@ -299,7 +299,9 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
                    "ours with the untangling (untangle_iterations=20; issue 33)": rig.deform(pose, untangle_iterations=20),
                    "ours, thickness following the twist (follow_twist; issue 33)": rig.deform(pose, follow_twist=True),
                    "ours, follow_twist and the untangling": rig.deform(pose, follow_twist=True,
-                                                                         untangle_iterations=20)}
+                                                                         untangle_iterations=20),
+                   "ours, integrated skeleton (integrate_skeleton; issue 33, off by default)": rig.deform(
+                       pose, integrate_skeleton=True)}
         panels = []
         for mname, X in results.items():
             f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)
