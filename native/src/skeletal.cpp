@@ -458,6 +458,8 @@ struct SkeletalRig::Impl {
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose) const;
   void setup_integration();
   void integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const std::vector<Mat4>& pose) const;
+  MatX3d pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
+                       MatX3d* blend = nullptr) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
   // The fold guard's constraint (SkeletalDeformOptions::fold_guard): a smoothed vertex is pushed back
   // out to `fraction` of its rest distance to the bones of `c` (the untangling's clearance: its own
@@ -1920,13 +1922,26 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
   return true;
 }
 
-MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
-  const SkeletalDeformOptions o;
-  MatX9d lin;
-  MatX3d Sd = skeletal_subspace_deform(impl_->S, impl_->W, impl_->rest, pose, &lin, o.dual_quaternion);
-  impl_->clear_bones(Sd, pose);
-  if (o.integrate_skeleton) impl_->integrate_skeleton(Sd, lin, pose);
+// The posed skeletal mesh: SSD (eq. 6.2; `lin` receives the blended rotations, `blend` the positions),
+// the bone clearance, and the integration where the options ask for it. Not with a followed twist:
+// make_twist carries each skeletal vertex back by its own blended twist, which the integration mixes
+// across vertices (bench skeletal_blender's armadillo waist twisted 180 degrees: 3 crossing pairs
+// with follow_twist, 3651 with both).
+MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
+                                        MatX3d* blend) const {
+  MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
+  if (blend) *blend = Sd;
+  clear_bones(Sd, pose);
+  const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
+  double dropped = 0;
+  if (opt.integrate_skeleton && !(twist && (twist_free_pose(pose, dropped), dropped > 1e-6)))
+    integrate_skeleton(Sd, lin, pose);
   return Sd;
+}
+
+MatX3d SkeletalRig::skeleton_pose(const std::vector<Mat4>& pose) const {
+  MatX9d lin;
+  return impl_->pose_skeleton(pose, SkeletalDeformOptions{}, lin);
 }
 
 MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
@@ -1949,17 +1964,10 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (skeleton && (skeleton->rows() != n || !skeleton->allFinite()))
     throw MeshError("skeletal deform: the edited skeleton needs " + std::to_string(n) +
                     " finite rows (one per skeletal vertex), got " + std::to_string(skeleton->rows()));
-  MatX9d lin;
-  MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
-  const MatX3d Sd_blend = twist ? Sd : MatX3d();
-  clear_bones(Sd, pose);
-  // Not with a followed twist: make_twist carries each skeletal vertex back by its own blended
-  // twist, which the integration mixes across vertices (bench skeletal_blender's armadillo waist
-  // twisted 180 degrees: 3 crossing pairs with follow_twist, 3651 with both).
-  double dropped = 0;
-  if (opt.integrate_skeleton && !(twist && (twist_free_pose(pose, dropped), dropped > 1e-6)))
-    integrate_skeleton(Sd, lin, pose);
+  MatX9d lin;
+  MatX3d Sd_blend;
+  MatX3d Sd = pose_skeleton(pose, opt, lin, twist ? &Sd_blend : nullptr);
   std::vector<char> edited;
   if (skeleton) {
     // The edit's offsets turn with each skeletal vertex's blended bone frame: for rigid blends

@@ -554,10 +554,9 @@ def test_bones_given_as_segments_make_the_rig_independent_of_the_frames_conventi
     identity frames put both bones at the origin along y, and the capsule bent 90 degrees came out at
     0.67 of its rest distance to the bones, with pairs at 45 degrees where DQS has none."""
     V, F = mesh
-    W = np.c_[1 - np.clip(V[:, 0] + 0.5, 0, 1), np.clip(V[:, 0] + 0.5, 0, 1)]
     ident = np.repeat(np.eye(4)[None], 2, 0)
     kw = dict(bone_heads=HEADS, bone_tails=TAILS, control_faces=len(F) + 1)
-    blender, plain = (dgmesh.SkeletalRig.bind(V, F, R, W, **kw) for R in (REST, ident))
+    blender, plain = (dgmesh.SkeletalRig.bind(V, F, R, _ramp(V), **kw) for R in (REST, ident))
     for angle in (np.pi / 4, np.pi / 2):
         A = np.array([np.eye(4), rot((0, 0, 1), angle)])  # the bones' motions
         X = plain.deform(A)

@@ -35,7 +35,7 @@ def main():
                     t0 = time.perf_counter()
                     X = rig.deform(pose, integrate_skeleton=integrate)
                     ts.append(1e3 * (time.perf_counter() - t0))
-                pairs, times = out.get(integrate, (0, []))
+                times = out.get(integrate, (0, []))[1]
                 out[integrate] = (len(self_intersecting_pairs(X, F)), times + [float(np.median(ts))])
             print("%s %d degrees: default %d pairs, %s ms; integrated %d pairs, %s ms" % (
                 wname, a, out[False][0], " / ".join("%.1f" % t for t in out[False][1]), out[True][0],
