@@ -533,7 +533,7 @@ class SkeletalDeformOptions:
     projection_passes: int  # passes of that step, at most
     dense_projection_passes: int  # passes of the dense mesh's step (multiresolution layer)
     dual_quaternion: bool  # pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)
-    integrate_skeleton: bool  # rebuild the posed skeletal mesh from its rest edges turned by the blended rotations, anchored where one bone dominates (false: the blend's positions)
+    integrate_skeleton: bool  # rebuild the posed skeletal mesh from its rest edges turned (and stretched as a beam's) by the blended rotations, anchored where one bone dominates (false: the blend's positions)
     bone_clearance: float  # keep each vertex at least this fraction of its rest distance from its bones (0: off)
     contact_slide: float  # joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa times its crossing depth (>= 1; 0: off)
     untangle_iterations: int  # untangling: iterations of the local smoothing of the self-intersecting triangles' vertices (0: off)

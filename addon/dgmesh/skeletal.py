@@ -199,15 +199,18 @@ class SkeletalRig:
         rest distance from the posed bone segments they have weight on (the stick skeleton of
         :meth:`bind`), which undoes most of the blend's pull towards the bones in a joint's inner
         crease.
-        ``integrate_skeleton`` (default False): then rebuild the posed skeletal mesh from its rest
-        edges, each turned by its ends' mean blended rotation (least squares, as eq. 6.11 rebuilds
-        the surface), held where one bone moves a vertex alone and anchored softly to those
-        positions where one bone dominates (largest weight above 0.9). The blend alone swings the skeletal vertices behind a joint backwards, and the posed
-        axis turns by up to twice the bend inside the blend; the union of balls then has a concave
-        corner in the crease that the thickness steps fold the surface into (e.g. skeletal_joints'
-        capsule bent 90 degrees through the layer: 218 crossing pairs without, 83 with; DQS 95).
-        The posed axis then cuts the joint's corner, so the bone clearance pushes more of the outer
-        side back out (bench/notes/skeletal.md, session 32). Not applied where ``follow_twist`` acts.
+        ``integrate_skeleton`` (default True): then rebuild the posed skeletal mesh from its rest
+        edges, each turned by its ends' mean blended rotation and stretched as a beam's (its offset
+        from the stick skeleton turned with its ends; least squares, as eq. 6.11 rebuilds the
+        surface), held where one bone moves a vertex alone and anchored softly to those positions
+        where one bone dominates (largest weight above 0.9). The blend alone swings the skeletal
+        vertices behind a joint backwards, and the posed axis turns by up to twice the bend inside
+        the blend; the union of balls then has a concave corner in the crease that the thickness
+        steps fold the surface into (e.g. skeletal_joints' capsule bent 90 degrees through the
+        layer: 218 crossing pairs without, 83 with; DQS 95). The posed axis then cuts the joint's
+        corner (its vertices keep at least half their rest distance from their bones), so the bone
+        clearance pushes more of the outer side back out (bench/notes/skeletal.md, sessions 32-33).
+        Not applied where ``follow_twist`` acts.
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         and of their parent bones (their union) is at least this fraction of its rest distance to
@@ -308,9 +311,9 @@ class SkeletalRig:
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
-        """Skeletal vertices posed as :meth:`deform` poses them with its defaults (the blend of eq. 6.2
-        and the bone clearance; ``deform_control(pose, integrate_skeleton=True)[1]`` for the integrated
-        skeletal mesh)."""
+        """Skeletal vertices posed as :meth:`deform` poses them with its defaults (the blend of eq. 6.2,
+        the bone clearance and the integration; ``deform_control(pose, integrate_skeleton=False)[1]``
+        for the blend's skeletal mesh)."""
         return self._rig.skeleton_pose(_mats(bones_pose, "bones_pose", self.n_bones))
 
     @staticmethod

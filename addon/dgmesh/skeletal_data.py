@@ -68,7 +68,7 @@ OLD_OPTIONS = {
     "fold_guard": 0,  # files bound before the option: no fold guard existed (today's default: 50)
     "contact_slide": 0.0,  # files bound before the option: no joint contact (today's default too)
     "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
-    "integrate_skeleton": False,  # files bound before the option: the blend's skeleton (today's default too)
+    "integrate_skeleton": False,  # files bound before the option: the blend's skeleton (today's default: on)
     "skeleton_blend": "LINEAR",  # files bound before the option: the linear blend (today's default: dual quaternion)
     "control_faces": 5000,  # files bound before it was stored: the library's 5000 then (today's default too)
 }

@@ -121,8 +121,8 @@ void bind_skeletal(pb::module_& m) {
       .field("dual_quaternion", &SkeletalDeformOptions::dual_quaternion,
              "pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)")
       .field("integrate_skeleton", &SkeletalDeformOptions::integrate_skeleton,
-             "rebuild the posed skeletal mesh from its rest edges turned by the blended rotations, anchored where one "
-             "bone dominates (false: the blend's positions)")
+             "rebuild the posed skeletal mesh from its rest edges turned (and stretched as a beam's) by the blended "
+             "rotations, anchored where one bone dominates (false: the blend's positions)")
       .field("bone_clearance", &SkeletalDeformOptions::bone_clearance,
              "keep each vertex at least this fraction of its rest distance from its bones (0: off)")
       .field("contact_slide", &SkeletalDeformOptions::contact_slide,

@@ -571,9 +571,10 @@ def test_unapplied_object_scale_deforms_like_applied(scale):
     d = np.linalg.norm(results[1] - results[0], axis=1)
     # The same up to float rounding of the inputs, which the joint's inner crease amplifies (the
     # capsule's skeleton is hundreds of coincident centres: ties pick the fairing's candidate balls);
-    # measured non-uniform: limbs 1.2e-3, median 4e-6, crease 0.05 (mesh space: 0.31, 0.08, 0.62).
+    # measured non-uniform: limbs 1.2e-3, median 4e-6, crease 0.05 on the blend's skeleton, 0.10 on the
+    # integrated one (the default since session 33) (mesh space: 0.31, 0.08, 0.62).
     assert d[np.abs(V[:, 0]) > 1.0].max() < 0.01
-    assert np.median(d) < 1e-3 and d.max() < 0.1
+    assert np.median(d) < 1e-3 and d.max() < 0.15
 
 
 @pytest.mark.parametrize("scale", [(1.0, 1.0, 1.0), (1.0, 1.6, 0.7)], ids=["similarity", "non_uniform"])
@@ -1496,11 +1497,11 @@ def test_fold_guard_option():
 def test_joint_contact_option():
     """The bind operator's Joint Contact (off by default) is stored with the binding and drives the live
     update: the 90-degree bend's crease vertices slide along their own bone out of the other limb, and
-    the crease crosses itself less (issue 33). A value between 0 and 1 is refused with a report and
-    binds nothing."""
+    the crease crosses itself less (issue 33; on the blend's skeleton: the integrated one, the default,
+    leaves this crease uncrossed). A value between 0 and 1 is refused with a report and binds nothing."""
     from dgmesh.skeletal import SkeletalDeformOptions
     assert SkeletalDeformOptions().contact_slide == 0
-    off, on = _bent_pairs(contact=0.0), _bent_pairs(contact=3.0)
+    off, on = (_bent_pairs(contact=c, integrate_skeleton=False) for c in (0.0, 3.0))
     print(f"crossing pairs at 90 degrees: joint contact off {off}, 3 {on}")
     assert off > 0  # not vacuous
     assert on < 0.5 * off

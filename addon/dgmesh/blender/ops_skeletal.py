@@ -204,7 +204,8 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                      "turned by the blended bone rotations, held where one bone moves it alone: "
                                      "across a narrow blend the joint bends smoothly instead of swinging the flesh "
                                      "behind the joint backwards, and the crease folds less. The outer side of a "
-                                     "tight bend is then pushed out by the bone clearance")
+                                     "tight bend is then pushed out by the bone clearance. Bindings made before "
+                                     "this option keep it off")
     skeleton_blend: EnumProperty(
         name="Skeleton Blend", items=SKELETON_BLENDS,
         default='DUAL_QUATERNION' if DEFORM_DEFAULTS.dual_quaternion else 'LINEAR',

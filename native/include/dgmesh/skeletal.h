@@ -132,23 +132,25 @@ struct SkeletalDeformOptions {
   // off a bone's axis towards it under a twist (a limb whose medial surface is a sheet collapses
   // onto the bone and the mesh rebuilt on it tears open). See bench/notes/skeletal.md.
   bool dual_quaternion = true;
-  // Skeletal mesh integration (issue 33's crease), off by default: the blend above moves each
-  // skeletal vertex about the joint by its blended motion, so across a joint's blend the vertices
-  // behind the joint swing backwards and the posed axis turns by about twice the bend inside the
-  // blend (a linear blend over [-r, r] bent 75 degrees: 149 degrees, with kinks at the blend's ends).
-  // The union of balls then has a concave corner in the crease, and the thickness steps fold the
-  // surface into it. With this on, the posed skeletal mesh is rebuilt after the bone clearance as the
-  // surface is in eq. 6.11: least squares over its edges, each its rest vector turned by its two
-  // ends' mean blended rotation, held where one bone moves a vertex alone and anchored softly to the
-  // blend's position where a bone dominates (largest weight 0.9-0.99); coincident skeletal vertices
-  // move as one. The axis turns as the weights do (by the bend over the blend), and the parts one
-  // bone moves stay where it puts them. Factorised at bind; a pose costs one solve. Rest pose and
-  // rigid motions: no move; nor where follow_twist acts (it carries each skeletal vertex back by its
-  // own twist, which the integration mixes). The axis cuts the joint's corner, so the surface bone
-  // clearance pushes more of a bend's outer side back out, and the skeleton's own clearance is no
-  // longer kept exactly. Measurements, and why it is not the default yet: bench/notes/skeletal.md,
-  // session 32.
-  bool integrate_skeleton = false;
+  // Skeletal mesh integration (issue 33's crease): the blend above moves each skeletal vertex about
+  // the joint by its blended motion, so across a joint's blend the vertices behind the joint swing
+  // backwards and the posed axis turns by about twice the bend inside the blend (a linear blend over
+  // [-r, r] bent 75 degrees: 149 degrees, with kinks at the blend's ends). The union of balls then has
+  // a concave corner in the crease, and the thickness steps fold the surface into it. With this on
+  // (the default), the posed skeletal mesh is rebuilt after the bone clearance as the surface is in
+  // eq. 6.11: least squares over its edges, each edge's target the rest vector turned by its two
+  // ends' mean blended rotation plus a beam's stretch (its offset from the stick skeleton turned by
+  // the difference of the two rotations: plane sections stay plane, so a bend's outer side and a
+  // twisted sheet stretch as they must); held where one bone moves a vertex alone and anchored
+  // softly to the blend's position where a bone dominates (largest weight 0.9-0.99); coincident
+  // skeletal vertices move as one. The axis turns as the weights do (by the bend over the blend), and
+  // the parts one bone moves stay where they are put. Factorised at bind; a pose costs one solve.
+  // Rest pose and rigid motions: no move; nor where follow_twist acts (it carries each skeletal
+  // vertex back by its own twist, which the integration mixes). The axis cuts the joint's corner: the
+  // skeletal vertices keep at least half their rest distance from their bones (not all of it), and
+  // the surface bone clearance pushes more of a bend's outer side back out. Measurements:
+  // bench/notes/skeletal.md, sessions 32-33.
+  bool integrate_skeleton = true;
   // Surface bone clearance (variational method, fairing_steps > 0), in [0, 1]: after the thickness
   // steps, each control vertex is pushed radially out until its distance to the union of the posed
   // segments of the bones it has weight on and of their parents is at least this fraction of its
