@@ -300,8 +300,8 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
                    "ours, thickness following the twist (follow_twist; issue 33)": rig.deform(pose, follow_twist=True),
                    "ours, follow_twist and the untangling": rig.deform(pose, follow_twist=True,
                                                                          untangle_iterations=20),
-                   "ours, integrated skeleton (integrate_skeleton; issue 33, off by default)": rig.deform(
-                       pose, integrate_skeleton=True)}
+                   "ours on the blend's skeleton (integrate_skeleton=False; the default before session 33)": rig.deform(
+                       pose, integrate_skeleton=False)}
         panels = []
         for mname, X in results.items():
             f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)

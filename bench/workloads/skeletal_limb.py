@@ -181,7 +181,8 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                    NO_GUARD: rig.deform(pose, fold_guard=0),
                    CONTACT: rig.deform(pose, contact_slide=3),
                    UNTANGLE: rig.deform(pose, untangle_iterations=20),
-                   LINEAR: rig.deform(pose, dual_quaternion=False)}
+                   LINEAR: rig.deform(pose, dual_quaternion=False),
+                   BLEND_SKELETON: rig.deform(pose, integrate_skeleton=False)}
         if rig_mr is not None:
             results[MULTIRES] = rig_mr.deform(pose)
             results[MULTIRES_NO_GUARD] = rig_mr.deform(pose, fold_guard=0)
@@ -270,6 +271,7 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
 
 
 LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
+BLEND_SKELETON = "ours on the blend's skeleton (integrate_skeleton=False; the default before session 33)"
 CONTACT = "ours with the joint contact (contact_slide=3; issue 33, off by default)"
 MULTIRES = "ours via multires (5000-face control)"
 UNTANGLE = "ours with the untangling (untangle_iterations=20; issue 33, off by default)"
@@ -352,7 +354,7 @@ def limb_quality(quick):
                % (ma["V"], ma["n_affected"], ma["n_unweighted"]), ""]
     md += ["Thickness error: sum over all vertices of f^2, f the signed distance to the union of medial balls "
            "(eq. 6.13) around our posed skeletal mesh (thesis fig. 6.29; the rig's default posing: dual quaternion "
-           "blending of the bone motions, then its bone clearance), and sum (f - f_rest)^2, its change "
+           "blending of the bone motions, its bone clearance, then the skeletal mesh's integration), and sum (f - f_rest)^2, its change "
            "from the rest pose (the rest mesh itself is not exactly on the union, so sum f^2 has a floor). Ratios: "
            "each vertex's distance to the nearest posed bone segment after / before, over the vertices with "
            "weight > 0.01 on the moving bone (minimum, 1st percentile, mean; 'bone inside': the minimum over those "
@@ -597,8 +599,8 @@ def limb_quality(quick):
 
 JOINT_POSES = ("bend 45", "bend 90", "bend 135", "twist 90", "twist 180")
 JOINT_METHODS = ("ours whole mesh", "ours whole mesh, untangle 10", "ours via multires (the operator's path)",
-                 "ours via multires, untangle 10", "ours whole mesh, integrated skeleton",
-                 "ours via multires, integrated skeleton")
+                 "ours via multires, untangle 10", "ours whole mesh, blend's skeleton",
+                 "ours via multires, blend's skeleton")
 
 
 def _joint_cases(quick):
@@ -682,8 +684,8 @@ def joints(quick):
                        JOINT_METHODS[1]: whole.deform(pose, untangle_iterations=10),
                        JOINT_METHODS[2]: layered.deform(pose),
                        JOINT_METHODS[3]: layered.deform(pose, untangle_iterations=10),
-                       JOINT_METHODS[4]: whole.deform(pose, integrate_skeleton=True),
-                       JOINT_METHODS[5]: layered.deform(pose, integrate_skeleton=True)}
+                       JOINT_METHODS[4]: whole.deform(pose, integrate_skeleton=False),
+                       JOINT_METHODS[5]: layered.deform(pose, integrate_skeleton=False)}
             cell = {}
             for mname, X in results.items():
                 ratio = min_bone_ratio(X, rest, pose, heads, tails, b0, affected)
@@ -691,8 +693,8 @@ def joints(quick):
                 data[f"{model}|{pname}|{mname}"] = dict(pairs=cell[mname][0], min_ratio=ratio)
             dqs_pairs = cell["DQS"][0]
             n_poses += 1
-            # eq. 6.13's thickness error (whole mesh) against each posed skeleton: the blend's (the
-            # default's) and the integrated one, over DQS's against the same skeleton.
+            # eq. 6.13's thickness error (whole mesh) against each posed skeleton: the blend's and the
+            # integrated one (the default's), over DQS's against the same skeleton.
             err = {}
             for sk_name, integrate in (("blend", False), ("integrated", True)):
                 Sk = whole.deform_control(pose, integrate_skeleton=integrate)[1]
@@ -718,9 +720,9 @@ def joints(quick):
           "multiresolution layer (5000-face control mesh, half the faces in quick mode: the Skeletal Bind operator's "
           "path above 5000 faces), "
           "each also with Untangle Creases (untangle_iterations=10, the setting for stills; it is off by default "
-          "because the untangled crease jumps between frames, bench skeletal_coherence), and with the skeletal mesh "
-          "integrated (integrate_skeleton=True, off by default: the posed skeletal mesh rebuilt from its rest edges "
-          "turned by the blended rotations). The moving bone (the capsule's second, "
+          "because the untangled crease jumps between frames, bench skeletal_coherence), and on the blend's skeleton "
+          "(integrate_skeleton=False, the default before session 33: the posed skeletal mesh not rebuilt from its "
+          "turned rest edges). The moving bone (the capsule's second, "
           "the legs' lower bone) bent 45 / 90 / 135 degrees (as skeletal_limb's bend) or twisted 90 / 180 degrees "
           "about its own axis. Each cell: self-intersecting triangle pairs over the whole mesh "
           "(`dgmesh.skeletal.self_intersecting_pairs`) and, in brackets, the minimum ratio of the distance to the "
@@ -732,10 +734,11 @@ def joints(quick):
                 [[m, f"{a} of {n_poses}", f"{b} of {n_poses}", f"{c} of {n_poses}"] for m, (a, b, c) in summary.items()]),
           "", "Pairs at rest: " + ", ".join("%s %d" % (c[0], data[f"{c[0]}|rest_pairs"]) for c in cases) + ".", "",
           "Thickness kept (whole mesh): eq. 6.13's sum (f - f_rest)^2 over the vertices against a posed skeleton, "
-          "over DQS's against the same skeleton, for the defaults and with the integrated skeleton; each skeleton as "
-          "the reference (a surface rebuilt on one skeleton is measured against the other too):", "",
-          table(["mesh", "pose", "defaults, blend's skeleton", "integrated, blend's skeleton",
-                 "defaults, integrated skeleton", "integrated, integrated skeleton"], thickness), "",
+          "over DQS's against the same skeleton, for the defaults (integrated skeleton) and on the blend's skeleton; "
+          "each skeleton as the reference (a surface rebuilt on one skeleton is measured against the other too):", "",
+          table(["mesh", "pose", "defaults, against the blend's skeleton", "blend's skeleton, against the blend's",
+                 "defaults, against the integrated skeleton", "blend's skeleton, against the integrated"],
+                thickness), "",
           "Does a bend drive the moved part into the still one? With the whole mesh's rig, the vertices of "
           "each part (all weight on the bones before the moving one / on it and after) inside the other "
           "part's medial balls, the moved part posed rigidly (no deformer changes that); the deepest over the "
@@ -750,7 +753,7 @@ def joints(quick):
 
 
 COHERENCE_METHODS = ("LBS", "DQS", "ours via multires (the operator's path)", "ours via multires, untangle 10",
-                     "ours via multires, integrated skeleton")
+                     "ours via multires, blend's skeleton")
 
 
 def coherence(quick):
@@ -780,7 +783,7 @@ def coherence(quick):
                 paths["DQS"].append(res[f"dqs{p}"])
                 paths[COHERENCE_METHODS[2]].append(layered.deform(pose))
                 paths[COHERENCE_METHODS[3]].append(layered.deform(pose, untangle_iterations=10))
-                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, integrate_skeleton=True))
+                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, integrate_skeleton=False))
             first += len(angles)
             cells = []
             for m, path in paths.items():
@@ -800,7 +803,8 @@ def coherence(quick):
           "length. A rigid turn by the step gives about 0.02 at the capsule's tip; a jump of the surface "
           "between two frames shows at its full size. Blender's Armature modifier (LBS, Preserve Volume = DQS) "
           "against ours through the multiresolution layer with its defaults, with Untangle Creases "
-          "(untangle_iterations=10) and with the skeletal mesh integrated (integrate_skeleton=True)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
+          "(untangle_iterations=10) and on the blend's skeleton (integrate_skeleton=False, the default before "
+          "session 33)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
                                           "armadillo legs", "quick: steps of 3 and 6" if quick else "all frames"), "",
           table(["mesh", "sweep", "frames (with two neighbours)", *COHERENCE_METHODS], rows), "",
           "`/usr/bin/python3 bench/run.py skeletal_coherence`"]
