@@ -78,17 +78,68 @@ void area_normals(const MatX3d& P, const MatX3i& F, const Topology& t, MatX3d& N
   }
 }
 
+namespace {
+
+// A vertex of the submesh's outer ring (not in S: fixed, and only there to complete the 1-rings of
+// S) whose kept faces meet it in separate fans, where the band around the region touches itself,
+// gets a copy of itself per further fan, so the submesh is manifold there. Each copy maps to the
+// same full vertex and stays fixed. (Bench fair_repair's regions on the CGAL scans: 18 of 135 were
+// refused as "not manifold" for such a vertex.) A vertex in S keeps its faces whole: a fan there is
+// the input's own non-manifold vertex, refused by the validation.
+void split_outer_fans(Submesh& s, const std::vector<char>& inS) {
+  MatX3i& F = s.work.F;
+  const int ns = static_cast<int>(s.verts.size()), ms = static_cast<int>(F.rows());
+  std::vector<std::vector<int>> around(ns);  // outer vertex -> face slots 3 f + k
+  for (int f = 0; f < ms; ++f)
+    for (int k = 0; k < 3; ++k)
+      if (!inS[s.verts[F(f, k)]]) around[F(f, k)].push_back(3 * f + k);
+  std::vector<int> fan;
+  for (int v = 0; v < ns; ++v) {
+    const std::vector<int>& slots = around[v];
+    if (slots.size() < 2) continue;
+    // Fans: faces around v joined across their shared edges (v, u), by union-find over the slots.
+    const int c = static_cast<int>(slots.size());
+    fan.resize(c);
+    std::iota(fan.begin(), fan.end(), 0);
+    auto find = [&](int a) {
+      while (fan[a] != a) a = fan[a] = fan[fan[a]];
+      return a;
+    };
+    for (int a = 0; a < c; ++a)
+      for (int b = a + 1; b < c; ++b) {
+        const int fa = slots[a] / 3, fb = slots[b] / 3;
+        int shared = 0;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) shared += F(fa, i) == F(fb, j) && F(fa, i) != v;
+        if (shared > 0) fan[find(a)] = find(b);
+      }
+    std::vector<int> copy_of(c, -1);
+    const int first = find(0);
+    for (int a = 0; a < c; ++a) {
+      const int r = find(a);
+      if (r == first) continue;
+      if (copy_of[r] < 0) {
+        copy_of[r] = static_cast<int>(s.verts.size());
+        s.verts.push_back(s.verts[v]);
+      }
+      F(slots[a] / 3, slots[a] % 3) = copy_of[r];
+    }
+  }
+}
+
+}  // namespace
+
 Submesh extract(const MatX3d& V, const MatX3i& F, const std::vector<char>& movable_full,
                 const std::vector<char>& region_full, bool whole) {
   const int n = static_cast<int>(V.rows()), m = static_cast<int>(F.rows());
   Submesh s;
   std::vector<int> local(n, -1);
+  std::vector<char> inS(n, 0);
   if (whole) {
     s.faces.resize(m);
     std::iota(s.faces.begin(), s.faces.end(), 0);
   } else {
     // S = vertices of faces touching a movable vertex or in the region; keep faces touching S.
-    std::vector<char> inS(n, 0);
     for (int f = 0; f < m; ++f) {
       const bool touch = region_full[f] || movable_full[F(f, 0)] || movable_full[F(f, 1)] || movable_full[F(f, 2)];
       if (touch)
@@ -109,6 +160,7 @@ Submesh extract(const MatX3d& V, const MatX3i& F, const std::vector<char>& movab
       }
       w.F(i, k) = local[v];
     }
+  if (!whole) split_outer_fans(s, inS);
   const int ns = static_cast<int>(s.verts.size());
   w.P.resize(ns, 3);
   w.movable.assign(ns, 0);
