@@ -100,7 +100,8 @@ struct Submesh {
 };
 
 /// The faces touching a vertex that is movable or in a region face, and the faces touching those
-/// (every face when `whole`), with local indices and roles.
+/// (every face when `whole`), with local indices and roles. A vertex of the outer ring (fixed) where
+/// those faces meet in separate fans gets a copy per further fan, mapped to the same full vertex.
 Submesh extract(const MatX3d& V, const MatX3i& F, const std::vector<char>& movable_full,
                 const std::vector<char>& region_full, bool whole);
 
