@@ -26,6 +26,7 @@ using detail::dual_quaternion_motion;
 using detail::Mat3;
 using detail::MatX9d;
 using detail::nearest_rotation;
+using detail::segment_closest;
 using detail::segment_sq_dist;
 using detail::signed_volume;
 using detail::union_distance;
@@ -103,14 +104,14 @@ inline bool push_from_segment(Vec3& p, const Vec3& h, const Vec3& v, double e) {
   return true;
 }
 
-// Push p out to at least distance e[j] from each posed segment j with e[j] > 0 (two Gauss-Seidel
-// passes over the bones; the second only when the first moved p).
+// Push p out to at least distance fraction * e[j] from each posed segment j with e[j] > 0 (two
+// Gauss-Seidel passes over the bones; the second only when the first moved p).
 template <class Row>
-inline Vec3 push_out(Vec3 p, const Row& e, const std::vector<Vec3>& h, const std::vector<Vec3>& v) {
+inline Vec3 push_out(Vec3 p, const Row& e, double fraction, const std::vector<Vec3>& h, const std::vector<Vec3>& v) {
   for (int pass = 0; pass < 2; ++pass) {
     bool moved = false;
     for (int j = 0; j < static_cast<int>(h.size()); ++j)
-      if (e[j] > 0) moved |= push_from_segment(p, h[j], v[j], e[j]);
+      if (e[j] > 0) moved |= push_from_segment(p, h[j], v[j], fraction * e[j]);
     if (!moved) break;
   }
   return p;
@@ -1449,7 +1450,7 @@ void SkeletalRig::Impl::clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose, d
   if (B < 2 || clearance.rows() != n) return;
   std::vector<Vec3> h, v;
   posed_segments(pose, h, v);
-  for (int i = 0; i < n; ++i) Sd.row(i) = push_out(row3(Sd, i), (fraction * clearance.row(i)).eval(), h, v).transpose();
+  for (int i = 0; i < n; ++i) Sd.row(i) = push_out(row3(Sd, i), clearance.row(i), fraction, h, v).transpose();
 }
 
 // Anchor weights of the skeletal mesh integration (SkeletalDeformOptions::integrate_skeleton),
@@ -1483,9 +1484,7 @@ void SkeletalRig::Impl::setup_integration() {
     double best = std::numeric_limits<double>::infinity();
     for (int b = 0; b < B; ++b) {
       if (!(W(E(e, 0), b) > 1e-3 || W(E(e, 1), b) > 1e-3)) continue;
-      const Vec3& v = bone_vec[b];
-      const double t = std::clamp((m - bone_head[b]).dot(v) / std::max(v.squaredNorm(), 1e-300), 0.0, 1.0);
-      const Vec3 o = m - (bone_head[b] + t * v);
+      const Vec3 o = m - segment_closest(m, bone_head[b], bone_head[b] + bone_vec[b]);
       if (o.squaredNorm() < best) best = o.squaredNorm(), sk_offset.row(e) = o.transpose();
     }
     trip.emplace_back(i, i, 1.0), trip.emplace_back(j, j, 1.0), trip.emplace_back(i, j, -1.0),

@@ -72,12 +72,15 @@ Mat3 nearest_rotation(const Mat3& C) {
   return U * V.transpose();
 }
 
-double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
+Vec3 segment_closest(const Vec3& p, const Vec3& a, const Vec3& b) {
   const Vec3 ab = b - a;
   const double l2 = ab.squaredNorm();
-  double t = l2 > 0 ? (p - a).dot(ab) / l2 : 0;
-  t = std::clamp(t, 0.0, 1.0);
-  return (a + t * ab - p).squaredNorm();
+  const double t = l2 > 0 ? std::clamp((p - a).dot(ab) / l2, 0.0, 1.0) : 0.0;
+  return a + t * ab;
+}
+
+double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b) {
+  return (segment_closest(p, a, b) - p).squaredNorm();
 }
 
 }  // namespace detail

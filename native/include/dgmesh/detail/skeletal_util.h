@@ -31,7 +31,10 @@ Mat3 blended_rotation(const Eigen::Ref<const Eigen::RowVectorXd>& w, const std::
 /// Signed volume enclosed by the closed triangle mesh (V, F) (positive for outward faces).
 double signed_volume(const MatX3d& V, const MatX3i& F);
 
-/// Closest point of segment [a, b] to p, squared distance.
+/// The point of segment [a, b] closest to p (a for a zero-length segment).
+Vec3 segment_closest(const Vec3& p, const Vec3& a, const Vec3& b);
+
+/// Squared distance from p to segment [a, b].
 double segment_sq_dist(const Vec3& p, const Vec3& a, const Vec3& b);
 
 /// min_j |x - s_j| - r_j over the balls, with the kd-tree over the centres. `bound_index` gives a
