@@ -534,6 +534,7 @@ class SkeletalDeformOptions:
     dense_projection_passes: int  # passes of the dense mesh's step (multiresolution layer)
     dual_quaternion: bool  # pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)
     integrate_skeleton: bool  # rebuild the posed skeletal mesh from its rest edges turned (and stretched as a beam's) by the blended rotations, anchored where one bone dominates (false: the blend's positions)
+    ring_twist: bool  # blend the twists that dominate their bone's swing with the weights smoothed around each limb (SkeletalRig.ring_weights), so each cross-section turns as one (false: the weights)
     bone_clearance: float  # keep each vertex at least this fraction of its rest distance from its bones (0: off)
     contact_slide: float  # joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa times its crossing depth (>= 1; 0: off)
     untangle_iterations: int  # untangling: iterations of the local smoothing of the self-intersecting triangles' vertices (0: off)
@@ -702,6 +703,7 @@ class SkeletalRig:
     n_control: int
     n_vertices: int
     radii: numpy.ndarray
+    ring_weights: numpy.ndarray
     skeleton_vertices: numpy.ndarray
     weights: numpy.ndarray
     @staticmethod
@@ -745,6 +747,7 @@ def refine_region(V: numpy.ndarray, F: numpy.ndarray, face_mask: numpy.ndarray |
 def regularize(V: numpy.ndarray, F: numpy.ndarray, options: RegularizeOptions, mask: numpy.ndarray | None = ..., progress: object = ...) -> numpy.ndarray: ...
 def remesh(V: numpy.ndarray, F: numpy.ndarray, options: RemeshOptions, progress: object = ...) -> RemeshResult: ...
 def residual_entropy(residual: numpy.ndarray) -> float: ...
+def ring_weights(V: numpy.ndarray, F: numpy.ndarray, W: numpy.ndarray, bone_dirs: numpy.ndarray, radius: numpy.ndarray, scale: float = ..., floor: float = ...) -> numpy.ndarray: ...
 def segment(V: numpy.ndarray, F: numpy.ndarray, options: SegmentOptions, features: FeatureOptions, crest: CrestLines = ..., progress: object = ...) -> SegmentResult: ...
 def segment_feature_defaults() -> FeatureOptions: ...
 def self_intersecting_pairs(V: numpy.ndarray, F: numpy.ndarray, touching: list[int] | None = ...) -> numpy.ndarray: ...

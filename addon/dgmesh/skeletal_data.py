@@ -56,7 +56,7 @@ INFO_FIELDS = {
     "created_basis": (_is_flag, "0 or 1", False), "untangle_iterations": (*_INT, False),
     "fold_guard": (*_INT, False), "contact_slide": (*_NUMBER, False),
     "follow_twist": (_is_flag, "0 or 1", False), "untangle_render": (*_INT, False),
-    "integrate_skeleton": (_is_flag, "0 or 1", False),
+    "integrate_skeleton": (_is_flag, "0 or 1", False), "ring_twist": (_is_flag, "0 or 1", False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
 
@@ -69,6 +69,7 @@ OLD_OPTIONS = {
     "contact_slide": 0.0,  # files bound before the option: no joint contact (today's default too)
     "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
     "integrate_skeleton": False,  # files bound before the option: the blend's skeleton (today's default: on)
+    "ring_twist": False,  # files bound before the option: twists blended with the weights (today's default: on)
     "skeleton_blend": "LINEAR",  # files bound before the option: the linear blend (today's default: dual quaternion)
     "control_faces": 5000,  # files bound before it was stored: the library's 5000 then (today's default too)
 }

@@ -5,6 +5,7 @@
 #include "common.h"
 #include "dgmesh/delaunay.h"
 #include "dgmesh/errors.h"
+#include "dgmesh/ring_weights.h"
 #include "dgmesh/self_intersection.h"
 #include "dgmesh/skeletal.h"
 #include "dgmesh/validate.h"
@@ -123,6 +124,9 @@ void bind_skeletal(pb::module_& m) {
       .field("integrate_skeleton", &SkeletalDeformOptions::integrate_skeleton,
              "rebuild the posed skeletal mesh from its rest edges turned (and stretched as a beam's) by the blended "
              "rotations, anchored where one bone dominates (false: the blend's positions)")
+      .field("ring_twist", &SkeletalDeformOptions::ring_twist,
+             "blend the twists that dominate their bone's swing with the weights smoothed around each limb "
+             "(SkeletalRig.ring_weights), so each cross-section turns as one (false: the weights)")
       .field("bone_clearance", &SkeletalDeformOptions::bone_clearance,
              "keep each vertex at least this fraction of its rest distance from its bones (0: off)")
       .field("contact_slide", &SkeletalDeformOptions::contact_slide,
@@ -148,6 +152,16 @@ void bind_skeletal(pb::module_& m) {
         return skeletal_mesh(make_mesh(V, F, kSurface), o);
       },
       pb::arg("V"), pb::arg("F"), pb::arg("options"));
+  m.def(
+      "ring_weights",
+      [](InV V, InF F, const Eigen::MatrixXd& W, InV bone_dirs, const VecXd& radius, double scale, double floor) {
+        if (!V.allFinite() || !W.allFinite() || !bone_dirs.allFinite() || !radius.allFinite())
+          throw MeshError("ring_weights: inputs must be finite");
+        NativeScope nogil;
+        return ring_weights(V, F, W, bone_dirs, radius, RingWeightOptions{scale, floor});
+      },
+      pb::arg("V"), pb::arg("F"), pb::arg("W"), pb::arg("bone_dirs"), pb::arg("radius"),
+      pb::arg("scale") = RingWeightOptions{}.scale, pb::arg("floor") = RingWeightOptions{}.floor);
   m.def("union_of_balls_distance", [](InV X, InV C, const VecXd& r) {
     NativeScope nogil;
     if (!X.allFinite() || !C.allFinite() || !r.allFinite()) throw MeshError("union of balls: inputs must be finite");
@@ -254,6 +268,7 @@ void bind_skeletal(pb::module_& m) {
       .def_property_readonly("skeleton_vertices", [](const SkeletalRig& r) { return MatX3d(r.skeleton_vertices()); })
       .def_property_readonly("radii", [](const SkeletalRig& r) { return VecXd(r.radii()); })
       .def_property_readonly("weights", [](const SkeletalRig& r) { return Eigen::MatrixXd(r.weights()); })
+      .def_property_readonly("ring_weights", [](const SkeletalRig& r) { return Eigen::MatrixXd(r.ring_weights()); })
       .def_property_readonly("bones_rest", [](const SkeletalRig& r) { return from_mats(r.bones_rest()); })
       .def("data",
            [](const SkeletalRig& r) {

@@ -14,6 +14,7 @@
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
 #include "dgmesh/parallel.h"
+#include "dgmesh/ring_weights.h"
 #include "dgmesh/self_intersection.h"
 #include "dgmesh/sparse_solver.h"
 #include "dgmesh/spatial_index.h"
@@ -398,6 +399,9 @@ struct SkeletalRig::Impl {
   std::vector<int> reps;
   std::vector<int> rep_of;  // per skeletal vertex, the index in reps of the one that covers it (itself)
   Eigen::MatrixXd W;        // n_control x B
+  // W smoothed around the limbs (ring_weights.h): the weights a twist is blended with
+  // (SkeletalDeformOptions::ring_twist, see ring_twist).
+  Eigen::MatrixXd W_ring;
   std::vector<Mat4> rest;
   std::optional<Multires> multires;
   // Through the multiresolution layer: eq. 6.13 at rest for every dense vertex against the control
@@ -461,6 +465,7 @@ struct SkeletalRig::Impl {
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose, double fraction = 1) const;
   void setup_integration();
   void integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const std::vector<Mat4>& pose) const;
+  void ring_twist(MatX3d& Sd, MatX9d& lin, const std::vector<Mat4>& pose, bool dual_quaternion) const;
   MatX3d pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
                        MatX3d* blend = nullptr) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
@@ -623,6 +628,11 @@ void SkeletalRig::Impl::setup() {
   }
   r_max = radii.maxCoeff();
   setup_clearance();
+  {
+    MatX3d dir(bone_vec.size(), 3);
+    for (size_t j = 0; j < bone_vec.size(); ++j) dir.row(static_cast<Eigen::Index>(j)) = bone_vec[j].transpose();
+    W_ring = dgmesh::ring_weights(X, F, W, dir, radii);
+  }
   cot.resize(m, 3);
   std::vector<Eigen::Triplet<double>> trip;
   trip.reserve(static_cast<size_t>(m) * 9 + n);
@@ -1947,6 +1957,29 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
   return true;
 }
 
+// The twist blended with the ring weights (SkeletalDeformOptions::ring_twist): each skeletal vertex
+// s_i goes to M_i U_i s_i instead of T_i s_i, U_i its blend (weights W) of the twist-free pose
+// (twist_free_pose) and M_i = T~_i U~_i^-1 its twist, from the blends T~_i, U~_i of the pose and of
+// the twist-free pose with W_ring; `lin` turns with it. Where W_ring's row is W's, T~_i U~_i^-1 U_i =
+// T_i: nothing changes. A pose whose twists twist_free_pose keeps (none dominates its bone's swing)
+// is left as the blend made it.
+void SkeletalRig::Impl::ring_twist(MatX3d& Sd, MatX9d& lin, const std::vector<Mat4>& pose, bool dual_quaternion) const {
+  if (rest.size() < 2 || parent.size() != rest.size() || W_ring.rows() != S.rows()) return;
+  double dropped = 0;
+  const std::vector<Mat4> free_pose = twist_free_pose(pose, dropped);
+  if (!(dropped > 1e-6)) return;
+  MatX9d lin_u, lin_t, lin_f;
+  const MatX3d U = skeletal_subspace_deform(S, W, rest, free_pose, &lin_u, dual_quaternion);
+  const MatX3d T = skeletal_subspace_deform(S, W_ring, rest, pose, &lin_t, dual_quaternion);
+  const MatX3d Uf = skeletal_subspace_deform(S, W_ring, rest, free_pose, &lin_f, dual_quaternion);
+  using RowMap = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
+  for (Eigen::Index i = 0; i < S.rows(); ++i) {
+    const Mat3 R = nearest_rotation(RowMap(lin_t.row(i).data()) * RowMap(lin_f.row(i).data()).transpose());
+    Sd.row(i) = (R * (row3(U, i) - row3(Uf, i)) + row3(T, i)).transpose();
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(lin.row(i).data()) = R * RowMap(lin_u.row(i).data());
+  }
+}
+
 // The posed skeletal mesh: SSD (eq. 6.2; `lin` receives the blended rotations, `blend` the positions),
 // the bone clearance, and the integration where the options ask for it. Not with a followed twist:
 // make_twist carries each skeletal vertex back by its own blended twist, which the integration mixes
@@ -1955,6 +1988,7 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
 MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
                                         MatX3d* blend) const {
   MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
+  if (opt.ring_twist) ring_twist(Sd, lin, pose, opt.dual_quaternion);
   if (blend) *blend = Sd;
   clear_bones(Sd, pose);
   const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
@@ -2180,6 +2214,7 @@ const MatX3i& SkeletalRig::control_faces() const { return impl_->control.F; }
 const MatX3d& SkeletalRig::skeleton_vertices() const { return impl_->S; }
 const VecXd& SkeletalRig::radii() const { return impl_->radii; }
 const Eigen::MatrixXd& SkeletalRig::weights() const { return impl_->W; }
+const Eigen::MatrixXd& SkeletalRig::ring_weights() const { return impl_->W_ring; }
 const std::vector<Mat4>& SkeletalRig::bones_rest() const { return impl_->rest; }
 
 }  // namespace dgmesh

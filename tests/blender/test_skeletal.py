@@ -55,7 +55,7 @@ def _evaluated_co(obj):
         ev.to_mesh_clear()
 
 
-def _scene(groups=True, with_modifier=True, slab=False):
+def _scene(groups=True, with_modifier=True, slab=False, uneven=False):
     bpy.ops.wm.read_homefile(use_empty=True)
     V, F = capsule(0.5, 6.0, 24, 5, 32)
     if slab:  # flat across the bones: its medial sheet lies off their axis
@@ -66,6 +66,9 @@ def _scene(groups=True, with_modifier=True, slab=False):
     if groups:
         g1, g2 = obj.vertex_groups.new(name="Upper"), obj.vertex_groups.new(name="Lower")
         t = np.clip((V[:, 0] + 0.5) / 1.0, 0, 1)  # linear blend over [-0.5, 0.5]
+        if uneven:  # a smooth blend over [-0.25, 0.25] shifted by 0.4 cos(phi) around the limb (a knee's)
+            s = np.clip((V[:, 0] - 0.4 * np.cos(np.arctan2(V[:, 2], V[:, 1])) + 0.25) / 0.5, 0, 1)
+            t = s * s * (3 - 2 * s)
         for i in range(len(V)):
             if t[i] < 1:
                 g1.add([i], float(1 - t[i]), 'REPLACE')
@@ -1168,14 +1171,15 @@ def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear(
 @pytest.mark.parametrize("swapped", [False, True])
 def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(swapped, monkeypatch):
     """A binding saved before the options existed (no bone_clearance, untangle_iterations, fold_guard,
-    contact_slide, follow_twist, integrate_skeleton, skeleton_blend, control_faces): the live update deforms with skeletal_data.OLD_OPTIONS'
+    contact_slide, follow_twist, integrate_skeleton, ring_twist, skeleton_blend, control_faces): the live update deforms with skeletal_data.OLD_OPTIONS'
     values and Rebind binds (and stores) them. Run with the table and with every value swapped for
     another, so a reader with a fallback of its own (today's default or a copy) fails one of them."""
     from dgmesh import skeletal_data
     from dgmesh.skeletal import SkeletalRig
     if swapped:
         for key, value in dict(bone_clearance=0.5, untangle_iterations=2, fold_guard=7, contact_slide=2.0,
-                               follow_twist=True, integrate_skeleton=True, skeleton_blend="DUAL_QUATERNION",
+                               follow_twist=True, integrate_skeleton=True, ring_twist=True,
+                               skeleton_blend="DUAL_QUATERNION",
                                control_faces=4000).items():
             assert value != skeletal_data.OLD_OPTIONS[key]
             monkeypatch.setitem(skeletal_data.OLD_OPTIONS, key, value)
@@ -1198,9 +1202,10 @@ def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(
     assert calls, "the pose change did not deform"
     kw = calls[-1]
     assert (kw["bone_clearance"], kw["untangle_iterations"], kw["fold_guard"], kw["contact_slide"], kw["follow_twist"],
-            kw["integrate_skeleton"], kw["dual_quaternion"]) == (
+            kw["integrate_skeleton"], kw["ring_twist"], kw["dual_quaternion"]) == (
                 table["bone_clearance"], table["untangle_iterations"], table["fold_guard"], table["contact_slide"],
-                table["follow_twist"], table["integrate_skeleton"], table["skeleton_blend"] == 'DUAL_QUATERNION')
+                table["follow_twist"], table["integrate_skeleton"], table["ring_twist"],
+                table["skeleton_blend"] == 'DUAL_QUATERNION')
     assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
     info = obj["dg_skeletal"].to_dict()
     assert set(table) <= set(info) and skeletal_data.saved_options(info) == table  # stored, not read as missing
@@ -1536,6 +1541,33 @@ def test_integrate_skeleton_option():
     off, on = bent(False), bent(True)
     print(f"capsule bent 90 degrees: pairs {off} -> {on}")
     assert off > 10 and on == 0
+
+
+def test_ring_twist_option():
+    """Skeletal Bind's Twist by Rings is stored with the binding and drives the live update: the lower
+    bone twisted 180 degrees about its axis, with weights whose blend is shifted around the limb, folds
+    the capsule where the blend twists neighbours on a ring by different angles (68 crossing pairs), not
+    with the weights evened out around it (issue 33)."""
+    from dgmesh.blender import skeletal_space
+    from dgmesh.blender.skeletal_store import bound_rig
+    from dgmesh.skeletal import self_intersecting_pairs
+
+    def twisted(ring):
+        obj, arm, V = _scene(uneven=True)
+        assert _bind(ring_twist=ring) == {'FINISHED'}
+        assert obj["dg_skeletal"]["ring_twist"] == int(ring)
+        _pose_lower(arm, math.pi, axis='Y')
+        bpy.context.view_layer.update()
+        F = np.array([p.vertices[:] for p in obj.data.polygons])
+        X = _evaluated_co(obj).astype(np.float64)
+        pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
+        kw = dict(fairing_steps=int(obj["dg_skeletal"]["fairing_steps"]), ring_twist=ring)
+        assert np.abs(X - bound_rig(obj).deform(pose, **kw)).max() < 1e-4
+        return len(self_intersecting_pairs(X, F))
+
+    off, on = twisted(False), twisted(True)
+    print(f"capsule with uneven weights twisted 180 degrees: pairs {off} -> {on}")
+    assert off > 20 and on == 0
 
 
 def test_follow_twist_option():

@@ -9,6 +9,7 @@
 #include <random>
 
 #include "dgmesh/errors.h"
+#include "dgmesh/ring_weights.h"
 #include "dgmesh/self_intersection.h"
 #include "dgmesh/shapes.h"
 #include "dgmesh/skeletal.h"
@@ -626,4 +627,39 @@ TEST(SelfIntersection, TreeFindsTheFoldsOfBentAndDentedMeshes) {
   const auto brute = brute_pairs(X, s.F);
   ASSERT_GT(brute.size(), 10u);
   EXPECT_EQ(SelfIntersectionTree(s.V, s.F).pairs(X), brute);
+}
+
+// ring_weights.h: a blend shifted around the limb (by 0.3 cos(phi)) is evened out around each ring
+// of a capsule and kept along it; rows keep summing to 1; away from the blend one bone, as given.
+TEST(RingWeights, EvensOutEachRingOfACapsule) {
+  const TriMesh c = capsule(0.5, 6.0, 32, 6, 48);
+  const int n = static_cast<int>(c.V.rows());
+  Eigen::MatrixXd W(n, 2);
+  for (int i = 0; i < n; ++i) {
+    const double phi = std::atan2(c.V(i, 2), c.V(i, 1));
+    const double s = std::clamp((c.V(i, 0) - 0.3 * std::cos(phi) + 0.25) / 0.5, 0.0, 1.0);
+    W(i, 1) = s * s * (3 - 2 * s), W(i, 0) = 1 - W(i, 1);
+  }
+  MatX3d dirs(2, 3);
+  dirs << 1, 0, 0, 1, 0, 0;
+  const Eigen::MatrixXd Wr = ring_weights(c.V, c.F, W, dirs, VecXd::Constant(n, 0.5));
+  // Spread of the lower bone's weight over the ring of each cylinder vertex's x.
+  auto spread = [&](const Eigen::MatrixXd& w) {
+    double worst = 0;
+    for (int i = 0; i < n; ++i) {
+      double lo = 1, hi = 0;
+      for (int j = 0; j < n; ++j)
+        if (std::abs(c.V(j, 0) - c.V(i, 0)) < 1e-9) lo = std::min(lo, w(j, 1)), hi = std::max(hi, w(j, 1));
+      worst = std::max(worst, hi - lo);
+    }
+    return worst;
+  };
+  EXPECT_GT(spread(W), 0.8);
+  EXPECT_LT(spread(Wr), 0.1);
+  for (int i = 0; i < n; ++i) {
+    EXPECT_NEAR(Wr.row(i).sum(), 1.0, 1e-12);
+    EXPECT_GE(Wr.row(i).minCoeff(), 0.0);
+    if (std::abs(c.V(i, 0)) > 2) EXPECT_NEAR((Wr.row(i) - W.row(i)).cwiseAbs().maxCoeff(), 0.0, 1e-9);
+  }
+  EXPECT_THROW(ring_weights(c.V, c.F, W, dirs.topRows(1), VecXd::Constant(n, 0.5)), MeshError);
 }

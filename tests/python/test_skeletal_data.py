@@ -50,11 +50,11 @@ def test_options_of_bindings_saved_before_them_come_from_the_one_table():
     assert saved_options(_info()) == OLD_OPTIONS
     assert all(type(v) is type(OLD_OPTIONS[k]) for k, v in saved_options(_info()).items())
     own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), fold_guard=20, contact_slide=3.0, follow_twist=1,
-               integrate_skeleton=1, skeleton_blend="DUAL_QUATERNION", control_faces=800)
+               integrate_skeleton=1, ring_twist=1, skeleton_blend="DUAL_QUATERNION", control_faces=800)
     assert set(own) == set(OLD_OPTIONS)
     check_info(_info(**own))
     got = saved_options(_info(**own))
-    assert got == own and got["follow_twist"] is True and got["integrate_skeleton"] is True
+    assert got == own and got["follow_twist"] is True and got["integrate_skeleton"] is True and got["ring_twist"] is True
     assert type(got["untangle_iterations"]) is int
     for key, old in OLD_OPTIONS.items():
         check, what, required = INFO_FIELDS[key]

@@ -206,6 +206,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                      "behind the joint backwards, and the crease folds less. The outer side of a "
                                      "tight bend is then pushed out by the bone clearance. Bindings made before "
                                      "this option keep it off")
+    ring_twist: BoolProperty(name="Twist by Rings", default=DEFORM_DEFAULTS.ring_twist,
+                             description="Turn each cross-section of a limb as one under a twist: the twist is "
+                             "blended with the weights evened out around the limb, so a knee or a forearm turned "
+                             "far does not fold where its weights differ around it (front and back). Bends keep "
+                             "the weights. Bindings made before this option keep it off")
     skeleton_blend: EnumProperty(
         name="Skeleton Blend", items=SKELETON_BLENDS,
         default='DUAL_QUATERNION' if DEFORM_DEFAULTS.dual_quaternion else 'LINEAR',
@@ -270,7 +275,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
 
 SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "untangle_render", "fold_guard",
-            "contact", "follow_twist", "integrate_skeleton", "skeleton_blend")
+            "contact", "follow_twist", "integrate_skeleton", "ring_twist", "skeleton_blend")
 
 
 class _BindFailure(Exception):
@@ -391,7 +396,7 @@ def _attach(context, obj, arm, binding, settings):
         "untangle_iterations": settings["untangle"], "untangle_render": settings["untangle_render"],
         "fold_guard": settings["fold_guard"],
         "contact_slide": settings["contact"], "follow_twist": int(settings["follow_twist"]),
-        "integrate_skeleton": int(settings["integrate_skeleton"]),
+        "integrate_skeleton": int(settings["integrate_skeleton"]), "ring_twist": int(settings["ring_twist"]),
         "control_faces": settings["control_faces"], "target": "HELPER",
         "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
         "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -452,7 +457,7 @@ painting its weights (the binding keeps what it read at bind)"""
                         untangle_render=render_untangle(info), fold_guard=saved["fold_guard"],
                         contact=saved["contact_slide"],
                         follow_twist=saved["follow_twist"], integrate_skeleton=saved["integrate_skeleton"],
-                        skeleton_blend=saved["skeleton_blend"],
+                        ring_twist=saved["ring_twist"], skeleton_blend=saved["skeleton_blend"],
                         control_faces=saved["control_faces"])
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.
         try:

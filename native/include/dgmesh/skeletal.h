@@ -151,6 +151,15 @@ struct SkeletalDeformOptions {
   // the surface bone clearance pushes more of a bend's outer side back out. Measurements:
   // bench/notes/skeletal.md, sessions 32-33.
   bool integrate_skeleton = true;
+  // Twist by rings (issue 33): the blend twists a skeletal vertex about a bone's axis by an angle
+  // that follows its weight, and where the weights vary around the limb (automatic weights at a
+  // knee) a large twist folds the skeletal mesh and the surface rebuilt on it, as it folds dual
+  // quaternion skinning (ring_weights.h). With this on (the default), the part of a pose that
+  // twist_free_pose drops (the twists that dominate their bone's swing; follow_twist's) is blended
+  // with the weights smoothed around each limb (SkeletalRig::ring_weights), so each cross-section
+  // turns as one; the rest of the pose keeps the weights. Poses without such a twist: no change.
+  // Measurements: bench/notes/skeletal.md, session 34.
+  bool ring_twist = true;
   // Surface bone clearance (variational method, fairing_steps > 0), in [0, 1]: after the thickness
   // steps, each control vertex is pushed radially out until its distance to the union of the posed
   // segments of the bones it has weight on and of their parents is at least this fraction of its
@@ -308,6 +317,9 @@ class SkeletalRig {
   const MatX3d& skeleton_vertices() const;
   const VecXd& radii() const;
   const Eigen::MatrixXd& weights() const;  // per control vertex
+  // The weights smoothed around the limbs that twists are blended with (ring_weights.h with its
+  // defaults, radius = the medial radii; SkeletalDeformOptions::ring_twist).
+  const Eigen::MatrixXd& ring_weights() const;
   const std::vector<Mat4>& bones_rest() const;
   // Skeletal vertices posed as deform() poses them by default (SSD eq. 6.2, the bone clearance, the
   // skeletal mesh integration).
