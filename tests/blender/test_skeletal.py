@@ -1543,6 +1543,18 @@ def test_integrate_skeleton_option():
     assert off > 10 and on == 0
 
 
+def _bound_and_twisted(option, value, **scene):
+    """_scene(**scene) bound with the flag `option` (checked stored) and its lower bone twisted 180
+    degrees about its axis: (obj, arm, V, F, evaluated coordinates)."""
+    obj, arm, V = _scene(**scene)
+    assert _bind(**{option: value}) == {'FINISHED'}
+    assert obj["dg_skeletal"][option] == int(value)
+    _pose_lower(arm, math.pi, axis='Y')
+    bpy.context.view_layer.update()
+    F = np.array([p.vertices[:] for p in obj.data.polygons])
+    return obj, arm, V, F, _evaluated_co(obj).astype(np.float64)
+
+
 def test_ring_twist_option():
     """Skeletal Bind's Twist by Rings is stored with the binding and drives the live update: the lower
     bone twisted 180 degrees about its axis, with weights whose blend is shifted around the limb, folds
@@ -1553,13 +1565,7 @@ def test_ring_twist_option():
     from dgmesh.skeletal import self_intersecting_pairs
 
     def twisted(ring):
-        obj, arm, V = _scene(uneven=True)
-        assert _bind(ring_twist=ring) == {'FINISHED'}
-        assert obj["dg_skeletal"]["ring_twist"] == int(ring)
-        _pose_lower(arm, math.pi, axis='Y')
-        bpy.context.view_layer.update()
-        F = np.array([p.vertices[:] for p in obj.data.polygons])
-        X = _evaluated_co(obj).astype(np.float64)
+        obj, arm, V, F, X = _bound_and_twisted("ring_twist", ring, uneven=True)
         pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
         kw = dict(fairing_steps=int(obj["dg_skeletal"]["fairing_steps"]), ring_twist=ring)
         assert np.abs(X - bound_rig(obj).deform(pose, **kw)).max() < 1e-4
@@ -1578,13 +1584,7 @@ def test_follow_twist_option():
     from dgmesh.skeletal import self_intersecting_pairs
 
     def twisted(follow):
-        obj, arm, V = _scene(slab=True)
-        assert _bind(follow_twist=follow) == {'FINISHED'}
-        assert obj["dg_skeletal"]["follow_twist"] == int(follow)
-        _pose_lower(arm, math.pi, axis='Y')
-        bpy.context.view_layer.update()
-        F = np.array([p.vertices[:] for p in obj.data.polygons])
-        X = _evaluated_co(obj).astype(np.float64)
+        obj, arm, V, F, X = _bound_and_twisted("follow_twist", follow, slab=True)
         vol = lambda P: np.einsum("ij,ij->i", P[F[:, 0]], np.cross(P[F[:, 1]], P[F[:, 2]])).sum() / 6  # noqa: E731
         return len(self_intersecting_pairs(X, F)), vol(X) / vol(V.astype(np.float64))
 
