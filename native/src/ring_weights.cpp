@@ -56,6 +56,7 @@ Eigen::MatrixXd ring_weights(const MatX3d& V, const MatX3i& F, const Eigen::Matr
     }
   }
   const double rmax = radius.maxCoeff();
+  if (!(rmax > 0)) throw MeshError("ring_weights: radius must have a positive value");
   VecXd fid(n);
   for (int i = 0; i < n; ++i) {
     const double l = opt.scale * std::max(radius[i], 1e-3 * rmax);

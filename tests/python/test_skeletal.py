@@ -1164,6 +1164,8 @@ def test_ring_weights_function_checks_its_input():
         dgmesh.skeletal.ring_weights(V, F, W, dirs[:1], np.full(len(V), 0.5))
     with pytest.raises(dgmesh.MeshError, match="radius"):
         dgmesh.skeletal.ring_weights(V, F, W, dirs, np.full(3, 0.5))
+    with pytest.raises(dgmesh.MeshError, match="positive"):
+        dgmesh.skeletal.ring_weights(V, F, W, dirs, np.zeros(len(V)))
     with pytest.raises(dgmesh.MeshError, match="scale"):
         dgmesh.skeletal.ring_weights(V, F, W, dirs, np.full(len(V), 0.5), scale=0)
     one = np.ones((len(V), 1))

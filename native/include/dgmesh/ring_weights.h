@@ -28,7 +28,8 @@ struct RingWeightOptions {
 
 // V, F: a closed or open triangle mesh (n vertices); W: n x B weights (rows summing to 1);
 // bone_dirs: B x 3 bone axes (any length > 0); radius: n positive thicknesses (clamped below at a
-// thousandth of the largest). Returns n x B, rows summing to 1. Throws MeshError on mismatched shapes.
+// thousandth of the largest). Returns n x B, rows summing to 1. Throws MeshError on mismatched shapes,
+// an index out of range, no positive radius, scale <= 0 or floor outside [0, 1).
 Eigen::MatrixXd ring_weights(const MatX3d& V, const MatX3i& F, const Eigen::MatrixXd& W, const MatX3d& bone_dirs,
                              const VecXd& radius, const RingWeightOptions& opt = {});
 
