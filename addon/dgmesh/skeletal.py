@@ -327,8 +327,7 @@ class SkeletalRig:
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
                         dual_quaternion, integrate_skeleton, ring_twist, bone_clearance, contact_slide,
-                        untangle_iterations,
-                        untangle_rings, follow_twist, fold_guard):
+                        untangle_iterations, untangle_rings, follow_twist, fold_guard):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
