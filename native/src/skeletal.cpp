@@ -465,7 +465,7 @@ struct SkeletalRig::Impl {
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose, double fraction = 1) const;
   void setup_integration();
   void integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const std::vector<Mat4>& pose) const;
-  void ring_twist(MatX3d& Sd, MatX9d& lin, const std::vector<Mat4>& pose, bool dual_quaternion) const;
+  bool ring_twist(const std::vector<Mat4>& pose, bool dual_quaternion, MatX3d& Sd, MatX9d& lin) const;
   MatX3d pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
                        MatX3d* blend = nullptr) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
@@ -1958,26 +1958,28 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
 }
 
 // The twist blended with the ring weights (SkeletalDeformOptions::ring_twist): each skeletal vertex
-// s_i goes to M_i U_i s_i instead of T_i s_i, U_i its blend (weights W) of the twist-free pose
-// (twist_free_pose) and M_i = T~_i U~_i^-1 its twist, from the blends T~_i, U~_i of the pose and of
-// the twist-free pose with W_ring; `lin` turns with it. Where W_ring's row is W's, T~_i U~_i^-1 U_i =
-// T_i: nothing changes. A pose whose twists twist_free_pose keeps (none dominates its bone's swing)
-// is left as the blend made it.
-void SkeletalRig::Impl::ring_twist(MatX3d& Sd, MatX9d& lin, const std::vector<Mat4>& pose, bool dual_quaternion) const {
-  if (rest.size() < 2 || parent.size() != rest.size() || W_ring.rows() != S.rows()) return;
+// s_i goes to M_i U_i s_i instead of the blend's T_i s_i, U_i its blend (weights W) of the twist-free
+// pose (twist_free_pose) and M_i = T~_i U~_i^-1 its twist, from the blends T~_i, U~_i of the pose and
+// of the twist-free pose with W_ring; `lin` receives the rotations M_i U_i. Where W_ring's row is W's,
+// T~_i U~_i^-1 U_i = T_i: the blend's result. False (Sd, lin untouched) for a pose whose twists
+// twist_free_pose keeps (none dominates its bone's swing): the blend poses it.
+bool SkeletalRig::Impl::ring_twist(const std::vector<Mat4>& pose, bool dual_quaternion, MatX3d& Sd, MatX9d& lin) const {
+  if (rest.size() < 2 || parent.size() != rest.size() || W_ring.rows() != S.rows()) return false;
   double dropped = 0;
   const std::vector<Mat4> free_pose = twist_free_pose(pose, dropped);
-  if (!(dropped > 1e-6)) return;
-  MatX9d lin_u, lin_t, lin_f;
-  const MatX3d U = skeletal_subspace_deform(S, W, rest, free_pose, &lin_u, dual_quaternion);
+  if (!(dropped > 1e-6)) return false;
+  MatX9d lin_t, lin_f;
+  Sd = skeletal_subspace_deform(S, W, rest, free_pose, &lin, dual_quaternion);  // U_i s_i, then M_i U_i s_i
   const MatX3d T = skeletal_subspace_deform(S, W_ring, rest, pose, &lin_t, dual_quaternion);
   const MatX3d Uf = skeletal_subspace_deform(S, W_ring, rest, free_pose, &lin_f, dual_quaternion);
   using RowMap = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>;
   for (Eigen::Index i = 0; i < S.rows(); ++i) {
     const Mat3 R = nearest_rotation(RowMap(lin_t.row(i).data()) * RowMap(lin_f.row(i).data()).transpose());
-    Sd.row(i) = (R * (row3(U, i) - row3(Uf, i)) + row3(T, i)).transpose();
-    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(lin.row(i).data()) = R * RowMap(lin_u.row(i).data());
+    Sd.row(i) = (R * (row3(Sd, i) - row3(Uf, i)) + row3(T, i)).transpose();
+    Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> L(lin.row(i).data());
+    L = (R * L).eval();
   }
+  return true;
 }
 
 // The posed skeletal mesh: SSD (eq. 6.2; `lin` receives the blended rotations, `blend` the positions),
@@ -1987,8 +1989,9 @@ void SkeletalRig::Impl::ring_twist(MatX3d& Sd, MatX9d& lin, const std::vector<Ma
 // with follow_twist, 3651 with both).
 MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
                                         MatX3d* blend) const {
-  MatX3d Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
-  if (opt.ring_twist) ring_twist(Sd, lin, pose, opt.dual_quaternion);
+  MatX3d Sd;
+  if (!(opt.ring_twist && ring_twist(pose, opt.dual_quaternion, Sd, lin)))
+    Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   if (blend) *blend = Sd;
   clear_bones(Sd, pose);
   const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
