@@ -29,6 +29,7 @@ __all__ = [
     "SkeletalRig",
     "SkeletalRigOptions",
     "SkeletalDeformOptions",
+    "RingWeightOptions",
     "SkeletalMethod",
     "SkeletalMesh",
     "SkeletonOptions",
@@ -37,16 +38,18 @@ __all__ = [
     "self_intersecting_pairs",
     "gaussian_bone_weights",
     "skeletal_subspace_deform",
+    "ring_weights",
     "delaunay_3d",
     "delaunay_2d",
     "METHODS",
 ]
 
 # The contract is the C++ one (dgmesh/skeletal.h), bound as it is: the options of the skeletal
-# mesh, of bind and of deform with their defaults, the deformation method and the skeletal mesh.
+# mesh, of bind, of deform and of the ring weights with their defaults, the deformation method and the skeletal mesh.
 SkeletonOptions = _native.SkeletonOptions
 SkeletalRigOptions = _native.SkeletalRigOptions
 SkeletalDeformOptions = _native.SkeletalDeformOptions
+RingWeightOptions = _native.RingWeightOptions
 SkeletalMethod = _native.SkeletalMethod
 SkeletalMesh = _native.SkeletalMesh
 
@@ -55,6 +58,7 @@ METHODS = tuple(SkeletalMethod.__members__)
 _SKELETON = SkeletonOptions()
 _BIND = SkeletalRigOptions()
 _DEFORM = SkeletalDeformOptions()
+_RING = RingWeightOptions()
 
 
 def _mats(M, name, B=None):
@@ -450,7 +454,7 @@ def gaussian_bone_weights(P: npt.ArrayLike, heads: npt.ArrayLike, tails: npt.Arr
 
 
 def ring_weights(V: npt.ArrayLike, F: npt.ArrayLike, weights: npt.ArrayLike, bone_dirs: npt.ArrayLike,
-                 radius: npt.ArrayLike, *, scale: float = 4.0, floor: float = 0.01) -> np.ndarray:
+                 radius: npt.ArrayLike, *, scale: float = _RING.scale, floor: float = _RING.floor) -> np.ndarray:
     """Bone weights (n, B) smoothed around the limbs: each column evened out across the directions
     about its bone's axis (``bone_dirs`` (B, 3); per face, the axis of the bone with the largest weight
     on its corners) and kept along it, over ``scale`` times each vertex's ``radius`` (n,), then weights
@@ -460,7 +464,8 @@ def ring_weights(V: npt.ArrayLike, F: npt.ArrayLike, weights: npt.ArrayLike, bon
     F = as_faces(F, n=len(V))
     return _native.ring_weights(V, F, np.ascontiguousarray(weights, dtype=np.float64),
                                 as_vertices(bone_dirs, "bone_dirs"), np.ascontiguousarray(radius, dtype=np.float64),
-                                as_real(scale, "scale", 0.0, lo_open=True), as_real(floor, "floor", 0.0))
+                                make_options(RingWeightOptions(), scale=as_real(scale, "scale", 0.0, lo_open=True),
+                                             floor=as_real(floor, "floor", 0.0)))
 
 
 def skeletal_subspace_deform(P: npt.ArrayLike, weights: npt.ArrayLike, bones_rest: npt.ArrayLike,

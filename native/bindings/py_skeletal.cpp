@@ -108,6 +108,10 @@ void bind_skeletal(pb::module_& m) {
       .value("variational", SkeletalMethod::Variational, "thesis 6.5: eq. 6.8-6.12 and the fairing eq. 6.15")
       .value("basic", SkeletalMethod::Basic, "thesis 6.3: homotopy eq. 6.3-6.6 (comparison)");
 
+  Struct<RingWeightOptions>(m, "RingWeightOptions", "Options of ring_weights()")
+      .field("scale", &RingWeightOptions::scale, "smoothing length over each vertex's radius")
+      .field("floor", &RingWeightOptions::floor, "smoothed weights below this are dropped");
+
   Struct<SkeletalDeformOptions>(m, "SkeletalDeformOptions", "Options of SkeletalRig.deform()")
       .field("method", &SkeletalDeformOptions::method, "the reconstruction")
       .field("fairing_steps", &SkeletalDeformOptions::fairing_steps,
@@ -154,14 +158,13 @@ void bind_skeletal(pb::module_& m) {
       pb::arg("V"), pb::arg("F"), pb::arg("options"));
   m.def(
       "ring_weights",
-      [](InV V, InF F, const Eigen::MatrixXd& W, InV bone_dirs, const VecXd& radius, double scale, double floor) {
+      [](InV V, InF F, const Eigen::MatrixXd& W, InV bone_dirs, const VecXd& radius, const RingWeightOptions& o) {
         if (!V.allFinite() || !W.allFinite() || !bone_dirs.allFinite() || !radius.allFinite())
           throw MeshError("ring_weights: inputs must be finite");
         NativeScope nogil;
-        return ring_weights(V, F, W, bone_dirs, radius, RingWeightOptions{scale, floor});
+        return ring_weights(V, F, W, bone_dirs, radius, o);
       },
-      pb::arg("V"), pb::arg("F"), pb::arg("W"), pb::arg("bone_dirs"), pb::arg("radius"),
-      pb::arg("scale") = RingWeightOptions{}.scale, pb::arg("floor") = RingWeightOptions{}.floor);
+      pb::arg("V"), pb::arg("F"), pb::arg("W"), pb::arg("bone_dirs"), pb::arg("radius"), pb::arg("options"));
   m.def("union_of_balls_distance", [](InV X, InV C, const VecXd& r) {
     NativeScope nogil;
     if (!X.allFinite() || !C.allFinite() || !r.allFinite()) throw MeshError("union of balls: inputs must be finite");

@@ -33,6 +33,7 @@ CONTRACT = {
     "decimate": (lambda: (_native.DecimateOptions(), _native.decimate_feature_defaults()), {}),
     "segment": (lambda: (_native.SegmentOptions(), _native.segment_feature_defaults()), {}),
     "skeletal_mesh": (lambda: _native.SkeletonOptions(), {}),
+    "skeletal.ring_weights": (lambda: _native.RingWeightOptions(), {}),
     "SkeletalRig.bind": (lambda: (_native.SkeletalRigOptions(), _native.SkeletalRigOptions().skeleton),
                          {"fit_iterations": "multires_fit_iterations"}),
     "SkeletalRig.deform": (lambda: _native.SkeletalDeformOptions(), {}),
