@@ -543,6 +543,7 @@ class SkeletalDeformOptions:
     dense_projection_passes: int  # passes of the dense mesh's step (multiresolution layer)
     dual_quaternion: bool  # pose the skeletal mesh by dual quaternion blending (false: the linear blend of eq. 6.2)
     integrate_skeleton: bool  # rebuild the posed skeletal mesh from its rest edges turned (and stretched as a beam's) by the blended rotations, anchored where one bone dominates (false: the blend's positions)
+    joint_fillet: float  # joint fillets: at each bent joint the skeletal mesh follows an arc tangent to both bones and the reconstructed surface the same map of the rest surface; the fillet radius sought over the limb's radius (0: off)
     ring_twist: bool  # blend the twists that dominate their bone's swing with the weights smoothed around each limb (SkeletalRig.ring_weights), so each cross-section turns as one (false: the weights)
     bone_clearance: float  # keep each vertex at least this fraction of its rest distance from its bones (0: off)
     contact_slide: float  # joint contact: slide each limb's crease band off the bisector plane of the bent joint, over kappa times its crossing depth (>= 1; 0: off)

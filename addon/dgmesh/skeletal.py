@@ -177,7 +177,7 @@ class SkeletalRig:
                projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
                integrate_skeleton: bool = _DEFORM.integrate_skeleton, ring_twist: bool = _DEFORM.ring_twist,
-               bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
+               joint_fillet: float = _DEFORM.joint_fillet, bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                untangle_iterations: int = _DEFORM.untangle_iterations,
                untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
                fold_guard: int = _DEFORM.fold_guard, skeleton: npt.ArrayLike | None = None) -> np.ndarray:
@@ -222,6 +222,18 @@ class SkeletalRig:
         neighbours by different angles and a large twist folds the skeletal mesh and the surface rebuilt
         on it, as it folds dual quaternion skinning (skeletal_joints' armadillo knee twisted 180 degrees
         through the layer: 275 crossing pairs without, 4 with; DQS 123). Bends keep the weights.
+        ``joint_fillet`` (default 2; 0 = off): at each bent joint (a bone whose head starts at its
+        parent's tail) the posed skeletal mesh follows an arc tangent to both bones instead of the
+        blend's swing about the joint, and the reconstructed surface is moved to the same map of the
+        rest surface before the thickness steps: each cross-section of the joint's band turned rigidly
+        along the arc, the band's axis shortened to it (a fillet). The band is the joint's weight
+        blend, widened until the fillet's radius is ``joint_fillet`` times the limb's radius, within
+        half the shorter bone and without carrying the outer side past the joint. A blend's axis
+        swings through the joint and a tube around an axis bent tighter than its radius crosses
+        itself on the inner side (skeletal_joints' capsule bent 90 degrees on the whole mesh: 762
+        crossing pairs without, 0 with; DQS 95). A vertex follows by its share of weight on the
+        joint's two bones. Replaces the integration on poses with a bent joint; rest pose, rigid
+        motions and pure twists are unchanged (bench/notes/skeletal.md, session 35).
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         and of their parent bones (their union) is at least this fraction of its rest distance to
@@ -269,8 +281,8 @@ class SkeletalRig:
         Defaults: ``SkeletalDeformOptions()``.
         """
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, integrate_skeleton, ring_twist, bone_clearance, contact_slide,
-                                 untangle_iterations, untangle_rings, follow_twist, fold_guard)
+                                 dual_quaternion, integrate_skeleton, ring_twist, joint_fillet, bone_clearance,
+                                 contact_slide, untangle_iterations, untangle_rings, follow_twist, fold_guard)
         P = _mats(bones_pose, "bones_pose", self.n_bones)
         if out is not None:
             if (not isinstance(out, np.ndarray) or out.dtype not in (np.float64, np.float32)
@@ -310,7 +322,7 @@ class SkeletalRig:
                        homotopy_steps: int = _DEFORM.homotopy_steps, fold_iterations: int = _DEFORM.fold_iterations,
                        projection: float = _DEFORM.projection, dual_quaternion: bool = _DEFORM.dual_quaternion,
                        integrate_skeleton: bool = _DEFORM.integrate_skeleton,
-                       ring_twist: bool = _DEFORM.ring_twist,
+                       ring_twist: bool = _DEFORM.ring_twist, joint_fillet: float = _DEFORM.joint_fillet,
                        bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
                        untangle_iterations: int = _DEFORM.untangle_iterations,
                        untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
@@ -318,26 +330,27 @@ class SkeletalRig:
                        skeleton: npt.ArrayLike | None = None) -> tuple[np.ndarray, np.ndarray]:
         """(control mesh positions, deformed skeletal vertices) for a pose; options as :meth:`deform`."""
         o = self._deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                                 dual_quaternion, integrate_skeleton, ring_twist, bone_clearance, contact_slide,
-                                 untangle_iterations, untangle_rings, follow_twist, fold_guard)
+                                 dual_quaternion, integrate_skeleton, ring_twist, joint_fillet, bone_clearance,
+                                 contact_slide, untangle_iterations, untangle_rings, follow_twist, fold_guard)
         return self._rig.deform_control(_mats(bones_pose, "bones_pose", self.n_bones), o, self._skeleton(skeleton))
 
     def skeleton_pose(self, bones_pose: npt.ArrayLike) -> np.ndarray:
         """Skeletal vertices posed as :meth:`deform` poses them with its defaults (the blend of eq. 6.2,
-        the bone clearance and the integration; ``deform_control(pose, integrate_skeleton=False)[1]``
-        for the blend's skeletal mesh)."""
+        the bone clearance, and the joints' fillets where a joint is bent, else the integration;
+        ``deform_control(pose, integrate_skeleton=False, joint_fillet=0)[1]`` for the blend's skeletal
+        mesh)."""
         return self._rig.skeleton_pose(_mats(bones_pose, "bones_pose", self.n_bones))
 
     @staticmethod
     def _deform_options(method, fairing_steps, fairing_step, homotopy_steps, fold_iterations, projection,
-                        dual_quaternion, integrate_skeleton, ring_twist, bone_clearance, contact_slide,
+                        dual_quaternion, integrate_skeleton, ring_twist, joint_fillet, bone_clearance, contact_slide,
                         untangle_iterations, untangle_rings, follow_twist, fold_guard):
         return make_options(SkeletalDeformOptions(), method=as_choice(method, SkeletalMethod, "method"),
                             fairing_steps=as_count(fairing_steps, "fairing_steps"), fairing_step=fairing_step,
                             homotopy_steps=as_count(homotopy_steps, "homotopy_steps"),
                             fold_iterations=as_count(fold_iterations, "fold_iterations"), projection=projection,
                             dual_quaternion=dual_quaternion, integrate_skeleton=bool(integrate_skeleton),
-                            ring_twist=bool(ring_twist),
+                            ring_twist=bool(ring_twist), joint_fillet=joint_fillet,
                             bone_clearance=bone_clearance, contact_slide=contact_slide,
                             untangle_iterations=as_count(untangle_iterations, "untangle_iterations"),
                             untangle_rings=as_count(untangle_rings, "untangle_rings"),

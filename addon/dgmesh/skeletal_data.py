@@ -57,6 +57,7 @@ INFO_FIELDS = {
     "fold_guard": (*_INT, False), "contact_slide": (*_NUMBER, False),
     "follow_twist": (_is_flag, "0 or 1", False), "untangle_render": (*_INT, False),
     "integrate_skeleton": (_is_flag, "0 or 1", False), "ring_twist": (_is_flag, "0 or 1", False),
+    "joint_fillet": (*_NUMBER, False),
 }
 _CHOICES = {"target": ("HELPER", "ATTRIBUTE", "SHAPE_KEY"), "skeleton_blend": ("DUAL_QUATERNION", "LINEAR")}
 
@@ -70,6 +71,7 @@ OLD_OPTIONS = {
     "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
     "integrate_skeleton": False,  # files bound before the option: the blend's skeleton (today's default: on)
     "ring_twist": False,  # files bound before the option: twists blended with the weights (today's default: on)
+    "joint_fillet": 0.0,  # files bound before the option: no fillets (today's default: 2)
     "skeleton_blend": "LINEAR",  # files bound before the option: the linear blend (today's default: dual quaternion)
     "control_faces": 5000,  # files bound before it was stored: the library's 5000 then (today's default too)
 }
@@ -79,6 +81,12 @@ def contact_slide_ok(value):
     """The joint contact's kappa as the library takes it (SkeletalDeformOptions::contact_slide): 0 (off)
     or a finite value of at least 1. Read by check_info and by Skeletal Bind before it binds."""
     return value == 0 or 1 <= value <= 1e6
+
+
+def joint_fillet_ok(value):
+    """The joint fillet's radius scale as the library takes it (SkeletalDeformOptions::joint_fillet): 0
+    (off) or a positive finite value. Read by check_info and by Skeletal Bind before it binds."""
+    return 0 <= value <= 1e6
 
 
 def saved_options(info):
@@ -129,6 +137,8 @@ def check_info(info, methods=()):
             raise BindDataError(f"its field {key!r} is negative ({info[key]})")
     if not contact_slide_ok(info.get("contact_slide", 0.0)):
         raise BindDataError(f"its field 'contact_slide' is {info['contact_slide']!r:.40}: 0 (off) or at least 1")
+    if not joint_fillet_ok(info.get("joint_fillet", 0.0)):
+        raise BindDataError(f"its field 'joint_fillet' is {info['joint_fillet']!r:.40}: 0 (off) or positive")
     if "control_faces" in info and info["control_faces"] < 1:
         raise BindDataError(f"its field 'control_faces' is {info['control_faces']}, not positive")
 

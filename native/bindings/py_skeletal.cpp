@@ -128,6 +128,10 @@ void bind_skeletal(pb::module_& m) {
       .field("integrate_skeleton", &SkeletalDeformOptions::integrate_skeleton,
              "rebuild the posed skeletal mesh from its rest edges turned (and stretched as a beam's) by the blended "
              "rotations, anchored where one bone dominates (false: the blend's positions)")
+      .field("joint_fillet", &SkeletalDeformOptions::joint_fillet,
+             "joint fillets: at each bent joint the skeletal mesh follows an arc tangent to both bones and the "
+             "reconstructed surface the same map of the rest surface; the fillet radius sought over the limb's "
+             "radius (0: off)")
       .field("ring_twist", &SkeletalDeformOptions::ring_twist,
              "blend the twists that dominate their bone's swing with the weights smoothed around each limb "
              "(SkeletalRig.ring_weights), so each cross-section turns as one (false: the weights)")

@@ -13,6 +13,7 @@
 #include "dgmesh/detail/skeletal_util.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
+#include "dgmesh/joint_fillet.h"
 #include "dgmesh/parallel.h"
 #include "dgmesh/ring_weights.h"
 #include "dgmesh/self_intersection.h"
@@ -465,9 +466,34 @@ struct SkeletalRig::Impl {
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose, double fraction = 1) const;
   void setup_integration();
   void integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const std::vector<Mat4>& pose) const;
+  // Joint fillets (SkeletalDeformOptions::joint_fillet): per joint (a bone p and a child c whose head
+  // starts at p's tail) the extent of its weight blend along the joint's mean rest axis and the limb's
+  // radius there (see setup_fillets); per pose, the bent joints' fillets (joint_fillet.h) with the
+  // parent's motion and the child's motion relative to it.
+  struct FilletJoint {
+    int p = -1, c = -1;
+    double blend_extent = 0, radius = 0;
+  };
+  std::vector<FilletJoint> fillet_joints;
+  struct PosedFillet {
+    const FilletJoint* joint = nullptr;
+    JointFillet fillet;
+    Mat4 parent;                  // the parent bone's motion pose * rest^-1
+    Eigen::Quaterniond relative;  // the child's rotation relative to the parent's
+    bool ring = false;            // the twist shared by the ring weights (ring_twist acted on the pose)
+  };
+  void setup_fillets();
+  std::vector<PosedFillet> pose_fillets(const std::vector<Mat4>& pose, double radius_scale, bool ring) const;
+  void fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vector<PosedFillet>& fillets) const;
+  void fillet_surface(MatX3d& X, const std::vector<PosedFillet>& fillets, const std::vector<char>& edited) const;
+  double fillet_twist_share(const PosedFillet& pf, int i, double wc) const {
+    if (!pf.ring) return wc;
+    const double s = W_ring(i, pf.joint->p) + W_ring(i, pf.joint->c);
+    return s > 1e-12 ? W_ring(i, pf.joint->c) / s : wc;
+  }
   bool ring_twist(const std::vector<Mat4>& pose, bool dual_quaternion, MatX3d& Sd, MatX9d& lin) const;
   MatX3d pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
-                       MatX3d* blend = nullptr) const;
+                       MatX3d* blend = nullptr, std::vector<PosedFillet>* fillets = nullptr) const;
   void clear_surface(MatX3d& X, const std::vector<Mat4>& pose, double fraction, const std::vector<char>& edited) const;
   // The fold guard's constraint (SkeletalDeformOptions::fold_guard): a smoothed vertex is pushed back
   // out to `fraction` of its rest distance to the bones of `c` (the untangling's clearance: its own
@@ -588,7 +614,8 @@ struct SkeletalRig::Impl {
                       std::vector<int>* deep = nullptr, const MatX3d* skeleton = nullptr,
                       std::vector<char>* edited = nullptr, Twist* tw = nullptr) const;
   MatX3d variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt, std::vector<int>* deep,
-                     const Twist* tw, MatX3d* bare = nullptr) const;
+                     const Twist* tw, MatX3d* bare = nullptr, const std::vector<PosedFillet>* fillets = nullptr,
+                     const std::vector<char>* edited = nullptr) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
 };
 
@@ -755,6 +782,7 @@ void SkeletalRig::Impl::setup() {
     }
   }
   setup_integration();
+  setup_fillets();
 }
 
 std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const MatX9d& lin, const Twist* tw) const {
@@ -801,7 +829,8 @@ std::vector<Mat3> SkeletalRig::Impl::triangle_rotations(const MatX3d& Sd, const 
 
 // bare (optional): receives the reconstruction before the fairing (eq. 6.11).
 MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const SkeletalDeformOptions& opt,
-                                      std::vector<int>* deep, const Twist* tw, MatX3d* bare) const {
+                                      std::vector<int>* deep, const Twist* tw, MatX3d* bare,
+                                      const std::vector<PosedFillet>* fillets, const std::vector<char>* edited) const {
   const int n = static_cast<int>(S.rows());
   const std::vector<Mat3> R = triangle_rotations(Sd, lin, tw);
   // Right-hand side (eq. 6.12) summed over the fragments x^T of the triangles around each vertex
@@ -826,6 +855,7 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
     b.row(i) = acc.transpose();
   }
   MatX3d X = solve(b);
+  if (fillets) fillet_surface(X, *fillets, edited ? *edited : std::vector<char>{});
   if (bare) *bare = X;
   if (opt.fairing_steps > 0) fair_variational(X, Sd, opt, deep, tw);
   return X;
@@ -1558,6 +1588,127 @@ void SkeletalRig::Impl::integrate_skeleton(MatX3d& Sd, const MatX9d& lin, const 
   for (int v = 0; v < n; ++v) Sd.row(v) += shift.row(rep_of[v]);
 }
 
+// Joint fillets (SkeletalDeformOptions::joint_fillet, joint_fillet.h). Per joint, at bind: the
+// extent of its weight blend, the largest |t| (along the joint's mean rest axis, within the two
+// bones' lengths) of a skeletal vertex that the two bones carry most of (w_p + w_c > 1/2) and that
+// mixes them (w_c / (w_p + w_c) in (0.02, 0.98)); and the limb's radius, the median distance of the
+// surface vertices that the two bones carry most of within a quarter of the shorter bone of the
+// joint to the two bones' segments.
+void SkeletalRig::Impl::setup_fillets() {
+  fillet_joints.clear();
+  const int n = static_cast<int>(S.rows()), B = static_cast<int>(rest.size());
+  if (B < 2 || children.size() != static_cast<size_t>(B)) return;
+  for (int p = 0; p < B; ++p)
+    for (int c : children[p]) {
+      const double lp = bone_vec[p].norm(), lc = bone_vec[c].norm();
+      if (!(lp > 1e-12 && lc > 1e-12) || (bone_vec[p] / lp + bone_vec[c] / lc).norm() < 1e-6) continue;
+      const Vec3 J = bone_head[c], e = (bone_vec[p] / lp + bone_vec[c] / lc).normalized();
+      FilletJoint f;
+      f.p = p, f.c = c;
+      std::vector<double> radius;
+      for (int i = 0; i < n; ++i) {
+        const double sum = W(i, p) + W(i, c);
+        if (!(sum > 0.5)) continue;
+        const double t = (row3(S, i) - J).dot(e), wc = W(i, c) / sum;
+        if (t >= -lp && t <= lc && wc > 0.02 && wc < 0.98) f.blend_extent = std::max(f.blend_extent, std::abs(t));
+        const Vec3 x = row3(control.V, i);
+        if (std::abs((x - J).dot(e)) <= 0.25 * std::min(lp, lc))
+          radius.push_back(
+              std::sqrt(std::min(segment_sq_dist(x, J - bone_vec[p], J), segment_sq_dist(x, J, J + bone_vec[c]))));
+      }
+      f.radius = radius.empty() ? 0.0 : median(radius);
+      if (f.radius > 0) fillet_joints.push_back(f);
+    }
+}
+
+std::vector<SkeletalRig::Impl::PosedFillet> SkeletalRig::Impl::pose_fillets(const std::vector<Mat4>& pose,
+                                                                            double radius_scale, bool ring) const {
+  std::vector<PosedFillet> out;
+  JointFilletOptions o;
+  o.radius_scale = radius_scale;
+  for (const FilletJoint& j : fillet_joints) {
+    const Mat4 P = pose[j.p] * rest[j.p].inverse(), M = P.inverse() * (pose[j.c] * rest[j.c].inverse());
+    const auto f = joint_fillet(M, bone_head[j.c], bone_vec[j.p], bone_vec[j.c], j.blend_extent, j.radius,
+                                std::min(bone_vec[j.p].norm(), bone_vec[j.c].norm()), o);
+    if (f) out.push_back({&j, *f, P, Eigen::Quaterniond(nearest_rotation(M.block<3, 3>(0, 0))), ring});
+  }
+  return out;
+}
+
+// A vertex follows a joint's fillet by the share of its weight on the joint's two bones: fully from
+// 3/4, not below 1/4 (a vertex mostly on other bones, e.g. the other leg's foot weighted a little to
+// the hip, keeps its blend).
+namespace {
+double fillet_share(double w) {
+  const double s = std::clamp((w - 0.25) / 0.5, 0.0, 1.0);
+  return s * s * (3 - 2 * s);
+}
+// A vertex weighted to one of the two bones alone but lying on the other's side of the joint (e.g. a
+// tip painted to the parent bone) is not a cross-section of the band: it keeps its blend.
+bool against_side(double t, double wc) { return (wc <= 0 && t > 0) || (wc >= 1 && t < 0); }
+}  // namespace
+
+// The posed skeletal mesh moved to the fillets: each skeletal vertex (with its coincident group: a
+// tube's collapsed ring moves as one) to the map of the cross-section of its surface vertex (the
+// blend moves the pair rigidly by the surface vertex's weights; so does this, by the fillet), its
+// blended rotation turned likewise (relative to the two bones' blend), both weighted by the
+// fillet's onset and the vertex's share of the joint (fillet_share). Outside the band a vertex the
+// two bones carry alone is where the blend puts it, and is skipped; so is one against_side.
+void SkeletalRig::Impl::fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vector<PosedFillet>& fillets) const {
+  const int n = static_cast<int>(S.rows());
+  const Eigen::Quaterniond id = Eigen::Quaterniond::Identity();
+  for (const PosedFillet& pf : fillets) {
+    const FilletJoint& j = *pf.joint;
+    const JointFillet& f = pf.fillet;
+    const Mat3 PL = pf.parent.block<3, 3>(0, 0), PR = nearest_rotation(PL);
+    const Vec3 Pt = pf.parent.block<3, 1>(0, 3);
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (int i = 0; i < n; ++i) {
+      const int r = reps[rep_of[i]];
+      const double sum = W(r, j.p) + W(r, j.c), g = f.weight * fillet_share(sum);
+      if (!(g > 0)) continue;
+      const double wc = W(r, j.c) / sum, t = f.t_of(row3(control.V, r));
+      if (against_side(t, wc) || (std::abs(t) >= f.half_length && (wc <= 0 || wc >= 1))) continue;
+      Mat3 R;
+      const Vec3 y = PL * f.map(row3(S, i), t, fillet_twist_share(pf, r, wc), R) + Pt;
+      Sd.row(i) += (g * (y - row3(Sd, i))).transpose();
+      Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Li(lin.row(i).data());
+      const Mat3 L0 = Li, Rb = id.slerp(wc, pf.relative).toRotationMatrix(),
+                 L1 = PR * R * Rb.transpose() * PR.transpose() * L0;
+      const Eigen::Quaterniond q0(L0), q1(L1);
+      Li = q0.slerp(g, q1).toRotationMatrix();
+    }
+  }
+}
+
+// The reconstructed surface (eq. 6.11) moved to the fillets' map of the rest surface before the
+// thickness steps, by the same weights: the reconstruction turns a surface vertex with its
+// skeletal triangle's frame, whose cross-section lies elsewhere along the limb on a thick limb's
+// medial sheet (the armadillo's knee bent 90 degrees: 235 crossing pairs rebuilt on the filleted
+// skeleton, none mapped; bench/notes/skeletal.md, session 35). A vertex on an edited skeletal vertex
+// (deform_skeleton) keeps its reconstruction: the map knows nothing of the edit.
+void SkeletalRig::Impl::fillet_surface(MatX3d& X, const std::vector<PosedFillet>& fillets,
+                                       const std::vector<char>& edited) const {
+  const int n = static_cast<int>(X.rows());
+  for (const PosedFillet& pf : fillets) {
+    const FilletJoint& j = *pf.joint;
+    const JointFillet& f = pf.fillet;
+    const Mat3 PL = pf.parent.block<3, 3>(0, 0);
+    const Vec3 Pt = pf.parent.block<3, 1>(0, 3);
+#pragma omp parallel for schedule(static) if (n >= kParallelMin)
+    for (int i = 0; i < n; ++i) {
+      const double sum = W(i, j.p) + W(i, j.c), g = f.weight * fillet_share(sum);
+      if (!(g > 0) || (!edited.empty() && edited[i])) continue;
+      const Vec3 x0 = row3(control.V, i);
+      const double wc = W(i, j.c) / sum;
+      if (against_side(f.t_of(x0), wc)) continue;
+      Mat3 R;
+      const Vec3 y = PL * f.map(x0, f.t_of(x0), fillet_twist_share(pf, i, wc), R) + Pt;
+      X.row(i) += (g * (y - row3(X, i))).transpose();
+    }
+  }
+}
+
 // Joint contact (SkeletalDeformOptions::contact_slide, issue 33). The thickness steps keep each
 // vertex at its rest distance to the union of the posed medial balls, but in a bend's inner crease
 // the flesh of one limb then lies inside the other's (capsule bent 90 degrees: a third of the
@@ -1988,15 +2139,25 @@ bool SkeletalRig::Impl::ring_twist(const std::vector<Mat4>& pose, bool dual_quat
 // across vertices (bench skeletal_blender's armadillo waist twisted 180 degrees: 3 crossing pairs
 // with follow_twist, 3651 with both).
 MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt, MatX9d& lin,
-                                        MatX3d* blend) const {
+                                        MatX3d* blend, std::vector<PosedFillet>* fillets) const {
   MatX3d Sd;
-  if (!(opt.ring_twist && ring_twist(pose, opt.dual_quaternion, Sd, lin)))
-    Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
+  const bool ring = opt.ring_twist && ring_twist(pose, opt.dual_quaternion, Sd, lin);
+  if (!ring) Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   if (blend) *blend = Sd;
   clear_bones(Sd, pose);
   const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
   double dropped = 0;
-  if (opt.integrate_skeleton && !(twist && (twist_free_pose(pose, dropped), dropped > 1e-6))) {
+  const bool followed = twist && (twist_free_pose(pose, dropped), dropped > 1e-6);
+  std::vector<PosedFillet> fl;
+  if (opt.joint_fillet > 0 && !followed) fl = pose_fillets(pose, opt.joint_fillet, ring);
+  if (!fl.empty()) {
+    // The bent joints' fillets instead of the integration (which turns the axis as the weights do,
+    // by the whole bend inside the blend); then every skeletal vertex back out to its rest distance
+    // from its bones (the arc cuts the joint's corner).
+    fillet_skeleton(Sd, lin, fl);
+    clear_bones(Sd, pose);
+    if (fillets) *fillets = std::move(fl);
+  } else if (opt.integrate_skeleton && !followed) {
     // The integration cuts a joint's corner; where a limb's medial surface is a sheet bent in its own
     // plane it cut it across the bones (the flattened test limb's outer side: a skeletal vertex at
     // 0.043 of its rest distance to them). Not closer than half that distance, then (the full rest
@@ -2025,6 +2186,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
     throw MeshError("skeletal deform: fairing_steps and fold_iterations must be >= 0, homotopy_steps >= 1");
   if (!std::isfinite(opt.fairing_step) || !std::isfinite(opt.projection) || !std::isfinite(opt.bone_clearance))
     throw MeshError("skeletal deform: fairing_step, projection and bone_clearance must be finite");
+  if (!(opt.joint_fillet >= 0) || !std::isfinite(opt.joint_fillet))
+    throw MeshError("skeletal deform: joint_fillet must be 0 (off) or positive and finite");
   if (!(opt.contact_slide == 0 || opt.contact_slide >= 1))
     throw MeshError("skeletal deform: contact_slide must be 0 (off) or at least 1");
   if (opt.untangle_iterations < 0 || opt.untangle_rings < 0 || opt.fold_guard < 0)
@@ -2036,7 +2199,8 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
   MatX9d lin;
   MatX3d Sd_blend;
-  MatX3d Sd = pose_skeleton(pose, opt, lin, twist ? &Sd_blend : nullptr);
+  std::vector<PosedFillet> fillets;
+  MatX3d Sd = pose_skeleton(pose, opt, lin, twist ? &Sd_blend : nullptr, &fillets);
   std::vector<char> edited;
   if (skeleton) {
     // The edit's offsets turn with each skeletal vertex's blended bone frame: for rigid blends
@@ -2058,7 +2222,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   const bool has_twist = twist && make_twist(pose, opt, Sd_blend, lin, Sd, tw);
   const bool guard = opt.fold_guard > 0 && opt.fairing_steps > 0;
   MatX3d bare;
-  MatX3d X = variational(Sd, lin, opt, deep, has_twist ? &tw : nullptr, guard ? &bare : nullptr);
+  MatX3d X = variational(Sd, lin, opt, deep, has_twist ? &tw : nullptr, guard ? &bare : nullptr, &fillets, &edited);
   // With the thickness steps (fairing_steps = 0 is the bare reconstruction eq. 6.11).
   if (opt.fairing_steps > 0) {
     clear_surface(X, pose, opt.bone_clearance, edited);

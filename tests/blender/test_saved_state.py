@@ -119,6 +119,8 @@ DAMAGE = {
     "follow_twist_is_a_text": _set("follow_twist", "yes"),
     "integrate_skeleton_is_a_text": _set("integrate_skeleton", "on"),
     "ring_twist_is_a_text": _set("ring_twist", "on"),
+    "joint_fillet_is_negative": _set("joint_fillet", -1.0),
+    "joint_fillet_is_a_text": _set("joint_fillet", "2"),
     "method_unknown": _set("method", "MAGIC"),
     "modifiers_lengths_differ": _set("modifiers_viewport", [1, 1, 1]),
     "space_wrong_size": _set("space", [1.0, 2.0]),

@@ -1131,18 +1131,19 @@ def test_rebind_after_editing_the_mesh_and_its_weights():
 
 def test_skeleton_blend_dual_quaternion_is_stored_used_live_and_kept_by_rebind():
     """Skeleton Blend = Dual Quaternion: the live deformation is the API's deform(...,
-    dual_quaternion=True), not the linear blend's; rebind keeps the setting."""
+    dual_quaternion=True), not the linear blend's; rebind keeps the setting. (Without the joint
+    fillet, which puts the capsule's whole skeleton where its arc goes, whichever the blend.)"""
     from dgmesh.blender import skeletal_space, skeletal_store
     results = {}
     for blend in ('LINEAR', 'DUAL_QUATERNION'):
         obj, arm, V = _scene()
-        assert _bind(skeleton_blend=blend) == {'FINISHED'}
+        assert _bind(skeleton_blend=blend, joint_fillet=0.0) == {'FINISHED'}
         assert obj["dg_skeletal"]["skeleton_blend"] == blend
         _pose_lower(arm, math.pi / 2)  # a bend: the blends differ on the skeleton at the joint
         bpy.context.view_layer.update()
         results[blend] = _evaluated_co(obj)
         pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
-        expect = skeletal_store.bound_rig(obj).deform(pose, fairing_steps=2, bone_clearance=0.95,
+        expect = skeletal_store.bound_rig(obj).deform(pose, fairing_steps=2, bone_clearance=0.95, joint_fillet=0,
                                                dual_quaternion=blend == 'DUAL_QUATERNION')
         assert np.abs(results[blend] - expect).max() < 1e-4
     assert np.abs(results['LINEAR'] - results['DUAL_QUATERNION']).max() > 1e-3  # not vacuous
@@ -1153,10 +1154,11 @@ def test_skeleton_blend_dual_quaternion_is_stored_used_live_and_kept_by_rebind()
 def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear():
     """A new bind blends the skeleton by dual quaternions (the linear blend tears thick limbs
     twisted far, see test_a_sheet_limb_twisted_far_does_not_tear); a mesh bound before the option
-    existed (no skeleton_blend in its bind data) keeps deforming as it did, by the linear blend."""
+    existed (no skeleton_blend in its bind data) keeps deforming as it did, by the linear blend.
+    (Without the joint fillet, whose arc replaces either blend on this capsule's bend.)"""
     from dgmesh.blender import skeletal_space, skeletal_store
     obj, arm, V = _scene()
-    assert _bind() == {'FINISHED'}
+    assert _bind(joint_fillet=0.0) == {'FINISHED'}
     assert obj["dg_skeletal"]["skeleton_blend"] == 'DUAL_QUATERNION'
     del obj["dg_skeletal"]["skeleton_blend"]
     _pose_lower(arm, math.pi / 2)
@@ -1164,21 +1166,23 @@ def test_skeleton_blend_defaults_to_dual_quaternion_and_older_binds_stay_linear(
     pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
     rig = skeletal_store.bound_rig(obj)
     X = _evaluated_co(obj)
-    assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95, dual_quaternion=False)).max() < 1e-4
-    assert np.abs(X - rig.deform(pose, fairing_steps=2, bone_clearance=0.95)).max() > 1e-3  # not vacuous
+    kw = dict(fairing_steps=2, bone_clearance=0.95, joint_fillet=0)
+    assert np.abs(X - rig.deform(pose, dual_quaternion=False, **kw)).max() < 1e-4
+    assert np.abs(X - rig.deform(pose, **kw)).max() > 1e-3  # not vacuous
 
 
 @pytest.mark.parametrize("swapped", [False, True])
 def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(swapped, monkeypatch):
     """A binding saved before the options existed (no bone_clearance, untangle_iterations, fold_guard,
-    contact_slide, follow_twist, integrate_skeleton, ring_twist, skeleton_blend, control_faces): the live update deforms with skeletal_data.OLD_OPTIONS'
+    contact_slide, follow_twist, integrate_skeleton, ring_twist, joint_fillet, skeleton_blend, control_faces): the live
+    update deforms with skeletal_data.OLD_OPTIONS'
     values and Rebind binds (and stores) them. Run with the table and with every value swapped for
     another, so a reader with a fallback of its own (today's default or a copy) fails one of them."""
     from dgmesh import skeletal_data
     from dgmesh.skeletal import SkeletalRig
     if swapped:
         for key, value in dict(bone_clearance=0.5, untangle_iterations=2, fold_guard=7, contact_slide=2.0,
-                               follow_twist=True, integrate_skeleton=True, ring_twist=True,
+                               follow_twist=True, integrate_skeleton=True, ring_twist=True, joint_fillet=1.5,
                                skeleton_blend="DUAL_QUATERNION",
                                control_faces=4000).items():
             assert value != skeletal_data.OLD_OPTIONS[key]
@@ -1202,9 +1206,9 @@ def test_live_update_and_rebind_read_the_options_a_binding_lacks_from_one_table(
     assert calls, "the pose change did not deform"
     kw = calls[-1]
     assert (kw["bone_clearance"], kw["untangle_iterations"], kw["fold_guard"], kw["contact_slide"], kw["follow_twist"],
-            kw["integrate_skeleton"], kw["ring_twist"], kw["dual_quaternion"]) == (
+            kw["integrate_skeleton"], kw["ring_twist"], kw["joint_fillet"], kw["dual_quaternion"]) == (
                 table["bone_clearance"], table["untangle_iterations"], table["fold_guard"], table["contact_slide"],
-                table["follow_twist"], table["integrate_skeleton"], table["ring_twist"],
+                table["follow_twist"], table["integrate_skeleton"], table["ring_twist"], table["joint_fillet"],
                 table["skeleton_blend"] == 'DUAL_QUATERNION')
     assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT', object_name=obj.name) == {'FINISHED'}
     info = obj["dg_skeletal"].to_dict()
@@ -1410,9 +1414,11 @@ def test_armature_modifier_turned_back_on_while_bound_is_flagged():
 
 def _bent_pairs(**settings):
     """Crossing triangle pairs of the test capsule bound with these Skeletal Bind settings (each stored
-    with the binding) and bent 90 degrees through the live update."""
+    with the binding) and bent 90 degrees through the live update; without the joint fillet unless
+    given (its arc leaves no fold there for these options to act on)."""
     from dgmesh.skeletal import self_intersecting_pairs
     obj, arm, V = _scene()
+    settings = dict(dict(joint_fillet=0.0), **settings)
     assert _bind(**settings) == {'FINISHED'}
     stored = {"untangle": "untangle_iterations", "contact": "contact_slide"}
     for key, value in settings.items():
@@ -1443,7 +1449,7 @@ def test_untangle_creases_render_acts_in_renders_and_bakes_only(tmp_path):
     props = bpy.ops.dgmesh.skeletal_bind.get_rna_type().properties
     assert props["untangle_render"].default == ops_skeletal.RENDER_UNTANGLE == 0  # (animations: no jumps)
     obj, arm, V = _scene()
-    assert _bind(fold_guard=0, untangle_render=10) == {'FINISHED'}
+    assert _bind(fold_guard=0, untangle_render=10, joint_fillet=0.0) == {'FINISHED'}  # (the fillet: no fold)
     assert obj["dg_skeletal"]["untangle_render"] == 10
     assert obj["dg_skeletal"]["untangle_iterations"] == 0
     _pose_lower(arm, math.pi / 2, frame=1)
@@ -1526,7 +1532,7 @@ def test_integrate_skeleton_option():
 
     def bent(integrate):
         obj, arm, V = _scene()
-        assert _bind(integrate_skeleton=integrate) == {'FINISHED'}
+        assert _bind(integrate_skeleton=integrate, joint_fillet=0.0) == {'FINISHED'}  # (the fillet replaces it)
         assert obj["dg_skeletal"]["integrate_skeleton"] == int(integrate)
         _pose_lower(arm, math.pi / 2)
         bpy.context.view_layer.update()
@@ -1534,7 +1540,7 @@ def test_integrate_skeleton_option():
         X = _evaluated_co(obj).astype(np.float64)
         pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
         info = obj["dg_skeletal"]
-        kw = dict(fairing_steps=int(info["fairing_steps"]), integrate_skeleton=integrate)
+        kw = dict(fairing_steps=int(info["fairing_steps"]), integrate_skeleton=integrate, joint_fillet=0)
         assert np.abs(X - bound_rig(obj).deform(pose, **kw)).max() < 1e-4
         return len(self_intersecting_pairs(X, F))
 
@@ -1573,6 +1579,32 @@ def test_ring_twist_option():
 
     off, on = twisted(False), twisted(True)
     print(f"capsule with uneven weights twisted 180 degrees: pairs {off} -> {on}")
+    assert off > 20 and on == 0
+
+
+def test_joint_fillet_option():
+    """Skeletal Bind's Joint Fillet is stored with the binding and drives the live update: the capsule
+    (linear blend over [-0.5, 0.5], as bench skeletal_blender's) bent 110 degrees crosses itself in the
+    crease without the fillet (74 pairs in Debian 12's Blender), not with it (issue 33)."""
+    from dgmesh.blender import skeletal_space
+    from dgmesh.blender.skeletal_store import bound_rig
+    from dgmesh.skeletal import self_intersecting_pairs
+
+    def bent(fillet):
+        obj, arm, V = _scene()
+        assert _bind(joint_fillet=fillet) == {'FINISHED'}
+        assert obj["dg_skeletal"]["joint_fillet"] == fillet
+        _pose_lower(arm, math.radians(110))
+        bpy.context.view_layer.update()
+        F = np.array([p.vertices[:] for p in obj.data.polygons])
+        X = _evaluated_co(obj).astype(np.float64)
+        pose = skeletal_space.pose_matrices(obj, arm, list(obj["dg_skeletal"]["bones"]))
+        kw = dict(fairing_steps=int(obj["dg_skeletal"]["fairing_steps"]), joint_fillet=fillet)
+        assert np.abs(X - bound_rig(obj).deform(pose, **kw)).max() < 1e-4
+        return len(self_intersecting_pairs(X, F))
+
+    off, on = bent(0.0), bent(2.0)
+    print(f"capsule bent 110 degrees: pairs {off} -> {on}")
     assert off > 20 and on == 0
 
 

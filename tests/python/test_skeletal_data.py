@@ -50,7 +50,8 @@ def test_options_of_bindings_saved_before_them_come_from_the_one_table():
     assert saved_options(_info()) == OLD_OPTIONS
     assert all(type(v) is type(OLD_OPTIONS[k]) for k, v in saved_options(_info()).items())
     own = dict(bone_clearance=0.5, untangle_iterations=np.int64(3), fold_guard=20, contact_slide=3.0, follow_twist=1,
-               integrate_skeleton=1, ring_twist=1, skeleton_blend="DUAL_QUATERNION", control_faces=800)
+               integrate_skeleton=1, ring_twist=1, joint_fillet=1.5, skeleton_blend="DUAL_QUATERNION",
+               control_faces=800)
     assert set(own) == set(OLD_OPTIONS)
     check_info(_info(**own))
     got = saved_options(_info(**own))
@@ -86,6 +87,18 @@ def test_joint_contact_must_be_off_or_at_least_one():
     for bad in (0.5, -1.0, float("nan"), float("inf")):
         with pytest.raises(BindDataError, match="contact_slide"):
             check_info(_info(contact_slide=bad))
+
+
+def test_joint_fillet_must_be_off_or_positive():
+    """joint_fillet as the library takes it: 0 (off) or a finite positive radius scale; anything else
+    is named."""
+    import pytest
+    from dgmesh.skeletal_data import BindDataError
+    for ok in (0, 0.0, 0.5, 2.0):
+        check_info(_info(joint_fillet=ok))
+    for bad in (-0.5, float("nan"), float("inf")):
+        with pytest.raises(BindDataError, match="joint_fillet"):
+            check_info(_info(joint_fillet=bad))
 
 
 def test_stored_stick_skeleton_is_checked_and_may_be_absent():

@@ -58,7 +58,7 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 
 from ..core import MeshError
 from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
-from ..skeletal_data import SCHEMA_VERSION, contact_slide_ok, encode_arrays, render_untangle, saved_options, write_pc2
+from ..skeletal_data import SCHEMA_VERSION, contact_slide_ok, encode_arrays, joint_fillet_ok, render_untangle, saved_options, write_pc2
 from . import bridge, compat
 from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 from .skeletal_live import (HANDLERS, edited, helper_node_group, helper_object, link_skeleton, move_first,
@@ -206,6 +206,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                                      "behind the joint backwards, and the crease folds less. The outer side of a "
                                      "tight bend is then pushed out by the bone clearance. Bindings made before "
                                      "this option keep it off")
+    joint_fillet: FloatProperty(name="Joint Fillet", default=DEFORM_DEFAULTS.joint_fillet, min=0.0, max=10.0,
+                                description="Bend each joint along an arc tangent to both bones, its radius "
+                                "this many times the limb's radius where the weights allow (0: off): the flesh "
+                                "of a bent elbow or knee turns as whole cross-sections instead of piling into "
+                                "the crease. Bindings made before this option keep it off")
     ring_twist: BoolProperty(name="Twist by Rings", default=DEFORM_DEFAULTS.ring_twist,
                              description="Turn each cross-section of a limb as one under a twist: the twist is "
                              "blended with the weights evened out around the limb, so a knee or a forearm turned "
@@ -253,6 +258,9 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
             self.report({'ERROR'}, f"{obj.name!r} already has an attribute {ATTR!r} or a modifier {MOD!r} "
                         "(left from an earlier binding?); remove them first")
             return {'CANCELLED'}
+        if not joint_fillet_ok(self.joint_fillet):
+            self.report({'ERROR'}, f"Joint Fillet is {self.joint_fillet:g}: set 0 (off) or a positive radius scale")
+            return {'CANCELLED'}
         if not contact_slide_ok(self.contact):
             self.report({'ERROR'}, f"Joint Contact is {self.contact:g}: set 0 (off) or at least 1 (the slide "
                         "reaches that many times its crossing depth along the bone)")
@@ -275,7 +283,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
 
 
 SETTINGS = ("control_faces", "fairing_steps", "method", "bone_clearance", "untangle", "untangle_render", "fold_guard",
-            "contact", "follow_twist", "integrate_skeleton", "ring_twist", "skeleton_blend")
+            "contact", "follow_twist", "integrate_skeleton", "ring_twist", "joint_fillet", "skeleton_blend")
 
 
 class _BindFailure(Exception):
@@ -397,6 +405,7 @@ def _attach(context, obj, arm, binding, settings):
         "fold_guard": settings["fold_guard"],
         "contact_slide": settings["contact"], "follow_twist": int(settings["follow_twist"]),
         "integrate_skeleton": int(settings["integrate_skeleton"]), "ring_twist": int(settings["ring_twist"]),
+        "joint_fillet": float(settings["joint_fillet"]),
         "control_faces": settings["control_faces"], "target": "HELPER",
         "modifier": mod.name, "node_group": ng.name, "helper": helper.name,
         "modifiers": [m[0] for m in disabled], "modifiers_viewport": [m[1] for m in disabled],
@@ -457,7 +466,8 @@ painting its weights (the binding keeps what it read at bind)"""
                         untangle_render=render_untangle(info), fold_guard=saved["fold_guard"],
                         contact=saved["contact_slide"],
                         follow_twist=saved["follow_twist"], integrate_skeleton=saved["integrate_skeleton"],
-                        ring_twist=saved["ring_twist"], skeleton_blend=saved["skeleton_blend"],
+                        ring_twist=saved["ring_twist"], joint_fillet=saved["joint_fillet"],
+                        skeleton_blend=saved["skeleton_blend"],
                         control_faces=saved["control_faces"])
         # The new binding is computed first: when the edited mesh no longer binds, the old binding stays.
         try:

@@ -270,7 +270,7 @@ def deformed(obj, pose, skeleton=None, render=False):
               untangle_iterations=render_untangle(info) if render else saved["untangle_iterations"],
               fold_guard=saved["fold_guard"], contact_slide=saved["contact_slide"],
               follow_twist=saved["follow_twist"], integrate_skeleton=saved["integrate_skeleton"],
-              ring_twist=saved["ring_twist"],
+              ring_twist=saved["ring_twist"], joint_fillet=saved["joint_fillet"],
               dual_quaternion=saved["skeleton_blend"] == 'DUAL_QUATERNION')
     try:
         rig.deform(pose, out=pos, skeleton=skeleton, **kw)

@@ -151,6 +151,15 @@ struct SkeletalDeformOptions {
   // the surface bone clearance pushes more of a bend's outer side back out. Measurements:
   // bench/notes/skeletal.md, sessions 32-33.
   bool integrate_skeleton = true;
+  // Joint fillets (issue 33's crease), the fillet radius sought over the limb's radius, 0 = off: at
+  // each bent joint (a bone whose head starts at its parent's tail) the posed skeletal mesh follows an
+  // arc tangent to both bones instead of the blend's swing about the joint, and the reconstructed
+  // surface is moved to the same map of the rest surface before the thickness steps (joint_fillet.h:
+  // the band of the weight blend, widened towards this radius; each cross-section turned rigidly,
+  // the band's axis shortened to the arc). Replaces the integration on poses with a bent joint. A
+  // vertex follows by its share of weight on the joint's two bones (fully from 3/4). Rest pose,
+  // rigid motions and pure twists: no change. Measurements: bench/notes/skeletal.md, session 35.
+  double joint_fillet = 2.0;
   // Twist by rings (issue 33): the blend twists a skeletal vertex about a bone's axis by an angle
   // that follows its weight, and where the weights vary around the limb (automatic weights at a
   // knee) a large twist folds the skeletal mesh and the surface rebuilt on it, as it folds dual
