@@ -182,7 +182,8 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                    CONTACT: rig.deform(pose, contact_slide=3),
                    UNTANGLE: rig.deform(pose, untangle_iterations=20),
                    LINEAR: rig.deform(pose, dual_quaternion=False),
-                   BLEND_SKELETON: rig.deform(pose, integrate_skeleton=False)}
+                   NO_FILLET: rig.deform(pose, joint_fillet=0),
+                   BLEND_SKELETON: rig.deform(pose, integrate_skeleton=False, joint_fillet=0)}
         if rig_mr is not None:
             results[MULTIRES] = rig_mr.deform(pose)
             results[MULTIRES_NO_GUARD] = rig_mr.deform(pose, fold_guard=0)
@@ -271,7 +272,9 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
 
 
 LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
-BLEND_SKELETON = "ours on the blend's skeleton (integrate_skeleton=False; the default before session 33)"
+BLEND_SKELETON = ("ours on the blend's skeleton (integrate_skeleton=False, joint_fillet=0; the default before "
+                  "session 33)")
+NO_FILLET = "ours without the joint fillet (joint_fillet=0; the default before session 35)"
 CONTACT = "ours with the joint contact (contact_slide=3; issue 33, off by default)"
 MULTIRES = "ours via multires (5000-face control)"
 UNTANGLE = "ours with the untangling (untangle_iterations=20; issue 33, off by default)"
@@ -599,8 +602,7 @@ def limb_quality(quick):
 
 JOINT_POSES = ("bend 45", "bend 90", "bend 135", "twist 90", "twist 180")
 JOINT_METHODS = ("ours whole mesh", "ours whole mesh, untangle 10", "ours via multires (the operator's path)",
-                 "ours via multires, untangle 10", "ours whole mesh, blend's skeleton",
-                 "ours via multires, blend's skeleton")
+                 "ours via multires, untangle 10", "ours whole mesh, no fillet", "ours via multires, no fillet")
 
 
 def _joint_cases(quick):
@@ -684,8 +686,8 @@ def joints(quick):
                        JOINT_METHODS[1]: whole.deform(pose, untangle_iterations=10),
                        JOINT_METHODS[2]: layered.deform(pose),
                        JOINT_METHODS[3]: layered.deform(pose, untangle_iterations=10),
-                       JOINT_METHODS[4]: whole.deform(pose, integrate_skeleton=False),
-                       JOINT_METHODS[5]: layered.deform(pose, integrate_skeleton=False)}
+                       JOINT_METHODS[4]: whole.deform(pose, joint_fillet=0),
+                       JOINT_METHODS[5]: layered.deform(pose, joint_fillet=0)}
             cell = {}
             for mname, X in results.items():
                 ratio = min_bone_ratio(X, rest, pose, heads, tails, b0, affected)
@@ -693,16 +695,17 @@ def joints(quick):
                 data[f"{model}|{pname}|{mname}"] = dict(pairs=cell[mname][0], min_ratio=ratio)
             dqs_pairs = cell["DQS"][0]
             n_poses += 1
-            # eq. 6.13's thickness error (whole mesh) against each posed skeleton: the blend's and the
-            # integrated one (the default's), over DQS's against the same skeleton.
+            # eq. 6.13's thickness error (whole mesh) against each posed skeleton: the one without the
+            # fillet (the integrated skeleton) and the default's (the fillet's where a joint is bent), over
+            # DQS's against the same skeleton.
             err = {}
-            for sk_name, integrate in (("blend", False), ("integrated", True)):
-                Sk = whole.deform_control(pose, integrate_skeleton=integrate)[1]
+            for sk_name, fillet in (("no fillet", 0.0), ("fillet", None)):
+                Sk = whole.deform_control(pose, **({} if fillet is None else dict(joint_fillet=fillet)))[1]
                 e = {m: float(((union_of_balls_distance(results[m], Sk, whole.radii) - f_rest) ** 2).sum())
                      for m in ("DQS", JOINT_METHODS[0], JOINT_METHODS[4])}
                 err[sk_name] = [e[JOINT_METHODS[0]] / max(e["DQS"], 1e-30), e[JOINT_METHODS[4]] / max(e["DQS"], 1e-30)]
             data[f"{model}|{pname}|thickness_over_dqs"] = err
-            thickness.append([model, pname, *err["blend"], *err["integrated"]])
+            thickness.append([model, pname, *err["no fillet"], *err["fillet"]])
             marks = []
             for m in JOINT_METHODS:
                 pairs, ratio = cell[m]
@@ -720,9 +723,9 @@ def joints(quick):
           "multiresolution layer (5000-face control mesh, half the faces in quick mode: the Skeletal Bind operator's "
           "path above 5000 faces), "
           "each also with Untangle Creases (untangle_iterations=10, the setting for stills; it is off by default "
-          "because the untangled crease jumps between frames, bench skeletal_coherence), and on the blend's skeleton "
-          "(integrate_skeleton=False, the default before session 33: the posed skeletal mesh not rebuilt from its "
-          "turned rest edges). The moving bone (the capsule's second, "
+          "because the untangled crease jumps between frames, bench skeletal_coherence), and without the joint "
+          "fillet (joint_fillet=0, the default before session 35: the posed skeletal mesh integrated from its turned "
+          "rest edges, the surface rebuilt on it). The moving bone (the capsule's second, "
           "the legs' lower bone) bent 45 / 90 / 135 degrees (as skeletal_limb's bend) or twisted 90 / 180 degrees "
           "about its own axis. Each cell: self-intersecting triangle pairs over the whole mesh "
           "(`dgmesh.skeletal.self_intersecting_pairs`) and, in brackets, the minimum ratio of the distance to the "
@@ -734,10 +737,11 @@ def joints(quick):
                 [[m, f"{a} of {n_poses}", f"{b} of {n_poses}", f"{c} of {n_poses}"] for m, (a, b, c) in summary.items()]),
           "", "Pairs at rest: " + ", ".join("%s %d" % (c[0], data[f"{c[0]}|rest_pairs"]) for c in cases) + ".", "",
           "Thickness kept (whole mesh): eq. 6.13's sum (f - f_rest)^2 over the vertices against a posed skeleton, "
-          "over DQS's against the same skeleton, for the defaults (integrated skeleton) and on the blend's skeleton; "
-          "each skeleton as the reference (a surface rebuilt on one skeleton is measured against the other too):", "",
-          table(["mesh", "pose", "defaults, against the blend's skeleton", "blend's skeleton, against the blend's",
-                 "defaults, against the integrated skeleton", "blend's skeleton, against the integrated"],
+          "over DQS's against the same skeleton, for the defaults (the fillet's skeleton on a bent joint) and "
+          "without the fillet (the integrated skeleton); each skeleton as the reference (a surface rebuilt on one "
+          "skeleton is measured against the other too):", "",
+          table(["mesh", "pose", "defaults, against the unfilleted skeleton", "no fillet, against the unfilleted",
+                 "defaults, against the fillet's skeleton", "no fillet, against the fillet's"],
                 thickness), "",
           "Does a bend drive the moved part into the still one? With the whole mesh's rig, the vertices of "
           "each part (all weight on the bones before the moving one / on it and after) inside the other "
@@ -753,7 +757,7 @@ def joints(quick):
 
 
 COHERENCE_METHODS = ("LBS", "DQS", "ours via multires (the operator's path)", "ours via multires, untangle 10",
-                     "ours via multires, blend's skeleton")
+                     "ours via multires, no fillet")
 
 
 def coherence(quick):
@@ -783,7 +787,7 @@ def coherence(quick):
                 paths["DQS"].append(res[f"dqs{p}"])
                 paths[COHERENCE_METHODS[2]].append(layered.deform(pose))
                 paths[COHERENCE_METHODS[3]].append(layered.deform(pose, untangle_iterations=10))
-                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, integrate_skeleton=False))
+                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, joint_fillet=0))
             first += len(angles)
             cells = []
             for m, path in paths.items():
@@ -803,8 +807,8 @@ def coherence(quick):
           "length. A rigid turn by the step gives about 0.02 at the capsule's tip; a jump of the surface "
           "between two frames shows at its full size. Blender's Armature modifier (LBS, Preserve Volume = DQS) "
           "against ours through the multiresolution layer with its defaults, with Untangle Creases "
-          "(untangle_iterations=10) and on the blend's skeleton (integrate_skeleton=False, the default before "
-          "session 33)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
+          "(untangle_iterations=10) and without the joint fillet (joint_fillet=0, the default before "
+          "session 35)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
                                           "armadillo legs", "quick: steps of 3 and 6" if quick else "all frames"), "",
           table(["mesh", "sweep", "frames (with two neighbours)", *COHERENCE_METHODS], rows), "",
           "`/usr/bin/python3 bench/run.py skeletal_coherence`"]
