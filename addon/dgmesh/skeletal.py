@@ -177,7 +177,8 @@ class SkeletalRig:
                projection: float = _DEFORM.projection, out: np.ndarray | None = None,
                dual_quaternion: bool = _DEFORM.dual_quaternion,
                integrate_skeleton: bool = _DEFORM.integrate_skeleton, ring_twist: bool = _DEFORM.ring_twist,
-               joint_fillet: float = _DEFORM.joint_fillet, bone_clearance: float = _DEFORM.bone_clearance, contact_slide: float = _DEFORM.contact_slide,
+               joint_fillet: float = _DEFORM.joint_fillet, bone_clearance: float = _DEFORM.bone_clearance,
+               contact_slide: float = _DEFORM.contact_slide,
                untangle_iterations: int = _DEFORM.untangle_iterations,
                untangle_rings: int = _DEFORM.untangle_rings, follow_twist: bool = _DEFORM.follow_twist,
                fold_guard: int = _DEFORM.fold_guard, skeleton: npt.ArrayLike | None = None) -> np.ndarray:

@@ -58,7 +58,8 @@ from bpy.props import BoolProperty, EnumProperty, FloatProperty, IntProperty, St
 
 from ..core import MeshError
 from ..skeletal import SkeletalDeformOptions, SkeletalMethod, SkeletalRig, SkeletalRigOptions
-from ..skeletal_data import SCHEMA_VERSION, contact_slide_ok, encode_arrays, joint_fillet_ok, render_untangle, saved_options, write_pc2
+from ..skeletal_data import (SCHEMA_VERSION, contact_slide_ok, encode_arrays, joint_fillet_ok, render_untangle,
+                             saved_options, write_pc2)
 from . import bridge, compat
 from .common import enum_id, enum_items, plural, poll_fail as _poll_fail, read_only_reason, set_handlers
 from .skeletal_live import (HANDLERS, edited, helper_node_group, helper_object, link_skeleton, move_first,
