@@ -33,8 +33,9 @@ std::optional<JointFillet> joint_fillet(const Eigen::Matrix4d& relative, const V
   if (!relative.allFinite() || !joint.allFinite() || !parent_dir.allFinite() || !child_dir.allFinite() ||
       !std::isfinite(blend_extent) || !std::isfinite(limb_radius) || !std::isfinite(min_bone_length))
     throw MeshError("joint_fillet: inputs must be finite");
-  if (!(opt.radius_scale > 0) || !(opt.reach > 0) || !std::isfinite(opt.radius_scale) || !std::isfinite(opt.reach))
-    throw MeshError("joint_fillet: radius_scale and reach must be positive and finite");
+  if (!(opt.radius_scale > 0) || !(opt.reach > 0) || !std::isfinite(opt.radius_scale) || !std::isfinite(opt.reach) ||
+      !(opt.fade >= 0) || !std::isfinite(opt.fade))
+    throw MeshError("joint_fillet: radius_scale and reach must be positive and finite, fade >= 0");
   if (!(parent_dir.norm() > 1e-12) || !(child_dir.norm() > 1e-12) || !(limb_radius > 0)) return std::nullopt;
   JointFillet f;
   f.joint = joint;
@@ -61,6 +62,10 @@ std::optional<JointFillet> joint_fillet(const Eigen::Matrix4d& relative, const V
   f.radius = f.half_length / h;
   const double s = std::clamp(f.bend / kOnset, 0.0, 1.0);
   f.weight = s * s * (3 - 2 * s);
+  if (opt.fade > 0) {
+    const double q = std::clamp((f.radius / limb_radius / opt.fade - 2.0 / 3) * 3, 0.0, 1.0);
+    f.weight *= q * q * (3 - 2 * q);
+  }
   return f;
 }
 

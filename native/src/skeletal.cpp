@@ -483,7 +483,8 @@ struct SkeletalRig::Impl {
     bool ring = false;            // the twist shared by the ring weights (ring_twist acted on the pose)
   };
   void setup_fillets();
-  std::vector<PosedFillet> pose_fillets(const std::vector<Mat4>& pose, double radius_scale, bool ring) const;
+  std::vector<PosedFillet> pose_fillets(const std::vector<Mat4>& pose, double radius_scale, bool ring,
+                                        double fade) const;
   void fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vector<PosedFillet>& fillets) const;
   void fillet_surface(MatX3d& X, const std::vector<PosedFillet>& fillets, const std::vector<char>& edited) const;
   double fillet_twist_share(const PosedFillet& pf, int i, double wc) const {
@@ -1506,6 +1507,9 @@ constexpr double kSkeletonAnchor = 0.1;
 // The integrated skeletal vertices' clearance from their bones, as a fraction of the rest distance
 // (see pose_skeleton).
 constexpr double kIntegrationClearance = 0.5;
+// The joint fillet's fade with the untangling on, in limb radii of the fillet's radius (see
+// pose_skeleton and JointFilletOptions::fade).
+constexpr double kUntangleFilletFade = 1.2;
 
 void SkeletalRig::Impl::setup_integration() {
   const int n = static_cast<int>(S.rows()), g = static_cast<int>(reps.size());
@@ -1622,10 +1626,12 @@ void SkeletalRig::Impl::setup_fillets() {
 }
 
 std::vector<SkeletalRig::Impl::PosedFillet> SkeletalRig::Impl::pose_fillets(const std::vector<Mat4>& pose,
-                                                                            double radius_scale, bool ring) const {
+                                                                            double radius_scale, bool ring,
+                                                                            double fade) const {
   std::vector<PosedFillet> out;
   JointFilletOptions o;
   o.radius_scale = radius_scale;
+  o.fade = fade;
   for (const FilletJoint& j : fillet_joints) {
     const Mat4 P = pose[j.p] * rest[j.p].inverse(), M = P.inverse() * (pose[j.c] * rest[j.c].inverse());
     const auto f = joint_fillet(M, bone_head[j.c], bone_vec[j.p], bone_vec[j.c], j.blend_extent, j.radius,
@@ -2149,8 +2155,28 @@ MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const Ske
   double dropped = 0;
   const bool followed = twist && (twist_free_pose(pose, dropped), dropped > 1e-6);
   std::vector<PosedFillet> fl;
-  if (opt.joint_fillet > 0 && !followed) fl = pose_fillets(pose, opt.joint_fillet, ring);
-  if (!fl.empty()) {
+  const bool untangling =
+      opt.untangle_iterations > 0 && opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0;
+  if (opt.joint_fillet > 0 && !followed)
+    fl = pose_fillets(pose, opt.joint_fillet, ring, untangling ? kUntangleFilletFade : 0.0);
+  if (untangling) {
+    // With the untangling the fillet fades out in tight bends (its radius below kUntangleFilletFade
+    // limb radii) and the integrated skeleton is the base it is blended from: the untangling's joint
+    // contact slide clears the colliding limbs of a 135-degree bend from there, not from a fillet
+    // that cannot clear its inner side (bench skeletal_joints, untangle 10 through the layer: the
+    // armadillo's knee 404 -> 49 pairs, DQS 308; bench/notes/skeletal.md, session 35).
+    if (opt.integrate_skeleton && !followed) {
+      integrate_skeleton(Sd, lin, pose);
+      clear_bones(Sd, pose, kIntegrationClearance);
+    }
+    if (!fl.empty()) {
+      double w = 0;
+      for (const PosedFillet& pf : fl) w = std::max(w, pf.fillet.weight);
+      fillet_skeleton(Sd, lin, fl);
+      clear_bones(Sd, pose, kIntegrationClearance + (1 - kIntegrationClearance) * w);
+      if (fillets) *fillets = std::move(fl);
+    }
+  } else if (!fl.empty()) {
     // The bent joints' fillets instead of the integration (which turns the axis as the weights do,
     // by the whole bend inside the blend); then every skeletal vertex back out to its rest distance
     // from its bones (the arc cuts the joint's corner).

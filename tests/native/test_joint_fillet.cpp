@@ -106,6 +106,23 @@ TEST(JointFillet, BlendedInOverTheFirstTenDegrees) {
   EXPECT_NEAR(five->weight, 0.5, 1e-12);  // smoothstep at the onset's half
 }
 
+TEST(JointFillet, FadesOutWhereItsRadiusFallsBelowTheFadesLimbRadii) {
+  JointFilletOptions o;
+  o.fade = 1.2;
+  // 90 degrees: R_f = 1 = 2 limb radii, no fade; 135 degrees: R_f = 0.62 limb radii, below 0.8: gone;
+  // in between, smoothstep of (R_f / r / 1.2 - 2/3) * 3.
+  const auto at = [&](double a) {
+    return joint_fillet(turn(Vec3::UnitZ(), a), Vec3::Zero(), Vec3::UnitX(), Vec3::UnitX(), 0.3, 0.5, 3.5, o);
+  };
+  EXPECT_DOUBLE_EQ(at(M_PI / 2)->weight, 1.0);
+  EXPECT_DOUBLE_EQ(at(0.75 * M_PI)->weight, 0.0);
+  const auto mid = at(2 * M_PI / 3);  // R_f = r tan 60 / (1 / cos 60 - 1) / tan 60 = r
+  const double q = (1.0 / 1.2 - 2.0 / 3) * 3;
+  EXPECT_NEAR(mid->weight, q * q * (3 - 2 * q), 1e-12);
+  o.fade = -1;
+  EXPECT_THROW(at(M_PI / 2), MeshError);
+}
+
 TEST(JointFillet, RefusesNonFiniteInputAndBadOptions) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   EXPECT_THROW(joint_fillet(turn(Vec3::UnitZ(), 1.0), Vec3(nan, 0, 0), Vec3::UnitX(), Vec3::UnitX(), 0.3, 0.5, 3.5),

@@ -39,6 +39,9 @@ namespace dgmesh {
 struct JointFilletOptions {
   double radius_scale = 2.0;  // k: the fillet radius sought, over the limb's radius (> 0)
   double reach = 0.5;         // the band's half-length at most this times the shorter bone
+  // > 0: the fillet's weight also fades out (smoothstep) as its radius falls from this many limb
+  // radii to two thirds of it (in tight bends the arc cannot clear the inner side; 0: no fade).
+  double fade = 0.0;
 };
 
 // One joint in one pose. `map` takes a rest point, its axial coordinate t (of the point whose
