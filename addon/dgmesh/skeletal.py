@@ -233,8 +233,11 @@ class SkeletalRig:
         swings through the joint and a tube around an axis bent tighter than its radius crosses
         itself on the inner side (skeletal_joints' capsule bent 90 degrees on the whole mesh: 762
         crossing pairs without, 0 with; DQS 95). A vertex follows by its share of weight on the
-        joint's two bones. Replaces the integration on poses with a bent joint; rest pose, rigid
-        motions and pure twists are unchanged (bench/notes/skeletal.md, session 35).
+        joint's two bones. Replaces the integration on poses with a bent joint; with
+        ``untangle_iterations`` > 0 it fades out where its radius falls below 1.2 limb radii (tight
+        bends) and is blended from the integrated skeleton, from which the untangling slides colliding
+        limbs apart. Rest pose, rigid motions and pure twists are unchanged (bench/notes/skeletal.md,
+        session 35).
         ``bone_clearance`` (variational method): after the thickness steps each control vertex is
         pushed radially out until its distance to the posed segments of the bones it has weight on
         and of their parent bones (their union) is at least this fraction of its rest distance to

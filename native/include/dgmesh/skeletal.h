@@ -157,8 +157,11 @@ struct SkeletalDeformOptions {
   // surface is moved to the same map of the rest surface before the thickness steps (joint_fillet.h:
   // the band of the weight blend, widened towards this radius; each cross-section turned rigidly,
   // the band's axis shortened to the arc). Replaces the integration on poses with a bent joint. A
-  // vertex follows by its share of weight on the joint's two bones (fully from 3/4). Rest pose,
-  // rigid motions and pure twists: no change. Measurements: bench/notes/skeletal.md, session 35.
+  // vertex follows by its share of weight on the joint's two bones (fully from 3/4). With the
+  // untangling on (untangle_iterations > 0) it fades out where its radius falls below 1.2 limb radii
+  // and is blended from the integrated skeleton, from which the untangling's slide clears a tight
+  // bend. Rest pose, rigid motions and pure twists: no change. Measurements:
+  // bench/notes/skeletal.md, session 35.
   double joint_fillet = 2.0;
   // Twist by rings (issue 33): the blend twists a skeletal vertex about a bone's axis by an angle
   // that follows its weight, and where the weights vary around the limb (automatic weights at a
