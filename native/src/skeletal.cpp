@@ -473,6 +473,9 @@ struct SkeletalRig::Impl {
   struct FilletJoint {
     int p = -1, c = -1;
     double blend_extent = 0, radius = 0;
+    // The control vertices with a share of the joint (fillet_share > 0), by their own weights (the
+    // surface) and by their coincident group's (the skeletal mesh): a pose visits only these.
+    std::vector<int> surface, skeleton;
   };
   std::vector<FilletJoint> fillet_joints;
   struct PosedFillet {
@@ -1510,6 +1513,8 @@ constexpr double kIntegrationClearance = 0.5;
 // The joint fillet's fade with the untangling on, in limb radii of the fillet's radius (see
 // pose_skeleton and JointFilletOptions::fade).
 constexpr double kUntangleFilletFade = 1.2;
+// Below this share of weight on a joint's two bones a vertex does not follow its fillet (fillet_share).
+constexpr double kFilletShareMin = 0.25;
 
 void SkeletalRig::Impl::setup_integration() {
   const int n = static_cast<int>(S.rows()), g = static_cast<int>(reps.size());
@@ -1621,7 +1626,13 @@ void SkeletalRig::Impl::setup_fillets() {
               std::sqrt(std::min(segment_sq_dist(x, J - bone_vec[p], J), segment_sq_dist(x, J, J + bone_vec[c]))));
       }
       f.radius = radius.empty() ? 0.0 : median(radius);
-      if (f.radius > 0) fillet_joints.push_back(f);
+      if (!(f.radius > 0)) continue;
+      for (int i = 0; i < n; ++i) {
+        if (W(i, p) + W(i, c) > kFilletShareMin) f.surface.push_back(i);
+        const int r = reps[rep_of[i]];
+        if (W(r, p) + W(r, c) > kFilletShareMin) f.skeleton.push_back(i);
+      }
+      fillet_joints.push_back(std::move(f));
     }
 }
 
@@ -1646,7 +1657,7 @@ std::vector<SkeletalRig::Impl::PosedFillet> SkeletalRig::Impl::pose_fillets(cons
 // the hip, keeps its blend).
 namespace {
 double fillet_share(double w) {
-  const double s = std::clamp((w - 0.25) / 0.5, 0.0, 1.0);
+  const double s = std::clamp((w - kFilletShareMin) / 0.5, 0.0, 1.0);
   return s * s * (3 - 2 * s);
 }
 // A vertex weighted to one of the two bones alone but lying on the other's side of the joint (e.g. a
@@ -1661,16 +1672,16 @@ bool against_side(double t, double wc) { return (wc <= 0 && t > 0) || (wc >= 1 &
 // fillet's onset and the vertex's share of the joint (fillet_share). Outside the band a vertex the
 // two bones carry alone is where the blend puts it, and is skipped; so is one against_side.
 void SkeletalRig::Impl::fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vector<PosedFillet>& fillets) const {
-  const int n = static_cast<int>(S.rows());
   const Eigen::Quaterniond id = Eigen::Quaterniond::Identity();
   for (const PosedFillet& pf : fillets) {
     const FilletJoint& j = *pf.joint;
     const JointFillet& f = pf.fillet;
     const Mat3 PL = pf.parent.block<3, 3>(0, 0), PR = nearest_rotation(PL);
     const Vec3 Pt = pf.parent.block<3, 1>(0, 3);
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int i = 0; i < n; ++i) {
-      const int r = reps[rep_of[i]];
+    const int m = static_cast<int>(j.skeleton.size());
+#pragma omp parallel for schedule(static) if (m >= kParallelMin)
+    for (int k = 0; k < m; ++k) {
+      const int i = j.skeleton[k], r = reps[rep_of[i]];
       const double sum = W(r, j.p) + W(r, j.c), g = f.weight * fillet_share(sum);
       if (!(g > 0)) continue;
       const double wc = W(r, j.c) / sum, t = f.t_of(row3(control.V, r));
@@ -1695,14 +1706,15 @@ void SkeletalRig::Impl::fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vect
 // (deform_skeleton) keeps its reconstruction: the map knows nothing of the edit.
 void SkeletalRig::Impl::fillet_surface(MatX3d& X, const std::vector<PosedFillet>& fillets,
                                        const std::vector<char>& edited) const {
-  const int n = static_cast<int>(X.rows());
   for (const PosedFillet& pf : fillets) {
     const FilletJoint& j = *pf.joint;
     const JointFillet& f = pf.fillet;
     const Mat3 PL = pf.parent.block<3, 3>(0, 0);
     const Vec3 Pt = pf.parent.block<3, 1>(0, 3);
-#pragma omp parallel for schedule(static) if (n >= kParallelMin)
-    for (int i = 0; i < n; ++i) {
+    const int m = static_cast<int>(j.surface.size());
+#pragma omp parallel for schedule(static) if (m >= kParallelMin)
+    for (int k = 0; k < m; ++k) {
+      const int i = j.surface[k];
       const double sum = W(i, j.p) + W(i, j.c), g = f.weight * fillet_share(sum);
       if (!(g > 0) || (!edited.empty() && edited[i])) continue;
       const Vec3 x0 = row3(control.V, i);
