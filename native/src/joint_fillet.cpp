@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dgmesh/detail/math.h"
 #include "dgmesh/detail/skeletal_util.h"
 #include "dgmesh/errors.h"
 
@@ -40,7 +41,7 @@ std::optional<JointFillet> joint_fillet(const Eigen::Matrix4d& relative, const V
   JointFillet f;
   f.joint = joint;
   f.child_axis = child_dir.normalized();
-  const Eigen::Matrix3d M = detail::nearest_rotation(relative.block<3, 3>(0, 0));
+  const Eigen::Matrix3d M = f.relative = detail::nearest_rotation(relative.block<3, 3>(0, 0));
   const Vec3 b = M * f.child_axis, c = f.child_axis.cross(b);
   f.bend = std::atan2(c.norm(), f.child_axis.dot(b));
   if (!(f.bend > 1e-4) || f.bend > M_PI - 1e-3) return std::nullopt;
@@ -60,12 +61,8 @@ std::optional<JointFillet> joint_fillet(const Eigen::Matrix4d& relative, const V
                std::min({opt.radius_scale * limb_radius * h, opt.reach * min_bone_length, limb_radius * h / shift}));
   if (!(f.half_length > 0)) return std::nullopt;
   f.radius = f.half_length / h;
-  const double s = std::clamp(f.bend / kOnset, 0.0, 1.0);
-  f.weight = s * s * (3 - 2 * s);
-  if (opt.fade > 0) {
-    const double q = std::clamp((f.radius / limb_radius / opt.fade - 2.0 / 3) * 3, 0.0, 1.0);
-    f.weight *= q * q * (3 - 2 * q);
-  }
+  f.weight = detail::smoothstep(f.bend / kOnset);
+  if (opt.fade > 0) f.weight *= detail::smoothstep((f.radius / limb_radius / opt.fade - 2.0 / 3) * 3);
   return f;
 }
 

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "dgmesh/delaunay.h"
+#include "dgmesh/detail/math.h"
 #include "dgmesh/detail/skeletal_util.h"
 #include "dgmesh/errors.h"
 #include "dgmesh/geometry.h"
@@ -481,9 +482,8 @@ struct SkeletalRig::Impl {
   struct PosedFillet {
     const FilletJoint* joint = nullptr;
     JointFillet fillet;
-    Mat4 parent;                  // the parent bone's motion pose * rest^-1
-    Eigen::Quaterniond relative;  // the child's rotation relative to the parent's
-    bool ring = false;            // the twist shared by the ring weights (ring_twist acted on the pose)
+    Mat4 parent;        // the parent bone's motion pose * rest^-1
+    bool ring = false;  // the twist shared by the ring weights (ring_twist acted on the pose)
   };
   void setup_fillets();
   std::vector<PosedFillet> pose_fillets(const std::vector<Mat4>& pose, double radius_scale, bool ring,
@@ -1647,7 +1647,7 @@ std::vector<SkeletalRig::Impl::PosedFillet> SkeletalRig::Impl::pose_fillets(cons
     const Mat4 P = pose[j.p] * rest[j.p].inverse(), M = P.inverse() * (pose[j.c] * rest[j.c].inverse());
     const auto f = joint_fillet(M, bone_head[j.c], bone_vec[j.p], bone_vec[j.c], j.blend_extent, j.radius,
                                 std::min(bone_vec[j.p].norm(), bone_vec[j.c].norm()), o);
-    if (f) out.push_back({&j, *f, P, Eigen::Quaterniond(nearest_rotation(M.block<3, 3>(0, 0))), ring});
+    if (f) out.push_back({&j, *f, P, ring});
   }
   return out;
 }
@@ -1656,10 +1656,7 @@ std::vector<SkeletalRig::Impl::PosedFillet> SkeletalRig::Impl::pose_fillets(cons
 // 3/4, not below 1/4 (a vertex mostly on other bones, e.g. the other leg's foot weighted a little to
 // the hip, keeps its blend).
 namespace {
-double fillet_share(double w) {
-  const double s = std::clamp((w - kFilletShareMin) / 0.5, 0.0, 1.0);
-  return s * s * (3 - 2 * s);
-}
+double fillet_share(double w) { return detail::smoothstep((w - kFilletShareMin) / 0.5); }
 // A vertex weighted to one of the two bones alone but lying on the other's side of the joint (e.g. a
 // tip painted to the parent bone) is not a cross-section of the band: it keeps its blend.
 bool against_side(double t, double wc) { return (wc <= 0 && t > 0) || (wc >= 1 && t < 0); }
@@ -1676,6 +1673,7 @@ void SkeletalRig::Impl::fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vect
   for (const PosedFillet& pf : fillets) {
     const FilletJoint& j = *pf.joint;
     const JointFillet& f = pf.fillet;
+    const Eigen::Quaterniond relative(f.relative);
     const Mat3 PL = pf.parent.block<3, 3>(0, 0), PR = nearest_rotation(PL);
     const Vec3 Pt = pf.parent.block<3, 1>(0, 3);
     const int m = static_cast<int>(j.skeleton.size());
@@ -1690,7 +1688,7 @@ void SkeletalRig::Impl::fillet_skeleton(MatX3d& Sd, MatX9d& lin, const std::vect
       const Vec3 y = PL * f.map(row3(S, i), t, fillet_twist_share(pf, r, wc), R) + Pt;
       Sd.row(i) += (g * (y - row3(Sd, i))).transpose();
       Eigen::Map<Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> Li(lin.row(i).data());
-      const Mat3 L0 = Li, Rb = id.slerp(wc, pf.relative).toRotationMatrix(),
+      const Mat3 L0 = Li, Rb = id.slerp(wc, relative).toRotationMatrix(),
                  L1 = PR * R * Rb.transpose() * PR.transpose() * L0;
       const Eigen::Quaterniond q0(L0), q1(L1);
       Li = q0.slerp(g, q1).toRotationMatrix();
@@ -1718,10 +1716,10 @@ void SkeletalRig::Impl::fillet_surface(MatX3d& X, const std::vector<PosedFillet>
       const double sum = W(i, j.p) + W(i, j.c), g = f.weight * fillet_share(sum);
       if (!(g > 0) || (!edited.empty() && edited[i])) continue;
       const Vec3 x0 = row3(control.V, i);
-      const double wc = W(i, j.c) / sum;
-      if (against_side(f.t_of(x0), wc)) continue;
+      const double wc = W(i, j.c) / sum, t = f.t_of(x0);
+      if (against_side(t, wc)) continue;
       Mat3 R;
-      const Vec3 y = PL * f.map(x0, f.t_of(x0), fillet_twist_share(pf, i, wc), R) + Pt;
+      const Vec3 y = PL * f.map(x0, t, fillet_twist_share(pf, i, wc), R) + Pt;
       X.row(i) += (g * (y - row3(X, i))).transpose();
     }
   }

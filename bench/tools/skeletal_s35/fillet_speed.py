@@ -15,13 +15,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[3]
 sys.path[:0] = [str(ROOT / "addon"), str(ROOT)]
 import dgmesh  # noqa: E402
-from bench.common import loop_subdivide, median_time  # noqa: E402
-from bench.workloads.skeletal import _bone, _rot  # noqa: E402
-from dgmesh.skeletal import capsule, self_intersecting_pairs  # noqa: E402
+from bench.common import median_time  # noqa: E402
+from bench.workloads.skeletal import _rot, speed_capsule  # noqa: E402
+from dgmesh.skeletal import self_intersecting_pairs  # noqa: E402
 
-V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
-V, F = loop_subdivide(V0, F0, 2)
-rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
+V, F, rest, _, _ = speed_capsule()
 rig = dgmesh.SkeletalRig.bind(V, F, rest, None, control_faces=5000)
 print("dense vertices", len(V), "load", os.getloadavg())
 out32 = np.empty((rig.n_vertices, 3), dtype=np.float32)

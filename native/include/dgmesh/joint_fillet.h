@@ -49,7 +49,7 @@ struct JointFilletOptions {
 // its position relative to the parent's motion (apply parent_motion after); R receives the rotation.
 struct JointFillet {
   Vec3 joint, axis, inner, bend_axis, child_axis;
-  Eigen::Matrix3d swing;
+  Eigen::Matrix3d relative, swing;  // the child's rotation relative to the parent, and its swing part
   double bend = 0, twist = 0, half_length = 0, radius = 0;
   double weight = 0;  // the fillet's blend weight in [0, 1] (0 at a straight joint, 1 past the onset)
   double t_of(const Vec3& rest_point) const { return (rest_point - joint).dot(axis); }
