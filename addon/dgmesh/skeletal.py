@@ -233,7 +233,9 @@ class SkeletalRig:
         swings through the joint and a tube around an axis bent tighter than its radius crosses
         itself on the inner side (skeletal_joints' capsule bent 90 degrees on the whole mesh: 762
         crossing pairs without, 0 with; DQS 95). A vertex follows by its share of weight on the
-        joint's two bones. Replaces the integration on poses with a bent joint; with
+        joint's two bones, and turns by its share of the child's twist from the :attr:`ring_weights`
+        (with ``ring_twist``; the weights, where they vary around the limb, fold a bent and twisted
+        joint). Replaces the integration on poses with a bent joint; with
         ``untangle_iterations`` > 0 it fades out where its radius falls below 1.2 limb radii (tight
         bends) and is blended from the integrated skeleton, from which the untangling slides colliding
         limbs apart. Rest pose, rigid motions and pure twists are unchanged (bench/notes/skeletal.md,

@@ -483,7 +483,7 @@ struct SkeletalRig::Impl {
     const FilletJoint* joint = nullptr;
     JointFillet fillet;
     Mat4 parent;        // the parent bone's motion pose * rest^-1
-    bool ring = false;  // the twist shared by the ring weights (ring_twist acted on the pose)
+    bool ring = false;  // the child's twist shared by the ring weights (SkeletalDeformOptions::ring_twist)
   };
   void setup_fillets();
   std::vector<PosedFillet> pose_fillets(const std::vector<Mat4>& pose, double radius_scale, bool ring,
@@ -2167,8 +2167,13 @@ MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const Ske
   std::vector<PosedFillet> fl;
   const bool untangling =
       opt.untangle_iterations > 0 && opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0;
+  // The fillet turns each cross-section by its share of the child's twist: by the ring weights
+  // whether or not the pose's twist dominates (the capsule of bench skeletal_speed, bound without
+  // weights, bent 60 and twisted 45 degrees: 734 crossing pairs shared by its weights, which vary
+  // around the limb, none by the ring weights; bench/notes/skeletal.md, session 36).
   if (opt.joint_fillet > 0 && !followed)
-    fl = pose_fillets(pose, opt.joint_fillet, ring, untangling ? kUntangleFilletFade : 0.0);
+    fl = pose_fillets(pose, opt.joint_fillet, opt.ring_twist && W_ring.rows() == S.rows(),
+                      untangling ? kUntangleFilletFade : 0.0);
   if (untangling) {
     // With the untangling the fillet fades out in tight bends (its radius below kUntangleFilletFade
     // limb radii) and the integrated skeleton is the base it is blended from: the untangling's joint

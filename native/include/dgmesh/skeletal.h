@@ -157,7 +157,9 @@ struct SkeletalDeformOptions {
   // surface is moved to the same map of the rest surface before the thickness steps (joint_fillet.h:
   // the band of the weight blend, widened towards this radius; each cross-section turned rigidly,
   // the band's axis shortened to the arc). Replaces the integration on poses with a bent joint. A
-  // vertex follows by its share of weight on the joint's two bones (fully from 3/4). With the
+  // vertex follows by its share of weight on the joint's two bones (fully from 3/4), and turns by
+  // its share of the child's twist, from the ring weights with ring_twist on (a cross-section turns
+  // as one; the weights, where they vary around the limb, fold a bent and twisted joint). With the
   // untangling on (untangle_iterations > 0) it fades out where its radius falls below 1.2 limb radii
   // and is blended from the integrated skeleton, from which the untangling's slide clears a tight
   // bend. Rest pose, rigid motions and pure twists: no change. Measurements:
