@@ -265,12 +265,14 @@ class SkeletalRig:
         lower the count is undone and the next takes one ring more. Pairs that cross at rest are
         left alone. Through the multiresolution layer the dense mesh too. Off by default (each
         iteration is a self-intersection search); see bench/notes/skeletal.md for what it measured.
-        ``follow_twist`` (variational method): measure the thickness (eq. 6.13) and fit the frames
-        (eq. 6.8) in the twist-free pose (each bone's twist about its own axis relative to its parent
-        dropped), each vertex carried there by its own blended twist: a twisted medial sheet's balls
-        then stay where the twisted flesh is (see bench/notes/skeletal.md, issue 33). Only a twist
-        that dominates its bone's swing is dropped (a bend that carries a twist keeps it). Same result
-        as without it for poses without such a twist.
+        ``follow_twist`` (default True; variational method with the dual quaternion skeleton): measure
+        the thickness (eq. 6.13) and fit the frames (eq. 6.8) in the twist-free pose (each bone's twist
+        about its own axis relative to its parent dropped), each vertex carried there by its own
+        blended twist: a twisted medial sheet's balls then stay where the twisted flesh is, instead of
+        pushing it out (bench skeletal_blender's armadillo twisted 180 degrees at the waist: 2500
+        crossing pairs and volume 1.125 without, 0 and 0.998 with; DQS 0; see bench/notes/skeletal.md,
+        sessions 25 and 36). Only a twist that dominates its bone's swing is dropped (a bend that
+        carries a twist keeps it). Same result as without it for poses without such a twist.
         ``fold_guard`` (variational method, fairing on; iterations, 0 = off; on by default): after
         the thickness steps, the faces they turned over (normal against the bare reconstruction's,
         eq. 6.11; through the multiresolution layer, against the dense mesh's limit surface before
@@ -389,11 +391,9 @@ class SkeletalRig:
                 if v.size != 1:
                     raise MeshError(f"bind data {k!r} must be a single value, got shape {v.shape}")
                 d[k] = kind(v.reshape(-1)[0], f"bind data {k!r}")
-        for k in ("control_F", "mr_control_F", "mr_face", "mr_dense_F", "mr_dense_bones"):
+        for k in ("control_F", "mr_control_F", "mr_face", "mr_dense_F"):
             if k in d:
                 d[k] = np.ascontiguousarray(d[k], dtype=np.int32)
-        if "mr_dense_weights" in d:
-            d["mr_dense_weights"] = np.ascontiguousarray(d["mr_dense_weights"], dtype=np.float32)
         return cls(_native.SkeletalRig.from_data(d))
 
     def save(self, path: str | bytes | os.PathLike) -> None:

@@ -300,10 +300,6 @@ void bind_skeletal(pb::module_& m) {
                o["mr_st"] = d.multires.st;
                o["mr_disp"] = d.multires.disp;
                o["mr_dense_F"] = d.dense_F;
-               if (d.dense_bones.rows() > 0) {
-                 o["mr_dense_bones"] = d.dense_bones;
-                 o["mr_dense_weights"] = d.dense_weights;
-               }
              }
              return o;
            })
@@ -328,10 +324,8 @@ void bind_skeletal(pb::module_& m) {
           d.multires.st = get<MatX2d>(o, "mr_st");
           d.multires.disp = get<MatX3d>(o, "mr_disp");
           if (o.contains("mr_dense_F")) d.dense_F = get<MatX3i>(o, "mr_dense_F");  // absent in older data
-          if (o.contains("mr_dense_bones")) {  // absent in older data and without weights
-            d.dense_bones = get<MatX4iDense>(o, "mr_dense_bones");
-            d.dense_weights = get<MatX4fDense>(o, "mr_dense_weights");
-          }
+          // (mr_dense_bones / mr_dense_weights, kept by data saved in sessions 25-35 for follow_twist
+          // through the layer, are no longer read.)
         }
         NativeScope nogil;
         return SkeletalRig::from_data(d);

@@ -345,9 +345,6 @@ struct Twist {
   std::vector<Vec3> t;
   MatX3d Ss;
   std::vector<Eigen::Quaterniond> qr, qd;
-  // Per bone, its motion in the pose (pq, pd) and in the twist-free pose (fq, fd) as dual quaternions
-  // (the dense vertices with their own weights, see project_dense).
-  std::vector<Eigen::Quaterniond> pq, pd, fq, fd;
   std::vector<Mat4> free_pose;  // the twist-free pose's matrices
   Vec3 to_free(int i, const Vec3& x) const { return R[i].transpose() * (x - t[i]); }
   // A point's twist from weights b over the control vertices c (dual quaternion blend).
@@ -359,26 +356,6 @@ struct Twist {
       d += sgn * b[m] * qd[c[m]].coeffs();
     }
     if (!dual_quaternion_motion(r, d, Rb, tb)) Rb = R[c[0]], tb = t[c[0]];
-  }
-  // The dual quaternion blend of the bone motions (q, d) with the weights w[k] of the bones j[k], as R, t.
-  static void bone_blend(const int* j, const float* w, int k, const std::vector<Eigen::Quaterniond>& q,
-                         const std::vector<Eigen::Quaterniond>& d, Mat3& Rb, Vec3& tb) {
-    Eigen::Vector4d r = Eigen::Vector4d::Zero(), dd = Eigen::Vector4d::Zero();
-    for (int m = 0; m < k && j[m] >= 0; ++m) {
-      const double sgn = q[j[m]].coeffs().dot(q[j[0]].coeffs()) < 0 ? -1.0 : 1.0;
-      r += sgn * w[m] * q[j[m]].coeffs();
-      dd += sgn * w[m] * d[j[m]].coeffs();
-    }
-    if (!dual_quaternion_motion(r, dd, Rb, tb)) Rb.setIdentity(), tb.setZero();
-  }
-  // A point's twist M = T U^-1 from its own bone weights (bones j, weights w, the largest first).
-  void own(const int* j, const float* w, int k, Mat3& Rb, Vec3& tb) const {
-    Mat3 RT, RU;
-    Vec3 tT, tU;
-    bone_blend(j, w, k, pq, pd, RT, tT);
-    bone_blend(j, w, k, fq, fd, RU, tU);
-    Rb = RT * RU.transpose();
-    tb = tT - Rb * tU;
   }
 };
 
@@ -422,11 +399,6 @@ struct SkeletalRig::Impl {
   // and the contact plane's margin (a hundredth of the median medial radius).
   MatX3d dense_rest;
   double contact_margin = 0;
-  // follow_twist through the multiresolution layer: each dense vertex's kDenseWeights largest bone
-  // weights (bones, -1 padded; weights normalised), from bind (SkeletalRigData::dense_weights).
-  static constexpr int kDenseWeights = SkeletalRigData::kDenseWeights;
-  MatX4iDense dense_wj;
-  MatX4fDense dense_ww;
   // Untangling through the multiresolution layer (see untangle_dense): the dense faces (empty for
   // data saved without them), their one-ring CSR and the faces with a vertex not in dense_rigid.
   MatX3i dense_F;
@@ -462,7 +434,6 @@ struct SkeletalRig::Impl {
 
   void setup();
   void setup_clearance();
-  void set_dense_weights(const Eigen::MatrixXd& Wd);
   void posed_segments(const std::vector<Mat4>& pose, std::vector<Vec3>& h, std::vector<Vec3>& v) const;
   void clear_bones(MatX3d& Sd, const std::vector<Mat4>& pose, double fraction = 1) const;
   void setup_integration();
@@ -622,24 +593,6 @@ struct SkeletalRig::Impl {
                      const std::vector<char>* edited = nullptr) const;
   MatX3d basic(const MatX3d& Sd, const SkeletalDeformOptions& opt) const;
 };
-
-// The kDenseWeights largest weights of each dense vertex (rows of Wd), normalised.
-void SkeletalRig::Impl::set_dense_weights(const Eigen::MatrixXd& Wd) {
-  const Eigen::Index n = Wd.rows();
-  const int B = static_cast<int>(Wd.cols());
-  dense_wj.setConstant(n, kDenseWeights, -1);
-  dense_ww.setZero(n, kDenseWeights);
-  std::vector<int> order(B);
-  for (Eigen::Index i = 0; i < n; ++i) {
-    for (int j = 0; j < B; ++j) order[j] = j;
-    const int k = std::min(B, kDenseWeights);
-    std::partial_sort(order.begin(), order.begin() + k, order.end(), [&](int a, int b) { return Wd(i, a) > Wd(i, b); });
-    double sum = 0;
-    for (int m = 0; m < k; ++m) sum += Wd(i, order[m]);
-    for (int m = 0; m < k && sum > 0; ++m)
-      if (Wd(i, order[m]) > 0) dense_wj(i, m) = order[m], dense_ww(i, m) = static_cast<float>(Wd(i, order[m]) / sum);
-  }
-}
 
 void SkeletalRig::Impl::setup() {
   const MatX3d& X = control.V;
@@ -889,18 +842,18 @@ MatX3d SkeletalRig::Impl::variational(const MatX3d& Sd, const MatX9d& lin, const
 // skeleton, sum (f - f_rest)^2 against the control skeleton over DQS's, without / with the corners'
 // balls: camel bend 0.16 / 0.019, twist 0.49 / 0.17; armadillo 0.25 / 0.034, 0.62 / 0.049. At rest
 // and under rigid motions f equals f_rest: a fixed point.
-// tw (follow_twist): `out` comes in the twist-free pose (the layer's reconstruction of the control
-// mesh carried back by its vertices' twists), the thickness is measured there as in fair_variational,
-// and each dense vertex is then turned by its own twist before the bone clearance: from its own bone
-// weights (dense_wj, dense_ww), else the dual quaternion blend of its base face's corners' twists
-// (barycentric weights). Armadillo waist twisted 180 degrees through a 5000-face control mesh
-// (bench/tools/skeletal_twist_probe.py, with the control frames turned per corner, a variant dropped
-// for the one of triangle_rotations), self-intersecting pairs: rebuilt in the pose and measured in the
-// twist-free pose 900 (the limit surface of the coarse control mesh, whose corners a sharp twist turns
-// by tens of degrees against each other, cuts the chords of the twisted control polygon); rebuilt in
-// the twist-free pose, corners' blend 707 (its twist angle is off the vertex's own by a median 1.5, at
-// most 18 degrees in the waist: a linear ramp's kinks inside coarse faces); own weights 0. With the
-// triangles' twist (kept): 72, untangled 0.
+// tw (follow_twist): the thickness is measured in the twist-free pose, as in fair_variational: each
+// dense vertex the step visits is carried there by its twist, the dual quaternion blend of its base
+// face's corners' twists (barycentric weights), measured against the balls carried back (tw->Ss) and
+// turned back before the bone clearance. `out` is the limit surface of the posed control mesh.
+// Armadillo waist twisted 180 degrees through a 5000-face control mesh
+// (bench/tools/skeletal_twist_probe.py), self-intersecting pairs: measured in the pose 973 (DQS 0);
+// rebuilt from the control mesh carried to the twist-free pose, measured there and turned by each
+// dense vertex's own bone weights' twist 1, but the 178K capsule of skeletal_speed (bound without
+// weights, its Gaussian weights blending the bones over a tenth of their length) twisted 180 degrees
+// 3037: carried back vertex by vertex, the coarse control mesh around so narrow a twist is no longer
+// its rest shape, and the limit surface of it folds; rebuilt in the pose and measured in the
+// twist-free pose, as here, 16 and 0 (bench/notes/skeletal.md, session 36).
 template <class Out>
 void SkeletalRig::Impl::project_dense(const MatX3d& Sd_pose, const std::vector<int>& deep,
                                       const std::vector<Mat4>& pose, const SkeletalDeformOptions& opt,
@@ -930,8 +883,17 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd_pose, const std::vector<i
     // A skeleton edit on the vertex's base face makes it move non-rigidly: no skip, no clearance.
     const bool on_edit = !edited.empty() && (edited[F(face[i], 0)] || edited[F(face[i], 1)] || edited[F(face[i], 2)]);
     const bool rigid = dense_rigid[i] && !on_edit;
-    if (rigid && !clear && !tw) continue;
-    Vec3 x = out.row(i).transpose().template cast<double>();  // in the twist-free pose with tw
+    if (rigid && !clear) continue;
+    Vec3 x = out.row(i).transpose().template cast<double>();
+    Mat3 Rt;
+    Vec3 tt;
+    const bool turn = tw && !rigid;  // (a rigid vertex's turn there and back cancels)
+    if (turn) {
+      const int c[3] = {F(face[i], 0), F(face[i], 1), F(face[i], 2)};
+      const double b[3] = {1 - st(i, 0) - st(i, 1), st(i, 0), st(i, 1)};
+      tw->blend(c, b, 3, Rt, tt);
+      x = Rt.transpose() * (x - tt);
+    }
     int prev = -1;
     for (int pass = 0; pass < (rigid ? 0 : passes); ++pass) {
       int arg = dense_arg[i];
@@ -968,17 +930,7 @@ void SkeletalRig::Impl::project_dense(const MatX3d& Sd_pose, const std::vector<i
       if (w == 1 && (arg == prev || arg == dense_arg[i]) && second - dense_f_rest[i] >= std::abs(f)) break;
       prev = arg;
     }
-    if (tw) {
-      const int c[3] = {F(face[i], 0), F(face[i], 1), F(face[i], 2)};
-      const double b[3] = {1 - st(i, 0) - st(i, 1), st(i, 0), st(i, 1)};
-      Mat3 Rt;
-      Vec3 tt;
-      if (dense_wj.rows() == n)
-        tw->own(dense_wj.row(i).data(), dense_ww.row(i).data(), kDenseWeights, Rt, tt);
-      else
-        tw->blend(c, b, 3, Rt, tt);
-      x = Rt * x + tt;
-    }
+    if (turn) x = Rt * x + tt;
     if (clear && !on_edit) x = dense_clearance.push(i, x, opt.bone_clearance, h, v);
     out.row(i) = x.transpose().template cast<typename Out::Scalar>();
   }
@@ -1243,7 +1195,6 @@ SkeletalRig SkeletalRig::bind(const MatX3d& V, const MatX3i& F, const std::vecto
       return true;
     });
     impl->dense_F = F;
-    if (have_w) impl->set_dense_weights(weights);
     impl->control =
         make_mesh(impl->multires->control_vertices(), impl->multires->control_faces(), kSurface | kNoLooseVertices);
   } else {
@@ -1318,13 +1269,6 @@ SkeletalRig SkeletalRig::from_data(const SkeletalRigData& d) {
         throw MeshError("skeletal data: dense faces index vertices out of range");
       impl->dense_F = d.dense_F;
     }
-    if (d.dense_bones.rows() > 0) {
-      if (d.dense_bones.rows() != impl->multires->n_dense() || d.dense_weights.rows() != d.dense_bones.rows() ||
-          d.dense_bones.minCoeff() < -1 || d.dense_bones.maxCoeff() >= B || !d.dense_weights.allFinite())
-        throw MeshError("skeletal data: dense bone weights do not match the dense mesh and bones");
-      impl->dense_wj = d.dense_bones;
-      impl->dense_ww = d.dense_weights;
-    }
   }
   impl->setup();
   return SkeletalRig(impl);
@@ -1342,8 +1286,6 @@ SkeletalRigData SkeletalRig::data() const {
   d.has_multires = impl_->multires.has_value();
   if (d.has_multires) d.multires = impl_->multires->data();
   d.dense_F = impl_->dense_F;
-  d.dense_bones = impl_->dense_wj;
-  d.dense_weights = impl_->dense_ww;
   d.frame_regularization = impl_->frame_regularization;
   return d;
 }
@@ -2110,16 +2052,6 @@ bool SkeletalRig::Impl::make_twist(const std::vector<Mat4>& pose, const Skeletal
     tw.Ss.row(i) = tw.to_free(i, row3(Sd, i)).transpose();
     to_dual(tw.R[i], tw.t[i], tw.qr[i], tw.qd[i]);
   }
-  auto dq = [&](const std::vector<Mat4>& P, std::vector<Eigen::Quaterniond>& q, std::vector<Eigen::Quaterniond>& d) {
-    q.resize(P.size());
-    d.resize(P.size());
-    for (size_t j = 0; j < P.size(); ++j) {
-      const Mat4 A = P[j] * rest[j].inverse();
-      to_dual(nearest_rotation(A.topLeftCorner<3, 3>()), A.topRightCorner<3, 1>(), q[j], d[j]);
-    }
-  };
-  dq(pose, tw.pq, tw.pd);
-  dq(free_pose, tw.fq, tw.fd);
   tw.free_pose = std::move(free_pose);
   return true;
 }
@@ -2149,6 +2081,17 @@ bool SkeletalRig::Impl::ring_twist(const std::vector<Mat4>& pose, bool dual_quat
   return true;
 }
 
+namespace {
+// Whether follow_twist acts: with the variational method and the dual quaternion skeleton, whose
+// blend moves each skeletal vertex rigidly (a linear blend collapses a twisted sheet onto the bone,
+// and carried back by its blended rotations the collapsed sheet stays collapsed: a flattened capsule
+// twisted 180 degrees tore open, its longest edge 20 times its rest length; the integration, which
+// the option replaces, rebuilds it).
+bool follows_twist(const SkeletalDeformOptions& opt) {
+  return opt.follow_twist && opt.dual_quaternion && opt.method == SkeletalMethod::Variational;
+}
+}  // namespace
+
 // The posed skeletal mesh: SSD (eq. 6.2; `lin` receives the blended rotations, `blend` the positions),
 // the bone clearance, and the integration where the options ask for it. Not with a followed twist:
 // make_twist carries each skeletal vertex back by its own blended twist, which the integration mixes
@@ -2161,7 +2104,7 @@ MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const Ske
   if (!ring) Sd = skeletal_subspace_deform(S, W, rest, pose, &lin, opt.dual_quaternion);
   if (blend) *blend = Sd;
   clear_bones(Sd, pose);
-  const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
+  const bool twist = follows_twist(opt);
   double dropped = 0;
   const bool followed = twist && (twist_free_pose(pose, dropped), dropped > 1e-6);
   std::vector<PosedFillet> fl;
@@ -2170,8 +2113,10 @@ MatX3d SkeletalRig::Impl::pose_skeleton(const std::vector<Mat4>& pose, const Ske
   // The fillet turns each cross-section by its share of the child's twist: by the ring weights
   // whether or not the pose's twist dominates (the capsule of bench skeletal_speed, bound without
   // weights, bent 60 and twisted 45 degrees: 734 crossing pairs shared by its weights, which vary
-  // around the limb, none by the ring weights; bench/notes/skeletal.md, session 36).
-  if (opt.joint_fillet > 0 && !followed)
+  // around the limb, none by the ring weights; bench/notes/skeletal.md, session 36). Also where
+  // follow_twist acts: a bend that carries a larger twist is still a bend (skeletal_joints' capsule
+  // bent 45 and twisted 90 degrees on the whole mesh: 165 pairs without the fillet there, 0 with).
+  if (opt.joint_fillet > 0)
     fl = pose_fillets(pose, opt.joint_fillet, opt.ring_twist && W_ring.rows() == S.rows(),
                       untangling ? kUntangleFilletFade : 0.0);
   if (untangling) {
@@ -2237,7 +2182,7 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
   if (skeleton && (skeleton->rows() != n || !skeleton->allFinite()))
     throw MeshError("skeletal deform: the edited skeleton needs " + std::to_string(n) +
                     " finite rows (one per skeletal vertex), got " + std::to_string(skeleton->rows()));
-  const bool twist = opt.follow_twist && opt.method == SkeletalMethod::Variational;
+  const bool twist = follows_twist(opt);
   MatX9d lin;
   MatX3d Sd_blend;
   std::vector<PosedFillet> fillets;
@@ -2339,28 +2284,18 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
   Twist tw;
   const MatX3d Xc = impl.control_pose(pose, opt, &Sd, impl.multires ? &deep : nullptr, skeleton, &edited, &tw);
   if (impl.multires) {
-    // follow_twist: the dense mesh is rebuilt in the twist-free pose and turned by its twist there.
+    // follow_twist: the dense thickness is measured in the twist-free pose (project_dense).
     const Twist* twist = tw.R.empty() ? nullptr : &tw;
-    if (twist) {
-      MatX3d Xf(Xc.rows(), 3);
-      for (Eigen::Index i = 0; i < Xc.rows(); ++i)
-        Xf.row(i) = tw.to_free(static_cast<int>(i), row3(Xc, static_cast<int>(i))).transpose();
-      impl.multires->reconstruct(Xf, out);
-    } else {
-      impl.multires->reconstruct(Xc, out);
-    }
-    SkeletalDeformOptions turn = opt;  // the turn alone (follow_twist)
-    turn.projection = 0, turn.bone_clearance = 0;
+    impl.multires->reconstruct(Xc, out);
     const auto slide = [&] {  // the joint contact, before the dense guard when there is one
       impl.contact_slide(out, impl.dense_rest, pose, opt.contact_slide,
                          [&](int i, int j) { return impl.dense_weight(i, j); });
     };
     if (dense_projection(opt)) {
-      // The fold guard against the limit surface before the dense step (turned, under follow_twist).
+      // The fold guard against the limit surface before the dense step.
       const bool guard = opt.fold_guard > 0 && !impl.dense_guard.empty();
       using Plain = Eigen::Matrix<typename Out::Scalar, Eigen::Dynamic, 3, Eigen::RowMajor>;
       Plain ref = guard ? Plain(out) : Plain();
-      if (guard && twist) impl.project_dense(Sd, deep, pose, turn, edited, twist, ref);
       impl.project_dense(Sd, deep, pose, opt, edited, twist, out);
       slide();
       if (guard) {
@@ -2381,8 +2316,6 @@ void deform_into(const Impl& impl, int n, const std::vector<Mat4>& pose, const S
               return Eigen::RowVectorXd(impl.W.row(Fc(b, 0)) + impl.W.row(Fc(b, 1)) + impl.W.row(Fc(b, 2)));
             }));
       }
-    } else if (twist) {
-      impl.project_dense(Sd, deep, pose, turn, edited, twist, out);
     }
     if (opt.method == SkeletalMethod::Variational && opt.fairing_steps > 0) {
       if (!dense_projection(opt)) slide();

@@ -499,6 +499,7 @@ TEST(Skeletal, FollowTwistKeepsATwistedSlabsThickness) {
   SkeletalDeformOptions off, on;
   off.fold_guard = on.fold_guard = 0;
   off.joint_fillet = on.joint_fillet = 0;  // the swung pose's 11 degrees would fillet the joint
+  off.follow_twist = false;
   on.follow_twist = true;
   for (const int control_faces : {static_cast<int>(c.F.rows()) + 1, 1500}) {
     SkeletalRigOptions o;
