@@ -265,14 +265,16 @@ class SkeletalRig:
         lower the count is undone and the next takes one ring more. Pairs that cross at rest are
         left alone. Through the multiresolution layer the dense mesh too. Off by default (each
         iteration is a self-intersection search); see bench/notes/skeletal.md for what it measured.
-        ``follow_twist`` (default True; variational method with the dual quaternion skeleton): measure
+        ``follow_twist`` (default False; variational method with the dual quaternion skeleton): measure
         the thickness (eq. 6.13) and fit the frames (eq. 6.8) in the twist-free pose (each bone's twist
         about its own axis relative to its parent dropped), each vertex carried there by its own
         blended twist: a twisted medial sheet's balls then stay where the twisted flesh is, instead of
         pushing it out (bench skeletal_blender's armadillo twisted 180 degrees at the waist: 2500
         crossing pairs and volume 1.125 without, 0 and 0.998 with; DQS 0; see bench/notes/skeletal.md,
         sessions 25 and 36). Only a twist that dominates its bone's swing is dropped (a bend that
-        carries a twist keeps it). Same result as without it for poses without such a twist.
+        carries a twist keeps it). Same result as without it for poses without such a twist. Off by
+        default: against the posed skeletal mesh a twisted leg's thickness error grows (skeletal_limb's
+        legs twisted 180 degrees: 0.05 -> 0.5 of DQS's).
         ``fold_guard`` (variational method, fairing on; iterations, 0 = off; on by default): after
         the thickness steps, the faces they turned over (normal against the bare reconstruction's,
         eq. 6.11; through the multiresolution layer, against the dense mesh's limit surface before

@@ -68,7 +68,7 @@ OLD_OPTIONS = {
     "untangle_iterations": 0,  # files bound before the option: no untangling existed (today's default too)
     "fold_guard": 0,  # files bound before the option: no fold guard existed (today's default: 50)
     "contact_slide": 0.0,  # files bound before the option: no joint contact (today's default too)
-    "follow_twist": False,  # files bound before the option: the twist was not followed (today's default: on)
+    "follow_twist": False,  # files bound before the option: the twist was not followed (today's default too)
     "integrate_skeleton": False,  # files bound before the option: the blend's skeleton (today's default: on)
     "ring_twist": False,  # files bound before the option: twists blended with the weights (today's default: on)
     "joint_fillet": 0.0,  # files bound before the option: no fillets (today's default: 2)

@@ -125,8 +125,8 @@ def quality(quick):
                 "LBS": skeletal_subspace_deform(V, W, rest, pose),
                 "DQS": dqs(V, W, rest, pose),
                 "ours, 2 fairing steps + projection": rig.deform(pose, fairing_steps=2),
-                "ours without the joint fillet (joint_fillet=0, follow_twist=False; the default before session 35)": rig.deform(
-                    pose, fairing_steps=2, joint_fillet=0, follow_twist=False),
+                "ours without the joint fillet (joint_fillet=0; the default before session 35)": rig.deform(
+                    pose, fairing_steps=2, joint_fillet=0),
                 "ours, 2 fairing steps, no projection": rig.deform(pose, fairing_steps=2, projection=0),
                 "ours, 4 fairing steps, no projection": rig.deform(pose, fairing_steps=4, projection=0),
                 "ours, no fairing": rig.deform(pose, fairing_steps=0),
@@ -301,14 +301,13 @@ def _blender_case(model, V, F, heads, tails, W, quick, up, view):
                    "ours without the fold guard (fold_guard=0; the default until this run)": rig.deform(
                        pose, fold_guard=0),
                    "ours with the untangling (untangle_iterations=20; issue 33)": rig.deform(pose, untangle_iterations=20),
-                   "ours without following the twist (follow_twist=False; the default before session 36)": rig.deform(
-                       pose, follow_twist=False),
-                   "ours without following the twist, with the untangling": rig.deform(pose, follow_twist=False,
-                                                                                        untangle_iterations=20),
-                   "ours without the joint fillet (joint_fillet=0, follow_twist=False; the default before session 35)": rig.deform(
-                       pose, joint_fillet=0, follow_twist=False),
-                   "ours on the blend's skeleton (integrate_skeleton=False, joint_fillet=0, follow_twist=False; the default before "
-                   "session 33)": rig.deform(pose, integrate_skeleton=False, joint_fillet=0, follow_twist=False)}
+                   "ours, thickness following the twist (follow_twist; issue 33)": rig.deform(pose, follow_twist=True),
+                   "ours, follow_twist and the untangling": rig.deform(pose, follow_twist=True,
+                                                                         untangle_iterations=20),
+                   "ours without the joint fillet (joint_fillet=0; the default before session 35)": rig.deform(
+                       pose, joint_fillet=0),
+                   "ours on the blend's skeleton (integrate_skeleton=False, joint_fillet=0; the default before "
+                   "session 33)": rig.deform(pose, integrate_skeleton=False, joint_fillet=0)}
         panels = []
         for mname, X in results.items():
             f = dgmesh.union_of_balls_distance(X, Sd, rig.radii)

@@ -182,8 +182,8 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
                    CONTACT: rig.deform(pose, contact_slide=3),
                    UNTANGLE: rig.deform(pose, untangle_iterations=20),
                    LINEAR: rig.deform(pose, dual_quaternion=False),
-                   NO_FILLET: rig.deform(pose, joint_fillet=0, follow_twist=False),
-                   BLEND_SKELETON: rig.deform(pose, integrate_skeleton=False, joint_fillet=0, follow_twist=False)}
+                   NO_FILLET: rig.deform(pose, joint_fillet=0),
+                   BLEND_SKELETON: rig.deform(pose, integrate_skeleton=False, joint_fillet=0)}
         if rig_mr is not None:
             results[MULTIRES] = rig_mr.deform(pose)
             results[MULTIRES_NO_GUARD] = rig_mr.deform(pose, fold_guard=0)
@@ -272,9 +272,9 @@ def limb_case(model, V, F, heads, tails, poses, quick, render=None):
 
 
 LINEAR = "ours, linear-blend skeleton (eq. 6.2)"
-BLEND_SKELETON = ("ours on the blend's skeleton (integrate_skeleton=False, joint_fillet=0, follow_twist=False; the default before "
+BLEND_SKELETON = ("ours on the blend's skeleton (integrate_skeleton=False, joint_fillet=0; the default before "
                   "session 33)")
-NO_FILLET = "ours without the joint fillet (joint_fillet=0, follow_twist=False; the default before session 35)"
+NO_FILLET = "ours without the joint fillet (joint_fillet=0; the default before session 35)"
 CONTACT = "ours with the joint contact (contact_slide=3; issue 33, off by default)"
 MULTIRES = "ours via multires (5000-face control)"
 UNTANGLE = "ours with the untangling (untangle_iterations=20; issue 33, off by default)"
@@ -686,8 +686,8 @@ def joints(quick):
                        JOINT_METHODS[1]: whole.deform(pose, untangle_iterations=10),
                        JOINT_METHODS[2]: layered.deform(pose),
                        JOINT_METHODS[3]: layered.deform(pose, untangle_iterations=10),
-                       JOINT_METHODS[4]: whole.deform(pose, joint_fillet=0, follow_twist=False),
-                       JOINT_METHODS[5]: layered.deform(pose, joint_fillet=0, follow_twist=False)}
+                       JOINT_METHODS[4]: whole.deform(pose, joint_fillet=0),
+                       JOINT_METHODS[5]: layered.deform(pose, joint_fillet=0)}
             cell = {}
             for mname, X in results.items():
                 ratio = min_bone_ratio(X, rest, pose, heads, tails, b0, affected)
@@ -724,7 +724,7 @@ def joints(quick):
           "path above 5000 faces), "
           "each also with Untangle Creases (untangle_iterations=10, the setting for stills; it is off by default "
           "because the untangled crease jumps between frames, bench skeletal_coherence), and without the joint "
-          "fillet (joint_fillet=0 and follow_twist=False, the default before session 35: the posed skeletal mesh integrated from its turned "
+          "fillet (joint_fillet=0, the default before session 35: the posed skeletal mesh integrated from its turned "
           "rest edges, the surface rebuilt on it). The moving bone (the capsule's second, "
           "the legs' lower bone) bent 45 / 90 / 135 degrees (as skeletal_limb's bend) or twisted 90 / 180 degrees "
           "about its own axis. Each cell: self-intersecting triangle pairs over the whole mesh "
@@ -787,7 +787,7 @@ def coherence(quick):
                 paths["DQS"].append(res[f"dqs{p}"])
                 paths[COHERENCE_METHODS[2]].append(layered.deform(pose))
                 paths[COHERENCE_METHODS[3]].append(layered.deform(pose, untangle_iterations=10))
-                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, joint_fillet=0, follow_twist=False))
+                paths[COHERENCE_METHODS[4]].append(layered.deform(pose, joint_fillet=0))
             first += len(angles)
             cells = []
             for m, path in paths.items():
@@ -807,7 +807,7 @@ def coherence(quick):
           "length. A rigid turn by the step gives about 0.02 at the capsule's tip; a jump of the surface "
           "between two frames shows at its full size. Blender's Armature modifier (LBS, Preserve Volume = DQS) "
           "against ours through the multiresolution layer with its defaults, with Untangle Creases "
-          "(untangle_iterations=10) and without the joint fillet (joint_fillet=0 and follow_twist=False, the default before "
+          "(untangle_iterations=10) and without the joint fillet (joint_fillet=0, the default before "
           "session 35)." % ("capsule 48 x 8 x 64" if quick else "capsule 64 x 10 x 128, camel and "
                                           "armadillo legs", "quick: steps of 3 and 6" if quick else "all frames"), "",
           table(["mesh", "sweep", "frames (with two neighbours)", *COHERENCE_METHODS], rows), "",
