@@ -1,7 +1,7 @@
 """Skeletal deformation workloads (thesis chapter 6): thickness quality against linear blend
 skinning and dual-quaternion skinning on a capsule, and bind / per-pose speed.
 
-    /usr/bin/python3 bench/run.py skeletal_quality skeletal_speed skeletal_blender
+    /usr/bin/python3 bench/run.py skeletal_quality skeletal_speed skeletal_blender skeletal_bend_twist
 
 skeletal_quality computes LBS and DQS in numpy with the same weights (the formulas of Blender's
 Armature modifier without / with Preserve Volume); skeletal_blender runs Blender's modifier itself
@@ -250,6 +250,49 @@ def speed(quick):
     return {"markdown": "\n".join(md), "data": data}
 
 
+BEND_TWIST = [(60, 45), (60, -45), (90, 45), (90, -45), (90, 90), (45, 90)]
+
+
+def bend_twist(quick):
+    """A joint bent and twisted at once (issue 33, session 36): skeletal_speed's capsule bound without
+    weights (through its 5000-face control mesh), the second bone bent about z, then twisted about its
+    own axis."""
+    V, F, rest, heads, tails = speed_capsule(1 if quick else 2)
+    rig = dgmesh.SkeletalRig.bind(V, F, rest, None, control_faces=5000)
+    # DQS with the rig's recipe for the dense vertices: Gaussian weights of the distance to the bones,
+    # sigma a fifth of the median medial radius (the rig weights its skeletal points so).
+    W = gaussian_bone_weights(V, heads, tails, 0.2 * float(np.median(rig.radii)))
+    b0 = _bone_dist(V, rest, rest, heads, tails)
+    ok = b0 > 1e-9
+    vol0 = _volume(V, F)
+    methods = {"ours (defaults)": {}, "ours, twist shared by the weights (ring_twist=False)": {"ring_twist": False},
+               "ours with follow_twist": {"follow_twist": True}}
+    rows, data = [], {}
+    for b, t in BEND_TWIST:
+        pose = np.array([rest[0], _rot((0, 0, 1), np.radians(b)) @ _rot((1, 0, 0), np.radians(t)) @ rest[1]])
+        results = {name: rig.deform(pose, **kw) for name, kw in methods.items()}
+        results["DQS (numpy, Blender's Preserve Volume formula)"] = skeletal_subspace_deform(V, W, rest, pose,
+                                                                                           dual_quaternion=True)
+        for name, X in results.items():
+            cell = dict(pairs=len(self_intersecting_pairs(X, F)),
+                        ratio=float((_bone_dist(X, rest, pose, heads, tails)[ok] / b0[ok]).min()),
+                        volume=float(_volume(X, F) / vol0))
+            data[f"bend {b} twist {t}|{name}"] = cell
+            rows.append([f"bend {b}, twist {t}", name, cell["pairs"], "%.3f" % cell["ratio"], "%.4f" % cell["volume"]])
+    md = ["### A joint bent and twisted at once (issue 33)", "",
+          table(["pose (degrees)", "method", "self-intersecting triangle pairs", "min bone ratio", "volume"], rows), "",
+          "skeletal_speed's capsule (%d vertices; 5000-face control mesh), bound without weights (the rig's Gaussian "
+          "weights of its skeletal points, which vary around the limb on the decimated control mesh), the second bone "
+          "bent about z and twisted about its own axis. The joint fillet turns each cross-section of its band by the "
+          "vertex's share of the child's twist, from the ring weights since session 36 (ring_twist=False: from the "
+          "weights, which was the default's share before on the poses whose twist does not dominate the swing: all "
+          "but the last two). Pairs: `dgmesh.skeletal.self_intersecting_pairs` over the whole mesh; min bone ratio: "
+          "distance to the nearest posed bone segment, posed / rest; DQS with the rig's recipe applied to the dense "
+          "vertices (Gaussian weights, sigma a fifth of the median medial radius)." % len(V), "",
+          "`/usr/bin/python3 bench/run.py skeletal_bend_twist`"]
+    return {"markdown": "\n".join(md), "data": data}
+
+
 BLENDER_SCRIPT = pathlib.Path(__file__).with_name("_skeletal_blender.py")
 RENDER_SCRIPT = pathlib.Path(__file__).with_name("_crest_render.py")
 
@@ -375,4 +418,5 @@ def blender_quality(quick):
     return {"markdown": "\n".join(md), "data": data}
 
 
-WORKLOADS = {"skeletal_quality": quality, "skeletal_speed": speed, "skeletal_blender": blender_quality}
+WORKLOADS = {"skeletal_quality": quality, "skeletal_speed": speed, "skeletal_blender": blender_quality,
+             "skeletal_bend_twist": bend_twist}
