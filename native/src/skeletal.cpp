@@ -2236,11 +2236,12 @@ MatX3d SkeletalRig::Impl::control_pose(const std::vector<Mat4>& pose, const Skel
                             nullptr, constrain());
     }
     if (has_twist && multires && opt.untangle_iterations > 0) {
-      // follow_twist through the layer: the dense mesh is rebuilt from the control mesh in the
-      // twist-free pose (see deform_into), so the control mesh is untangled there. In the pose, the
-      // crossings of the coarse control mesh that the twist alone makes (armadillo waist twisted 180
-      // degrees through a 5000-face control mesh: 94, 11 at rest; the dense mesh then has none) were
-      // smoothed and the dense mesh rebuilt on the result crossed itself (76 pairs).
+      // follow_twist through the layer: the control mesh is untangled in the twist-free pose. In the
+      // pose, the crossings of the coarse control mesh that the twist alone makes (armadillo waist
+      // twisted 180 degrees through a 5000-face control mesh: 94, 11 at rest; the dense mesh then has
+      // none) were smoothed and the dense mesh rebuilt on the result crossed itself (76 pairs; session
+      // 25). Since session 36 the dense mesh is rebuilt in the pose (see project_dense): that waist 16
+      // pairs, untangled so 0.
       MatX3d Xf(X.rows(), 3);
       for (Eigen::Index i = 0; i < X.rows(); ++i)
         Xf.row(i) = tw.to_free(static_cast<int>(i), row3(X, static_cast<int>(i))).transpose();

@@ -238,24 +238,23 @@ struct SkeletalDeformOptions {
   // Measurements: bench/notes/skeletal.md.
   int fold_guard = 50;
   // Thickness that follows the twist (variational method, dual quaternion skeleton; issue 33), off by
-  // default: each bone's
-  // motion relative to its parent is split into a swing and a twist about the bone's own rest axis;
-  // dropping the twists gives the twist-free pose, and each skeletal vertex its own twist, the rigid
-  // motion M_i = T_i U_i^-1 from its blend U_i of the twist-free pose to its blend T_i of the pose.
-  // The thickness of eq. 6.13 is then measured in the twist-free pose (vertex i at M_i^-1 x_i against
-  // the balls (M_j^-1 s^d_j, r_j), its step turned back by M_i), and the frames of eq. 6.8 are fitted
-  // there and turned by the triangle's twist (its corners' mean), so the balls of a twisted medial
-  // sheet off the bone's axis stay where the twisted flesh is. Through the multiresolution layer each
-  // dense vertex of the limit surface is carried to the twist-free pose by its base face's corners'
-  // twist, measured there and turned back. Only a twist that dominates its bone's swing is dropped:
-  // all of it where the swing is at most half the twist, none where it is at least the twist. A pose
-  // without such a twist (every dropped twist below 1e-6 rad) gives exactly the result without the
-  // option. A twisted waist's flesh is no longer pushed out onto the balls the twist turns into it
-  // (bench skeletal_blender's armadillo twisted 180 degrees at the waist: 2500 crossing pairs and
-  // volume 1.125 without, 0 and 0.998 with; DQS 0). Off by default: measured in the pose against the
-  // posed skeletal mesh, a twisted leg's thickness error grows from 0.05 to 0.5 of DQS's (bench
-  // skeletal_limb's camel and armadillo legs twisted 180 degrees; issue 8's target is 0.2), since
-  // each ball turns with its own surface vertex's twist, not with the flesh around it.
+  // default: each bone's motion relative to its parent is split into a swing and a twist about the
+  // bone's own rest axis; dropping the twists gives the twist-free pose, and each skeletal vertex its
+  // own twist, the rigid motion M_i = T_i U_i^-1 from its blend U_i of the twist-free pose to its
+  // blend T_i of the pose. The thickness of eq. 6.13 is then measured in the twist-free pose (vertex
+  // i at M_i^-1 x_i against the balls (M_j^-1 s^d_j, r_j), its step turned back by M_i), and the
+  // frames of eq. 6.8 are fitted there and turned by the triangle's twist (its corners' mean), so the
+  // balls of a twisted medial sheet off the bone's axis stay where the twisted flesh is. Through the
+  // multiresolution layer each dense vertex of the limit surface is carried to the twist-free pose by
+  // its base face's corners' twist, measured there and turned back. Only a twist that dominates its
+  // bone's swing is dropped: all of it where the swing is at most half the twist, none where it is at
+  // least the twist. A pose without such a twist (every dropped twist below 1e-6 rad) gives exactly
+  // the result without the option. A twisted waist's flesh is no longer pushed out onto the balls
+  // the twist turns into it (bench skeletal_blender's armadillo twisted 180 degrees at the waist: 2500
+  // crossing pairs and volume 1.125 without, 0 and 0.998 with; DQS 0). Off by default: measured in
+  // the pose against the posed skeletal mesh, a twisted leg's thickness error grows from 0.05 to 0.5
+  // of DQS's (bench skeletal_limb's camel and armadillo legs twisted 180 degrees; issue 8's target is
+  // 0.2), since each ball turns with its own surface vertex's twist, not with the flesh around it.
   // Measurements: bench/notes/skeletal.md, sessions 25 and 36.
   bool follow_twist = false;
   int homotopy_steps = 3;    // L of eq. 6.3
