@@ -1136,6 +1136,19 @@ def test_follow_twist_keeps_the_joint_fillet_of_a_bend_under_a_larger_twist(mesh
     assert (bone_dist(X, pose)[ok] / bone_dist(V, REST)[ok]).min() >= 0.95 - 1e-9
 
 
+def test_control_crossings_finds_a_control_mesh_decimated_too_far():
+    """A thin tube decimated to 1000 control faces crosses itself at rest where the mesh does not (a
+    pose then folds the dense mesh there); on 5000 it does not. Skeletal Bind warns on the first."""
+    V, F = dgmesh.shapes.loop_subdivide(*capsule(0.5, 6.0, 80, 10, 120), levels=1)
+    coarse, fine = (dgmesh.SkeletalRig.bind(V, F, REST, None, bone_heads=HEADS, bone_tails=TAILS, control_faces=c)
+                    for c in (1000, 5000))
+    control, dense = coarse.control_crossings(F)
+    assert dense == 0 and control > 1000
+    assert fine.control_crossings(F) == (0, 0)
+    whole = dgmesh.SkeletalRig.bind(*capsule(0.5, 6.0, 24, 5, 32), REST, None, bone_heads=HEADS, bone_tails=TAILS)
+    assert not whole.has_multires and whole.control_crossings(capsule(0.5, 6.0, 24, 5, 32)[1]) == (0, 0)
+
+
 def test_untangle_leaves_rest_and_twist_alone(rig, mesh):
     V, F = mesh
     assert np.array_equal(rig.deform(REST, untangle_iterations=20), rig.deform(REST))

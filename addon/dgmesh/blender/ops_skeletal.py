@@ -280,6 +280,11 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                         "" if binding.weighted else " with distance weights (no vertex groups)")
                     + (f"; only the active mesh is bound: bind {', '.join(map(repr, others[:3]))} one at a time"
                        if others else ""))
+        control, dense = binding.crossings
+        if control > dense:
+            self.report({'WARNING'}, f"The {len(rig.control_faces)}-face control mesh of {obj.name!r} crosses "
+                        f"itself at {control} triangle pairs at rest (the mesh at {dense}): poses will fold the "
+                        "mesh there. Raise Control Faces and bind again")
         return {'FINISHED'}
 
 
@@ -296,6 +301,7 @@ class _Binding(NamedTuple):
     names: list        # the deform bones, in the rig's order
     space: object      # rig_space (None: the mesh's object space)
     weighted: bool     # weights from vertex groups (else distance weights)
+    crossings: tuple   # SkeletalRig.control_crossings: (control mesh, mesh) pairs at rest
 
 
 def _compute_binding(context, obj, arm, settings):
@@ -351,7 +357,7 @@ def _compute_binding(context, obj, arm, settings):
     finally:
         if has_window:
             wm.progress_end()
-    return _Binding(rig, names, space, W is not None)
+    return _Binding(rig, names, space, W is not None, rig.control_crossings(F))
 
 
 def _attach(context, obj, arm, binding, settings):
