@@ -1630,8 +1630,8 @@ def test_follow_twist_option():
 def test_bind_warns_when_the_control_mesh_crosses_itself(capsys, monkeypatch):
     """Where the control mesh crosses itself at rest and the mesh does not (a thin tube decimated too
     far: tests/python's test_control_crossings_finds_a_control_mesh_decimated_too_far), Skeletal Bind
-    finishes with a warning that names the count and says to raise Control Faces; otherwise none. The
-    crossings are stubbed here: this capsule's control meshes do not cross."""
+    and Skeletal Rebind finish with a warning that names the count and says to raise Control Faces;
+    otherwise none. The crossings are stubbed here: this capsule's control meshes do not cross."""
     from dgmesh.skeletal import SkeletalRig
 
     def bound(crossings):
@@ -1644,5 +1644,7 @@ def test_bind_warns_when_the_control_mesh_crosses_itself(capsys, monkeypatch):
     out = bound((12, 0))
     assert "control mesh of 'Capsule' crosses itself at 12 triangle pairs at rest (the mesh at 0)" in out, out
     assert "Raise Control Faces" in out
+    assert bpy.ops.dgmesh.skeletal_rebind('EXEC_DEFAULT') == {'FINISHED'}  # Skeletal Rebind warns too
+    assert "crosses itself at 12 triangle pairs" in capsys.readouterr().out
     assert "crosses itself" not in bound((0, 0))
     assert "crosses itself" not in bound((5, 5))  # the mesh's own crossings: nothing to raise

@@ -280,11 +280,7 @@ mesh's thickness (no collapsing joints or candy wrappers)"""
                         "" if binding.weighted else " with distance weights (no vertex groups)")
                     + (f"; only the active mesh is bound: bind {', '.join(map(repr, others[:3]))} one at a time"
                        if others else ""))
-        control, dense = binding.crossings
-        if control > dense:
-            self.report({'WARNING'}, f"The {len(rig.control_faces)}-face control mesh of {obj.name!r} crosses "
-                        f"itself at {control} triangle pairs at rest (the mesh at {dense}): poses will fold the "
-                        "mesh there. Raise Control Faces and bind again")
+        _warn_control_crossings(self, obj, binding)
         return {'FINISHED'}
 
 
@@ -302,6 +298,16 @@ class _Binding(NamedTuple):
     space: object      # rig_space (None: the mesh's object space)
     weighted: bool     # weights from vertex groups (else distance weights)
     crossings: tuple   # SkeletalRig.control_crossings: (control mesh, mesh) pairs at rest
+
+
+def _warn_control_crossings(op, obj, binding):
+    """A WARNING report when the binding's control mesh crosses itself at rest where the mesh does not
+    (SkeletalRig.control_crossings): every pose folds the mesh there."""
+    control, dense = binding.crossings
+    if control > dense:
+        op.report({'WARNING'}, f"The {len(binding.rig.control_faces)}-face control mesh of {obj.name!r} crosses "
+                  f"itself at {control} triangle pairs at rest (the mesh at {dense}): poses will fold the mesh "
+                  "there. Raise Control Faces and bind again")
 
 
 def _compute_binding(context, obj, arm, settings):
@@ -489,6 +495,7 @@ painting its weights (the binding keeps what it read at bind)"""
             self.report({'ERROR'}, f"{obj.name!r} is unbound now; binding it again failed: {exc}")
             return {'CANCELLED'}
         self.report({'INFO'}, f"Rebound {obj.name!r} to {arm.name!r}")
+        _warn_control_crossings(self, obj, binding)
         return {'FINISHED'}
 
 
