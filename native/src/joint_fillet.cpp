@@ -56,9 +56,11 @@ std::optional<JointFillet> joint_fillet(const Eigen::Matrix4d& relative, const V
   f.axis = e.normalized();
   f.inner = f.bend_axis.cross(f.axis);
   const double h = std::tan(f.bend / 2), shift = 1 / std::cos(f.bend / 2) - 1;
-  f.half_length =
-      std::max(blend_extent,
-               std::min({opt.radius_scale * limb_radius * h, opt.reach * min_bone_length, limb_radius * h / shift}));
+  // L_k, L_o, L_wide and L_kept of the header.
+  const double sought = opt.radius_scale * limb_radius * h, outer = limb_radius * h / shift;
+  const double wide = std::max(blend_extent, std::min({sought, opt.reach * min_bone_length, outer}));
+  const double kept = std::min(wide, std::max(outer, sought));
+  f.half_length = kept + detail::smoothstep(3 * (1 - outer / sought)) * (wide - kept);
   if (!(f.half_length > 0)) return std::nullopt;
   f.radius = f.half_length / h;
   f.weight = detail::smoothstep(f.bend / kOnset);

@@ -1828,6 +1828,10 @@ void untangle_folds(MatX3d& X, const MatX3i& F, const std::vector<int>& vv_offse
   auto pairs = new_only(tree.pairs(X));
   if (pairs.empty()) return;
   if (MatX3d X0 = X; contact(X)) {
+    // The slide keeps the distance to the own bone's line, not to its segment's end at the joint:
+    // pushed out to the clearance like the smoothing's moves.
+    for (int i = 0; i < n; ++i)
+      if (X.row(i) != X0.row(i)) X.row(i) = push(i, Vec3(X.row(i).transpose())).transpose();
     auto slid = new_only(tree.pairs(X));
     if (slid.size() < pairs.size()) {
       pairs.swap(slid);

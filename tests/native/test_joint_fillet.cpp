@@ -72,11 +72,28 @@ TEST(JointFillet, NinetyDegreesIsTheArcOfTwiceTheRadiusTangentToBothBones) {
 }
 
 TEST(JointFillet, TheBandIsAtLeastTheWeightBlendAndStopsShortOfTheOuterSide) {
-  // A wide blend sets the band: R_f = 2 / tan 45 = 2.
-  const auto wide = bend(turn(Vec3::UnitZ(), M_PI / 2), 2.0);
+  // A wide blend sets the band while the arc stays within one radius of the joint's corner (60
+  // degrees: L_o = 0.5 tan 30 / (1 / cos 30 - 1) = 1.866): R_f = 1.5 / tan 30.
+  const auto wide = bend(turn(Vec3::UnitZ(), M_PI / 3), 1.5);
   ASSERT_TRUE(wide);
-  EXPECT_NEAR(wide->half_length, 2.0, 1e-12);
-  EXPECT_NEAR(wide->radius, 2.0, 1e-12);
+  EXPECT_NEAR(wide->half_length, 1.5, 1e-12);
+  EXPECT_NEAR(wide->radius, 1.5 / std::tan(M_PI / 6), 1e-12);
+  // Wider than that at 90 degrees: capped at L_o = 0.5 / (sqrt 2 - 1), the arc one radius inside.
+  const auto capped = bend(turn(Vec3::UnitZ(), M_PI / 2), 2.0);
+  ASSERT_TRUE(capped);
+  EXPECT_NEAR(capped->half_length, 0.5 / (std::sqrt(2.0) - 1), 1e-12);
+  EXPECT_NEAR(capped->radius * (std::sqrt(2.0) - 1), 0.5, 1e-12);
+  // At 135 degrees no band keeps both sides (L_o = 0.75 < 2 L_k / 3): the blend's band again.
+  const auto folded = bend(turn(Vec3::UnitZ(), 0.75 * M_PI), 2.0);
+  ASSERT_TRUE(folded);
+  EXPECT_NEAR(folded->half_length, 2.0, 1e-12);
+  // In between the band is given back to the blend continuously (a pose path stays continuous).
+  double last = capped->half_length;
+  for (double deg = 90.05; deg < 135; deg += 0.05) {
+    const double L = bend(turn(Vec3::UnitZ(), deg * M_PI / 180), 2.0)->half_length;
+    EXPECT_LT(std::abs(L - last), 0.01) << deg;
+    last = L;
+  }
   // 135 degrees: the arc may pass at most one radius inside the joint's corner,
   // R_f (1 / cos 67.5 - 1) = 0.5.
   const auto tight = bend(turn(Vec3::UnitZ(), 0.75 * M_PI));

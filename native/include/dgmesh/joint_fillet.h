@@ -25,9 +25,16 @@
 // where the limb bends), stretched to radius_scale times the limb's radius r in fillet radius, but
 // not beyond reach times the shorter bone nor so far that the arc passes more than r inside the
 // joint's corner (R_f (1 / cos(delta / 2) - 1) <= r: the outer side would be carried past the joint),
-// i.e. L = max(L_w, min(k r tan(delta / 2), reach l_min, r tan(delta / 2) / (1 / cos(delta / 2) - 1))).
-// In a tight bend (over about 120 degrees for k = 2) the last bound wins and the inner side folds as
-// the limbs meet. The fillet is blended in over the first kOnset of the bend, so a pose path leaving
+// i.e. L_wide = max(L_w, min(L_k, reach l_min, L_o)), L_k = k r tan(delta / 2) and
+// L_o = r tan(delta / 2) / (1 / cos(delta / 2) - 1). A weight blend wider than L_o carries the outer
+// side past the joint all the same, where the bone clearance pushes it back out and folds it (a
+// capsule of radius 0.5 with Gaussian weights of sigma 1 bent 90 degrees: 64 crossing pairs, DQS 0),
+// so L_o caps the blend's extent too while it allows the sought radius (L_o >= L_k: bends up to about
+// 96 degrees for k = 2), L_kept = min(L_wide, max(L_o, L_k)). In tighter bends no band keeps both
+// sides; there the wide band folds less, and the cap is given up as L_o falls to two thirds of L_k
+// (about 110 degrees): L = L_kept + smoothstep(3 (1 - L_o / L_k)) (L_wide - L_kept) (bench/notes/
+// skeletal.md, session 37). Over 120 degrees R_f < r and the inner side folds as the limbs meet.
+// The fillet is blended in over the first kOnset of the bend, so a pose path leaving
 // the straight joint (or a pure twist) is continuous.
 #pragma once
 #include <optional>
