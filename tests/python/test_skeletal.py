@@ -1017,12 +1017,13 @@ def test_untangle_a_thick_limb_bent_135_degrees():
 
 
 def test_untangle_slide_keeps_the_bone_clearance():
-    # The untangling's slide moves flesh along its own bone, keeping its distance to the bone's line;
-    # next to the joint the nearest point of the segment is its end, and the slide brought flesh
-    # closer to it than the clearance (Debian 12: a capsule of radius 1 with Gaussian weights of sigma
-    # 1 bent 120 degrees, untangled: min bone ratio 0.836, DQS 0 pairs; bench skeletal_joints'
-    # armadillo knee at 135 degrees on the whole mesh: 0.897). The slid vertices are now pushed out to
-    # the clearance like the smoothing's moves (session 37): 0.950.
+    # The untangling's slide moves flesh along its own bone, keeping its distance to the bone's line,
+    # not to the segment's end at the joint, and was kept or dropped on its pair count alone. The slid
+    # vertices are now pushed out to the clearance like the smoothing's moves, before that count
+    # (session 37). Debian 12: a capsule of radius 1 with Gaussian weights of sigma 1 bent 120 degrees
+    # (DQS 0 pairs; the defaults 593 at a min bone ratio of 0.836), untangled: 577 pairs at 0.836
+    # before (the slide dropped), 576 at 0.950 now (the pushed slide kept); bench skeletal_joints'
+    # armadillo knee at 135 degrees on the whole mesh: 0.897 -> 0.950.
     V, F = capsule(1.0, 6.0, 48, 8, 96)
     W = gaussian_bone_weights(V, HEADS, TAILS, 1.0)
     rig = dgmesh.SkeletalRig.bind(V, F, REST, W, bone_heads=HEADS, bone_tails=TAILS, control_faces=len(F) + 1)
