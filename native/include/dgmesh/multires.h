@@ -40,7 +40,8 @@ struct MultiresOptions {
   double min_quality = 0.2;
   // Least-squares fits of the control vertices so that the limit surface approximates the dense mesh
   // (the optimisation step of [LMH00] that the thesis skipped); each fit is followed by a re-bind.
-  // 0 keeps the decimated positions (the thesis's simplified DSS).
+  // 0 keeps the decimated positions (the thesis's simplified DSS). Around control faces that a fit
+  // makes cross each other its step is halved until they do not (a thin tube on few control faces).
   int fit_iterations = 1;
   // Tikhonov weight of the fit, pulling each control vertex towards its decimated position, relative
   // to the mean diagonal of the normal equations (keeps vertices with little data in place).
