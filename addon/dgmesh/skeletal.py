@@ -411,10 +411,11 @@ class SkeletalRig:
 
     def control_crossings(self, F: npt.ArrayLike) -> tuple[int, int]:
         """Self-intersecting triangle pairs at rest of the control mesh and of the bound mesh (faces F):
-        a control mesh decimated too far crosses itself where the mesh does not, and a pose folds the
-        dense mesh there (a 45K-vertex capsule on 1000 / 2000 control faces: 5280 / 407 control pairs
-        at rest, twisted 180 degrees 2768 / 841 dense pairs; on 5000 none; bench/notes/skeletal.md,
-        session 36). Without the multiresolution layer both counts are the mesh's."""
+        where the control mesh crosses itself and the mesh does not, a pose folds the dense mesh there.
+        (The control mesh's fit once made a 45K-vertex capsule's 1000-face control mesh cross itself at
+        5280 pairs, and the capsule twisted 180 degrees at 2752; the fit now keeps it uncrossed,
+        bench/notes/skeletal.md, session 37.) Without the multiresolution layer both counts are the
+        mesh's."""
         F = as_faces(F, n=self.n_vertices)
         dense = len(self_intersecting_pairs(self.deform(self.bones_rest), F))
         if not self.has_multires:

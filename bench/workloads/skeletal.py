@@ -98,11 +98,15 @@ def _volume(V, F):
     return np.einsum("ij,ij->i", a, np.cross(b, c)).sum() / 6
 
 
+def capsule_bones():
+    """The capsules' two bones, (-3.5,0,0)-(0,0,0)-(3.5,0,0): their rest frames, heads and tails."""
+    rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
+    return rest, np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])
+
+
 def quality(quick):
     V, F = capsule(0.5, 6.0, 48 if not quick else 32, 8, 96 if not quick else 48)
-    rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
-    heads = np.array([[-3.5, 0, 0], [0, 0, 0.0]])
-    tails = np.array([[0, 0, 0], [3.5, 0, 0.0]])
+    rest, heads, tails = capsule_bones()
     weight_sets = {
         "gaussian (sigma 0.1)": gaussian_bone_weights(V, heads, tails, 0.1),
         "linear ramp over [-0.5, 0.5]": np.c_[1 - np.clip(V[:, 0] + 0.5, 0, 1), np.clip(V[:, 0] + 0.5, 0, 1)],
@@ -169,8 +173,7 @@ def speed_capsule(levels=2):
     bones' rest frames, heads, tails."""
     V0, F0 = capsule(0.5, 6.0, 80, 10, 120)
     V, F = loop_subdivide(V0, F0, levels)
-    rest = np.array([_bone((-3.5, 0, 0)), _bone((0, 0, 0))])
-    return V, F, rest, np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])
+    return (V, F, *capsule_bones())
 
 
 def ramp_weights(V):
@@ -304,9 +307,7 @@ def blend_width(quick):
     weights of the distance to the bones (sigma in scene units), bent about z."""
     radii, sigmas, bends = ((0.5, 1.0), (0.2, 1.0), (60, 90, 120)) if quick else (WIDTH_RADII, WIDTH_SIGMAS,
                                                                                   WIDTH_BENDS)
-    heads, tails = np.array([[-3.5, 0, 0], [0, 0, 0.0]]), np.array([[0, 0, 0], [3.5, 0, 0.0]])
-    rest = np.array([np.eye(4), np.eye(4)])
-    rest[0][:3, 3], rest[1][:3, 3] = heads[0], heads[1]
+    rest, heads, tails = capsule_bones()
     methods = {"ours, whole mesh": (None, {}), "ours via multires": (0.5, {}),
                "ours, whole mesh, untangle 10": (None, {"untangle_iterations": 10})}
     rows, data, met = [], {}, {m: 0 for m in methods}
@@ -436,8 +437,9 @@ def blender_quality(quick):
     unless quick, the armadillo scan bent / twisted at the waist."""
     V, F = capsule(0.5, 6.0, 32 if quick else 48, 8, 48 if quick else 96)
     W = np.c_[1 - np.clip(V[:, 0] + 0.5, 0, 1), np.clip(V[:, 0] + 0.5, 0, 1)]
-    rows, data, images, version, collisions = _blender_case("capsule", V, F, np.array([[-3.5, 0, 0], [0, 0, 0.0]]),
-                                                np.array([[0, 0, 0], [3.5, 0, 0.0]]), W, quick, "Z", (0.3, -1.0, 0.6))
+    _, heads, tails = capsule_bones()
+    rows, data, images, version, collisions = _blender_case("capsule", V, F, heads, tails, W, quick, "Z",
+                                                            (0.3, -1.0, 0.6))
     if not quick:
         V, F = cgal_mesh("armadillo")  # y up, feet at y = -54, ears at y = 97
         y = V[:, 1]
